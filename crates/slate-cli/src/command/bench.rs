@@ -1,0 +1,54 @@
+//! `slate bench SUITE`: run a benchmark suite and print its figures.
+
+use std::process::ExitCode;
+
+use crate::bench::{self, Report};
+use crate::cli::{BenchArgs, Format, Suite};
+
+/// Runs the suite and prints the report as text or JSON.
+pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
+    let cfg = bench::Config {
+        samples: args.samples as usize,
+        sample_ms: args.sample_ms,
+    };
+    if cfg!(debug_assertions) {
+        eprintln!(
+            "slate: warning: this is a debug build; run `cargo run --release -p slate-cli -- bench ...` for real figures"
+        );
+    }
+    let report = match args.suite {
+        Suite::Core => bench::core::run(&cfg, &mut |step| eprintln!("  measuring {step} ...")),
+    };
+    match format {
+        Format::Json => println!("{}", serde_json::to_string_pretty(&report.json())?),
+        Format::Text => print!("{}", report.text()),
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+impl Report {
+    fn text(&self) -> String {
+        let mut out = format!(
+            "{}\n\n{:<28} {:>12}  {}\n",
+            self.title, "operation", "median", "vs baseline"
+        );
+        for m in &self.rows {
+            let ratio = m
+                .baseline
+                .map_or(String::new(), |(name, ratio)| format!("{ratio:.2}x {name}"));
+            let target = m.target.map_or(String::new(), |t| {
+                let verdict = if m.baseline.is_some_and(|(_, r)| r <= t) {
+                    "meets"
+                } else {
+                    "MISSES"
+                };
+                format!("  (target <= {t}x: {verdict})")
+            });
+            out.push_str(&format!(
+                "{:<28} {:>9.1} ns  {ratio}{target}\n",
+                m.name, m.ns
+            ));
+        }
+        out
+    }
+}

@@ -1,0 +1,83 @@
+//! Runs the real `slate` binary.
+
+use std::process::{Command, Output};
+
+fn slate(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_slate"))
+        .args(args)
+        .output()
+        .expect("run slate")
+}
+
+#[test]
+fn bench_core_prints_one_json_object_with_every_field() {
+    let out = slate(&[
+        "bench",
+        "core",
+        "--format",
+        "json",
+        "--samples",
+        "3",
+        "--sample-ms",
+        "1",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value =
+        serde_json::from_slice(&out.stdout).expect("stdout is one JSON object");
+    for f in [
+        "read_ns",
+        "read_inherited_ns",
+        "write_ns",
+        "batch10_ns",
+        "write_active_fn_ns",
+        "query_10k_ns",
+        "hashmap_get_ns",
+        "hashmap_insert_ns",
+        "read_ratio",
+        "write_ratio",
+    ] {
+        assert!(
+            j[f].as_f64().is_some_and(|x| x > 0.0),
+            "{f} missing or not positive: {j}"
+        );
+    }
+    assert!(j["targets_met"].is_boolean());
+}
+
+#[test]
+fn bench_core_text_shows_the_baselines_and_targets() {
+    let out = slate(&["bench", "core", "--samples", "3", "--sample-ms", "1"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("hashmap_get_ns") && text.contains("target <= 2x"),
+        "{text}"
+    );
+}
+
+#[test]
+fn bad_input_gives_a_short_error_and_a_nonzero_exit() {
+    for args in [
+        &["bench", "warp"][..],
+        &["bench", "core", "--samples", "1"],
+        &["teleport"],
+    ] {
+        let out = slate(args);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.starts_with("error:"), "{args:?}: {err}");
+        assert!(out.stdout.is_empty());
+    }
+}
+
+#[test]
+fn help_explains_the_bench_verb_with_an_example() {
+    let out = slate(&["bench", "--help"]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("slate bench core --format json"), "{text}");
+}

@@ -1,0 +1,789 @@
+//! The Board: one module's copy of the world model, and the SBIPs that touch it.
+
+mod batch;
+mod chain;
+mod dump;
+mod snapshot;
+pub(crate) mod state;
+mod txn;
+pub(crate) mod watch;
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crossbeam_channel::{Receiver, Sender};
+use parking_lot::{Mutex, RwLock};
+
+pub use batch::Batch;
+pub(crate) use chain::Chain;
+pub use snapshot::Snapshot;
+use state::{Decl, State};
+use txn::{Fired, Inner, Txn};
+pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Watch};
+
+use crate::active::{FnRef, NativeFn};
+use crate::packet::check_value;
+use crate::{
+    ActiveFn, Address, Call, ChainError, ClassDef, Clock, Context, CreateError, DefineError,
+    DeleteError, FnError, Key, LookupError, ObjectId, Packet, ReadError, THING, Trigger, Update,
+    WriteError,
+};
+
+/// Default limit on the depth of chains of active functions.
+pub const DEFAULT_MAX_DEPTH: usize = 8;
+
+/// A module's blackboard: the class tree, its objects, and their attribute packets.
+///
+/// A `Board` is shared by many threads (`Arc<Board>`); every method takes `&self`.
+/// Readers never wait behind active functions or notifications: a write holds the lock
+/// only to validate and store, and runs its on-write functions after releasing it.
+/// A batch is applied under one lock acquisition, so no reader ever sees half of it.
+///
+/// ```
+/// use slate_model::{AttrDecl, Board, ClassDef, ValueType, Update};
+/// let board = Board::new();
+/// board.define(ClassDef::new("Vehicle").attr(AttrDecl::new("speed", ValueType::Real).default_value(0.0)))?;
+/// board.create("Vehicle", "gsr")?;
+/// board.write("gsr", "speed", Update::new(2.5).accuracy(0.1).confidence(0.9))?;
+/// let p = board.read("gsr", "speed")?;
+/// assert_eq!(p.value.as_f64(), Some(2.5));
+/// assert_eq!(p.confidence, 0.9);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct Board {
+    inner: RwLock<Inner>,
+    clock: Clock,
+    address: Address,
+    max_depth: usize,
+    subscribers: Mutex<Vec<Sender<BoardEvent>>>,
+    function_failures: AtomicU64,
+    chain_cuts: AtomicU64,
+    fn_seq: AtomicU64,
+}
+
+/// Builds a [`Board`] with a clock, an address and limits.
+#[derive(Debug, Default)]
+pub struct BoardBuilder {
+    clock: Option<Clock>,
+    address: Option<Address>,
+    max_depth: Option<usize>,
+}
+
+impl BoardBuilder {
+    /// The clock that stamps writes (default: the system clock).
+    pub fn clock(mut self, clock: Clock) -> Self {
+        self.clock = Some(clock);
+        self
+    }
+
+    /// The module this board belongs to: the source of its writes and owner of the
+    /// objects it creates (default `local/robot/module`).
+    pub fn address(mut self, address: Address) -> Self {
+        self.address = Some(address);
+        self
+    }
+
+    /// The deepest chain of active functions allowed (default [`DEFAULT_MAX_DEPTH`]).
+    pub fn max_depth(mut self, depth: usize) -> Self {
+        self.max_depth = Some(depth);
+        self
+    }
+
+    /// Builds the board.
+    pub fn build(self) -> Board {
+        let default_address =
+            || Address::new("local/robot/module").unwrap_or_else(|_| Address::unknown());
+        Board {
+            inner: RwLock::new(Inner {
+                state: State::new(),
+                watchers: Vec::new(),
+            }),
+            clock: self.clock.unwrap_or_default(),
+            address: self.address.unwrap_or_else(default_address),
+            max_depth: self.max_depth.unwrap_or(DEFAULT_MAX_DEPTH),
+            subscribers: Mutex::new(Vec::new()),
+            function_failures: AtomicU64::new(0),
+            chain_cuts: AtomicU64::new(0),
+            fn_seq: AtomicU64::new(0),
+        }
+    }
+}
+
+/// Where a read or write goes: names, or a resolved key.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Target<'a> {
+    Names(&'a str, &'a str),
+    Key(Key),
+}
+
+impl Target<'_> {
+    fn resolve(self, st: &State) -> Result<Key, state::Missing> {
+        match self {
+            Target::Names(o, a) => st.key(o, a),
+            // Checked by the read or write that uses it.
+            Target::Key(k) => Ok(k),
+        }
+    }
+}
+
+/// How to create an object: class, name, context, owner.
+#[derive(Clone, Debug)]
+pub struct NewObject {
+    /// Class name.
+    pub class: String,
+    /// Object name.
+    pub name: String,
+    /// Context (default SURROUNDINGS).
+    pub context: Context,
+    /// Owner (default: the board's address).
+    pub owner: Option<Address>,
+}
+
+impl NewObject {
+    /// An object of `class` named `name`.
+    pub fn new(class: &str, name: &str) -> Self {
+        NewObject {
+            class: class.to_owned(),
+            name: name.to_owned(),
+            context: Context::default(),
+            owner: None,
+        }
+    }
+
+    /// Sets the context.
+    pub fn context(mut self, context: Context) -> Self {
+        self.context = context;
+        self
+    }
+
+    /// Sets the owner.
+    pub fn owner(mut self, owner: Address) -> Self {
+        self.owner = Some(owner);
+        self
+    }
+}
+
+/// What a board knows about one object or class.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectInfo {
+    /// Handle.
+    pub id: ObjectId,
+    /// Name.
+    pub name: Arc<str>,
+    /// Its class (for a class: its parent; `Thing`'s is `Thing`).
+    pub class: Arc<str>,
+    /// Is it a class?
+    pub is_class: bool,
+    /// Context (classes: SURROUNDINGS).
+    pub context: Context,
+    /// Owning module (classes: unknown).
+    pub owner: Address,
+}
+
+/// Counters a board keeps about itself.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BoardStats {
+    /// Current revision.
+    pub revision: u64,
+    /// Live objects (instances).
+    pub objects: usize,
+    /// Live classes (including `Thing`).
+    pub classes: usize,
+    /// Active functions that failed or panicked.
+    pub function_failures: u64,
+    /// Chains of active functions cut for depth or a cycle.
+    pub chain_cuts: u64,
+}
+
+impl Default for Board {
+    fn default() -> Self {
+        Board::new()
+    }
+}
+
+impl Board {
+    /// A board with the system clock and the default address.
+    pub fn new() -> Self {
+        BoardBuilder::default().build()
+    }
+
+    /// A builder for a board with its own clock, address or limits.
+    pub fn builder() -> BoardBuilder {
+        BoardBuilder::default()
+    }
+
+    /// The board's clock.
+    pub fn clock(&self) -> &Clock {
+        &self.clock
+    }
+
+    /// The board's module address.
+    pub fn address(&self) -> &Address {
+        &self.address
+    }
+
+    /// The current revision: it grows by one with every write, batch, create and delete.
+    pub fn revision(&self) -> u64 {
+        self.inner.read().state.revision
+    }
+
+    // ----- classes -----
+
+    /// Defines a class. Defining an identical class again is a no-op; a different
+    /// definition under the same name is a [`DefineError::Conflict`].
+    pub fn define(&self, def: ClassDef) -> Result<ObjectId, DefineError> {
+        let mut inner = self.inner.write();
+        let st = &mut inner.state;
+        match st.define(&def)? {
+            Some(id) => Ok(id),
+            None => st.id(&def.name).ok_or(DefineError::NameTaken(def.name)),
+        }
+    }
+
+    /// Deletes a class that has no instances and no subclasses.
+    pub fn delete_class(&self, name: &str) -> Result<(), DeleteError> {
+        self.inner.write().state.delete_class(name).map(|_| ())
+    }
+
+    /// The definition of a class.
+    pub fn class_def(&self, name: &str) -> Option<ClassDef> {
+        let inner = self.inner.read();
+        inner
+            .state
+            .class_id(name)
+            .and_then(|id| inner.state.class(id))
+            .map(|c| c.def.clone())
+    }
+
+    /// Every class definition except `Thing`, parents before children.
+    pub fn class_defs(&self) -> Vec<ClassDef> {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        let mut out = Vec::new();
+        let mut stack = vec![st.thing];
+        while let Some(id) = stack.pop() {
+            let Some(c) = st.class(id) else { continue };
+            if id != st.thing {
+                out.push(c.def.clone());
+            }
+            stack.extend(c.children.iter().rev());
+        }
+        out
+    }
+
+    // ----- objects -----
+
+    /// Creates an object of `class` in the SURROUNDINGS context, owned by this board.
+    pub fn create(&self, class: &str, name: &str) -> Result<ObjectId, CreateError> {
+        self.create_with(NewObject::new(class, name))
+    }
+
+    /// Creates an object as described.
+    pub fn create_with(&self, spec: NewObject) -> Result<ObjectId, CreateError> {
+        let owner = spec.owner.unwrap_or_else(|| self.address.clone());
+        let mut inner = self.inner.write();
+        let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
+        let id = txn.create(&spec.class, &spec.name, spec.context, owner)?;
+        txn.commit();
+        Ok(id)
+    }
+
+    /// Deletes an object. References to it elsewhere become dangling (see [`crate::Value`]).
+    pub fn delete(&self, name: &str) -> Result<u64, DeleteError> {
+        let mut inner = self.inner.write();
+        let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
+        txn.delete(name)?;
+        Ok(txn.commit().0)
+    }
+
+    /// What the board knows about an object or class.
+    pub fn info(&self, name: &str) -> Option<ObjectInfo> {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        st.id(name).and_then(|id| object_info(st, id))
+    }
+
+    /// The name of an object or class (`None` if the handle is stale).
+    pub fn name_of(&self, id: ObjectId) -> Option<Arc<str>> {
+        self.inner.read().state.name(id)
+    }
+
+    /// Instances of `class` and of all its subclasses.
+    pub fn instances(&self, class: &str) -> Result<Vec<ObjectId>, LookupError> {
+        instances(&self.inner.read().state, class, None)
+    }
+
+    /// Instances of `class` (and subclasses) in one context.
+    pub fn instances_in(
+        &self,
+        class: &str,
+        context: Context,
+    ) -> Result<Vec<ObjectId>, LookupError> {
+        instances(&self.inner.read().state, class, Some(context))
+    }
+
+    // ----- reads -----
+
+    /// Resolves `object.attr` once, for fast repeated reads and writes.
+    pub fn key(&self, object: &str, attr: &str) -> Result<Key, LookupError> {
+        Ok(self.inner.read().state.key(object, attr)?)
+    }
+
+    /// Reads an attribute: the object's own packet, else its class chain's, else the
+    /// declared default; then the on-read active functions may change what is returned.
+    pub fn read(&self, object: &str, attr: &str) -> Result<Packet, ReadError> {
+        self.read_in(Target::Names(object, attr), &Chain::default())
+    }
+
+    /// Reads through a resolved key.
+    pub fn read_key(&self, key: Key) -> Result<Packet, ReadError> {
+        self.read_in(Target::Key(key), &Chain::default())
+    }
+
+    pub(crate) fn read_in(&self, target: Target<'_>, chain: &Chain) -> Result<Packet, ReadError> {
+        let pending = {
+            let inner = self.inner.read();
+            match PendingRead::new(&inner.state, target)? {
+                Ok(packet) => return Ok(packet),
+                Err(pending) => pending,
+            }
+        };
+        pending.finish(self, Access::Live(self), chain)
+    }
+
+    /// A consistent view of the whole board. While it lives, writers wait: keep it short,
+    /// and do not write to the board from the thread that holds it.
+    pub fn snapshot(&self) -> Snapshot<'_> {
+        Snapshot::new(self, self.inner.read())
+    }
+
+    // ----- writes -----
+
+    /// Writes an attribute: validates, stamps, stores, notifies watchers, then runs the
+    /// on-write active functions. Returns the revision of the write.
+    pub fn write(
+        &self,
+        object: &str,
+        attr: &str,
+        update: impl Into<Update>,
+    ) -> Result<u64, WriteError> {
+        self.write_in(
+            Target::Names(object, attr),
+            update.into(),
+            &Chain::default(),
+        )
+    }
+
+    /// Writes through a resolved key.
+    pub fn write_key(&self, key: Key, update: impl Into<Update>) -> Result<u64, WriteError> {
+        self.write_in(Target::Key(key), update.into(), &Chain::default())
+    }
+
+    pub(crate) fn write_in(
+        &self,
+        target: Target<'_>,
+        update: Update,
+        chain: &Chain,
+    ) -> Result<u64, WriteError> {
+        let (revision, fired) = {
+            let mut inner = self.inner.write();
+            let key = target.resolve(&inner.state)?;
+            let st = &inner.state;
+            let names = || {
+                (
+                    st.name(key.object).unwrap_or_else(|| "?".into()),
+                    st.attr_name(key.attr),
+                )
+            };
+            if let Err(cut) = chain.admit(key, Trigger::Write, self.max_depth, names) {
+                drop(inner);
+                self.report(BoardEvent::ChainCut(cut.clone()));
+                return Err(cut.into());
+            }
+            if inner.watchers.is_empty() && !inner.state.may_have_fns(key) {
+                // The common case: nobody to notify, no function to run.
+                let st = &mut inner.state;
+                let packet = st.prepare(key, update, &self.clock, &self.address, None)?;
+                st.revision += 1;
+                let revision = st.revision;
+                st.store(key, packet, revision);
+                return Ok(revision);
+            }
+            let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
+            txn.write(key, update)?;
+            txn.commit()
+        };
+        self.run_write_fns(revision, fired, chain);
+        Ok(revision)
+    }
+
+    /// Starts an atomic batch of writes, creations and deletions.
+    pub fn batch(&self) -> Batch<'_> {
+        Batch::new(self)
+    }
+
+    // ----- watching -----
+
+    /// Subscribes to the changes matching `filter`. Every write notifies once, every
+    /// batch once (with all its matching items), in revision order.
+    pub fn watch(&self, filter: Filter) -> Result<Watch, LookupError> {
+        let mut inner = self.inner.write();
+        let spec = resolve_filter(&inner.state, &filter)?;
+        let (watcher, watch) = watch::subscribe(spec);
+        inner.watchers.push(watcher);
+        Ok(watch)
+    }
+
+    /// Subscribes to the board's own events (failed active functions, cut chains).
+    pub fn events(&self) -> Receiver<BoardEvent> {
+        let (tx, rx) = crossbeam_channel::unbounded();
+        self.subscribers.lock().push(tx);
+        rx
+    }
+
+    /// Counters.
+    pub fn stats(&self) -> BoardStats {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        let (classes, objects) = st.entities().fold((0, 0), |(c, o), (_, e)| {
+            if e.class_data().is_some() {
+                (c + 1, o)
+            } else {
+                (c, o + 1)
+            }
+        });
+        BoardStats {
+            revision: st.revision,
+            objects,
+            classes,
+            function_failures: self.function_failures.load(Ordering::Relaxed),
+            chain_cuts: self.chain_cuts.load(Ordering::Relaxed),
+        }
+    }
+
+    // ----- active functions -----
+
+    /// Attaches a native function run when `target.attr` is read. On a class it applies
+    /// to every instance and subclass, including ones created later.
+    pub fn on_read<F>(&self, target: &str, attr: &str, f: F) -> Result<(), LookupError>
+    where
+        F: Fn(&mut Call<'_>) -> Result<(), FnError> + Send + Sync + 'static,
+    {
+        self.attach(
+            target,
+            attr,
+            Trigger::Read,
+            self.native(target, attr, Trigger::Read, f),
+        )
+    }
+
+    /// Attaches a native function run after `target.attr` is written.
+    pub fn on_write<F>(&self, target: &str, attr: &str, f: F) -> Result<(), LookupError>
+    where
+        F: Fn(&mut Call<'_>) -> Result<(), FnError> + Send + Sync + 'static,
+    {
+        self.attach(
+            target,
+            attr,
+            Trigger::Write,
+            self.native(target, attr, Trigger::Write, f),
+        )
+    }
+
+    fn native<F>(&self, target: &str, attr: &str, trigger: Trigger, f: F) -> FnRef
+    where
+        F: Fn(&mut Call<'_>) -> Result<(), FnError> + Send + Sync + 'static,
+    {
+        let n = self.fn_seq.fetch_add(1, Ordering::Relaxed);
+        Arc::new(NativeFn {
+            name: format!("{target}.{attr} on {trigger} #{n}"),
+            f,
+        })
+    }
+
+    /// Attaches any active function (native or declarative) to `target.attr`. Functions
+    /// run in order: inherited ones ancestor-first, then the object's own, each in the
+    /// order attached.
+    pub fn attach(
+        &self,
+        target: &str,
+        attr: &str,
+        trigger: Trigger,
+        f: Arc<dyn ActiveFn>,
+    ) -> Result<(), LookupError> {
+        let mut inner = self.inner.write();
+        let key = inner.state.key(target, attr)?;
+        inner.state.attach(key, trigger, f);
+        Ok(())
+    }
+
+    pub(crate) fn run_write_fns(&self, revision: u64, fired: Vec<Fired>, chain: &Chain) {
+        for f in fired {
+            let chain = chain.with(f.key, Trigger::Write, &f.object, &f.attr);
+            let mut call = Call {
+                access: Access::Live(self),
+                chain: &chain,
+                trigger: Trigger::Write,
+                key: f.key,
+                object: f.object,
+                attr: f.attr,
+                packet: f.packet,
+                previous: f.previous,
+                revision,
+            };
+            for func in &f.fns {
+                self.run_isolated(func.as_ref(), &mut call);
+            }
+        }
+    }
+
+    /// Runs one function; an error or a panic becomes an event, never a failure of the
+    /// access that triggered it.
+    fn run_isolated(&self, func: &dyn ActiveFn, call: &mut Call<'_>) -> bool {
+        let outcome = catch_unwind(AssertUnwindSafe(|| func.call(call)));
+        let error = match outcome {
+            Ok(Ok(())) => return true,
+            Ok(Err(e)) => e.to_string(),
+            Err(panic) => format!("panicked: {}", panic_message(panic.as_ref())),
+        };
+        self.report(BoardEvent::FunctionFailed {
+            function: func.name().to_owned(),
+            object: call.object.to_string(),
+            attr: call.attr.to_string(),
+            trigger: call.trigger,
+            error,
+        });
+        false
+    }
+
+    pub(crate) fn report(&self, event: BoardEvent) {
+        match &event {
+            BoardEvent::FunctionFailed {
+                function,
+                object,
+                attr,
+                error,
+                ..
+            } => {
+                self.function_failures.fetch_add(1, Ordering::Relaxed);
+                tracing::warn!(%function, %object, %attr, %error, "active function failed");
+            }
+            BoardEvent::ChainCut(cut) => {
+                self.chain_cuts.fetch_add(1, Ordering::Relaxed);
+                tracing::warn!(%cut, "active function chain cut");
+            }
+        }
+        self.subscribers
+            .lock()
+            .retain(|tx| tx.send(event.clone()).is_ok());
+    }
+}
+
+/// A read whose on-read functions still have to run, outside the lock.
+pub(crate) struct PendingRead {
+    key: Key,
+    packet: Packet,
+    decl: Arc<Decl>,
+    fns: Vec<FnRef>,
+    object: Arc<str>,
+    attr: Arc<str>,
+}
+
+impl PendingRead {
+    /// `Ok(Ok(packet))` when no function applies (the common case), else the pending read.
+    fn new(st: &State, target: Target<'_>) -> Result<Result<Packet, PendingRead>, ReadError> {
+        let key = target.resolve(st)?;
+        if let Some(packet) = st.read_own(key) {
+            return Ok(Ok(packet.clone()));
+        }
+        let r = st.resolve(key)?;
+        let fns = if r.read_fns {
+            st.fns(key, Trigger::Read)
+        } else {
+            Vec::new()
+        };
+        if fns.is_empty() {
+            return Ok(Ok(r.packet.clone()));
+        }
+        let (packet, decl) = (r.packet, r.decl);
+        let object = st.name(key.object).unwrap_or_else(|| "?".into());
+        Ok(Err(PendingRead {
+            key,
+            packet: packet.clone(),
+            decl: decl.clone(),
+            fns,
+            object,
+            attr: st.attr_name(key.attr),
+        }))
+    }
+
+    fn finish(self, board: &Board, access: Access<'_>, chain: &Chain) -> Result<Packet, ReadError> {
+        let names = || (self.object.clone(), self.attr.clone());
+        if let Err(cut) = chain.admit(self.key, Trigger::Read, board.max_depth, names) {
+            board.report(BoardEvent::ChainCut(cut.clone()));
+            return Err(cut.into());
+        }
+        let chain = chain.with(self.key, Trigger::Read, &self.object, &self.attr);
+        let mut call = Call {
+            access,
+            chain: &chain,
+            trigger: Trigger::Read,
+            key: self.key,
+            object: self.object,
+            attr: self.attr,
+            packet: self.packet,
+            previous: None,
+            revision: 0,
+        };
+        for func in &self.fns {
+            let before = call.packet.clone();
+            if board.run_isolated(func.as_ref(), &mut call) && !call.packet.value.is_none() {
+                let d = &self.decl.decl;
+                if let Err(e) = check_value(&call.packet.value, d.ty, d.bounds) {
+                    board.report(BoardEvent::FunctionFailed {
+                        function: func.name().to_owned(),
+                        object: call.object.to_string(),
+                        attr: call.attr.to_string(),
+                        trigger: Trigger::Read,
+                        error: format!("returned an invalid packet: {e}"),
+                    });
+                    call.packet = before;
+                }
+            }
+        }
+        Ok(call.packet)
+    }
+}
+
+/// Where an active function reads and writes: the live board, or a held snapshot.
+pub(crate) enum Access<'a> {
+    Live(&'a Board),
+    Frozen(&'a Snapshot<'a>),
+}
+
+impl Access<'_> {
+    pub fn read(&self, object: &str, attr: &str, chain: &Chain) -> Result<Packet, ReadError> {
+        match self {
+            Access::Live(b) => b.read_in(Target::Names(object, attr), chain),
+            Access::Frozen(s) => s.read_in(Target::Names(object, attr), chain),
+        }
+    }
+
+    pub fn write(
+        &self,
+        object: &str,
+        attr: &str,
+        update: Update,
+        chain: &Chain,
+    ) -> Result<u64, WriteError> {
+        match self {
+            Access::Live(b) => b.write_in(Target::Names(object, attr), update, chain),
+            Access::Frozen(_) => Err(WriteError::ReadOnly),
+        }
+    }
+
+    pub fn instances(&self, class: &str) -> Result<Vec<ObjectId>, LookupError> {
+        match self {
+            Access::Live(b) => b.instances(class),
+            Access::Frozen(s) => s.instances(class),
+        }
+    }
+
+    pub fn name_of(&self, id: ObjectId) -> Option<Arc<str>> {
+        match self {
+            Access::Live(b) => b.name_of(id),
+            Access::Frozen(s) => s.name_of(id),
+        }
+    }
+}
+
+pub(crate) fn instances(
+    st: &State,
+    class: &str,
+    context: Option<Context>,
+) -> Result<Vec<ObjectId>, LookupError> {
+    let id = st
+        .class_id(class)
+        .ok_or_else(|| LookupError::UnknownClass(class.to_owned()))?;
+    let mut out = Vec::new();
+    st.instances(id, &mut out);
+    if let Some(ctx) = context {
+        out.retain(|o| {
+            st.get(*o)
+                .and_then(|e| e.instance())
+                .is_some_and(|i| i.context == ctx)
+        });
+    }
+    Ok(out)
+}
+
+pub(crate) fn object_info(st: &State, id: ObjectId) -> Option<ObjectInfo> {
+    let e = st.get(id)?;
+    let (class, context, owner) = match e.instance() {
+        Some(i) => (st.name(i.class)?, i.context, i.owner.clone()),
+        None => {
+            let parent = st.lineage(id).get(1).copied().unwrap_or(id);
+            (st.name(parent)?, Context::default(), Address::unknown())
+        }
+    };
+    Some(ObjectInfo {
+        id,
+        name: e.name.clone(),
+        class,
+        is_class: e.instance().is_none(),
+        context,
+        owner,
+    })
+}
+
+fn resolve_filter(st: &State, f: &Filter) -> Result<watch::Spec, LookupError> {
+    let object = f
+        .object
+        .as_deref()
+        .map(|o| {
+            st.id(o)
+                .ok_or_else(|| LookupError::UnknownObject(o.to_owned()))
+        })
+        .transpose()?;
+    let class = f
+        .class
+        .as_deref()
+        .map(|c| {
+            st.class_id(c)
+                .ok_or_else(|| LookupError::UnknownClass(c.to_owned()))
+        })
+        .transpose()?;
+    let attr = match f.attr.as_deref() {
+        None => None,
+        Some(a) => Some(st.attr_id(a).ok_or_else(|| {
+            LookupError::UnknownAttribute {
+                object: f
+                    .object
+                    .clone()
+                    .or_else(|| f.class.clone())
+                    .unwrap_or_else(|| THING.to_owned()),
+                attr: a.to_owned(),
+            }
+        })?),
+    };
+    Ok(watch::Spec {
+        object,
+        class,
+        attr,
+    })
+}
+
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_owned())
+        .or_else(|| panic.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "unknown panic".to_owned())
+}
+
+impl From<ChainError> for FnError {
+    fn from(e: ChainError) -> Self {
+        FnError::Write(WriteError::Chain(e))
+    }
+}

@@ -1,0 +1,213 @@
+//! A transaction: operations applied under the board's write lock, with an undo log so
+//! that a failing batch leaves nothing behind, and notifications held back until commit.
+
+use std::sync::Arc;
+
+use super::state::{Entity, State, Stored};
+use super::watch::{Change, ChangeItem, Watcher};
+use crate::active::FnRef;
+use crate::{
+    Address, AttrId, Clock, Context, CreateError, DeleteError, Key, ObjectId, Packet, Timestamp,
+    Trigger, Update, WriteError,
+};
+
+/// What the board keeps under its lock.
+pub(crate) struct Inner {
+    pub state: State,
+    pub watchers: Vec<Watcher>,
+}
+
+enum Undo {
+    Write(Key, Option<Stored>),
+    Create(ObjectId),
+    Delete(ObjectId, Entity),
+}
+
+/// On-write functions to run once the transaction is committed and the lock released.
+pub(crate) struct Fired {
+    pub key: Key,
+    pub object: Arc<str>,
+    pub attr: Arc<str>,
+    pub packet: Packet,
+    pub previous: Option<Packet>,
+    pub fns: Vec<FnRef>,
+}
+
+pub(crate) struct Txn<'s> {
+    inner: &'s mut Inner,
+    clock: &'s Clock,
+    me: &'s Address,
+    revision: u64,
+    stamp: Timestamp,
+    undo: Option<Vec<Undo>>,
+    notes: Vec<Vec<ChangeItem>>,
+    fired: Vec<Fired>,
+}
+
+impl<'s> Txn<'s> {
+    /// Starts a transaction. `ops` is how many operations it will hold: more than one
+    /// keeps an undo log. Every write it stores is stamped with one timestamp: a batch is
+    /// one event.
+    pub fn new(inner: &'s mut Inner, clock: &'s Clock, me: &'s Address, ops: usize) -> Self {
+        let revision = inner.state.revision + 1;
+        Txn {
+            inner,
+            clock,
+            me,
+            revision,
+            stamp: clock.now(),
+            undo: (ops > 1).then(|| Vec::with_capacity(ops)),
+            notes: Vec::new(),
+            fired: Vec::new(),
+        }
+    }
+
+    pub fn state(&self) -> &State {
+        &self.inner.state
+    }
+
+    pub fn write(&mut self, key: Key, update: Update) -> Result<(), WriteError> {
+        let packet =
+            self.inner
+                .state
+                .prepare(key, update, self.clock, self.me, Some(self.stamp))?;
+        let st = &self.inner.state;
+        let fns = if st.may_have_fns(key) {
+            st.fns(key, Trigger::Write)
+        } else {
+            Vec::new()
+        };
+        let names = (!fns.is_empty() || !self.inner.watchers.is_empty()).then(|| {
+            (
+                st.name(key.object).unwrap_or_else(|| "?".into()),
+                st.attr_name(key.attr),
+            )
+        });
+        if let Some((object, attr)) = &names {
+            let item = || ChangeItem::Write {
+                object: object.clone(),
+                attr: attr.clone(),
+                packet: packet.clone(),
+            };
+            self.note(key.object, Some(key.attr), item);
+        }
+        let stored = if fns.is_empty() {
+            None
+        } else {
+            Some(packet.clone())
+        };
+        let previous = self.inner.state.store(key, packet, self.revision);
+        if let (Some(packet), Some((object, attr))) = (stored, names) {
+            let prev = previous.as_ref().map(|s| s.packet.clone());
+            self.fired.push(Fired {
+                key,
+                object,
+                attr,
+                packet,
+                previous: prev,
+                fns,
+            });
+        }
+        if let Some(undo) = &mut self.undo {
+            undo.push(Undo::Write(key, previous));
+        }
+        Ok(())
+    }
+
+    pub fn create(
+        &mut self,
+        class: &str,
+        name: &str,
+        context: Context,
+        owner: Address,
+    ) -> Result<ObjectId, CreateError> {
+        let id = self.inner.state.create(class, name, context, owner)?;
+        let class: Arc<str> = class.into();
+        let object: Arc<str> = name.into();
+        self.note(id, None, || ChangeItem::Create {
+            object: object.clone(),
+            class: class.clone(),
+        });
+        if let Some(undo) = &mut self.undo {
+            undo.push(Undo::Create(id));
+        }
+        Ok(id)
+    }
+
+    pub fn delete(&mut self, name: &str) -> Result<ObjectId, DeleteError> {
+        let st = &self.inner.state;
+        if let Some(id) = st
+            .id(name)
+            .filter(|id| st.get(*id).is_some_and(|e| e.instance().is_some()))
+        {
+            let class = st
+                .lineage(id)
+                .first()
+                .and_then(|c| st.name(*c))
+                .unwrap_or_else(|| "?".into());
+            let object: Arc<str> = name.into();
+            self.note(id, None, || ChangeItem::Delete {
+                object: object.clone(),
+                class: class.clone(),
+            });
+        }
+        let (id, entity) = self.inner.state.remove(name)?;
+        if let Some(undo) = &mut self.undo {
+            undo.push(Undo::Delete(id, entity));
+        }
+        Ok(id)
+    }
+
+    /// Records a change item for every watcher it matches.
+    fn note(&mut self, id: ObjectId, attr: Option<AttrId>, item: impl Fn() -> ChangeItem) {
+        let Inner { state, watchers } = &*self.inner;
+        for (i, w) in watchers.iter().enumerate() {
+            if w.spec.matches(state, id, attr) {
+                if self.notes.len() <= i {
+                    self.notes.resize_with(watchers.len(), Vec::new);
+                }
+                self.notes[i].push(item());
+            }
+        }
+    }
+
+    /// Makes the changes visible: one revision, one notification per matching watcher.
+    /// Returns the revision and the on-write functions to run.
+    pub fn commit(self) -> (u64, Vec<Fired>) {
+        let Txn {
+            inner,
+            revision,
+            notes,
+            fired,
+            ..
+        } = self;
+        inner.state.revision = revision;
+        let mut dead = Vec::new();
+        for (i, items) in notes.into_iter().enumerate() {
+            if !items.is_empty()
+                && inner.watchers[i]
+                    .tx
+                    .send(Change { revision, items })
+                    .is_err()
+            {
+                dead.push(i);
+            }
+        }
+        for i in dead.into_iter().rev() {
+            inner.watchers.swap_remove(i);
+        }
+        (revision, fired)
+    }
+
+    /// Undoes everything applied so far.
+    pub fn rollback(self) {
+        let st = &mut self.inner.state;
+        for op in self.undo.into_iter().flatten().rev() {
+            match op {
+                Undo::Write(key, previous) => st.unstore(key, previous),
+                Undo::Create(id) => st.uncreate(id),
+                Undo::Delete(id, entity) => st.restore(id, entity),
+            }
+        }
+    }
+}

@@ -1,0 +1,264 @@
+//! Watching a board: change notifications, revision cursors and board events.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
+use parking_lot::{Condvar, Mutex};
+
+use super::state::State;
+use crate::{AttrId, ChainError, ObjectId, Packet, Trigger};
+
+/// What to watch: changes that match every part given (an empty filter matches all).
+///
+/// ```
+/// use slate_model::Filter;
+/// let f = Filter::class("Vehicle").attr("speed");
+/// # let _ = f;
+/// ```
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Filter {
+    pub(crate) object: Option<String>,
+    pub(crate) class: Option<String>,
+    pub(crate) attr: Option<String>,
+}
+
+impl Filter {
+    /// Every change on the board.
+    pub fn all() -> Self {
+        Filter::default()
+    }
+
+    /// Changes of one object, including class-level writes to its class chain (they
+    /// change what the object reads where it has no value of its own).
+    pub fn object(name: &str) -> Self {
+        Filter::default().and_object(name)
+    }
+
+    /// Changes of a class, its subclasses, and their instances.
+    pub fn class(name: &str) -> Self {
+        Filter::default().and_class(name)
+    }
+
+    /// Writes of one attribute (on any object), plus creations and deletions.
+    pub fn attribute(name: &str) -> Self {
+        Filter::default().attr(name)
+    }
+
+    /// Also require the object.
+    pub fn and_object(mut self, name: &str) -> Self {
+        self.object = Some(name.to_owned());
+        self
+    }
+
+    /// Also require the class.
+    pub fn and_class(mut self, name: &str) -> Self {
+        self.class = Some(name.to_owned());
+        self
+    }
+
+    /// Also require the attribute.
+    pub fn attr(mut self, name: &str) -> Self {
+        self.attr = Some(name.to_owned());
+        self
+    }
+}
+
+/// One change a revision made.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ChangeItem {
+    /// An attribute was written (on an object, or class-level on a class).
+    Write {
+        /// Object or class name.
+        object: Arc<str>,
+        /// Attribute name.
+        attr: Arc<str>,
+        /// The packet stored.
+        packet: Packet,
+    },
+    /// An object was created.
+    Create {
+        /// Object name.
+        object: Arc<str>,
+        /// Its class.
+        class: Arc<str>,
+    },
+    /// An object was deleted.
+    Delete {
+        /// Object name.
+        object: Arc<str>,
+        /// Its class.
+        class: Arc<str>,
+    },
+}
+
+/// The changes one revision (a write, or a whole batch) made that match a watch.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Change {
+    /// Board revision of the change.
+    pub revision: u64,
+    /// The matching items, in the order they were applied.
+    pub items: Vec<ChangeItem>,
+}
+
+/// Something a board reports about itself (not a change of the world model).
+#[non_exhaustive]
+#[derive(Clone, Debug, PartialEq)]
+pub enum BoardEvent {
+    /// An active function returned an error or panicked. The board is unchanged by it,
+    /// and the other functions still ran.
+    FunctionFailed {
+        /// The function's name.
+        function: String,
+        /// Object accessed.
+        object: String,
+        /// Attribute accessed.
+        attr: String,
+        /// Read or write.
+        trigger: Trigger,
+        /// What went wrong.
+        error: String,
+    },
+    /// A chain of active functions was cut (too deep, or a cycle); the access that would
+    /// have continued it was refused.
+    ChainCut(ChainError),
+}
+
+/// The last revision a reader has taken from a [`Watch`]; writers wait on it.
+#[derive(Clone, Debug, Default)]
+pub struct Cursor {
+    inner: Arc<(Mutex<u64>, Condvar)>,
+}
+
+impl Cursor {
+    /// The last revision seen.
+    pub fn seen(&self) -> u64 {
+        *self.inner.0.lock()
+    }
+
+    fn advance(&self, revision: u64) {
+        let mut seen = self.inner.0.lock();
+        if revision > *seen {
+            *seen = revision;
+            self.inner.1.notify_all();
+        }
+    }
+
+    /// Waits until the reader has seen `revision` (or later); false on timeout.
+    pub fn wait_for(&self, revision: u64, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        let mut seen = self.inner.0.lock();
+        while *seen < revision {
+            if self.inner.1.wait_until(&mut seen, deadline).timed_out() {
+                return *seen >= revision;
+            }
+        }
+        true
+    }
+}
+
+/// A subscription to a board's changes. Iterating blocks for the next change; dropping
+/// the watch unsubscribes.
+#[derive(Debug)]
+pub struct Watch {
+    rx: Receiver<Change>,
+    cursor: Cursor,
+}
+
+impl Watch {
+    /// The next change, waiting as long as it takes (`None` once the board is gone).
+    pub fn recv(&self) -> Option<Change> {
+        self.rx
+            .recv()
+            .ok()
+            .inspect(|c| self.cursor.advance(c.revision))
+    }
+
+    /// The next change, waiting at most `timeout`.
+    pub fn recv_timeout(&self, timeout: Duration) -> Option<Change> {
+        match self.rx.recv_timeout(timeout) {
+            Ok(c) => {
+                self.cursor.advance(c.revision);
+                Some(c)
+            }
+            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => None,
+        }
+    }
+
+    /// The next change if one is waiting.
+    pub fn try_recv(&self) -> Option<Change> {
+        match self.rx.try_recv() {
+            Ok(c) => {
+                self.cursor.advance(c.revision);
+                Some(c)
+            }
+            Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
+        }
+    }
+
+    /// A cursor a writer can wait on until this watch's reader has seen its write.
+    pub fn cursor(&self) -> Cursor {
+        self.cursor.clone()
+    }
+
+    /// Changes waiting to be received.
+    pub fn pending(&self) -> usize {
+        self.rx.len()
+    }
+}
+
+impl Iterator for Watch {
+    type Item = Change;
+    fn next(&mut self) -> Option<Change> {
+        self.recv()
+    }
+}
+
+/// A filter with its names resolved.
+#[derive(Debug)]
+pub(crate) struct Spec {
+    pub object: Option<ObjectId>,
+    pub class: Option<ObjectId>,
+    pub attr: Option<AttrId>,
+}
+
+impl Spec {
+    /// Does a change of `id` (and `attr`, for writes) match?
+    pub fn matches(&self, st: &State, id: ObjectId, attr: Option<AttrId>) -> bool {
+        if let (Some(want), Some(got)) = (self.attr, attr)
+            && want != got
+        {
+            return false;
+        }
+        if let Some(c) = self.class
+            && !st.lineage(id).contains(&c)
+        {
+            return false;
+        }
+        match self.object {
+            None => true,
+            Some(o) if o == id => true,
+            // A class-level write to a class in the object's chain changes what it reads.
+            Some(o) => {
+                st.get(id).is_some_and(|e| e.class_data().is_some()) && st.lineage(o).contains(&id)
+            }
+        }
+    }
+}
+
+pub(crate) struct Watcher {
+    pub spec: Spec,
+    pub tx: Sender<Change>,
+}
+
+/// Creates a watcher and the watch its reader holds.
+pub(crate) fn subscribe(spec: Spec) -> (Watcher, Watch) {
+    let (tx, rx) = crossbeam_channel::unbounded();
+    (
+        Watcher { spec, tx },
+        Watch {
+            rx,
+            cursor: Cursor::default(),
+        },
+    )
+}

@@ -1,0 +1,382 @@
+//! Hybrid logical clock: physical time in the high bits, a logical counter in the low bits.
+//!
+//! A [`Timestamp`] is a `u64`: microseconds since the Unix epoch in the high 52 bits
+//! (enough until the year 2112) and a logical counter in the low [`LOGICAL_BITS`] bits.
+//! [`Clock::now`] never returns the same or a smaller timestamp twice, and
+//! [`Clock::observe`] merges timestamps received from other boards so that a packet
+//! stamped after receiving another always orders after it, even when the two robots'
+//! wall clocks disagree.
+
+use std::fmt;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+/// Bits of a timestamp used by the logical counter.
+pub const LOGICAL_BITS: u32 = 12;
+const LOGICAL_MASK: u64 = (1 << LOGICAL_BITS) - 1;
+
+/// Default limit on how far ahead of local physical time a received timestamp may be.
+pub const DEFAULT_MAX_DRIFT: Duration = Duration::from_millis(500);
+
+/// A hybrid logical clock timestamp. `Timestamp::ZERO` means "never".
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct Timestamp(u64);
+
+impl Timestamp {
+    /// The timestamp of packets that were never written.
+    pub const ZERO: Timestamp = Timestamp(0);
+
+    /// A timestamp from its raw 64-bit form.
+    pub const fn from_raw(raw: u64) -> Self {
+        Timestamp(raw)
+    }
+
+    /// The raw 64-bit form.
+    pub const fn raw(self) -> u64 {
+        self.0
+    }
+
+    /// A timestamp at a physical time (logical counter zero).
+    #[inline]
+    pub fn from_duration(since_epoch: Duration) -> Self {
+        let micros = u64::try_from(since_epoch.as_micros()).unwrap_or(u64::MAX);
+        Timestamp(micros.min(u64::MAX >> LOGICAL_BITS) << LOGICAL_BITS)
+    }
+
+    /// Physical part, as time since the Unix epoch.
+    pub fn physical(self) -> Duration {
+        Duration::from_micros(self.0 >> LOGICAL_BITS)
+    }
+
+    /// Logical counter part.
+    pub fn logical(self) -> u64 {
+        self.0 & LOGICAL_MASK
+    }
+
+    /// Seconds since the epoch as a float (for display and the language).
+    pub fn as_secs_f64(self) -> f64 {
+        self.physical().as_secs_f64()
+    }
+}
+
+impl fmt::Display for Timestamp {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:.6}+{}", self.as_secs_f64(), self.logical())
+    }
+}
+
+/// A received timestamp was too far ahead of this board's physical clock to be merged.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("timestamp {remote} is {ahead:?} ahead of local time, more than the allowed {max:?}")]
+pub struct ClockDriftError {
+    /// The timestamp that was refused.
+    pub remote: Timestamp,
+    /// How far ahead of local physical time it was.
+    pub ahead: Duration,
+    /// The configured limit.
+    pub max: Duration,
+}
+
+/// Error of [`Clock::advance`] and [`Clock::set`].
+#[non_exhaustive]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ClockError {
+    /// Only a manual clock can be moved by hand.
+    #[error("this is the system clock; only a manual clock (Clock::manual) can be advanced")]
+    NotManual,
+    /// Manual time never goes backwards.
+    #[error("manual time cannot go backwards")]
+    Backwards,
+}
+
+#[derive(Debug)]
+enum Physical {
+    System(WallClock),
+    Manual(AtomicU64),
+}
+
+/// Wall-clock time read from the CPU's time-stamp counter (a few ns, where the system
+/// call costs tens), re-anchored to the system clock every second so that it follows
+/// NTP adjustments. Re-anchoring may move it back slightly; the HLC stays monotonic.
+#[derive(Debug)]
+struct WallClock {
+    tsc: quanta::Clock,
+    start: quanta::Instant,
+    /// Wall time minus TSC time since `start`, in ns.
+    offset: AtomicU64,
+    /// TSC time since `start` (ns) after which to re-anchor.
+    next_anchor: AtomicU64,
+}
+
+const ANCHOR_EVERY: u64 = 1_000_000_000;
+
+impl WallClock {
+    fn new() -> Self {
+        let tsc = quanta::Clock::new();
+        let start = tsc.now();
+        let wall = WallClock {
+            tsc,
+            start,
+            offset: AtomicU64::new(0),
+            next_anchor: AtomicU64::new(0),
+        };
+        wall.anchor(0);
+        wall
+    }
+
+    fn anchor(&self, mono: u64) {
+        let wall = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .unwrap_or_default();
+        let wall = u64::try_from(wall.as_nanos()).unwrap_or(u64::MAX);
+        self.offset
+            .store(wall.wrapping_sub(mono), Ordering::Release);
+        self.next_anchor
+            .store(mono.saturating_add(ANCHOR_EVERY), Ordering::Release);
+    }
+
+    #[inline]
+    fn now(&self) -> Duration {
+        let mono =
+            u64::try_from(self.tsc.now().duration_since(self.start).as_nanos()).unwrap_or(u64::MAX);
+        if mono >= self.next_anchor.load(Ordering::Acquire) {
+            self.anchor(mono);
+        }
+        Duration::from_nanos(mono.wrapping_add(self.offset.load(Ordering::Acquire)))
+    }
+}
+
+#[derive(Debug)]
+struct Inner {
+    physical: Physical,
+    last: AtomicU64,
+    max_drift: Duration,
+}
+
+/// A hybrid logical clock over either the system clock or a manual clock that tests move.
+///
+/// Cloning gives another handle to the same clock.
+///
+/// ```
+/// use slate_model::Clock;
+/// use std::time::Duration;
+/// let clock = Clock::manual();
+/// let a = clock.now();
+/// clock.advance(Duration::from_secs(2))?;
+/// let b = clock.now();
+/// assert!(b > a);
+/// assert_eq!(clock.age(a), Duration::from_secs(2));
+/// # Ok::<(), slate_model::ClockError>(())
+/// ```
+#[derive(Clone, Debug)]
+pub struct Clock {
+    inner: Arc<Inner>,
+}
+
+/// Where a manual clock starts: 2026-01-01T00:00:00Z, so timestamps look like real ones.
+pub const MANUAL_EPOCH: Duration = Duration::from_secs(1_767_225_600);
+
+impl Default for Clock {
+    fn default() -> Self {
+        Clock::system()
+    }
+}
+
+impl Clock {
+    /// A clock over the system's wall clock.
+    pub fn system() -> Self {
+        Self::with(Physical::System(WallClock::new()))
+    }
+
+    /// A clock that only moves when [`Clock::advance`] or [`Clock::set`] is called.
+    pub fn manual() -> Self {
+        Self::with(Physical::Manual(AtomicU64::new(
+            MANUAL_EPOCH.as_nanos() as u64
+        )))
+    }
+
+    fn with(physical: Physical) -> Self {
+        Clock {
+            inner: Arc::new(Inner {
+                physical,
+                last: AtomicU64::new(0),
+                max_drift: DEFAULT_MAX_DRIFT,
+            }),
+        }
+    }
+
+    /// Is this a manual clock?
+    pub fn is_manual(&self) -> bool {
+        matches!(self.inner.physical, Physical::Manual(_))
+    }
+
+    /// Current physical time, as time since the Unix epoch.
+    #[inline]
+    pub fn physical(&self) -> Duration {
+        match &self.inner.physical {
+            Physical::System(wall) => wall.now(),
+            Physical::Manual(n) => Duration::from_nanos(n.load(Ordering::Acquire)),
+        }
+    }
+
+    /// A new timestamp, greater than every timestamp this clock issued or observed.
+    #[inline]
+    pub fn now(&self) -> Timestamp {
+        let phys = Timestamp::from_duration(self.physical()).0;
+        let prev = self
+            .inner
+            .last
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |last| {
+                Some(next(last, phys))
+            })
+            .unwrap_or_else(|last| last);
+        Timestamp(next(prev, phys))
+    }
+
+    /// Merges a timestamp received from another board, so that later [`Clock::now`]
+    /// values order after it. Refuses timestamps too far in the future (a broken or
+    /// unsynchronised clock elsewhere must not drag this one forward).
+    pub fn observe(&self, remote: Timestamp) -> Result<(), ClockDriftError> {
+        let local = self.physical();
+        let ahead = remote.physical().saturating_sub(local);
+        if ahead > self.inner.max_drift {
+            return Err(ClockDriftError {
+                remote,
+                ahead,
+                max: self.inner.max_drift,
+            });
+        }
+        self.inner.last.fetch_max(remote.0, Ordering::AcqRel);
+        Ok(())
+    }
+
+    /// How long ago `ts` was, by physical time (zero for timestamps in the future).
+    pub fn age(&self, ts: Timestamp) -> Duration {
+        self.physical().saturating_sub(ts.physical())
+    }
+
+    /// Moves a manual clock forward.
+    pub fn advance(&self, by: Duration) -> Result<(), ClockError> {
+        match &self.inner.physical {
+            Physical::System(_) => Err(ClockError::NotManual),
+            Physical::Manual(n) => {
+                let by = u64::try_from(by.as_nanos()).unwrap_or(u64::MAX);
+                n.fetch_update(Ordering::AcqRel, Ordering::Acquire, |t| {
+                    Some(t.saturating_add(by))
+                })
+                .map(|_| ())
+                .map_err(|_| ClockError::Backwards)
+            }
+        }
+    }
+
+    /// Sets a manual clock to a physical time (since the Unix epoch); never backwards.
+    pub fn set(&self, to: Duration) -> Result<(), ClockError> {
+        match &self.inner.physical {
+            Physical::System(_) => Err(ClockError::NotManual),
+            Physical::Manual(n) => {
+                let to = u64::try_from(to.as_nanos()).unwrap_or(u64::MAX);
+                n.fetch_update(Ordering::AcqRel, Ordering::Acquire, |t| {
+                    (to >= t).then_some(to)
+                })
+                .map(|_| ())
+                .map_err(|_| ClockError::Backwards)
+            }
+        }
+    }
+}
+
+/// The HLC step: physical time if it moved past the last stamp, else last + 1 (the
+/// logical counter; on overflow it carries into the physical bits, which stays monotonic).
+#[inline]
+fn next(last: u64, phys: u64) -> u64 {
+    if phys > last {
+        phys
+    } else {
+        last.saturating_add(1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn now_is_strictly_monotonic_when_time_stands_still() {
+        let clock = Clock::manual();
+        let a = clock.now();
+        let b = clock.now();
+        assert!(b > a);
+        assert_eq!(a.physical(), b.physical());
+        assert_eq!(b.logical(), a.logical() + 1);
+    }
+
+    #[test]
+    fn physical_time_resets_the_logical_counter() {
+        let clock = Clock::manual();
+        clock.now();
+        clock.now();
+        clock.advance(Duration::from_millis(1)).unwrap();
+        let c = clock.now();
+        assert_eq!(c.logical(), 0);
+        assert_eq!(c.physical(), MANUAL_EPOCH + Duration::from_millis(1));
+    }
+
+    #[test]
+    fn observing_a_skewed_remote_orders_later_stamps_after_it() {
+        let clock = Clock::manual();
+        let remote = Timestamp::from_duration(MANUAL_EPOCH + Duration::from_millis(300));
+        clock.observe(remote).unwrap();
+        assert!(clock.now() > remote);
+    }
+
+    #[test]
+    fn a_remote_too_far_ahead_is_refused() {
+        let clock = Clock::manual();
+        let remote = Timestamp::from_duration(MANUAL_EPOCH + Duration::from_secs(10));
+        let err = clock.observe(remote).unwrap_err();
+        assert_eq!(err.ahead, Duration::from_secs(10));
+        assert!(clock.now() < remote);
+    }
+
+    #[test]
+    fn the_system_clock_cannot_be_advanced_and_manual_time_never_goes_back() {
+        assert_eq!(
+            Clock::system().advance(Duration::from_secs(1)),
+            Err(ClockError::NotManual)
+        );
+        let clock = Clock::manual();
+        assert_eq!(
+            clock.set(Duration::from_secs(1)),
+            Err(ClockError::Backwards)
+        );
+    }
+
+    #[test]
+    fn the_system_clock_follows_the_wall_clock() {
+        let clock = Clock::system();
+        let wall = SystemTime::now().duration_since(UNIX_EPOCH).unwrap();
+        let ours = clock.physical();
+        let diff = ours.abs_diff(wall);
+        assert!(diff < Duration::from_millis(50), "{ours:?} vs {wall:?}");
+    }
+
+    #[test]
+    fn concurrent_stamps_are_all_distinct() {
+        let clock = Clock::system();
+        let stamps: Vec<Timestamp> = std::thread::scope(|s| {
+            let handles: Vec<_> = (0..4)
+                .map(|_| s.spawn(|| (0..10_000).map(|_| clock.now()).collect::<Vec<_>>()))
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().unwrap())
+                .collect()
+        });
+        let mut sorted = stamps.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), stamps.len());
+    }
+}

@@ -1,0 +1,58 @@
+//! slate's world model: the paper's blackboard for one module.
+//!
+//! A [`Board`] holds a class tree (classes with one parent, root `Thing`) and objects.
+//! Every attribute holds a [`Packet`]: value, accuracy, confidence, timestamp and source.
+//! Objects store only what they wrote; everything else resolves through their class
+//! chain (class-level values, then declared defaults). Active functions run when an
+//! attribute is read or written. The board's methods are the paper's SBIPs: define,
+//! create, delete, read, write, batch, query, watch.
+//!
+//! ```
+//! use slate_model::{AttrDecl, Board, ClassDef, Clock, Update, ValueType};
+//!
+//! let board = Board::builder().clock(Clock::manual()).build();
+//! board.define(ClassDef::new("Obstacle").attr(
+//!     AttrDecl::new("clearance", ValueType::Real).unit("m").default_value(1.0),
+//! ))?;
+//! board.define(ClassDef::new("Rock").parent("Obstacle"))?;
+//! board.create("Rock", "r1")?;
+//! board.create("Rock", "r2")?;
+//!
+//! // One class-level write changes what every instance without its own value reads.
+//! board.write("Obstacle", "clearance", 2.0)?;
+//! assert_eq!(board.read("r1", "clearance")?.value.as_f64(), Some(2.0));
+//!
+//! // An instance's own value wins over its class's.
+//! board.write("r2", "clearance", Update::new(0.5).accuracy(0.05).confidence(0.8))?;
+//! assert_eq!(board.read("r2", "clearance")?.confidence, 0.8);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+#![warn(missing_docs)]
+
+mod active;
+mod address;
+mod board;
+mod class;
+mod clock;
+mod error;
+mod id;
+mod packet;
+mod value;
+
+pub use active::{ActiveFn, Call, FnError, FnRef, Trigger};
+pub use address::{Address, AddressError, Context};
+pub use board::{
+    Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeItem, Cursor,
+    DEFAULT_MAX_DEPTH, Filter, NewObject, ObjectInfo, Snapshot, Watch,
+};
+pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
+pub use clock::{
+    Clock, ClockDriftError, ClockError, DEFAULT_MAX_DRIFT, LOGICAL_BITS, MANUAL_EPOCH, Timestamp,
+};
+pub use error::{
+    BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
+    WriteError,
+};
+pub use id::{AttrId, Key, ObjectId};
+pub use packet::{Packet, Update, ValueError};
+pub use value::{Value, ValueType};

@@ -1,0 +1,12 @@
+//! Integration tests of the world model, one module per area.
+
+mod model {
+    pub mod active;
+    pub mod batch;
+    pub mod classes;
+    pub mod concurrency;
+    pub mod reference;
+    pub mod values;
+    pub mod watch;
+    pub mod world;
+}

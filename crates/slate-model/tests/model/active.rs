@@ -1,0 +1,322 @@
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use slate_model::{
+    AttrDecl, Board, BoardEvent, ChainError, ClassDef, Clock, FnError, Trigger, Update, Value,
+    ValueType, WriteError,
+};
+
+use super::world::board;
+
+fn counter() -> (Arc<AtomicUsize>, impl Fn() -> usize) {
+    let c = Arc::new(AtomicUsize::new(0));
+    let read = {
+        let c = c.clone();
+        move || c.load(Ordering::SeqCst)
+    };
+    (c, read)
+}
+
+#[test]
+fn on_write_runs_after_the_packet_is_stored_and_sees_the_previous_one() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    b.write("v", "speed", 1.0).unwrap();
+    b.on_write("Vehicle", "speed", |call| {
+        let now = call.read(call.object(), "speed")?;
+        assert_eq!(&now, call.packet(), "the new packet is already stored");
+        let before = call
+            .previous()
+            .map(|p| p.value.as_f64().unwrap())
+            .unwrap_or(-1.0);
+        call.write(call.object(), "wheels", (before as i64) + 10)?;
+        Ok(())
+    })
+    .unwrap();
+    let rev = b.write("v", "speed", 2.0).unwrap();
+    assert_eq!(b.read("v", "wheels").unwrap().value, Value::Int(11));
+    assert!(
+        b.revision() > rev,
+        "the function's write is a later revision"
+    );
+}
+
+#[test]
+fn on_read_computes_the_value_returned_without_storing_it() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    b.write("v", "speed", Update::new(2.0).confidence(1.0))
+        .unwrap();
+    // Extrapolate: report twice the stored speed, with lower confidence.
+    b.on_read("Vehicle", "speed", |call| {
+        let mut p = call.packet().clone();
+        p.value = Value::Real(p.value.as_f64().unwrap() * 2.0);
+        p.confidence *= 0.5;
+        call.set_packet(p);
+        Ok(())
+    })
+    .unwrap();
+    let p = b.read("v", "speed").unwrap();
+    assert_eq!((p.value.as_f64(), p.confidence), (Some(4.0), 0.5));
+    assert_eq!(
+        b.snapshot().read("v", "speed").unwrap().value.as_f64(),
+        Some(4.0),
+        "snapshots run them too"
+    );
+    assert_eq!(
+        b.snapshot().own_values(b.info("v").unwrap().id)[0]
+            .1
+            .value
+            .as_f64(),
+        Some(2.0),
+        "stored value unchanged"
+    );
+}
+
+#[test]
+fn class_functions_reach_subclasses_created_after_attaching() {
+    let b = board();
+    let (writes, write_count) = counter();
+    let (reads, read_count) = counter();
+    b.on_write("Vehicle", "speed", move |_| {
+        writes.fetch_add(1, Ordering::SeqCst);
+        Ok(())
+    })
+    .unwrap();
+    b.on_read("Vehicle", "speed", move |call| {
+        reads.fetch_add(1, Ordering::SeqCst);
+        call.set_value(42.0);
+        Ok(())
+    })
+    .unwrap();
+    // A subclass defined after the functions were attached, and an instance of it.
+    b.define(ClassDef::new("Rover").parent("Gsr")).unwrap();
+    b.create("Rover", "late").unwrap();
+    b.write("late", "speed", 1.0).unwrap();
+    assert_eq!(b.read("late", "speed").unwrap().value.as_f64(), Some(42.0));
+    assert_eq!((write_count(), read_count()), (1, 1));
+    // Existing instances of existing subclasses too, and functions attached to one object
+    // apply to that object only.
+    b.create("Gsr", "early").unwrap();
+    let (own, own_count) = counter();
+    b.on_write("early", "speed", move |_| {
+        own.fetch_add(1, Ordering::SeqCst);
+        Ok(())
+    })
+    .unwrap();
+    b.write("early", "speed", 1.0).unwrap();
+    b.write("late", "speed", 1.0).unwrap();
+    assert_eq!((write_count(), own_count()), (3, 1));
+}
+
+#[test]
+fn functions_run_in_order_inherited_first_then_own() {
+    let b = board();
+    b.create("Gsr", "g").unwrap();
+    let log = Arc::new(parking_lot_free::Log::default());
+    for (target, tag) in [
+        ("g", "object"),
+        ("Gsr", "gsr"),
+        ("Vehicle", "vehicle-1"),
+        ("Vehicle", "vehicle-2"),
+    ] {
+        let log = log.clone();
+        b.on_write(target, "speed", move |_| {
+            log.push(tag);
+            Ok(())
+        })
+        .unwrap();
+    }
+    b.write("g", "speed", 1.0).unwrap();
+    assert_eq!(log.take(), ["vehicle-1", "vehicle-2", "gsr", "object"]);
+}
+
+#[test]
+fn a_failing_function_is_isolated_and_reported() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    let events = b.events();
+    let (ran, ran_count) = counter();
+    b.on_write("Vehicle", "speed", |_| Err(FnError::from("sensor offline")))
+        .unwrap();
+    b.on_write("Vehicle", "speed", |_| panic!("bug in a module"))
+        .unwrap();
+    b.on_write("Vehicle", "speed", move |_| {
+        ran.fetch_add(1, Ordering::SeqCst);
+        Ok(())
+    })
+    .unwrap();
+    b.on_read("Vehicle", "speed", |call| {
+        call.set_value("not a real");
+        Ok(())
+    })
+    .unwrap();
+    b.write("v", "speed", 3.0)
+        .expect("the write itself succeeds");
+    assert_eq!(
+        ran_count(),
+        1,
+        "the functions after the failing ones still ran"
+    );
+    assert_eq!(
+        b.read("v", "speed").unwrap().value.as_f64(),
+        Some(3.0),
+        "an invalid computed value is discarded"
+    );
+    let got: Vec<BoardEvent> = events.try_iter().collect();
+    let errors: Vec<String> = got
+        .iter()
+        .map(|e| match e {
+            BoardEvent::FunctionFailed { error, .. } => error.clone(),
+            other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(errors.len(), 3, "{errors:?}");
+    assert_eq!(errors[0], "sensor offline");
+    assert_eq!(errors[1], "panicked: bug in a module");
+    assert!(
+        errors[2].contains("expected a value of type real"),
+        "{}",
+        errors[2]
+    );
+    assert_eq!(b.stats().function_failures, 3);
+    // The board still works, from every thread.
+    b.write("v", "speed", 4.0).unwrap();
+}
+
+fn chain_board(depth: usize) -> Board {
+    let b = Board::builder()
+        .clock(Clock::manual())
+        .max_depth(depth)
+        .build();
+    let attrs = (0..20).fold(ClassDef::new("Relay"), |c, i| {
+        c.attr(AttrDecl::new(&format!("a{i}"), ValueType::Int))
+    });
+    b.define(attrs).unwrap();
+    b.create("Relay", "r").unwrap();
+    // a0 -> a1 -> a2 -> ... each write triggers the next.
+    for i in 0..19 {
+        let next = format!("a{}", i + 1);
+        b.on_write("Relay", &format!("a{i}"), move |call| {
+            let v = call.packet().value.clone();
+            call.write("r", &next, v)?;
+            Ok(())
+        })
+        .unwrap();
+    }
+    b
+}
+
+#[test]
+fn chains_are_cut_at_the_depth_limit() {
+    let b = chain_board(4);
+    let events = b.events();
+    b.write("r", "a0", 7).unwrap();
+    // a0 is the root write; functions at depths 1..=4 wrote a1..a4; a5 was refused.
+    for i in 0..=4 {
+        assert_eq!(
+            b.read("r", &format!("a{i}")).unwrap().value,
+            Value::Int(7),
+            "a{i}"
+        );
+    }
+    assert_eq!(b.read("r", "a5").unwrap().value, Value::None);
+    let cut = events.try_iter().find_map(|e| match e {
+        BoardEvent::ChainCut(c) => Some(c),
+        _ => None,
+    });
+    assert_eq!(
+        cut,
+        Some(ChainError::DepthLimit {
+            limit: 4,
+            object: "r".into(),
+            attr: "a5".into()
+        })
+    );
+    // A longer limit lets the chain run further.
+    let b = chain_board(10);
+    b.write("r", "a0", 1).unwrap();
+    assert_eq!(b.read("r", "a10").unwrap().value, Value::Int(1));
+    assert_eq!(b.read("r", "a11").unwrap().value, Value::None);
+}
+
+#[test]
+fn a_cycle_is_reported_and_does_not_loop() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    b.on_write("Vehicle", "speed", |call| {
+        call.write(call.object(), "wheels", 4)?;
+        Ok(())
+    })
+    .unwrap();
+    b.on_write("Vehicle", "wheels", |call| {
+        let r = call.write(call.object(), "speed", 1.0);
+        assert!(
+            matches!(r, Err(WriteError::Chain(ChainError::Cycle { .. }))),
+            "{r:?}"
+        );
+        r.map(|_| ()).map_err(FnError::from)
+    })
+    .unwrap();
+    let events = b.events();
+    b.write("v", "speed", 5.0).unwrap();
+    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(5.0));
+    assert_eq!(b.read("v", "wheels").unwrap().value, Value::Int(4));
+    let path = events.try_iter().find_map(|e| match e {
+        BoardEvent::ChainCut(ChainError::Cycle { path }) => Some(path),
+        _ => None,
+    });
+    assert_eq!(path.unwrap(), ["v.speed", "v.wheels", "v.speed"]);
+    assert_eq!(b.stats().chain_cuts, 1);
+}
+
+#[test]
+fn functions_may_read_and_write_the_board_without_deadlock() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    b.create("Obstacle", "o").unwrap();
+    b.on_read("Obstacle", "range", |call| {
+        // A read function that reads another object, queries, and writes (allowed live).
+        let speed = call.read("v", "speed")?.value.as_f64().unwrap_or(0.0);
+        let n = call.instances("Vehicle")?.len() as f64;
+        call.write("v", "mode", "ranged")?;
+        call.set_value(speed * 10.0 + n);
+        Ok(())
+    })
+    .unwrap();
+    b.write("v", "speed", 2.0).unwrap();
+    assert_eq!(b.read("o", "range").unwrap().value.as_f64(), Some(21.0));
+    assert_eq!(b.read("v", "mode").unwrap().value, Value::from("ranged"));
+    // In a snapshot, the same function may read but its write is refused (and reported).
+    let events = b.events();
+    let snap_value = b.snapshot().read("o", "range").unwrap();
+    assert_eq!(
+        snap_value.value.as_f64(),
+        Some(100.0),
+        "the failed function left the stored value"
+    );
+    assert!(events.try_iter().any(|e| matches!(
+        e,
+        BoardEvent::FunctionFailed {
+            trigger: Trigger::Read,
+            ..
+        }
+    )));
+}
+
+/// A tiny thread-safe log (std Mutex) for order assertions.
+mod parking_lot_free {
+    use std::sync::Mutex;
+
+    #[derive(Default)]
+    pub struct Log(Mutex<Vec<&'static str>>);
+
+    impl Log {
+        pub fn push(&self, s: &'static str) {
+            self.0.lock().unwrap().push(s);
+        }
+        pub fn take(&self) -> Vec<&'static str> {
+            std::mem::take(&mut *self.0.lock().unwrap())
+        }
+    }
+}
