@@ -1,5 +1,5 @@
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread;
 
 use slate_model::{BatchError, ChangeItem, Filter, ReadError, Update, Value, WriteError};
@@ -92,11 +92,11 @@ fn no_reader_ever_sees_half_a_batch() {
     let kl = b.key("left", "wheels").unwrap();
     let kr = b.key("right", "wheels").unwrap();
     let stop = Arc::new(AtomicBool::new(false));
+    let checked = Arc::new(AtomicU64::new(0));
     let readers: Vec<_> = (0..3)
         .map(|_| {
-            let (b, stop) = (b.clone(), stop.clone());
+            let (b, stop, checked) = (b.clone(), stop.clone(), checked.clone());
             thread::spawn(move || {
-                let mut checked = 0u64;
                 while !stop.load(Ordering::Relaxed) {
                     let snap = b.snapshot();
                     let l = snap.read_key(kl).unwrap().value;
@@ -107,20 +107,24 @@ fn no_reader_ever_sees_half_a_batch() {
                         "a snapshot saw half a batch at revision {}",
                         snap.revision()
                     );
-                    checked += 1;
+                    checked.fetch_add(1, Ordering::Relaxed);
                 }
-                checked
             })
         })
         .collect();
-    for i in 0..2000i64 {
+    // Keep committing until the readers have looked many times (bounded, never timed).
+    let mut batches = 0i64;
+    while batches < 2000 || (checked.load(Ordering::Relaxed) < 3000 && batches < 5_000_000) {
         let mut batch = b.batch();
-        batch.write_key(kl, i % 16).write_key(kr, i % 16);
+        batch
+            .write_key(kl, batches % 16)
+            .write_key(kr, batches % 16);
         batch.commit().unwrap();
+        batches += 1;
     }
     stop.store(true, Ordering::Relaxed);
-    let checked: u64 = readers.into_iter().map(|r| r.join().unwrap()).sum();
-    assert!(checked > 0);
+    readers.into_iter().for_each(|r| r.join().unwrap());
+    assert!(checked.load(Ordering::Relaxed) >= 3000, "the readers ran");
 }
 
 #[test]
