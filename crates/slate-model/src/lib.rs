@@ -42,8 +42,8 @@ mod value;
 pub use active::{ActiveFn, Call, FnError, FnRef, Trigger};
 pub use address::{Address, AddressError, Context};
 pub use board::{
-    Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeItem, Cursor,
-    DEFAULT_MAX_DEPTH, Filter, NewObject, ObjectInfo, Snapshot, Watch,
+    Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeHook, ChangeItem, Cursor,
+    DEFAULT_MAX_DEPTH, Filter, NewObject, ObjectInfo, Snapshot, TouchKind, Touched, Watch,
 };
 pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
 pub use clock::{

@@ -5,6 +5,7 @@ mod model {
     pub mod batch;
     pub mod classes;
     pub mod concurrency;
+    pub mod hooks;
     pub mod reference;
     pub mod values;
     pub mod watch;

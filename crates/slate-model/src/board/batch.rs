@@ -87,7 +87,7 @@ impl<'b> Batch<'b> {
         if self.ops.is_empty() {
             return Ok(board.revision());
         }
-        let (revision, fired) = {
+        let done = {
             let mut inner = board.inner.write();
             let mut txn = Txn::new(&mut inner, &board.clock, &board.address, self.ops.len());
             for (index, op) in self.ops.into_iter().enumerate() {
@@ -98,8 +98,7 @@ impl<'b> Batch<'b> {
             }
             txn.commit()
         };
-        board.run_write_fns(revision, fired, &Chain::default());
-        Ok(revision)
+        Ok(board.finish(done, &Chain::default()))
     }
 }
 

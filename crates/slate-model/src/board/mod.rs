@@ -3,6 +3,7 @@
 mod batch;
 mod chain;
 mod dump;
+mod hook;
 mod snapshot;
 pub(crate) mod state;
 mod txn;
@@ -17,9 +18,10 @@ use parking_lot::{Mutex, RwLock};
 
 pub use batch::Batch;
 pub(crate) use chain::Chain;
+pub use hook::{ChangeHook, TouchKind, Touched};
 pub use snapshot::Snapshot;
 use state::{Decl, State};
-use txn::{Fired, Inner, Txn};
+use txn::{Committed, Inner, Txn};
 pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Watch};
 
 use crate::active::{FnRef, NativeFn};
@@ -98,6 +100,7 @@ impl BoardBuilder {
             inner: RwLock::new(Inner {
                 state: State::new(),
                 watchers: Vec::new(),
+                hooks: Vec::new(),
             }),
             clock: self.clock.unwrap_or_default(),
             address: self.address.unwrap_or_else(default_address),
@@ -285,7 +288,9 @@ impl Board {
         let mut inner = self.inner.write();
         let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
         let id = txn.create(&spec.class, &spec.name, spec.context, owner)?;
-        txn.commit();
+        let done = txn.commit();
+        drop(inner);
+        self.finish(done, &Chain::default());
         Ok(id)
     }
 
@@ -294,7 +299,9 @@ impl Board {
         let mut inner = self.inner.write();
         let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
         txn.delete(name)?;
-        Ok(txn.commit().0)
+        let done = txn.commit();
+        drop(inner);
+        Ok(self.finish(done, &Chain::default()))
     }
 
     /// What the board knows about an object or class.
@@ -307,6 +314,23 @@ impl Board {
     /// The name of an object or class (`None` if the handle is stale).
     pub fn name_of(&self, id: ObjectId) -> Option<Arc<str>> {
         self.inner.read().state.name(id)
+    }
+
+    /// The small integer standing for an attribute name on this board, if any class
+    /// declares it.
+    pub fn attr_id(&self, name: &str) -> Option<crate::AttrId> {
+        self.inner.read().state.attr_id(name)
+    }
+
+    /// The name of an attribute id.
+    pub fn attr_name(&self, attr: crate::AttrId) -> Arc<str> {
+        self.inner.read().state.attr_name(attr)
+    }
+
+    /// The classes `id` is: for an object its class and that class's ancestors, for a
+    /// class itself and its ancestors, up to `Thing` (empty if the handle is stale).
+    pub fn lineage(&self, id: ObjectId) -> Vec<ObjectId> {
+        self.inner.read().state.lineage(id).to_vec()
     }
 
     /// Instances of `class` and of all its subclasses.
@@ -386,7 +410,7 @@ impl Board {
         update: Update,
         chain: &Chain,
     ) -> Result<u64, WriteError> {
-        let (revision, fired) = {
+        let done = {
             let mut inner = self.inner.write();
             let key = target.resolve(&inner.state)?;
             let st = &inner.state;
@@ -401,8 +425,8 @@ impl Board {
                 self.report(BoardEvent::ChainCut(cut.clone()));
                 return Err(cut.into());
             }
-            if inner.watchers.is_empty() && !inner.state.may_have_fns(key) {
-                // The common case: nobody to notify, no function to run.
+            if !inner.is_observed() && !inner.state.may_have_fns(key) {
+                // The common case: nobody to notify, nothing to run.
                 let st = &mut inner.state;
                 let packet = st.prepare(key, update, &self.clock, &self.address, None)?;
                 st.revision += 1;
@@ -414,8 +438,7 @@ impl Board {
             txn.write(key, update)?;
             txn.commit()
         };
-        self.run_write_fns(revision, fired, chain);
-        Ok(revision)
+        Ok(self.finish(done, chain))
     }
 
     /// Starts an atomic batch of writes, creations and deletions.
@@ -518,7 +541,15 @@ impl Board {
         Ok(())
     }
 
-    pub(crate) fn run_write_fns(&self, revision: u64, fired: Vec<Fired>, chain: &Chain) {
+    /// After a commit, outside the lock: runs the on-write functions, then the change
+    /// hooks. Returns the committed revision.
+    pub(crate) fn finish(&self, done: Committed, chain: &Chain) -> u64 {
+        let Committed {
+            revision,
+            fired,
+            touched,
+            hooks,
+        } = done;
         for f in fired {
             let chain = chain.with(f.key, Trigger::Write, &f.object, &f.attr);
             let mut call = Call {
@@ -536,6 +567,15 @@ impl Board {
                 self.run_isolated(func.as_ref(), &mut call);
             }
         }
+        for hook in hooks {
+            hook.changed(self, revision, &touched);
+        }
+        revision
+    }
+
+    /// Adds a change hook, called in the writer's thread after every committed change.
+    pub fn add_hook(&self, hook: Arc<dyn ChangeHook>) {
+        self.inner.write().hooks.push(hook);
     }
 
     /// Runs one function; an error or a panic becomes an event, never a failure of the

@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use super::hook::{ChangeHook, TouchKind, Touched};
 use super::state::{Entity, State, Stored};
 use super::watch::{Change, ChangeItem, Watcher};
 use crate::active::FnRef;
@@ -15,6 +16,22 @@ use crate::{
 pub(crate) struct Inner {
     pub state: State,
     pub watchers: Vec<Watcher>,
+    pub hooks: Vec<Arc<dyn ChangeHook>>,
+}
+
+impl Inner {
+    /// Does a change need the full transaction (someone to notify or something to run)?
+    pub fn is_observed(&self) -> bool {
+        !self.watchers.is_empty() || !self.hooks.is_empty()
+    }
+}
+
+/// What a committed transaction leaves to do once the lock is released.
+pub(crate) struct Committed {
+    pub revision: u64,
+    pub fired: Vec<Fired>,
+    pub touched: Vec<Touched>,
+    pub hooks: Vec<Arc<dyn ChangeHook>>,
 }
 
 enum Undo {
@@ -42,6 +59,7 @@ pub(crate) struct Txn<'s> {
     undo: Option<Vec<Undo>>,
     notes: Vec<Vec<ChangeItem>>,
     fired: Vec<Fired>,
+    touched: Vec<Touched>,
 }
 
 impl<'s> Txn<'s> {
@@ -59,6 +77,7 @@ impl<'s> Txn<'s> {
             undo: (ops > 1).then(|| Vec::with_capacity(ops)),
             notes: Vec::new(),
             fired: Vec::new(),
+            touched: Vec::new(),
         }
     }
 
@@ -83,6 +102,7 @@ impl<'s> Txn<'s> {
                 st.attr_name(key.attr),
             )
         });
+        self.touch(key.object, Some(key.attr), TouchKind::Write);
         if let Some((object, attr)) = &names {
             let item = || ChangeItem::Write {
                 object: object.clone(),
@@ -122,6 +142,7 @@ impl<'s> Txn<'s> {
         owner: Address,
     ) -> Result<ObjectId, CreateError> {
         let id = self.inner.state.create(class, name, context, owner)?;
+        self.touch(id, None, TouchKind::Create);
         let class: Arc<str> = class.into();
         let object: Arc<str> = name.into();
         self.note(id, None, || ChangeItem::Create {
@@ -145,6 +166,7 @@ impl<'s> Txn<'s> {
                 .first()
                 .and_then(|c| st.name(*c))
                 .unwrap_or_else(|| "?".into());
+            self.touch(id, None, TouchKind::Delete);
             let object: Arc<str> = name.into();
             self.note(id, None, || ChangeItem::Delete {
                 object: object.clone(),
@@ -158,9 +180,31 @@ impl<'s> Txn<'s> {
         Ok(id)
     }
 
+    /// Records what was touched, for the change hooks.
+    fn touch(&mut self, object: ObjectId, attr: Option<AttrId>, kind: TouchKind) {
+        if self.inner.hooks.is_empty() {
+            return;
+        }
+        let class = self
+            .inner
+            .state
+            .lineage(object)
+            .first()
+            .copied()
+            .unwrap_or(object);
+        self.touched.push(Touched {
+            object,
+            class,
+            attr,
+            kind,
+        });
+    }
+
     /// Records a change item for every watcher it matches.
     fn note(&mut self, id: ObjectId, attr: Option<AttrId>, item: impl Fn() -> ChangeItem) {
-        let Inner { state, watchers } = &*self.inner;
+        let Inner {
+            state, watchers, ..
+        } = &*self.inner;
         for (i, w) in watchers.iter().enumerate() {
             if w.spec.matches(state, id, attr) {
                 if self.notes.len() <= i {
@@ -172,13 +216,14 @@ impl<'s> Txn<'s> {
     }
 
     /// Makes the changes visible: one revision, one notification per matching watcher.
-    /// Returns the revision and the on-write functions to run.
-    pub fn commit(self) -> (u64, Vec<Fired>) {
+    /// Returns what is left to do outside the lock.
+    pub fn commit(self) -> Committed {
         let Txn {
             inner,
             revision,
             notes,
             fired,
+            touched,
             ..
         } = self;
         inner.state.revision = revision;
@@ -196,7 +241,17 @@ impl<'s> Txn<'s> {
         for i in dead.into_iter().rev() {
             inner.watchers.swap_remove(i);
         }
-        (revision, fired)
+        let hooks = if touched.is_empty() {
+            Vec::new()
+        } else {
+            inner.hooks.clone()
+        };
+        Committed {
+            revision,
+            fired,
+            touched,
+            hooks,
+        }
     }
 
     /// Undoes everything applied so far.
