@@ -8,7 +8,9 @@
 //! wall clocks disagree.
 
 use std::fmt;
-use std::sync::Arc;
+use std::sync::{Arc, Weak};
+
+use parking_lot::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -147,11 +149,27 @@ impl WallClock {
     }
 }
 
-#[derive(Debug)]
 struct Inner {
     physical: Physical,
     last: AtomicU64,
     max_drift: Duration,
+    listeners: Mutex<Vec<Weak<dyn ClockListener>>>,
+}
+
+impl fmt::Debug for Inner {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Clock")
+            .field("physical", &self.physical)
+            .field("last", &self.last)
+            .finish()
+    }
+}
+
+/// Told when a manual clock moves, so that timers on it (plan deadlines) run at once.
+/// The system clock never calls listeners: code on it runs its own timer.
+pub trait ClockListener: Send + Sync {
+    /// The manual clock now reads `now` (physical time since the Unix epoch).
+    fn advanced(&self, now: Duration);
 }
 
 /// A hybrid logical clock over either the system clock or a manual clock that tests move.
@@ -202,6 +220,7 @@ impl Clock {
                 physical,
                 last: AtomicU64::new(0),
                 max_drift: DEFAULT_MAX_DRIFT,
+                listeners: Mutex::new(Vec::new()),
             }),
         }
     }
@@ -256,34 +275,41 @@ impl Clock {
         self.physical().saturating_sub(ts.physical())
     }
 
-    /// Moves a manual clock forward.
+    /// Moves a manual clock forward, then tells its listeners.
     pub fn advance(&self, by: Duration) -> Result<(), ClockError> {
-        match &self.inner.physical {
-            Physical::System(_) => Err(ClockError::NotManual),
-            Physical::Manual(n) => {
-                let by = u64::try_from(by.as_nanos()).unwrap_or(u64::MAX);
-                n.fetch_update(Ordering::AcqRel, Ordering::Acquire, |t| {
-                    Some(t.saturating_add(by))
-                })
-                .map(|_| ())
-                .map_err(|_| ClockError::Backwards)
-            }
-        }
+        let by = u64::try_from(by.as_nanos()).unwrap_or(u64::MAX);
+        self.move_manual(|t| Some(t.saturating_add(by)))
     }
 
-    /// Sets a manual clock to a physical time (since the Unix epoch); never backwards.
+    /// Sets a manual clock to a physical time (since the Unix epoch), then tells its
+    /// listeners; never backwards.
     pub fn set(&self, to: Duration) -> Result<(), ClockError> {
-        match &self.inner.physical {
-            Physical::System(_) => Err(ClockError::NotManual),
-            Physical::Manual(n) => {
-                let to = u64::try_from(to.as_nanos()).unwrap_or(u64::MAX);
-                n.fetch_update(Ordering::AcqRel, Ordering::Acquire, |t| {
-                    (to >= t).then_some(to)
-                })
-                .map(|_| ())
-                .map_err(|_| ClockError::Backwards)
-            }
+        let to = u64::try_from(to.as_nanos()).unwrap_or(u64::MAX);
+        self.move_manual(|t| (to >= t).then_some(to))
+    }
+
+    fn move_manual(&self, step: impl FnMut(u64) -> Option<u64>) -> Result<(), ClockError> {
+        let Physical::Manual(n) = &self.inner.physical else {
+            return Err(ClockError::NotManual);
+        };
+        n.fetch_update(Ordering::AcqRel, Ordering::Acquire, step)
+            .map_err(|_| ClockError::Backwards)?;
+        let now = self.physical();
+        let live: Vec<Arc<dyn ClockListener>> = {
+            let mut listeners = self.inner.listeners.lock();
+            listeners.retain(|l| l.strong_count() > 0);
+            listeners.iter().filter_map(Weak::upgrade).collect()
+        };
+        for l in live {
+            l.advanced(now);
         }
+        Ok(())
+    }
+
+    /// Registers a listener, told whenever this manual clock moves (held weakly: dropping
+    /// the listener unsubscribes it).
+    pub fn subscribe(&self, listener: Weak<dyn ClockListener>) {
+        self.inner.listeners.lock().push(listener);
     }
 }
 
@@ -360,6 +386,32 @@ mod tests {
         let ours = clock.physical();
         let diff = ours.abs_diff(wall);
         assert!(diff < Duration::from_millis(50), "{ours:?} vs {wall:?}");
+    }
+
+    #[test]
+    fn listeners_hear_a_manual_clock_move_until_dropped() {
+        struct Heard(Mutex<Vec<Duration>>);
+        impl ClockListener for Heard {
+            fn advanced(&self, now: Duration) {
+                self.0.lock().push(now);
+            }
+        }
+        let clock = Clock::manual();
+        let heard = Arc::new(Heard(Mutex::new(Vec::new())));
+        let weak: Weak<dyn ClockListener> =
+            Arc::downgrade(&(heard.clone() as Arc<dyn ClockListener>));
+        clock.subscribe(weak);
+        clock.advance(Duration::from_secs(1)).unwrap();
+        clock.set(MANUAL_EPOCH + Duration::from_secs(5)).unwrap();
+        assert_eq!(
+            *heard.0.lock(),
+            [
+                MANUAL_EPOCH + Duration::from_secs(1),
+                MANUAL_EPOCH + Duration::from_secs(5)
+            ]
+        );
+        drop(heard);
+        clock.advance(Duration::from_secs(1)).unwrap();
     }
 
     #[test]

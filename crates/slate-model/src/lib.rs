@@ -47,7 +47,8 @@ pub use board::{
 };
 pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
 pub use clock::{
-    Clock, ClockDriftError, ClockError, DEFAULT_MAX_DRIFT, LOGICAL_BITS, MANUAL_EPOCH, Timestamp,
+    Clock, ClockDriftError, ClockError, ClockListener, DEFAULT_MAX_DRIFT, LOGICAL_BITS,
+    MANUAL_EPOCH, Timestamp,
 };
 pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
