@@ -167,6 +167,47 @@ impl NewObject {
     }
 }
 
+/// Which objects a query selects: instances of a class and its subclasses, optionally
+/// only those in one context or owned by one module.
+///
+/// ```
+/// use slate_model::{Context, Query};
+/// let q = Query::class("Vehicle").context(Context::System);
+/// # let _ = q;
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Query {
+    /// Class name.
+    pub class: String,
+    /// Only this context.
+    pub context: Option<Context>,
+    /// Only objects owned by this module.
+    pub owner: Option<Address>,
+}
+
+impl Query {
+    /// Every instance of `class` and its subclasses.
+    pub fn class(class: &str) -> Self {
+        Query {
+            class: class.to_owned(),
+            context: None,
+            owner: None,
+        }
+    }
+
+    /// Only objects in `context`.
+    pub fn context(mut self, context: Context) -> Self {
+        self.context = Some(context);
+        self
+    }
+
+    /// Only objects owned by `owner`.
+    pub fn owner(mut self, owner: Address) -> Self {
+        self.owner = Some(owner);
+        self
+    }
+}
+
 /// What a board knows about one object or class.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ObjectInfo {
@@ -335,16 +376,12 @@ impl Board {
 
     /// Instances of `class` and of all its subclasses.
     pub fn instances(&self, class: &str) -> Result<Vec<ObjectId>, LookupError> {
-        instances(&self.inner.read().state, class, None)
+        self.query(&Query::class(class))
     }
 
-    /// Instances of `class` (and subclasses) in one context.
-    pub fn instances_in(
-        &self,
-        class: &str,
-        context: Context,
-    ) -> Result<Vec<ObjectId>, LookupError> {
-        instances(&self.inner.read().state, class, Some(context))
+    /// Instances of a class (and subclasses) filtered by context and owner.
+    pub fn query(&self, query: &Query) -> Result<Vec<ObjectId>, LookupError> {
+        instances(&self.inner.read().state, query)
     }
 
     // ----- reads -----
@@ -726,7 +763,7 @@ impl Access<'_> {
     pub fn instances(&self, class: &str) -> Result<Vec<ObjectId>, LookupError> {
         match self {
             Access::Live(b) => b.instances(class),
-            Access::Frozen(s) => s.instances(class),
+            Access::Frozen(s) => s.query(&Query::class(class)),
         }
     }
 
@@ -738,21 +775,18 @@ impl Access<'_> {
     }
 }
 
-pub(crate) fn instances(
-    st: &State,
-    class: &str,
-    context: Option<Context>,
-) -> Result<Vec<ObjectId>, LookupError> {
+pub(crate) fn instances(st: &State, query: &Query) -> Result<Vec<ObjectId>, LookupError> {
     let id = st
-        .class_id(class)
-        .ok_or_else(|| LookupError::UnknownClass(class.to_owned()))?;
+        .class_id(&query.class)
+        .ok_or_else(|| LookupError::UnknownClass(query.class.clone()))?;
     let mut out = Vec::new();
     st.instances(id, &mut out);
-    if let Some(ctx) = context {
+    if query.context.is_some() || query.owner.is_some() {
         out.retain(|o| {
-            st.get(*o)
-                .and_then(|e| e.instance())
-                .is_some_and(|i| i.context == ctx)
+            st.get(*o).and_then(|e| e.instance()).is_some_and(|i| {
+                query.context.is_none_or(|c| c == i.context)
+                    && query.owner.as_ref().is_none_or(|w| *w == i.owner)
+            })
         });
     }
     Ok(out)

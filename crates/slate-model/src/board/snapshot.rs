@@ -5,8 +5,8 @@ use std::sync::Arc;
 use parking_lot::RwLockReadGuard;
 
 use super::txn::Inner;
-use super::{Access, Board, Chain, ObjectInfo, PendingRead, Target};
-use crate::{Context, Key, LookupError, ObjectId, Packet, ReadError};
+use super::{Access, Board, Chain, ObjectInfo, PendingRead, Query, Target};
+use crate::{Key, LookupError, ObjectId, Packet, ReadError};
 
 /// A consistent view of a board: every read sees the same revision. On-read active
 /// functions run, and may read (through the same snapshot) but not write.
@@ -47,16 +47,12 @@ impl<'b> Snapshot<'b> {
 
     /// Instances of `class` and its subclasses.
     pub fn instances(&self, class: &str) -> Result<Vec<ObjectId>, LookupError> {
-        super::instances(&self.inner.state, class, None)
+        self.query(&Query::class(class))
     }
 
-    /// Instances of `class` (and subclasses) in one context.
-    pub fn instances_in(
-        &self,
-        class: &str,
-        context: Context,
-    ) -> Result<Vec<ObjectId>, LookupError> {
-        super::instances(&self.inner.state, class, Some(context))
+    /// Instances selected by a query.
+    pub fn query(&self, query: &Query) -> Result<Vec<ObjectId>, LookupError> {
+        super::instances(&self.inner.state, query)
     }
 
     /// The name of an object or class.

@@ -1,6 +1,6 @@
 use slate_model::{
-    AttrDecl, ClassDef, Context, CreateError, DefineError, DeleteError, NewObject, ReadError,
-    Value, ValueType,
+    AttrDecl, ClassDef, Context, CreateError, DefineError, DeleteError, NewObject, Query,
+    ReadError, Value, ValueType,
 };
 
 use super::world::board;
@@ -205,11 +205,22 @@ fn objects_have_owner_and_context_and_queries_filter_on_context() {
         ["buddy", "me"]
     );
     assert_eq!(
-        names(b.instances_in("Vehicle", Context::System).unwrap()),
+        names(
+            b.query(&Query::class("Vehicle").context(Context::System))
+                .unwrap()
+        ),
+        ["buddy"]
+    );
+    let r2: slate_model::Address = "team/r2/nav".parse().unwrap();
+    assert_eq!(
+        names(b.query(&Query::class("Vehicle").owner(r2)).unwrap()),
         ["buddy"]
     );
     assert_eq!(
-        names(b.instances_in("Vehicle", Context::Surroundings).unwrap()),
+        names(
+            b.query(&Query::class("Vehicle").context(Context::Surroundings))
+                .unwrap()
+        ),
         ["stranger"]
     );
 }
