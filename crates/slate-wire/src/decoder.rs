@@ -1,0 +1,170 @@
+//! The receiver's side: one `Decoder` for every source a module hears.
+
+use std::collections::HashMap;
+
+use slate_model::Address;
+
+use crate::bits::BitReader;
+use crate::classes::read_classes;
+use crate::control::{read_ack, read_catch_up, read_heartbeat, read_plan};
+use crate::message::Kind;
+use crate::names::{Section, SourceDict, View, read_section};
+use crate::report::{ReportReader, read_report};
+use crate::{
+    DecodeError, DecodeStats, MAX_MESSAGE_BYTES, MAX_SOURCES, Message, Names, Schema, VERSION,
+};
+
+/// Turns bytes back into messages, for every source a module hears.
+///
+/// The decoder keeps one name dictionary per source (keyed by the address the
+/// transport says the bytes came from). A message is decoded completely or not at all:
+/// on any error nothing of it is applied and the error is counted in
+/// [`stats`](Decoder::stats). A names section whose epoch differs from the one known
+/// for that source means the source restarted: its old dictionary is dropped.
+#[derive(Debug, Default)]
+pub struct Decoder {
+    sources: HashMap<Address, SourceDict>,
+    stats: DecodeStats,
+}
+
+impl Decoder {
+    /// A decoder that knows no source yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Decodes one message from `from`. Values are unpacked against `schema`, which must
+    /// hold the same class definitions as the sender's for the classes it reports.
+    pub fn decode(
+        &mut self,
+        from: &Address,
+        bytes: &[u8],
+        schema: &Schema,
+    ) -> Result<Message, DecodeError> {
+        let result = self.read(from, bytes, schema);
+        self.stats.record(&result);
+        result
+    }
+
+    /// Counters of accepted and rejected messages.
+    pub fn stats(&self) -> DecodeStats {
+        self.stats
+    }
+
+    /// Does the decoder hold names announced by `from`?
+    pub fn knows(&self, from: &Address) -> bool {
+        self.sources.contains_key(from)
+    }
+
+    /// Drops what `from` announced (the source is gone, or restarted).
+    pub fn forget(&mut self, from: &Address) {
+        self.sources.remove(from);
+    }
+
+    fn read(
+        &mut self,
+        from: &Address,
+        bytes: &[u8],
+        schema: &Schema,
+    ) -> Result<Message, DecodeError> {
+        if bytes.len() > MAX_MESSAGE_BYTES {
+            return Err(DecodeError::TooLarge {
+                what: "message bytes",
+                len: bytes.len() as u64,
+                max: MAX_MESSAGE_BYTES as u64,
+            });
+        }
+        let mut r = BitReader::new(bytes);
+        let kind = read_header(&mut r)?;
+        let (msg, section) = self.read_body(kind, &mut r, from, schema)?;
+        r.finish()?;
+        if let Some(section) = section {
+            self.apply(from, section)?;
+        }
+        Ok(msg)
+    }
+
+    /// Reads the body of a message of `kind`, with the names section it carries.
+    fn read_body(
+        &self,
+        kind: Kind,
+        r: &mut BitReader,
+        from: &Address,
+        schema: &Schema,
+    ) -> Result<(Message, Option<Section>), DecodeError> {
+        let base = self.sources.get(from);
+        Ok(match kind {
+            Kind::Report | Kind::CatchUpAnswer => {
+                let (report, section) = read_report(ReportReader {
+                    r,
+                    from,
+                    base,
+                    schema,
+                })?;
+                match kind {
+                    Kind::Report => (Message::Report(report), section),
+                    _ => (Message::CatchUpAnswer(report), section),
+                }
+            }
+            Kind::Names => {
+                let section = read_section(r, base)?;
+                (Message::Names(names_of(&section, base)?), Some(section))
+            }
+            other => (read_simple(other, r)?, None),
+        })
+    }
+
+    fn apply(&mut self, from: &Address, section: Section) -> Result<(), DecodeError> {
+        if !self.sources.contains_key(from) && self.sources.len() >= MAX_SOURCES {
+            return Err(DecodeError::TooLarge {
+                what: "sources",
+                len: self.sources.len() as u64 + 1,
+                max: MAX_SOURCES as u64,
+            });
+        }
+        self.sources.entry(from.clone()).or_default().apply(section);
+        Ok(())
+    }
+}
+
+/// Reads the 1-byte header: version in the high 4 bits, kind in the low 4.
+fn read_header(r: &mut BitReader) -> Result<Kind, DecodeError> {
+    let version = r.bits(4)? as u8;
+    let kind = r.bits(4)? as u8;
+    if version != VERSION {
+        return Err(DecodeError::BadVersion(version));
+    }
+    Kind::from_number(kind).ok_or(DecodeError::UnknownKind(kind))
+}
+
+/// The entries a `Names` message announced, in order.
+fn names_of(section: &Section, base: Option<&SourceDict>) -> Result<Names, DecodeError> {
+    let view = View::new(base, Some(section));
+    let objects = section
+        .objects
+        .iter()
+        .map(|id| Ok(view.object((*id).into())?.entry.clone()))
+        .collect::<Result<_, DecodeError>>()?;
+    let attrs = section
+        .attrs
+        .iter()
+        .map(|id| view.attr((*id).into()).cloned())
+        .collect::<Result<_, _>>()?;
+    Ok(Names { objects, attrs })
+}
+
+/// Messages that need no dictionary.
+fn read_simple(kind: Kind, r: &mut BitReader) -> Result<Message, DecodeError> {
+    Ok(match kind {
+        Kind::Classes => Message::Classes(read_classes(r)?),
+        Kind::Plan => Message::Plan(read_plan(r)?),
+        Kind::PlanAck => Message::PlanAck(read_ack(r)?),
+        Kind::PlanCancel => Message::PlanCancel { circuit: r.uvar()? },
+        Kind::CatchUpRequest => Message::CatchUpRequest(read_catch_up(r)?),
+        Kind::Heartbeat => Message::Heartbeat(read_heartbeat(r)?),
+        // Read by `Decoder::read`, never here.
+        Kind::Report | Kind::CatchUpAnswer | Kind::Names => {
+            return Err(DecodeError::UnknownKind(kind as u8));
+        }
+    })
+}

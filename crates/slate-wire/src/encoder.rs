@@ -1,0 +1,127 @@
+//! The sender's side: one `Encoder` per sending module.
+
+use std::collections::HashSet;
+use std::sync::Arc;
+
+use slate_model::{Address, Timestamp};
+
+use crate::bits::BitWriter;
+use crate::classes::{check_classes, write_classes};
+use crate::control::{write_ack, write_catch_up, write_heartbeat, write_plan};
+use crate::dictionary::Dictionary;
+use crate::error::check_len;
+use crate::names::{Announce, write_section};
+use crate::report::write_report;
+use crate::{
+    EncodeError, MAX_ITEMS, MAX_MESSAGE_BYTES, Message, Names, ObjectEntry, Schema, VERSION,
+};
+
+/// Turns messages into bytes for one sending module.
+///
+/// The encoder owns the sender's name dictionary: it interns object, class, attribute
+/// and address names to small ids and announces each entry (inline, at the start of
+/// the report that first needs it) exactly once, until
+/// [`reset_announcements`](Encoder::reset_announcements). It also chooses the sender's
+/// timestamp epoch (the first timestamp it encodes, rounded down to the second).
+///
+/// A failed encode changes nothing: what it would have announced is not marked.
+#[derive(Debug)]
+pub struct Encoder {
+    address: Address,
+    dict: Dictionary,
+}
+
+impl Encoder {
+    /// An encoder for the module at `address` (packets whose source is `address` are
+    /// written without one; the receiver learns it from the transport).
+    pub fn new(address: Address) -> Self {
+        Encoder {
+            address,
+            dict: Dictionary::default(),
+        }
+    }
+
+    /// The sending module's address.
+    pub fn address(&self) -> &Address {
+        &self.address
+    }
+
+    /// The timestamp epoch, once chosen (whole seconds; timestamps travel relative to it).
+    pub fn epoch(&self) -> Option<Timestamp> {
+        self.dict.epoch()
+    }
+
+    /// Announces everything again from the next message on (ids and the epoch stay the
+    /// same). Call it when a receiver asks to catch up with `needs_names`.
+    pub fn reset_announcements(&mut self) {
+        self.dict.reset();
+    }
+
+    /// Encodes one message: a 1-byte header (version, kind), then the body. Reports
+    /// and catch-up answers are packed against `schema`; other messages ignore it.
+    pub fn encode(&mut self, msg: &Message, schema: &Schema) -> Result<Vec<u8>, EncodeError> {
+        let result = self.write(msg, schema);
+        match result {
+            Ok(_) => self.dict.commit(),
+            Err(_) => self.dict.rollback(),
+        }
+        result
+    }
+
+    fn write(&mut self, msg: &Message, schema: &Schema) -> Result<Vec<u8>, EncodeError> {
+        let mut w = BitWriter::new();
+        w.bits(VERSION.into(), 4);
+        w.bits(msg.kind() as u64, 4);
+        match msg {
+            Message::Report(r) | Message::CatchUpAnswer(r) => {
+                write_report(&mut w, r, &mut self.dict, &self.address, schema)?;
+            }
+            Message::Names(names) => self.write_names(&mut w, names, schema)?,
+            Message::Classes(defs) => {
+                check_classes(defs)?;
+                write_classes(&mut w, defs);
+            }
+            Message::Plan(p) => write_plan(&mut w, p)?,
+            Message::PlanAck(a) => write_ack(&mut w, a)?,
+            Message::PlanCancel { circuit } => w.uvar(*circuit),
+            Message::CatchUpRequest(c) => write_catch_up(&mut w, c),
+            Message::Heartbeat(h) => write_heartbeat(&mut w, h),
+        }
+        check_len("message bytes", w.len_bytes(), MAX_MESSAGE_BYTES)?;
+        Ok(w.finish())
+    }
+
+    /// A `Names` message announces every listed entry (again, if need be), with the
+    /// classes, owners and epoch they need that were not announced yet.
+    fn write_names(
+        &mut self,
+        w: &mut BitWriter,
+        names: &Names,
+        schema: &Schema,
+    ) -> Result<(), EncodeError> {
+        let objects = distinct(&names.objects, |o: &ObjectEntry| o.name.clone());
+        let attrs = distinct(&names.attrs, Arc::clone);
+        check_len(
+            "names in a message",
+            objects.len().max(attrs.len()),
+            MAX_ITEMS,
+        )?;
+        let mut ann = Announce::default();
+        self.dict.announce_epoch(&mut ann);
+        for name in attrs {
+            self.dict.attr(name, true, &mut ann)?;
+        }
+        for entry in objects {
+            self.dict.object(entry, schema, true, &mut ann)?;
+        }
+        check_len("names in a message", ann.max_len(), MAX_ITEMS)?;
+        write_section(w, &ann);
+        Ok(())
+    }
+}
+
+/// The items with distinct keys, first occurrence kept, in order.
+fn distinct<T>(items: &[T], key: impl Fn(&T) -> Arc<str>) -> Vec<&T> {
+    let mut seen = HashSet::new();
+    items.iter().filter(|i| seen.insert(key(i))).collect()
+}

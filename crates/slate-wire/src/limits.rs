@@ -1,0 +1,28 @@
+//! The wire version and the limits every decoder enforces (and every encoder respects).
+
+/// The wire format version this crate writes and reads.
+pub const VERSION: u8 = 1;
+
+/// Largest message, in bytes.
+pub const MAX_MESSAGE_BYTES: usize = 64 * 1024;
+
+/// Most items in one list: assertions of a report, entries of one dictionary table in
+/// one message, classes, attributes of a class.
+pub const MAX_ITEMS: usize = 4096;
+
+/// Longest name in bytes: object, class and attribute names, addresses, units, plan
+/// names, references, rejection reasons and trigger details.
+pub const MAX_NAME_BYTES: usize = 1024;
+
+/// Longest text in bytes (string values, plan source text); the message limit applies too.
+pub const MAX_TEXT_BYTES: usize = MAX_MESSAGE_BYTES;
+
+/// Most vector elements in one message (all vectors together).
+pub const MAX_ELEMENTS: usize = 65_536;
+
+/// Most entries in one dictionary table (objects, attributes, classes, addresses) of
+/// one source; interned ids are below this.
+pub const MAX_IDS: usize = 65_536;
+
+/// Most sources whose dictionaries one decoder keeps.
+pub const MAX_SOURCES: usize = 4096;
