@@ -6,6 +6,7 @@ mod model {
     pub mod classes;
     pub mod concurrency;
     pub mod hooks;
+    pub mod merge;
     pub mod reference;
     pub mod values;
     pub mod watch;

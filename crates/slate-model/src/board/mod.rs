@@ -225,6 +225,17 @@ pub struct ObjectInfo {
     pub owner: Address,
 }
 
+/// What [`Board::merge`] did with a received packet.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Merged {
+    /// Stored, at this revision.
+    Applied(u64),
+    /// The board's own packet wins; nothing changed.
+    Kept,
+    /// The attribute is `owned` and the packet's source is not the object's owner.
+    NotOwner,
+}
+
 /// Counters a board keeps about itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BoardStats {
@@ -476,6 +487,31 @@ impl Board {
             txn.commit()
         };
         Ok(self.finish(done, chain))
+    }
+
+    /// Applies a packet received from another board through the attribute's merge policy,
+    /// atomically with respect to local writes. The packet keeps its timestamp and source.
+    ///
+    /// - `latest` (and `fused`, whose per-source fusion the ICI does before writing): the
+    ///   packet wins if its `(timestamp, source)` is greater than the object's own packet's;
+    /// - `confident`: the higher confidence wins, ties by `latest`;
+    /// - `owned`: only packets from the object's owner are applied (then by `latest`).
+    ///
+    /// The same packets merged in any order, any number of times, leave every board with the
+    /// same packet: this is what makes copies converge.
+    pub fn merge(&self, object: &str, attr: &str, packet: Packet) -> Result<Merged, WriteError> {
+        let done = {
+            let mut inner = self.inner.write();
+            let key = inner.state.key(object, attr)?;
+            let verdict = inner.state.merge_verdict(key, &packet)?;
+            if verdict != Merged::Applied(0) {
+                return Ok(verdict);
+            }
+            let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
+            txn.write(key, Update::from(packet))?;
+            txn.commit()
+        };
+        Ok(Merged::Applied(self.finish(done, &Chain::default())))
     }
 
     /// Starts an atomic batch of writes, creations and deletions.

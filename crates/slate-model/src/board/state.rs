@@ -418,6 +418,36 @@ impl State {
         })
     }
 
+    /// Would a received packet win against the object's own packet under the attribute's
+    /// merge policy? `Applied(0)` means yes (the revision is not known yet).
+    pub fn merge_verdict(&self, key: Key, packet: &Packet) -> Result<crate::Merged, Missing> {
+        use crate::{MergePolicy, Merged};
+        let (e, _, decl) = self.decl(key)?;
+        let own = e.own(key.attr).map(|s| &s.packet);
+        let newer =
+            |p: &Packet| match (packet.timestamp, &packet.source).cmp(&(p.timestamp, &p.source)) {
+                std::cmp::Ordering::Equal => tie_break(packet) > tie_break(p),
+                o => o.is_gt(),
+            };
+        let wins = match decl.decl.merge {
+            MergePolicy::Latest | MergePolicy::Fused => own.is_none_or(newer),
+            MergePolicy::Confident => own.is_none_or(|p| {
+                packet.confidence > p.confidence || (packet.confidence == p.confidence && newer(p))
+            }),
+            MergePolicy::Owned => {
+                if e.instance().is_some_and(|i| i.owner != packet.source) {
+                    return Ok(Merged::NotOwner);
+                }
+                own.is_none_or(newer)
+            }
+        };
+        Ok(if wins {
+            Merged::Applied(0)
+        } else {
+            Merged::Kept
+        })
+    }
+
     /// Stores a packet; returns the entity's previous own value of that attribute.
     #[inline]
     pub fn store(&mut self, key: Key, packet: Packet, revision: u64) -> Option<Stored> {
@@ -772,6 +802,16 @@ impl State {
         self.attr_ids.insert(name, id);
         id
     }
+}
+
+/// A total order on packets with the same timestamp and source (which a correct source
+/// never sends twice), so that even then every board keeps the same one.
+fn tie_break(p: &Packet) -> (u64, u64, String) {
+    (
+        p.confidence.to_bits(),
+        p.accuracy.to_bits(),
+        format!("{:?}", p.value),
+    )
 }
 
 fn has_read_fns(table: &FnTable) -> bool {

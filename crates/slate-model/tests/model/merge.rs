@@ -1,0 +1,127 @@
+use proptest::prelude::*;
+use slate_model::{
+    Address, AttrDecl, Board, ClassDef, Clock, MergePolicy, Merged, NewObject, Packet, Timestamp,
+    Value, ValueType,
+};
+
+fn board() -> Board {
+    let b = Board::builder().clock(Clock::manual()).build();
+    let def = ClassDef::new("Track")
+        .attr(AttrDecl::new("latest", ValueType::Real))
+        .attr(AttrDecl::new("confident", ValueType::Real).merge(MergePolicy::Confident))
+        .attr(AttrDecl::new("owned", ValueType::Real).merge(MergePolicy::Owned));
+    b.define(def).unwrap();
+    let owner = Address::new("team/r1/nav").unwrap();
+    b.create_with(NewObject::new("Track", "t").owner(owner))
+        .unwrap();
+    b
+}
+
+fn packet(value: f64, ts: u64, conf: f64, source: &str) -> Packet {
+    Packet {
+        value: Value::Real(value),
+        accuracy: 0.0,
+        confidence: conf,
+        timestamp: Timestamp::from_raw(1 << 50 | ts),
+        source: Address::new(source).unwrap(),
+    }
+}
+
+#[test]
+fn latest_wins_by_timestamp_then_source() {
+    let b = board();
+    assert!(matches!(
+        b.merge("t", "latest", packet(1.0, 10, 1.0, "team/r1/a"))
+            .unwrap(),
+        Merged::Applied(_)
+    ));
+    assert_eq!(
+        b.merge("t", "latest", packet(2.0, 9, 1.0, "team/r1/b"))
+            .unwrap(),
+        Merged::Kept
+    );
+    assert!(matches!(
+        b.merge("t", "latest", packet(3.0, 10, 1.0, "team/r1/b"))
+            .unwrap(),
+        Merged::Applied(_)
+    ));
+    assert_eq!(
+        b.merge("t", "latest", packet(4.0, 10, 1.0, "team/r1/a"))
+            .unwrap(),
+        Merged::Kept
+    );
+    let p = b.read("t", "latest").unwrap();
+    assert_eq!(
+        (p.value.as_f64(), p.source.as_str()),
+        (Some(3.0), "team/r1/b")
+    );
+}
+
+#[test]
+fn confident_wins_by_confidence_and_owned_only_from_the_owner() {
+    let b = board();
+    b.merge("t", "confident", packet(1.0, 10, 0.9, "team/r1/a"))
+        .unwrap();
+    assert_eq!(
+        b.merge("t", "confident", packet(2.0, 20, 0.5, "team/r1/b"))
+            .unwrap(),
+        Merged::Kept
+    );
+    assert_eq!(b.read("t", "confident").unwrap().value.as_f64(), Some(1.0));
+    assert_eq!(
+        b.merge("t", "owned", packet(5.0, 10, 1.0, "team/r2/nav"))
+            .unwrap(),
+        Merged::NotOwner
+    );
+    assert!(matches!(
+        b.merge("t", "owned", packet(6.0, 10, 1.0, "team/r1/nav"))
+            .unwrap(),
+        Merged::Applied(_)
+    ));
+    assert_eq!(b.read("t", "owned").unwrap().value.as_f64(), Some(6.0));
+}
+
+#[test]
+fn merged_packets_are_validated() {
+    let b = board();
+    let mut p = packet(1.0, 10, 1.0, "team/r1/a");
+    p.confidence = 2.0;
+    assert!(b.merge("t", "latest", p).is_err());
+    assert!(
+        b.merge("ghost", "latest", packet(1.0, 1, 1.0, "team/r1/a"))
+            .is_err()
+    );
+}
+
+proptest! {
+    /// Any order, with duplicates, gives the same final packets on every board.
+    #[test]
+    fn merging_converges_whatever_the_order(
+        packets in prop::collection::vec((0u64..20, 0u8..3, 0u8..4, 0u8..3), 1..30),
+        seed in any::<u64>(),
+    ) {
+        let sources = ["team/r1/nav", "team/r1/b", "team/r2/c"];
+        let attrs = ["latest", "confident", "owned"];
+        let all: Vec<(&str, Packet)> = packets
+            .iter()
+            .map(|&(ts, src, conf, attr)| {
+                let p = packet(ts as f64, ts, f64::from(conf) / 3.0, sources[src as usize]);
+                (attrs[attr as usize], p)
+            })
+            .collect();
+        let (a, b) = (board(), board());
+        for (attr, p) in &all {
+            a.merge("t", attr, p.clone()).unwrap();
+        }
+        // The other board: reversed, rotated by the seed, each packet twice.
+        let mut order: Vec<_> = all.iter().rev().chain(all.iter()).collect();
+        let n = order.len();
+        order.rotate_left((seed as usize) % n);
+        for (attr, p) in order {
+            b.merge("t", attr, p.clone()).unwrap();
+        }
+        for attr in attrs {
+            prop_assert_eq!(a.read("t", attr).unwrap(), b.read("t", attr).unwrap(), "{}", attr);
+        }
+    }
+}
