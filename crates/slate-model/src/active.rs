@@ -173,4 +173,9 @@ impl Call<'_> {
     pub fn name_of(&self, id: ObjectId) -> Option<Arc<str>> {
         self.access.name_of(id)
     }
+
+    /// Does an object or class of that name exist?
+    pub fn exists(&self, name: &str) -> bool {
+        self.access.exists(name)
+    }
 }

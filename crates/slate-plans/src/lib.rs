@@ -36,11 +36,20 @@
 //! The language is described in `docs/language.md` at the repository root.
 #![warn(missing_docs)]
 
+mod action;
 mod ast;
+mod compile;
 mod diagnostic;
 mod display;
+mod engine;
+mod env;
+mod eval;
+mod fns;
 mod lexer;
+mod load;
+mod outbox;
 mod parser;
+mod scope;
 
 pub use ast::{
     Action, ActionKind, ActiveFn, Assignment, AttributeDecl, AttributeValue, BinaryOp, Bounds,
@@ -49,4 +58,10 @@ pub use ast::{
     TypeRef, UnaryOp, Unit,
 };
 pub use diagnostic::{Diagnostic, Diagnostics, Severity, Span, Stage};
+pub use engine::{
+    Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanState, PlanStatus, TIME_FALLBACK,
+};
+pub use eval::{EvalError, MAX_OPS};
+pub use load::{LoadError, Loaded};
+pub use outbox::{Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
 pub use parser::{MAX_NESTING, parse};

@@ -1,6 +1,8 @@
 //! Integration tests of the slate language front end, through the public API only: one test
 //! binary, one module per area in `tests/lang/`.
 
+#[path = "lang/checker.rs"]
+mod checker;
 #[path = "lang/errors.rs"]
 mod errors;
 #[path = "lang/examples.rs"]
@@ -9,8 +11,12 @@ mod examples;
 mod expressions;
 #[path = "lang/fuzz.rs"]
 mod fuzz;
+#[path = "lang/gsr_run.rs"]
+mod gsr_run;
 #[path = "lang/items.rs"]
 mod items;
+#[path = "lang/plans.rs"]
+mod plans;
 
 use slate_plans::{Diagnostics, Expr, File, Item, parse};
 

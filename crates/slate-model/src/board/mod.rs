@@ -131,7 +131,7 @@ impl Target<'_> {
 }
 
 /// How to create an object: class, name, context, owner.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NewObject {
     /// Class name.
     pub class: String,
@@ -807,6 +807,13 @@ impl Access<'_> {
         match self {
             Access::Live(b) => b.name_of(id),
             Access::Frozen(s) => s.name_of(id),
+        }
+    }
+
+    pub fn exists(&self, name: &str) -> bool {
+        match self {
+            Access::Live(b) => b.info(name).is_some(),
+            Access::Frozen(s) => s.exists(name),
         }
     }
 }

@@ -55,6 +55,16 @@ impl<'b> Snapshot<'b> {
         super::instances(&self.inner.state, query)
     }
 
+    /// The handle of an object or class by name.
+    pub fn id_of(&self, name: &str) -> Option<ObjectId> {
+        self.inner.state.id(name)
+    }
+
+    /// Does an object or class of that name exist?
+    pub fn exists(&self, name: &str) -> bool {
+        self.inner.state.id(name).is_some()
+    }
+
     /// The name of an object or class.
     pub fn name_of(&self, id: ObjectId) -> Option<Arc<str>> {
         self.inner.state.name(id)

@@ -1,0 +1,788 @@
+//! The plan engine: runs plans on a board, data-driven. A write re-evaluates only the plans
+//! whose conditions read what changed (a dependency index); a condition that depends on
+//! time is re-evaluated when its truth can change (deadlines on the board's clock).
+//!
+//! Semantics (DESIGN.md 2.4): initiation is latched; the trigger fires the action when it
+//! becomes true (its edge is counted from activation, so a trigger already true when the
+//! plan initiates fires at once) or, with `every`, repeatedly while it holds; termination is
+//! latched and checked first, so a termination true before or together with initiation
+//! means the action never runs.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap, HashSet};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Weak};
+use std::time::Duration;
+
+use crossbeam_channel::Receiver;
+use parking_lot::{Condvar, Mutex};
+use slate_model::{
+    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, NewObject, ObjectId, TouchKind,
+    Touched, Value, ValueType,
+};
+
+use crate::action::{Act, Effect, effects};
+use crate::env::SnapEnv;
+use crate::eval::{Ctx, Node, truthy};
+use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
+
+/// Class of the objects that show plans on the board.
+pub const PLAN_CLASS: &str = "Plan";
+
+/// Most plan evaluations one change may cause (a guard against plans that trigger each
+/// other for ever); past it the rest is dropped and reported.
+pub const MAX_EVALUATIONS_PER_CHANGE: usize = 100_000;
+
+/// How often a condition that reads time in a way no deadline describes (`age(x) * 2 > 5`
+/// rather than `age(x) > 2.5s`) is re-evaluated while its plan is active.
+pub const TIME_FALLBACK: Duration = Duration::from_millis(100);
+
+/// What a condition reads: the engine re-evaluates a plan when one of these changes.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum Dep {
+    /// `gsr.speed`: one object's attribute.
+    Object(Arc<str>, Arc<str>),
+    /// `o.range` for a quantifier over `Obstacle`: that attribute on any instance.
+    Class(Arc<str>, Arc<str>),
+    /// An attribute read through a reference: on any object.
+    Attr(Arc<str>),
+    /// Instances of the class appearing or disappearing.
+    Members(Arc<str>),
+}
+
+/// A plan, checked and compiled.
+#[derive(Clone, Debug)]
+pub(crate) struct CompiledPlan {
+    pub name: Arc<str>,
+    pub initiation: Option<Node>,
+    pub trigger: Option<Node>,
+    pub termination: Option<Node>,
+    pub every: Option<f64>,
+    pub actions: Vec<Act>,
+    pub slots: usize,
+    pub changed_sites: usize,
+    pub deps: Vec<Dep>,
+    pub text: String,
+}
+
+/// Where a plan is in its life.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlanState {
+    /// Installed; initiation not yet true.
+    Pending,
+    /// Initiated; the trigger is watched.
+    Active,
+    /// Termination became true; it will never act again.
+    Terminated,
+    /// Cancelled.
+    Cancelled,
+}
+
+impl PlanState {
+    /// The lower-case name stored on the plan object.
+    pub fn name(self) -> &'static str {
+        match self {
+            PlanState::Pending => "pending",
+            PlanState::Active => "active",
+            PlanState::Terminated => "terminated",
+            PlanState::Cancelled => "cancelled",
+        }
+    }
+
+    fn is_over(self) -> bool {
+        matches!(self, PlanState::Terminated | PlanState::Cancelled)
+    }
+}
+
+/// A plan's progress, as its plan object shows it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanStatus {
+    /// Name.
+    pub name: String,
+    /// State.
+    pub state: PlanState,
+    /// Times the action ran.
+    pub fired: u64,
+    /// Error of the last action or evaluation, if it failed.
+    pub last_error: Option<String>,
+}
+
+struct PlanRt {
+    plan: Arc<CompiledPlan>,
+    state: PlanState,
+    last_trigger: bool,
+    fired: u64,
+    last_error: Option<String>,
+    baseline: Vec<Option<Value>>,
+    next_every: Option<f64>,
+    timer_gen: u64,
+}
+
+#[derive(Default)]
+struct DepIndex {
+    by_object: HashMap<(Arc<str>, Arc<str>), Vec<usize>>,
+    by_name: HashMap<Arc<str>, Vec<usize>>,
+    by_class: HashMap<(Arc<str>, Arc<str>), Vec<usize>>,
+    by_attr: HashMap<Arc<str>, Vec<usize>>,
+    members: HashMap<Arc<str>, Vec<usize>>,
+    /// Live objects that plans name: handle to name.
+    ids: HashMap<ObjectId, Arc<str>>,
+}
+
+impl DepIndex {
+    fn add(&mut self, plan: usize, dep: &Dep) {
+        let list = match dep {
+            Dep::Object(o, a) => {
+                self.by_name.entry(o.clone()).or_default().push(plan);
+                self.by_object.entry((o.clone(), a.clone())).or_default()
+            }
+            Dep::Class(c, a) => self.by_class.entry((c.clone(), a.clone())).or_default(),
+            Dep::Attr(a) => self.by_attr.entry(a.clone()).or_default(),
+            Dep::Members(c) => self.members.entry(c.clone()).or_default(),
+        };
+        if list.last() != Some(&plan) {
+            list.push(plan);
+        }
+    }
+}
+
+#[derive(Default)]
+struct State {
+    plans: Vec<PlanRt>,
+    by_name: HashMap<Arc<str>, usize>,
+    index: DepIndex,
+    timers: BinaryHeap<Reverse<(u64, usize, u64)>>,
+    /// Class handle to its lineage's names.
+    lineages: HashMap<ObjectId, Arc<[Arc<str>]>>,
+}
+
+enum Work {
+    Touched(Vec<Touched>),
+    Due,
+    Plan(usize),
+}
+
+pub(crate) struct Shared {
+    board: Weak<Board>,
+    state: Mutex<State>,
+    queue: Mutex<Vec<Work>>,
+    pub outbox: Outbox,
+    wake: (Mutex<Option<u64>>, Condvar),
+    /// Plans declared in loaded files, for `send NAME` (its own lock: rules read it while
+    /// the engine runs).
+    texts: Mutex<HashMap<String, String>>,
+    /// Derived attributes of loaded files and what they read.
+    pub(crate) derived: Mutex<crate::load::DerivedDeps>,
+    evaluations: AtomicU64,
+}
+
+/// Runs plans on one board. Cloning gives another handle to the same engine.
+///
+/// ```
+/// use std::sync::Arc;
+/// use slate_model::{Board, Clock};
+/// use slate_plans::Engine;
+/// let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+/// let engine = Engine::new(&board);
+/// engine.load("demo.slate", r#"
+///     class Vehicle { speed: real = 0.0; mode: string = "auto"; }
+///     object gsr : Vehicle;
+///     plan slow_down {
+///         trigger: gsr.speed > 10.0;
+///         action { set gsr.mode = "slow"; }
+///     }
+/// "#)?;
+/// board.write("gsr", "speed", 12.0)?;
+/// assert_eq!(board.read("gsr", "mode")?.value.to_string(), "\"slow\"");
+/// assert_eq!(engine.status("slow_down").unwrap().fired, 1);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone)]
+pub struct Engine {
+    pub(crate) shared: Arc<Shared>,
+}
+
+impl Engine {
+    /// An engine for `board`: defines the `Plan` class there and starts listening to the
+    /// board's changes and, for a manual clock, to the clock.
+    pub fn new(board: &Arc<Board>) -> Engine {
+        let _ = board.define(plan_class());
+        let shared = Arc::new(Shared {
+            board: Arc::downgrade(board),
+            state: Mutex::new(State::default()),
+            queue: Mutex::new(Vec::new()),
+            outbox: Outbox::default(),
+            wake: (Mutex::new(None), Condvar::new()),
+            texts: Mutex::new(HashMap::new()),
+            derived: Mutex::new(HashMap::new()),
+            evaluations: AtomicU64::new(0),
+        });
+        board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
+        let listener: Arc<dyn ClockListener> = shared.clone();
+        board.clock().subscribe(Arc::downgrade(&listener));
+        Engine { shared }
+    }
+
+    /// The board, if it still exists.
+    pub fn board(&self) -> Option<Arc<Board>> {
+        self.shared.board.upgrade()
+    }
+
+    /// Reports and plans the engine's actions produce, for the ICI.
+    pub fn outgoing(&self) -> Receiver<Outgoing> {
+        self.shared.outbox.subscribe_outgoing()
+    }
+
+    /// Progress events of every plan.
+    pub fn events(&self) -> Receiver<PlanEvent> {
+        self.shared.outbox.subscribe_events()
+    }
+
+    /// The status of a plan.
+    pub fn status(&self, name: &str) -> Option<PlanStatus> {
+        let st = self.shared.state.lock();
+        let rt = &st.plans[*st.by_name.get(name)?];
+        Some(PlanStatus {
+            name: name.to_owned(),
+            state: rt.state,
+            fired: rt.fired,
+            last_error: rt.last_error.clone(),
+        })
+    }
+
+    /// Every plan's status, in installation order.
+    pub fn plans(&self) -> Vec<PlanStatus> {
+        let st = self.shared.state.lock();
+        st.plans
+            .iter()
+            .map(|rt| PlanStatus {
+                name: rt.plan.name.to_string(),
+                state: rt.state,
+                fired: rt.fired,
+                last_error: rt.last_error.clone(),
+            })
+            .collect()
+    }
+
+    /// How many plan evaluations the engine has run (data-driven evaluation keeps this
+    /// small: a write evaluates only the plans that read what it changed).
+    pub fn evaluations(&self) -> u64 {
+        self.shared.evaluations.load(Ordering::Relaxed)
+    }
+
+    /// Cancels a plan; it never acts again. Returns false if there is no such plan.
+    pub fn cancel(&self, name: &str) -> bool {
+        let Some(board) = self.board() else {
+            return false;
+        };
+        {
+            let mut st = self.shared.state.lock();
+            let Some(&idx) = st.by_name.get(name) else {
+                return false;
+            };
+            if st.plans[idx].state.is_over() {
+                return true;
+            }
+            st.plans[idx].state = PlanState::Cancelled;
+        }
+        let _ = board.write(name, "state", PlanState::Cancelled.name());
+        self.shared.outbox.event(PlanEvent::Cancelled {
+            plan: name.to_owned(),
+        });
+        true
+    }
+
+    /// Runs the plans whose deadlines have passed (a manual clock does this by itself when
+    /// it moves; see [`Engine::run_timers`] for the system clock).
+    pub fn tick(&self) {
+        if let Some(board) = self.board() {
+            self.shared.push(Work::Due, &board);
+        }
+    }
+
+    /// Runs a thread that wakes for every plan deadline on the system clock. It stops
+    /// when the engine is dropped.
+    pub fn run_timers(&self) -> std::thread::JoinHandle<()> {
+        let weak = Arc::downgrade(&self.shared);
+        std::thread::Builder::new()
+            .name("slate-plan-timers".into())
+            .spawn(move || timer_loop(&weak))
+            .unwrap_or_else(|_| std::thread::spawn(|| ()))
+    }
+
+    pub(crate) fn install(&self, plan: CompiledPlan, board: &Board) -> Result<(), String> {
+        let name = plan.name.clone();
+        let exists = self.shared.state.lock().by_name.contains_key(&name);
+        if exists || board.info(&name).is_some() {
+            return Err(format!(
+                "{name} already exists on this board; plan names must be unique object names"
+            ));
+        }
+        let mut batch = board.batch();
+        batch
+            .create_with(NewObject::new(PLAN_CLASS, &name).context(Context::Self_))
+            .write(&name, "state", PlanState::Pending.name())
+            .write(&name, "text", plan.text.as_str());
+        batch.commit().map_err(|e| e.to_string())?;
+        let idx = {
+            let mut st = self.shared.state.lock();
+            let idx = st.plans.len();
+            for dep in &plan.deps {
+                st.index.add(idx, dep);
+                if let Dep::Object(o, _) = dep
+                    && let Some(info) = board.info(o)
+                {
+                    st.index.ids.insert(info.id, o.clone());
+                }
+            }
+            st.by_name.insert(name.clone(), idx);
+            let sites = plan.changed_sites;
+            st.plans.push(PlanRt {
+                plan: Arc::new(plan),
+                state: PlanState::Pending,
+                last_trigger: false,
+                fired: 0,
+                last_error: None,
+                baseline: vec![None; sites],
+                next_every: None,
+                timer_gen: 0,
+            });
+            idx
+        };
+        self.shared.outbox.event(PlanEvent::Installed {
+            plan: name.to_string(),
+        });
+        self.shared.push(Work::Plan(idx), board);
+        Ok(())
+    }
+
+    pub(crate) fn remember_text(&self, name: &str, text: &str) {
+        self.shared
+            .texts
+            .lock()
+            .insert(name.to_owned(), text.to_owned());
+    }
+}
+
+fn plan_class() -> ClassDef {
+    ClassDef::new(PLAN_CLASS)
+        .attr(AttrDecl::new("state", ValueType::Str).default_value("pending"))
+        .attr(AttrDecl::new("fired", ValueType::Int).default_value(0))
+        .attr(AttrDecl::new("last_error", ValueType::Str).default_value(""))
+        .attr(AttrDecl::new("origin", ValueType::Str).default_value(""))
+        .attr(AttrDecl::new("text", ValueType::Str).default_value(""))
+}
+
+struct Hook(Weak<Shared>);
+
+impl ChangeHook for Hook {
+    fn changed(&self, board: &Board, _revision: u64, touched: &[Touched]) {
+        if let Some(shared) = self.0.upgrade() {
+            shared.push(Work::Touched(touched.to_vec()), board);
+        }
+    }
+}
+
+impl ClockListener for Shared {
+    fn advanced(&self, _now: Duration) {
+        if let Some(board) = self.board.upgrade() {
+            self.push(Work::Due, &board);
+        }
+    }
+}
+
+fn timer_loop(weak: &Weak<Shared>) {
+    loop {
+        let Some(shared) = weak.upgrade() else { return };
+        let Some(board) = shared.board.upgrade() else {
+            return;
+        };
+        let now = micros(board.clock().physical());
+        let next = *shared.wake.0.lock();
+        match next {
+            Some(due) if due <= now => shared.push(Work::Due, &board),
+            _ => {
+                let wait = next
+                    .map_or(Duration::from_millis(200), |d| {
+                        Duration::from_micros(d - now)
+                    })
+                    .min(Duration::from_millis(200));
+                let mut guard = shared.wake.0.lock();
+                shared.wake.1.wait_for(&mut guard, wait);
+            }
+        }
+    }
+}
+
+fn micros(d: Duration) -> u64 {
+    u64::try_from(d.as_micros()).unwrap_or(u64::MAX)
+}
+
+impl Shared {
+    pub(crate) fn board(&self) -> Option<Arc<Board>> {
+        self.board.upgrade()
+    }
+
+    pub(crate) fn plan_text(&self, name: &str) -> Option<String> {
+        self.texts.lock().get(name).cloned()
+    }
+
+    /// Queues work and runs it, unless another thread (or an outer call on this one) is
+    /// already running the engine: then that one runs it before it lets go.
+    fn push(&self, work: Work, board: &Board) {
+        self.queue.lock().push(work);
+        loop {
+            let Some(mut st) = self.state.try_lock() else {
+                return;
+            };
+            self.drain(&mut st, board);
+            drop(st);
+            if self.queue.lock().is_empty() {
+                return;
+            }
+        }
+    }
+
+    fn drain(&self, st: &mut State, board: &Board) {
+        let mut budget = MAX_EVALUATIONS_PER_CHANGE;
+        loop {
+            let work = std::mem::take(&mut *self.queue.lock());
+            if work.is_empty() {
+                return;
+            }
+            let mut plans = Vec::new();
+            let mut seen = HashSet::new();
+            for w in work {
+                st.affected(w, board, &mut |p| {
+                    if seen.insert(p) {
+                        plans.push(p);
+                    }
+                });
+            }
+            for p in plans {
+                if budget == 0 {
+                    tracing::error!(
+                        "plan evaluations exceeded {MAX_EVALUATIONS_PER_CHANGE} for one change; dropping the rest"
+                    );
+                    self.queue.lock().clear();
+                    return;
+                }
+                budget -= 1;
+                self.evaluate(st, p, board);
+            }
+        }
+    }
+
+    fn evaluate(&self, st: &mut State, idx: usize, board: &Board) {
+        self.evaluations.fetch_add(1, Ordering::Relaxed);
+        let outcome = {
+            let snap = board.snapshot();
+            let env = SnapEnv {
+                snap: &snap,
+                clock: board.clock(),
+            };
+            step(&mut st.plans[idx], &env)
+        };
+        self.schedule(st, idx, &outcome);
+        let name = st.plans[idx].plan.name.clone();
+        for e in &outcome.events {
+            self.outbox.event(e.clone());
+        }
+        if let Some(state) = outcome.new_state {
+            let _ = board.write(&name, "state", state.name());
+        }
+        if let Some(error) = &outcome.eval_error {
+            st.plans[idx].last_error = Some(error.clone());
+            let _ = board.write(&name, "last_error", error.as_str());
+        }
+        if let Some(effects) = outcome.effects {
+            self.act(st, idx, effects, board);
+        }
+    }
+
+    fn schedule(&self, st: &mut State, idx: usize, outcome: &Outcome) {
+        let Some(at) = outcome.wake_at else { return };
+        let rt = &mut st.plans[idx];
+        rt.timer_gen += 1;
+        let due = micros(Duration::from_secs_f64(at.max(0.0)));
+        st.timers.push(Reverse((due, idx, rt.timer_gen)));
+        let mut next = self.wake.0.lock();
+        if next.is_none_or(|n| due < n) {
+            *next = Some(due);
+            self.wake.1.notify_all();
+        }
+    }
+
+    fn act(&self, st: &mut State, idx: usize, effects: Result<Vec<Effect>, String>, board: &Board) {
+        let rt = &mut st.plans[idx];
+        rt.fired += 1;
+        let (name, fired) = (rt.plan.name.clone(), rt.fired);
+        let result = effects.and_then(|effects| apply(board, &name, fired, &effects, self));
+        let rt = &mut st.plans[idx];
+        rt.last_error = result.as_ref().err().cloned();
+        if let Err(e) = &result {
+            let mut batch = board.batch();
+            batch
+                .write(&name, "fired", fired as i64)
+                .write(&name, "last_error", e.as_str());
+            let _ = batch.commit();
+        }
+        self.outbox.event(PlanEvent::Triggered {
+            plan: name.to_string(),
+            fired,
+            error: result.err(),
+        });
+    }
+}
+
+/// What one evaluation of a plan decided.
+#[derive(Default)]
+struct Outcome {
+    new_state: Option<PlanState>,
+    events: Vec<PlanEvent>,
+    effects: Option<Result<Vec<Effect>, String>>,
+    wake_at: Option<f64>,
+    eval_error: Option<String>,
+}
+
+/// Evaluates a plan's conditions once, per DESIGN.md 2.4.
+fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
+    let mut out = Outcome::default();
+    if rt.state.is_over() {
+        return out;
+    }
+    let plan = rt.plan.clone();
+    let name = plan.name.to_string();
+    let baseline = rt.baseline.clone();
+    let mut cx = Ctx::new(env, plan.slots, &baseline);
+    let check = |node: &Option<Node>, absent: bool, cx: &mut Ctx<'_>, out: &mut Outcome| match node
+    {
+        None => absent,
+        Some(n) => n.eval(cx).map(|v| truthy(&v)).unwrap_or_else(|e| {
+            out.eval_error = Some(e.to_string());
+            false
+        }),
+    };
+    if check(&plan.termination, false, &mut cx, &mut out) {
+        rt.state = PlanState::Terminated;
+        out.new_state = Some(PlanState::Terminated);
+        out.events.push(PlanEvent::Terminated { plan: name });
+        return out;
+    }
+    if rt.state == PlanState::Pending {
+        if !check(&plan.initiation, true, &mut cx, &mut out) {
+            out.wake_at = wake(&cx, None);
+            return out;
+        }
+        rt.state = PlanState::Active;
+        rt.last_trigger = false;
+        out.new_state = Some(PlanState::Active);
+        out.events.push(PlanEvent::Initiated { plan: name.clone() });
+    }
+    let trig = check(&plan.trigger, true, &mut cx, &mut out);
+    let now = env.clock.physical().as_secs_f64();
+    let due = rt.next_every.is_some_and(|t| now >= t - 1e-9);
+    let fire = trig && (!rt.last_trigger || (plan.every.is_some() && due));
+    rt.last_trigger = trig;
+    if fire {
+        out.effects = Some(effects(&plan.actions, &mut cx).map_err(|e| e.to_string()));
+        rt.baseline = cx.seen.clone();
+        rt.next_every = plan.every.map(|p| now + p);
+    }
+    let every_due = if trig { rt.next_every } else { None };
+    out.wake_at = wake(&cx, every_due);
+    out
+}
+
+/// The next moment the plan must be looked at again without any write.
+fn wake(cx: &Ctx<'_>, every: Option<f64>) -> Option<f64> {
+    let fallback = cx
+        .unanchored_time
+        .then(|| cx.env.now().as_secs_f64() + TIME_FALLBACK.as_secs_f64());
+    [cx.deadline, every, fallback]
+        .into_iter()
+        .flatten()
+        .reduce(f64::min)
+}
+
+impl State {
+    /// Calls `f` with every plan that `work` may concern.
+    fn affected(&mut self, work: Work, board: &Board, f: &mut dyn FnMut(usize)) {
+        match work {
+            Work::Plan(p) => f(p),
+            Work::Due => self.due(board, f),
+            Work::Touched(touched) => {
+                for t in touched {
+                    self.touched(&t, board, f);
+                }
+            }
+        }
+    }
+
+    fn due(&mut self, board: &Board, f: &mut dyn FnMut(usize)) {
+        let now = micros(board.clock().physical());
+        while let Some(Reverse((due, idx, generation))) = self.timers.peek().copied() {
+            if due > now {
+                break;
+            }
+            self.timers.pop();
+            if self
+                .plans
+                .get(idx)
+                .is_some_and(|rt| rt.timer_gen == generation)
+            {
+                f(idx);
+            }
+        }
+    }
+
+    fn touched(&mut self, t: &Touched, board: &Board, f: &mut dyn FnMut(usize)) {
+        let lineage = self.lineage(t.class, board);
+        let ix = &mut self.index;
+        let mut lists: Vec<&Vec<usize>> = Vec::new();
+        match t.kind {
+            TouchKind::Write => {
+                let attr = t
+                    .attr
+                    .map(|a| board.attr_name(a))
+                    .unwrap_or_else(|| "".into());
+                if let Some(name) = ix.ids.get(&t.object) {
+                    lists.extend(ix.by_object.get(&(name.clone(), attr.clone())));
+                }
+                if t.object == t.class {
+                    // A class-level write changes what every instance without its own value reads.
+                    lists.extend(
+                        ix.by_object
+                            .iter()
+                            .filter(|((_, a), _)| *a == attr)
+                            .map(|(_, l)| l),
+                    );
+                }
+                for class in lineage.iter() {
+                    lists.extend(ix.by_class.get(&(class.clone(), attr.clone())));
+                }
+                lists.extend(ix.by_attr.get(&attr));
+            }
+            TouchKind::Create | TouchKind::Delete => {
+                let name = if t.kind == TouchKind::Create {
+                    let name = board
+                        .name_of(t.object)
+                        .filter(|n| ix.by_name.contains_key(n));
+                    if let Some(n) = &name {
+                        ix.ids.insert(t.object, n.clone());
+                    }
+                    name
+                } else {
+                    ix.ids.remove(&t.object)
+                };
+                for class in lineage.iter() {
+                    lists.extend(ix.members.get(class));
+                }
+                lists.extend(name.and_then(|n| ix.by_name.get(&n)));
+            }
+        }
+        lists.into_iter().flatten().for_each(|p| f(*p));
+    }
+
+    fn lineage(&mut self, class: ObjectId, board: &Board) -> Arc<[Arc<str>]> {
+        self.lineages
+            .entry(class)
+            .or_insert_with(|| {
+                board
+                    .lineage(class)
+                    .into_iter()
+                    .filter_map(|c| board.name_of(c))
+                    .collect()
+            })
+            .clone()
+    }
+}
+
+/// Applies a plan's effects: writes, creations and deletions as one batch together with
+/// the plan object's progress, then the reports and plans it sends.
+fn apply(
+    board: &Board,
+    plan: &str,
+    fired: u64,
+    effects: &[Effect],
+    engine: &Shared,
+) -> Result<(), String> {
+    let outbox = &engine.outbox;
+    let mut batch = board.batch();
+    for e in effects {
+        match e {
+            Effect::Write(o, a, u) => drop(batch.write(o, a, u.clone())),
+            Effect::Create(spec) => drop(batch.create_with(spec.clone())),
+            Effect::Delete(o) => drop(batch.delete(o)),
+            _ => {}
+        }
+    }
+    batch
+        .write(plan, "fired", fired as i64)
+        .write(plan, "last_error", "");
+    batch.commit().map_err(|e| e.to_string())?;
+    for e in effects {
+        match e {
+            Effect::Report { targets, to } => {
+                let items = report_items(board, targets);
+                outbox.send(Outgoing::Report(Report {
+                    origin: plan.to_owned(),
+                    to: to.clone(),
+                    items,
+                }));
+            }
+            Effect::Send { name, text, to } => {
+                let Some(text) = text.clone().or_else(|| engine.plan_text(name)) else {
+                    return Err(format!("send {name}: no plan of that name was loaded"));
+                };
+                outbox.send(Outgoing::Plan(PlanMessage {
+                    origin: plan.to_owned(),
+                    name: name.clone(),
+                    text,
+                    to: to.clone(),
+                }));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// The packets a report carries: one attribute, or everything an object holds itself.
+pub(crate) fn report_items(
+    board: &Board,
+    targets: &[(Arc<str>, Option<Arc<str>>)],
+) -> Vec<ReportItem> {
+    let mut items = Vec::new();
+    for (object, attr) in targets {
+        match attr {
+            Some(a) => {
+                if let Ok(packet) = board.read(object, a) {
+                    items.push(ReportItem {
+                        object: object.clone(),
+                        attr: a.clone(),
+                        packet,
+                    });
+                }
+            }
+            None => {
+                let snap = board.snapshot();
+                let Some(id) = board_id(&snap, object) else {
+                    continue;
+                };
+                for (attr, packet, _) in snap.own_values(id) {
+                    items.push(ReportItem {
+                        object: object.clone(),
+                        attr,
+                        packet,
+                    });
+                }
+            }
+        }
+    }
+    items
+}
+
+fn board_id(snap: &slate_model::Snapshot<'_>, name: &str) -> Option<ObjectId> {
+    snap.id_of(name)
+}

@@ -1,0 +1,63 @@
+//! The world as expressions see it: a board snapshot (plan conditions, evaluated at one
+//! revision) or an active function's call (derived attributes and rules).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_model::{Call, Clock, Packet, Snapshot};
+
+use crate::eval::Env;
+
+/// Conditions evaluated on one consistent snapshot.
+pub(crate) struct SnapEnv<'a> {
+    pub snap: &'a Snapshot<'a>,
+    pub clock: &'a Clock,
+}
+
+impl Env for SnapEnv<'_> {
+    fn read(&self, object: &str, attr: &str) -> Option<Packet> {
+        self.snap.read(object, attr).ok()
+    }
+
+    fn instances(&self, class: &str) -> Vec<Arc<str>> {
+        let ids = self.snap.instances(class).unwrap_or_default();
+        ids.into_iter()
+            .filter_map(|id| self.snap.name_of(id))
+            .collect()
+    }
+
+    fn exists(&self, object: &str) -> bool {
+        self.snap.exists(object)
+    }
+
+    fn now(&self) -> Duration {
+        self.clock.physical()
+    }
+}
+
+/// Expressions inside an active function, reading through its call (chain limits apply).
+pub(crate) struct CallEnv<'a, 'c> {
+    pub call: &'a Call<'c>,
+    pub clock: &'a Clock,
+}
+
+impl Env for CallEnv<'_, '_> {
+    fn read(&self, object: &str, attr: &str) -> Option<Packet> {
+        self.call.read(object, attr).ok()
+    }
+
+    fn instances(&self, class: &str) -> Vec<Arc<str>> {
+        let ids = self.call.instances(class).unwrap_or_default();
+        ids.into_iter()
+            .filter_map(|id| self.call.name_of(id))
+            .collect()
+    }
+
+    fn exists(&self, object: &str) -> bool {
+        self.call.exists(object)
+    }
+
+    fn now(&self) -> Duration {
+        self.clock.physical()
+    }
+}

@@ -1,0 +1,830 @@
+//! Loading a `.slate` file into a board: check everything first, then define the classes,
+//! attach derived attributes and rules, create the objects and install the plans.
+
+use std::collections::{HashMap, HashSet};
+use std::sync::{Arc, Weak};
+
+use slate_model::{
+    AttrDecl, Board, ClassDef, MergePolicy, NewObject, ReportPolicy, Trigger, Update, Value,
+};
+
+use crate::action::Write;
+use crate::ast::{
+    ActionKind, ActiveFn as RuleDecl, AttributeDecl, ClassDecl, Expr, File, Item, ObjectDecl,
+    PlanDecl,
+};
+use crate::compile::{Checker, Locals, model_context};
+use crate::diagnostic::{Diagnostic, Diagnostics, Span, Stage};
+use crate::engine::{CompiledPlan, Dep, Engine, Shared};
+use crate::eval::{Ctx, Env, Node, Obj};
+use crate::fns::{Derived, Rule};
+use crate::scope::Scope;
+
+/// What loading a file added to the board.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Loaded {
+    /// Classes defined (already identical ones included).
+    pub classes: Vec<String>,
+    /// Objects created.
+    pub objects: Vec<String>,
+    /// `on write` rules attached.
+    pub rules: usize,
+    /// Plans installed.
+    pub plans: Vec<String>,
+}
+
+/// Why a file did not load. Nothing of it was applied.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{rendered}")]
+pub struct LoadError {
+    /// Every problem found, with its position.
+    pub diagnostics: Diagnostics,
+    /// The diagnostics rendered as `FILE:LINE:COL: error: ...` with the source line and a caret.
+    pub rendered: String,
+}
+
+/// A derived attribute or rule, compiled, waiting to be attached.
+struct PendingFn {
+    span: Span,
+    target: String,
+    attr: String,
+    trigger: Trigger,
+    f: slate_model::FnRef,
+}
+
+/// Everything a file compiles to.
+#[derive(Default)]
+struct Compiled {
+    classes: Vec<(ClassDef, Span)>,
+    fns: Vec<PendingFn>,
+    objects: Vec<(ObjectDecl, Vec<Write>)>,
+    plans: Vec<CompiledPlan>,
+    texts: Vec<(String, String)>,
+}
+
+/// Derived attributes known to an engine: (declaring class, attribute) → what they read.
+pub(crate) type DerivedDeps = HashMap<(String, String), Vec<Dep>>;
+
+impl Engine {
+    /// Loads a `.slate` source into the engine's board. Everything is checked before
+    /// anything is applied; on error, every diagnostic is returned, rendered against
+    /// `file_name` and `source`.
+    pub fn load(&self, file_name: &str, source: &str) -> Result<Loaded, LoadError> {
+        let fail = |diagnostics: Diagnostics| LoadError {
+            rendered: diagnostics.render(file_name, source),
+            diagnostics,
+        };
+        let file = crate::parse(source).map_err(fail)?;
+        let board = self.board().ok_or_else(|| {
+            fail(Diagnostics(vec![Diagnostic::error(
+                Stage::Check,
+                Span::default(),
+                "the board is gone",
+            )]))
+        })?;
+        let mut derived = self.shared.derived.lock().clone();
+        let weak = Arc::downgrade(&self.shared);
+        let compiled = compile(&file, source, &board, &weak, &mut derived).map_err(fail)?;
+        let loaded = self.apply(compiled, &board).map_err(fail)?;
+        *self.shared.derived.lock() = derived;
+        Ok(loaded)
+    }
+
+    fn apply(&self, c: Compiled, board: &Arc<Board>) -> Result<Loaded, Diagnostics> {
+        let mut loaded = Loaded::default();
+        for (def, span) in c.classes {
+            board
+                .define(def.clone())
+                .map_err(|e| one(span, e.to_string()))?;
+            loaded.classes.push(def.name);
+        }
+        // Functions on classes first, so that objects get them from their first write;
+        // functions on objects once the objects exist.
+        let (on_classes, on_objects): (Vec<_>, Vec<_>) = c
+            .fns
+            .iter()
+            .partition(|f| board.class_def(&f.target).is_some());
+        attach(board, &on_classes)?;
+        loaded.objects = create_objects(board, c.objects)?;
+        attach(board, &on_objects)?;
+        loaded.rules = c.fns.iter().filter(|f| f.trigger == Trigger::Write).count();
+        for (name, text) in &c.texts {
+            self.remember_text(name, text);
+        }
+        for plan in c.plans {
+            let name = plan.name.to_string();
+            self.install(plan, board)
+                .map_err(|e| one(Span::default(), e))?;
+            loaded.plans.push(name);
+        }
+        Ok(loaded)
+    }
+}
+
+fn attach(board: &Board, fns: &[&PendingFn]) -> Result<(), Diagnostics> {
+    for f in fns {
+        board
+            .attach(&f.target, &f.attr, f.trigger, f.f.clone())
+            .map_err(|e| one(f.span, e.to_string()))?;
+    }
+    Ok(())
+}
+
+fn one(span: Span, msg: String) -> Diagnostics {
+    Diagnostics(vec![Diagnostic::error(Stage::Check, span, msg)])
+}
+
+/// Checks and compiles a whole file against the board's current classes and objects.
+fn compile(
+    file: &File,
+    source: &str,
+    board: &Arc<Board>,
+    engine: &Weak<Shared>,
+    derived: &mut DerivedDeps,
+) -> Result<Compiled, Diagnostics> {
+    let mut scope = Scope::from_board(board);
+    mark_derived(&mut scope, derived);
+    let mut out = Compiled::default();
+    let mut diags = Vec::new();
+    for class in file.classes() {
+        let mut ck = Checker::new(&scope);
+        let def = class_def(&mut ck, class, board);
+        diags.append(&mut ck.diags);
+        if let Some(def) = def {
+            let names: Vec<String> = class
+                .attributes
+                .iter()
+                .filter(|a| a.derived.is_some())
+                .map(|a| a.name.name.clone())
+                .collect();
+            scope.add_class(&def, &names);
+            out.classes.push((def, class.span));
+        }
+    }
+    declare_objects(file, &mut scope, &mut diags);
+    let mut ck = Checker::new(&scope);
+    let clock = board.clock().clone();
+    for class in file.classes() {
+        for a in class.attributes.iter().filter(|a| a.derived.is_some()) {
+            if let Some((f, deps)) = derived_fn(&mut ck, class, a, &clock) {
+                derived.insert((class.name.name.clone(), a.name.name.clone()), deps);
+                out.fns.push(f);
+            }
+        }
+    }
+    check_derived_cycles(&mut ck, file, derived);
+    for item in &file.items {
+        compile_item(&mut ck, item, source, board, engine, derived, &mut out);
+    }
+    diags.append(&mut ck.diags);
+    if diags.is_empty() {
+        Ok(out)
+    } else {
+        Err(Diagnostics(diags))
+    }
+}
+
+fn mark_derived(scope: &mut Scope, derived: &DerivedDeps) {
+    for ((class, attr), _) in derived.iter() {
+        for info in scope.classes.values_mut() {
+            if let Some(a) = info.attrs.get_mut(attr).filter(|a| &a.class == class) {
+                a.derived = true;
+            }
+        }
+    }
+}
+
+fn compile_item(
+    ck: &mut Checker<'_>,
+    item: &Item,
+    source: &str,
+    board: &Arc<Board>,
+    engine: &Weak<Shared>,
+    derived: &DerivedDeps,
+    out: &mut Compiled,
+) {
+    match item {
+        Item::Class(class) => {
+            for rule in &class.active_fns {
+                out.fns.extend(rule_fn(
+                    ck,
+                    rule,
+                    Some(&class.name.name),
+                    source,
+                    board,
+                    engine,
+                ));
+            }
+        }
+        Item::ActiveFn(rule) => out
+            .fns
+            .extend(rule_fn(ck, rule, None, source, board, engine)),
+        Item::Object(o) => {
+            let writes = o.values.iter().filter_map(|v| {
+                let target = crate::ast::Path {
+                    root: o.name.clone(),
+                    fields: vec![v.name.clone()],
+                    span: v.span,
+                };
+                ck.assignment(&target, &v.packet, &mut Locals::default())
+            });
+            let writes = writes.collect();
+            out.objects.push((o.clone(), writes));
+        }
+        Item::Plan(p) => {
+            if let Some(plan) = compile_plan(ck, p, source, derived) {
+                out.texts.push((plan.name.to_string(), plan.text.clone()));
+                out.plans.push(plan);
+            }
+        }
+    }
+}
+
+/// Object names the file creates (declared objects and `create` actions of its plans).
+fn declare_objects(file: &File, scope: &mut Scope, diags: &mut Vec<Diagnostic>) {
+    for o in file.objects() {
+        if !scope.classes.contains_key(&o.class.name) {
+            diags.push(Diagnostic::error(
+                Stage::Check,
+                o.class.span,
+                format!("unknown class {}", o.class.name),
+            ));
+        } else if scope.objects.contains_key(&o.name.name)
+            || scope.classes.contains_key(&o.name.name)
+        {
+            diags.push(Diagnostic::error(
+                Stage::Check,
+                o.name.span,
+                format!("{} already exists", o.name.name),
+            ));
+        }
+        scope
+            .objects
+            .insert(o.name.name.clone(), o.class.name.clone());
+    }
+    for p in file.plans() {
+        for a in &p.action {
+            if let ActionKind::Create { class, name, .. } = &a.kind {
+                scope
+                    .objects
+                    .entry(name.name.clone())
+                    .or_insert_with(|| class.name.clone());
+            }
+        }
+    }
+}
+
+// ----- classes -----
+
+fn class_def(ck: &mut Checker<'_>, class: &ClassDecl, board: &Board) -> Option<ClassDef> {
+    let parent = class
+        .parent
+        .as_ref()
+        .map_or(slate_model::THING, |p| p.name.as_str());
+    if !ck.scope.classes.contains_key(parent) {
+        let span = class.parent.as_ref().map_or(class.name.span, |p| p.span);
+        ck.error(span, format!("unknown parent class {parent}"));
+        return None;
+    }
+    let mut def = ClassDef::new(&class.name.name).parent(parent);
+    for a in &class.attributes {
+        def = def.attr(attr_decl(ck, a));
+    }
+    if let Some(existing) = board.class_def(&def.name)
+        && existing != def
+    {
+        ck.error(
+            class.name.span,
+            format!(
+                "class {} is already defined differently on this board",
+                def.name
+            ),
+        );
+        return None;
+    }
+    Some(def)
+}
+
+fn attr_decl(ck: &mut Checker<'_>, a: &AttributeDecl) -> AttrDecl {
+    let ty = match a.ty.ty {
+        crate::ast::Type::Int => slate_model::ValueType::Int,
+        crate::ast::Type::Real => slate_model::ValueType::Real,
+        crate::ast::Type::Bool => slate_model::ValueType::Bool,
+        crate::ast::Type::String => slate_model::ValueType::Str,
+        crate::ast::Type::Ref => slate_model::ValueType::Ref,
+        crate::ast::Type::Vec(n) => {
+            slate_model::ValueType::Vector(u16::try_from(n).unwrap_or(u16::MAX))
+        }
+    };
+    let mut d = AttrDecl::new(&a.name.name, ty);
+    d.unit = a.unit.as_ref().map(|u| u.text.clone());
+    if let Some(b) = &a.bounds {
+        d.bounds = constant(ck, &b.min)
+            .zip(constant(ck, &b.max))
+            .and_then(|(lo, hi)| lo.as_f64().zip(hi.as_f64()));
+    }
+    d.resolution = a
+        .step
+        .as_ref()
+        .and_then(|s| constant(ck, s))
+        .and_then(|v| v.as_f64());
+    if let Some(p) = &a.default {
+        let value = constant(ck, &p.value)
+            .map(|v| coerce(v, ty))
+            .unwrap_or(Value::None);
+        let acc = p
+            .accuracy
+            .as_ref()
+            .and_then(|e| constant(ck, e))
+            .and_then(|v| v.as_f64())
+            .unwrap_or(0.0);
+        let conf = p
+            .confidence
+            .as_ref()
+            .and_then(|e| constant(ck, e))
+            .and_then(|v| v.as_f64())
+            .unwrap_or(1.0);
+        if value.value_type() != Some(ty) {
+            ck.error(
+                p.value.span,
+                format!(
+                    "the default of {} must be a constant of type {ty}",
+                    a.name.name
+                ),
+            );
+        }
+        d = d.default_packet(value, acc, conf);
+    }
+    if let Some(m) = &a.merge {
+        match m.name.parse::<MergePolicy>() {
+            Ok(policy) => d.merge = policy,
+            Err(e) => ck.error(m.span, e),
+        }
+    }
+    d.report = a
+        .report
+        .as_ref()
+        .map(|r| report_policy(ck, r))
+        .unwrap_or_default();
+    d
+}
+
+fn report_policy(ck: &mut Checker<'_>, r: &crate::ast::ReportPolicy) -> ReportPolicy {
+    let mut secs = |e: &Option<Expr>| {
+        e.as_ref()
+            .and_then(|e| constant(ck, e))
+            .and_then(|v| v.as_f64())
+            .map(|s| std::time::Duration::from_secs_f64(s.max(0.0)))
+    };
+    ReportPolicy {
+        min_interval: secs(&r.every),
+        heartbeat: secs(&r.heartbeat),
+        deadband: r
+            .deadband
+            .as_ref()
+            .and_then(|e| constant(ck, e))
+            .and_then(|v| v.as_f64()),
+        on_accuracy: r.on_accuracy.is_some(),
+    }
+}
+
+fn coerce(v: Value, ty: slate_model::ValueType) -> Value {
+    match (v, ty) {
+        (Value::Int(i), slate_model::ValueType::Real) => Value::Real(i as f64),
+        (v, _) => v,
+    }
+}
+
+/// Evaluates a constant expression (no names, no time); reports one that is not.
+fn constant(ck: &mut Checker<'_>, e: &Expr) -> Option<Value> {
+    let (node, _) = ck.expr(e, &mut Locals::default());
+    if !is_constant(&node) {
+        ck.error(
+            e.span,
+            "this must be a constant (no names, attributes or time)",
+        );
+        return None;
+    }
+    node.eval(&mut Ctx::new(&NoWorld, 0, &[])).ok()
+}
+
+fn is_constant(node: &Node) -> bool {
+    use crate::eval::Builtin;
+    match node {
+        Node::Attr(_) | Node::Token(_) | Node::Quant(_) => false,
+        Node::Call(Builtin::Age | Builtin::Now | Builtin::Changed(_) | Builtin::Exists, _) => false,
+        n => n.children().iter().all(|c| is_constant(c)),
+    }
+}
+
+struct NoWorld;
+
+impl Env for NoWorld {
+    fn read(&self, _: &str, _: &str) -> Option<slate_model::Packet> {
+        None
+    }
+    fn instances(&self, _: &str) -> Vec<Arc<str>> {
+        Vec::new()
+    }
+    fn exists(&self, _: &str) -> bool {
+        false
+    }
+    fn now(&self) -> std::time::Duration {
+        std::time::Duration::ZERO
+    }
+}
+
+// ----- derived attributes and rules -----
+
+fn derived_fn(
+    ck: &mut Checker<'_>,
+    class: &ClassDecl,
+    a: &AttributeDecl,
+    clock: &slate_model::Clock,
+) -> Option<(PendingFn, Vec<Dep>)> {
+    let p = a.derived.as_ref()?;
+    let mut l = Locals {
+        this: Some(class.name.name.clone()),
+        ..Locals::default()
+    };
+    let (value, ty) = ck.expr(&p.value, &mut l);
+    let declared = ck
+        .scope
+        .attr(&class.name.name, &a.name.name)
+        .map(|i| i.ty)?;
+    if !ty.fits(declared) {
+        ck.error(
+            p.value.span,
+            format!("{} is {declared}, but this computes {ty:?}", a.name.name),
+        );
+    }
+    let accuracy = p.accuracy.as_ref().map(|e| ck.number(e, &mut l));
+    let confidence = p.confidence.as_ref().map(|e| ck.number(e, &mut l));
+    let mut deps = Vec::new();
+    for n in std::iter::once(&value)
+        .chain(accuracy.iter())
+        .chain(confidence.iter())
+    {
+        template_deps(n, &mut deps);
+    }
+    let f = Derived {
+        name: format!("{}.{} (derived)", class.name.name, a.name.name),
+        value,
+        accuracy,
+        confidence,
+        slots: l.slots,
+        real: declared == slate_model::ValueType::Real,
+        clock: clock.clone(),
+    };
+    let pending = PendingFn {
+        span: a.name.span,
+        target: class.name.name.clone(),
+        attr: a.name.name.clone(),
+        trigger: Trigger::Read,
+        f: Arc::new(f),
+    };
+    Some((pending, deps))
+}
+
+/// What a derived attribute reads: `self.x` becomes `Dep::Object("self", x)`, resolved
+/// against the object a plan reads it on.
+fn template_deps(node: &Node, out: &mut Vec<Dep>) {
+    match node {
+        Node::Attr(a) => match &a.0 {
+            Obj::This => out.push(Dep::Object(SELF.into(), a.1.clone())),
+            Obj::Named(o) => out.push(Dep::Object(o.clone(), a.1.clone())),
+            Obj::Var(_) => {}
+            Obj::Deref(inner) => {
+                template_deps(inner, out);
+                out.push(Dep::Attr(a.1.clone()));
+            }
+        },
+        Node::Quant(q) => {
+            out.push(Dep::Members(q.class.clone()));
+            node.children().iter().for_each(|c| template_deps(c, out));
+        }
+        n => n.children().iter().for_each(|c| template_deps(c, out)),
+    }
+}
+
+const SELF: &str = "self";
+
+fn check_derived_cycles(ck: &mut Checker<'_>, file: &File, derived: &DerivedDeps) {
+    for class in file.classes() {
+        for a in class.attributes.iter().filter(|a| a.derived.is_some()) {
+            let start = (class.name.name.clone(), a.name.name.clone());
+            if reaches(&start, &start, derived, &mut HashSet::new()) {
+                ck.error(
+                    a.name.span,
+                    format!("derived attribute {} depends on itself", a.name.name),
+                );
+            }
+        }
+    }
+}
+
+fn reaches(
+    from: &(String, String),
+    goal: &(String, String),
+    derived: &DerivedDeps,
+    seen: &mut HashSet<(String, String)>,
+) -> bool {
+    let Some(deps) = derived.get(from) else {
+        return false;
+    };
+    deps.iter().any(|d| match d {
+        Dep::Object(o, attr) if &**o == SELF => {
+            let next = (from.0.clone(), attr.to_string());
+            &next == goal || (seen.insert(next.clone()) && reaches(&next, goal, derived, seen))
+        }
+        _ => false,
+    })
+}
+
+fn rule_fn(
+    ck: &mut Checker<'_>,
+    rule: &RuleDecl,
+    class: Option<&str>,
+    source: &str,
+    board: &Arc<Board>,
+    engine: &Weak<Shared>,
+) -> Option<PendingFn> {
+    let (target, this) = match (&rule.owner, class) {
+        (None, Some(c)) => (c.to_owned(), c.to_owned()),
+        (Some(owner), _) => {
+            let this = ck.scope.objects.get(&owner.name).cloned().or_else(|| {
+                ck.scope
+                    .classes
+                    .contains_key(&owner.name)
+                    .then(|| owner.name.clone())
+            });
+            let Some(this) = this else {
+                ck.error(
+                    owner.span,
+                    format!("unknown object or class {}", owner.name),
+                );
+                return None;
+            };
+            (owner.name.clone(), this)
+        }
+        (None, None) => return None,
+    };
+    if ck.scope.attr(&this, &rule.attribute.name).is_none() {
+        ck.error(
+            rule.attribute.span,
+            format!("{target} has no attribute {}", rule.attribute.name),
+        );
+        return None;
+    }
+    let mut l = Locals {
+        this: Some(this),
+        ..Locals::default()
+    };
+    let acts = ck.actions(&rule.actions, &mut l, source, false);
+    let f = Rule {
+        name: format!("on write {target}.{}", rule.attribute.name),
+        acts,
+        slots: l.slots,
+        clock: board.clock().clone(),
+        engine: engine.clone(),
+    };
+    Some(PendingFn {
+        span: rule.span,
+        target,
+        attr: rule.attribute.name.clone(),
+        trigger: Trigger::Write,
+        f: Arc::new(f),
+    })
+}
+
+// ----- plans -----
+
+pub(crate) fn compile_plan(
+    ck: &mut Checker<'_>,
+    p: &PlanDecl,
+    source: &str,
+    derived: &DerivedDeps,
+) -> Option<CompiledPlan> {
+    let before = ck.diags.len();
+    let mut l = Locals::default();
+    let initiation = p.initiation.as_ref().map(|e| ck.condition(e, &mut l));
+    let termination = p.termination.as_ref().map(|e| ck.condition(e, &mut l));
+    l.bound.clear();
+    let trigger = p.trigger.as_ref().map(|e| ck.condition(e, &mut l));
+    let every = p
+        .every
+        .as_ref()
+        .and_then(|e| constant(ck, e))
+        .and_then(|v| v.as_f64());
+    if every.is_some_and(|s| s <= 0.0) {
+        ck.error(
+            p.every.as_ref().map_or(p.span, |e| e.span),
+            "`every` needs a positive duration, like every 500ms",
+        );
+    }
+    let actions = ck.actions(&p.action, &mut l, source, true);
+    if ck.diags.len() > before {
+        return None;
+    }
+    let mut deps = Vec::new();
+    for n in [&initiation, &trigger, &termination].into_iter().flatten() {
+        plan_deps(n, &l, ck.scope, derived, &mut deps);
+    }
+    deps.sort_by(|a, b| format!("{a:?}").cmp(&format!("{b:?}")));
+    deps.dedup();
+    let text = source
+        .get(p.span.start..p.span.end)
+        .unwrap_or_default()
+        .to_owned();
+    Some(CompiledPlan {
+        name: p.name.name.as_str().into(),
+        initiation,
+        trigger,
+        termination,
+        every,
+        actions,
+        slots: l.slots,
+        changed_sites: l.changed_sites,
+        deps,
+        text,
+    })
+}
+
+/// What a plan's conditions read, with derived attributes expanded into what they read.
+fn plan_deps(node: &Node, l: &Locals, scope: &Scope, derived: &DerivedDeps, out: &mut Vec<Dep>) {
+    match node {
+        Node::Attr(a) => {
+            let (obj, attr) = (&a.0, &a.1);
+            let (dep, class) = match obj {
+                Obj::Named(o) => (
+                    Dep::Object(o.clone(), attr.clone()),
+                    scope
+                        .objects
+                        .get(&**o)
+                        .cloned()
+                        .or_else(|| Some(o.to_string())),
+                ),
+                Obj::Var(slot) => {
+                    let class = l
+                        .slot_classes
+                        .get(*slot)
+                        .cloned()
+                        .unwrap_or_else(|| "".into());
+                    (
+                        Dep::Class(class.clone(), attr.clone()),
+                        Some(class.to_string()),
+                    )
+                }
+                Obj::Deref(inner) => {
+                    plan_deps(inner, l, scope, derived, out);
+                    (Dep::Attr(attr.clone()), None)
+                }
+                Obj::This => return,
+            };
+            expand_derived(&dep, class.as_deref(), attr, scope, derived, out, 0);
+            out.push(dep);
+        }
+        Node::Quant(q) => {
+            out.push(Dep::Members(q.class.clone()));
+            node.children()
+                .iter()
+                .for_each(|c| plan_deps(c, l, scope, derived, out));
+        }
+        n => n
+            .children()
+            .iter()
+            .for_each(|c| plan_deps(c, l, scope, derived, out)),
+    }
+}
+
+/// If `attr` is derived, adds what its expression reads, seen from `dep`'s object.
+fn expand_derived(
+    dep: &Dep,
+    class: Option<&str>,
+    attr: &str,
+    scope: &Scope,
+    derived: &DerivedDeps,
+    out: &mut Vec<Dep>,
+    depth: usize,
+) {
+    if depth > 8 {
+        return;
+    }
+    let declaring: Vec<String> = match class {
+        Some(c) => scope
+            .attr(c, attr)
+            .filter(|a| a.derived)
+            .map(|a| vec![a.class.clone()])
+            .unwrap_or_default(),
+        None => derived
+            .keys()
+            .filter(|(_, a)| a == attr)
+            .map(|(c, _)| c.clone())
+            .collect(),
+    };
+    for d in declaring {
+        for t in derived.get(&(d, attr.to_owned())).into_iter().flatten() {
+            let concrete = match (t, dep) {
+                (Dep::Object(o, x), Dep::Object(obj, _)) if &**o == SELF => {
+                    Dep::Object(obj.clone(), x.clone())
+                }
+                (Dep::Object(o, x), Dep::Class(c, _)) if &**o == SELF => {
+                    Dep::Class(c.clone(), x.clone())
+                }
+                (Dep::Object(o, x), Dep::Attr(_)) if &**o == SELF => Dep::Attr(x.clone()),
+                (other, _) => other.clone(),
+            };
+            if let Dep::Object(_, x) | Dep::Class(_, x) | Dep::Attr(x) = &concrete {
+                let x = x.clone();
+                expand_derived(&concrete, class, &x, scope, derived, out, depth + 1);
+            }
+            out.push(concrete);
+        }
+    }
+}
+
+// ----- objects -----
+
+fn create_objects(
+    board: &Board,
+    objects: Vec<(ObjectDecl, Vec<Write>)>,
+) -> Result<Vec<String>, Diagnostics> {
+    let mut batch = board.batch();
+    let mut names = Vec::new();
+    let mut initial = Vec::new();
+    for (o, writes) in &objects {
+        let mut spec = NewObject::new(&o.class.name, &o.name.name);
+        if let Some(c) = o.context {
+            spec = spec.context(model_context(c.context));
+        }
+        if let Some(owner) = &o.owner {
+            let addr = owner
+                .value
+                .parse()
+                .map_err(|e: slate_model::AddressError| one(owner.span, e.to_string()))?;
+            spec = spec.owner(addr);
+        }
+        batch.create_with(spec);
+        names.push(o.name.name.clone());
+        initial.push((o.span, writes));
+    }
+    batch
+        .commit()
+        .map_err(|e| one(Span::default(), e.to_string()))?;
+    // Initial values may name the objects just created, so they are written after.
+    let mut batch = board.batch();
+    let snap_env = BoardEnv(board);
+    for (span, writes) in initial {
+        for w in writes.iter() {
+            let mut cx = Ctx::new(&snap_env, 0, &[]);
+            let value = w
+                .value
+                .eval(&mut cx)
+                .map_err(|e| one(span, e.to_string()))?;
+            let value = if w.real {
+                coerce(value, slate_model::ValueType::Real)
+            } else {
+                value
+            };
+            let mut u = Update::new(value);
+            u.accuracy = w
+                .accuracy
+                .as_ref()
+                .and_then(|n| n.eval(&mut cx).ok())
+                .and_then(|v| v.as_f64());
+            u.confidence = w
+                .confidence
+                .as_ref()
+                .and_then(|n| n.eval(&mut cx).ok())
+                .and_then(|v| v.as_f64());
+            let Obj::Named(obj) = &w.obj else { continue };
+            batch.write(obj, &w.attr, u);
+        }
+    }
+    batch
+        .commit()
+        .map_err(|e| one(Span::default(), e.to_string()))?;
+    Ok(names)
+}
+
+struct BoardEnv<'a>(&'a Board);
+
+impl Env for BoardEnv<'_> {
+    fn read(&self, object: &str, attr: &str) -> Option<slate_model::Packet> {
+        self.0.read(object, attr).ok()
+    }
+    fn instances(&self, class: &str) -> Vec<Arc<str>> {
+        self.0
+            .instances(class)
+            .unwrap_or_default()
+            .into_iter()
+            .filter_map(|id| self.0.name_of(id))
+            .collect()
+    }
+    fn exists(&self, object: &str) -> bool {
+        self.0.info(object).is_some()
+    }
+    fn now(&self) -> std::time::Duration {
+        self.0.clock().physical()
+    }
+}

@@ -1,0 +1,345 @@
+//! The plan engine: DESIGN.md 2.4's truth table of initiation, trigger and termination,
+//! repetition, quantifiers with bindings, time, actions and their failures.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_model::{Board, Clock, Value};
+use slate_plans::{Engine, Outgoing, PlanEvent, PlanState};
+
+pub const SIGNALS: &str = r#"
+    class Signal { on: bool = false; level: real = 0.0; }
+    class Log { n: int = 0; }
+    object init : Signal;
+    object trig : Signal;
+    object term : Signal;
+    object log : Log;
+"#;
+
+/// A board with the signals and one plan `p` (`every` optional) that counts in log.n.
+pub fn world(every: &str) -> (Arc<Board>, Engine) {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    let plan = format!(
+        "{SIGNALS}
+        plan p {{
+            initiation: init.on;
+            trigger: trig.on;
+            termination: term.on;
+            {every}
+            action {{ set log.n = log.n + 1; }}
+        }}"
+    );
+    engine
+        .load("t.slate", &plan)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (board, engine)
+}
+
+fn set(b: &Board, signal: &str, on: bool) {
+    b.write(signal, "on", on).unwrap();
+}
+
+fn fired(b: &Board, e: &Engine) -> i64 {
+    let n = e.status("p").unwrap().fired as i64;
+    assert_eq!(
+        b.read("log", "n").unwrap().value,
+        Value::Int(n),
+        "log.n follows the plan's fired count"
+    );
+    n
+}
+
+#[test]
+fn plan_fires_when_trigger_follows_initiation() {
+    let (b, e) = world("");
+    set(&b, "trig", false);
+    set(&b, "init", true);
+    assert_eq!(fired(&b, &e), 0);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 1);
+    set(&b, "trig", true); // still true: no new edge
+    assert_eq!(fired(&b, &e), 1);
+    set(&b, "trig", false);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 2, "each rising edge fires");
+}
+
+#[test]
+fn plan_with_trigger_before_initiation_fires_once_initiation_happens() {
+    let (b, e) = world("");
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 0, "not active yet");
+    set(&b, "init", true);
+    assert_eq!(
+        fired(&b, &e),
+        1,
+        "a trigger already true when the plan initiates fires at once"
+    );
+}
+
+#[test]
+fn initiation_is_latched() {
+    let (b, e) = world("");
+    set(&b, "init", true);
+    set(&b, "init", false);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 1);
+    assert_eq!(e.status("p").unwrap().state, PlanState::Active);
+}
+
+#[test]
+fn plan_never_fires_when_termination_precedes_initiation() {
+    let (b, e) = world("");
+    set(&b, "term", true);
+    set(&b, "term", false); // latched: turning it off changes nothing
+    set(&b, "init", true);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 0);
+    assert_eq!(e.status("p").unwrap().state, PlanState::Terminated);
+}
+
+#[test]
+fn plan_never_fires_when_termination_and_initiation_come_in_the_same_evaluation() {
+    let (b, e) = world("");
+    set(&b, "trig", true);
+    let mut batch = b.batch();
+    batch.write("init", "on", true).write("term", "on", true);
+    batch.commit().unwrap();
+    assert_eq!(fired(&b, &e), 0);
+    assert_eq!(e.status("p").unwrap().state, PlanState::Terminated);
+}
+
+#[test]
+fn plan_never_fires_again_after_termination() {
+    let (b, e) = world("");
+    set(&b, "init", true);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 1);
+    set(&b, "term", true);
+    set(&b, "trig", false);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 1);
+    assert_eq!(
+        b.read("p", "state").unwrap().value,
+        Value::from("terminated")
+    );
+}
+
+#[test]
+fn every_repeats_while_the_trigger_holds_and_stops_at_termination() {
+    let (b, e) = world("every 1s;");
+    let clock = b.clock().clone();
+    let advance = |ms| clock.advance(Duration::from_millis(ms)).unwrap();
+    set(&b, "init", true);
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 1, "fires at the edge");
+    advance(999);
+    assert_eq!(fired(&b, &e), 1);
+    advance(1);
+    assert_eq!(fired(&b, &e), 2, "then every second");
+    advance(1000);
+    assert_eq!(fired(&b, &e), 3);
+    set(&b, "trig", false);
+    advance(3000);
+    assert_eq!(fired(&b, &e), 3, "not while the trigger is false");
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 4, "a new edge fires at once");
+    set(&b, "term", true);
+    advance(5000);
+    assert_eq!(fired(&b, &e), 4, "never after termination");
+}
+
+#[test]
+fn cancelled_plans_never_fire() {
+    let (b, e) = world("");
+    set(&b, "init", true);
+    assert!(e.cancel("p"));
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 0);
+    assert_eq!(
+        b.read("p", "state").unwrap().value,
+        Value::from("cancelled")
+    );
+    assert!(!e.cancel("nope"));
+}
+
+#[test]
+fn the_plan_object_shows_progress_and_events_are_emitted() {
+    let (b, e) = world("");
+    let events = e.events();
+    assert_eq!(b.read("p", "state").unwrap().value, Value::from("pending"));
+    set(&b, "init", true);
+    assert_eq!(b.read("p", "state").unwrap().value, Value::from("active"));
+    set(&b, "trig", true);
+    assert_eq!(b.read("p", "fired").unwrap().value, Value::Int(1));
+    set(&b, "term", true);
+    let got: Vec<PlanEvent> = events.try_iter().collect();
+    let kinds: Vec<&str> = got
+        .iter()
+        .map(|e| match e {
+            PlanEvent::Initiated { .. } => "initiated",
+            PlanEvent::Triggered { error: None, .. } => "triggered",
+            PlanEvent::Terminated { .. } => "terminated",
+            _ => "other",
+        })
+        .collect();
+    assert_eq!(kinds, ["initiated", "triggered", "terminated"]);
+}
+
+#[test]
+fn a_write_evaluates_only_the_plans_that_read_what_changed() {
+    let (b, e) = world("");
+    let before = e.evaluations();
+    b.write("log", "n", 5).unwrap();
+    b.write("trig", "level", 2.0).unwrap();
+    assert_eq!(e.evaluations(), before, "nothing the plan reads changed");
+    set(&b, "trig", true);
+    assert_eq!(e.evaluations(), before + 1);
+}
+
+const VEHICLES: &str = r#"
+    class Vehicle { position: vec<2> [m]; speed: real = 1.0; nearest: ref; mode: string = "auto"; }
+    class Obstacle { position: vec<2> [m]; }
+    object gsr : Vehicle;
+"#;
+
+fn vehicles(plans: &str) -> (Arc<Board>, Engine) {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    engine
+        .load("v.slate", &format!("{VEHICLES}\n{plans}"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    (board, engine)
+}
+
+#[test]
+fn the_nearest_obstacle_closer_than_5_m_stops_the_vehicle() {
+    let (b, e) = vehicles(
+        r#"plan stop_near_obstacle {
+            trigger: any o: Obstacle where distance(o.position, gsr.position) < 5.0
+                by distance(o.position, gsr.position);
+            action { set gsr.speed = 0, gsr.nearest = o; }
+        }"#,
+    );
+    b.write("gsr", "position", [0.0, 0.0]).unwrap();
+    for (name, x) in [("far", 8.0), ("near", 4.0), ("nearer", 3.0)] {
+        let mut batch = b.batch();
+        batch
+            .create("Obstacle", name)
+            .write(name, "position", [x, 0.0]);
+        batch.commit().unwrap();
+    }
+    // "near" at 4 m crossed the threshold first and stopped the vehicle.
+    assert_eq!(e.status("stop_near_obstacle").unwrap().fired, 1);
+    assert_eq!(b.read("gsr", "speed").unwrap().value, Value::Real(0.0));
+    assert_eq!(
+        b.read("gsr", "nearest").unwrap().value,
+        Value::reference("near")
+    );
+    // Moving away and back picks the nearest of all matches.
+    b.write("gsr", "position", [100.0, 0.0]).unwrap();
+    b.write("gsr", "position", [1.0, 0.0]).unwrap();
+    assert_eq!(
+        b.read("gsr", "nearest").unwrap().value,
+        Value::reference("nearer")
+    );
+}
+
+#[test]
+fn an_age_condition_fires_exactly_when_its_deadline_passes() {
+    let (b, e) = vehicles(
+        r#"plan position_lost {
+            trigger: age(gsr.position) > 2s;
+            action { set gsr.mode = "lost"; }
+        }"#,
+    );
+    let clock = b.clock().clone();
+    b.write("gsr", "position", [0.0, 0.0]).unwrap();
+    clock.advance(Duration::from_millis(1999)).unwrap();
+    assert_eq!(e.status("position_lost").unwrap().fired, 0);
+    clock.advance(Duration::from_millis(2)).unwrap();
+    assert_eq!(
+        e.status("position_lost").unwrap().fired,
+        1,
+        "the deadline was a timer, not a poll"
+    );
+    assert_eq!(b.read("gsr", "mode").unwrap().value, Value::from("lost"));
+    // A fresh position re-arms it: the next deadline is 2 s after the new write.
+    b.write("gsr", "position", [1.0, 0.0]).unwrap();
+    clock.advance(Duration::from_millis(2001)).unwrap();
+    assert_eq!(e.status("position_lost").unwrap().fired, 2);
+}
+
+#[test]
+fn a_failing_action_is_recorded_and_applies_nothing() {
+    let (b, e) = vehicles(
+        r#"plan bad {
+            trigger: gsr.speed > 5.0;
+            action { set gsr.mode = "fast", gsr.nearest.speed = 0.0; }
+        }"#,
+    );
+    let events = e.events();
+    // The reference dangles, so the second write of the action fails at run time.
+    b.write("gsr", "nearest", Value::reference("ghost"))
+        .unwrap();
+    b.write("gsr", "speed", 6.0).unwrap();
+    let status = e.status("bad").unwrap();
+    assert_eq!(status.fired, 1);
+    let error = status.last_error.expect("the failure is recorded");
+    assert!(error.contains("ghost"), "{error}");
+    assert_eq!(
+        b.read("gsr", "mode").unwrap().value,
+        Value::from("auto"),
+        "the first write was not applied"
+    );
+    assert_eq!(
+        b.read("bad", "last_error").unwrap().value,
+        Value::from(error.as_str())
+    );
+    assert!(
+        events
+            .try_iter()
+            .any(|ev| matches!(ev, PlanEvent::Triggered { error: Some(_), .. }))
+    );
+}
+
+#[test]
+fn report_and_send_actions_produce_messages_for_the_ici() {
+    let (b, e) = vehicles(
+        r#"plan tell {
+            trigger: gsr.speed > 5.0;
+            action {
+                report gsr.speed to "team/r1/console";
+                report gsr;
+                send follow to "team/r2/exec";
+                send plan inline { trigger: true; action { report gsr; } } to "team/r2/exec";
+            }
+        }
+        plan follow { trigger: false; action { report gsr; } }"#,
+    );
+    let out = e.outgoing();
+    b.write("gsr", "speed", 6.0).unwrap();
+    let msgs: Vec<Outgoing> = out.try_iter().collect();
+    assert_eq!(msgs.len(), 4, "{msgs:?}");
+    let Outgoing::Report(r) = &msgs[0] else {
+        panic!("{msgs:?}")
+    };
+    assert_eq!(
+        (r.to.as_ref().map(|a| a.as_str()), r.items.len()),
+        (Some("team/r1/console"), 1)
+    );
+    assert_eq!(r.items[0].packet.value, Value::Real(6.0));
+    let Outgoing::Report(all) = &msgs[1] else {
+        panic!()
+    };
+    assert!(all.to.is_none() && all.items.iter().any(|i| &*i.attr == "speed"));
+    let Outgoing::Plan(p) = &msgs[2] else {
+        panic!()
+    };
+    assert!(p.text.starts_with("plan follow {"), "{}", p.text);
+    let Outgoing::Plan(p) = &msgs[3] else {
+        panic!()
+    };
+    assert!(p.text.starts_with("plan inline {") && p.to.as_str() == "team/r2/exec");
+}
