@@ -34,6 +34,23 @@ pub enum Command {
     ///
     /// Example: slate bench core --format json
     Bench(BenchArgs),
+
+    /// Check .slate files: syntax, names, types. Prints every error with its line and
+    /// column; exits 0 when every file is valid and 1 otherwise.
+    ///
+    /// Files are loaded in order into one scratch board, so a file may use the classes of
+    /// the files before it.
+    ///
+    /// Example: slate check examples/gsr.slate
+    Check(CheckArgs),
+}
+
+/// Arguments of `slate check`.
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// The .slate files.
+    #[arg(required = true)]
+    pub files: Vec<std::path::PathBuf>,
 }
 
 /// Arguments of `slate bench`.
@@ -57,4 +74,6 @@ pub struct BenchArgs {
 pub enum Suite {
     /// The world model: reads, writes, batches, active functions, queries.
     Core,
+    /// The plan engine: compiling plans, writes with plans installed, write to action.
+    Plans,
 }

@@ -12,6 +12,7 @@ fn main() -> ExitCode {
     let cli = cli::Cli::parse();
     let result = match cli.command {
         cli::Command::Bench(args) => command::bench::run(&args, cli.format),
+        cli::Command::Check(args) => command::check::run(&args, cli.format),
     };
     match result {
         Ok(code) => code,

@@ -81,3 +81,46 @@ fn help_explains_the_bench_verb_with_an_example() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("slate bench core --format json"), "{text}");
 }
+
+#[test]
+fn check_accepts_the_gsr_example_and_exits_zero() {
+    let gsr = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/gsr.slate");
+    let out = slate(&["check", gsr]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("gsr.slate: ok (4 classes"), "{text}");
+}
+
+#[test]
+fn check_reports_every_error_with_a_caret_and_exits_one() {
+    let dir = std::env::temp_dir().join(format!("slate-check-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.slate");
+    std::fs::write(&bad, "class V { speed: real; }\nobject v : V;\nplan p { trigger: v.sped > 1.0; action { set v.speed = \"x\"; } }\n").unwrap();
+    let out = slate(&["check", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.slate:3:21: error: class V has no attribute sped"),
+        "{err}"
+    );
+    assert!(
+        err.contains("bad.slate:3:56: error: v.speed is real, but this value is string"),
+        "{err}"
+    );
+    assert!(err.contains("^^^^"), "{err}");
+    let out = slate(&["check", "--format", "json", bad.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(j["ok"], false);
+    assert_eq!(j["files"][0]["diagnostics"].as_array().unwrap().len(), 2);
+    assert_eq!(j["files"][0]["diagnostics"][0]["line"], 3);
+    let out = slate(&["check", dir.join("missing.slate").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("slate: error: cannot read"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -9,21 +9,22 @@
 //! means the action never runs.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap, HashSet};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::collections::{BinaryHeap, HashMap};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
 use crossbeam_channel::Receiver;
 use parking_lot::{Condvar, Mutex};
 use slate_model::{
-    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, NewObject, ObjectId, TouchKind,
-    Touched, Value, ValueType,
+    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, NewObject, ObjectId, Touched,
+    Value, ValueType,
 };
 
 use crate::action::{Act, Effect, effects};
 use crate::env::SnapEnv;
 use crate::eval::{Ctx, Node, truthy};
+use crate::index::DepIndex;
 use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
 
 /// Class of the objects that show plans on the board.
@@ -119,41 +120,11 @@ struct PlanRt {
 }
 
 #[derive(Default)]
-struct DepIndex {
-    by_object: HashMap<(Arc<str>, Arc<str>), Vec<usize>>,
-    by_name: HashMap<Arc<str>, Vec<usize>>,
-    by_class: HashMap<(Arc<str>, Arc<str>), Vec<usize>>,
-    by_attr: HashMap<Arc<str>, Vec<usize>>,
-    members: HashMap<Arc<str>, Vec<usize>>,
-    /// Live objects that plans name: handle to name.
-    ids: HashMap<ObjectId, Arc<str>>,
-}
-
-impl DepIndex {
-    fn add(&mut self, plan: usize, dep: &Dep) {
-        let list = match dep {
-            Dep::Object(o, a) => {
-                self.by_name.entry(o.clone()).or_default().push(plan);
-                self.by_object.entry((o.clone(), a.clone())).or_default()
-            }
-            Dep::Class(c, a) => self.by_class.entry((c.clone(), a.clone())).or_default(),
-            Dep::Attr(a) => self.by_attr.entry(a.clone()).or_default(),
-            Dep::Members(c) => self.members.entry(c.clone()).or_default(),
-        };
-        if list.last() != Some(&plan) {
-            list.push(plan);
-        }
-    }
-}
-
-#[derive(Default)]
 struct State {
     plans: Vec<PlanRt>,
     by_name: HashMap<Arc<str>, usize>,
     index: DepIndex,
     timers: BinaryHeap<Reverse<(u64, usize, u64)>>,
-    /// Class handle to its lineage's names.
-    lineages: HashMap<ObjectId, Arc<[Arc<str>]>>,
 }
 
 enum Work {
@@ -174,6 +145,8 @@ pub(crate) struct Shared {
     /// Derived attributes of loaded files and what they read.
     pub(crate) derived: Mutex<crate::load::DerivedDeps>,
     evaluations: AtomicU64,
+    /// Plans installed (the hook does nothing while there are none).
+    installed: AtomicUsize,
 }
 
 /// Runs plans on one board. Cloning gives another handle to the same engine.
@@ -216,6 +189,7 @@ impl Engine {
             texts: Mutex::new(HashMap::new()),
             derived: Mutex::new(HashMap::new()),
             evaluations: AtomicU64::new(0),
+            installed: AtomicUsize::new(0),
         });
         board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
         let listener: Arc<dyn ClockListener> = shared.clone();
@@ -328,14 +302,10 @@ impl Engine {
             let mut st = self.shared.state.lock();
             let idx = st.plans.len();
             for dep in &plan.deps {
-                st.index.add(idx, dep);
-                if let Dep::Object(o, _) = dep
-                    && let Some(info) = board.info(o)
-                {
-                    st.index.ids.insert(info.id, o.clone());
-                }
+                st.index.add(idx, dep, board);
             }
             st.by_name.insert(name.clone(), idx);
+            self.shared.installed.fetch_add(1, Ordering::Relaxed);
             let sites = plan.changed_sites;
             st.plans.push(PlanRt {
                 plan: Arc::new(plan),
@@ -377,9 +347,30 @@ struct Hook(Weak<Shared>);
 
 impl ChangeHook for Hook {
     fn changed(&self, board: &Board, _revision: u64, touched: &[Touched]) {
-        if let Some(shared) = self.0.upgrade() {
+        let Some(shared) = self.0.upgrade() else {
+            return;
+        };
+        if shared.installed.load(Ordering::Relaxed) == 0 {
+            return;
+        }
+        // The common case, nobody else running the engine: no queueing, no copy.
+        if let Some(mut st) = shared.state.try_lock() {
+            let mut plans = Vec::new();
+            for t in touched {
+                st.touched(t, board, &mut |p| add_once(&mut plans, p));
+            }
+            shared.evaluate_all(&mut st, plans, board, MAX_EVALUATIONS_PER_CHANGE);
+            drop(st);
+            shared.push_nothing(board);
+        } else {
             shared.push(Work::Touched(touched.to_vec()), board);
         }
+    }
+}
+
+fn add_once(plans: &mut Vec<usize>, p: usize) {
+    if !plans.contains(&p) {
+        plans.push(p);
     }
 }
 
@@ -431,15 +422,19 @@ impl Shared {
     /// already running the engine: then that one runs it before it lets go.
     fn push(&self, work: Work, board: &Board) {
         self.queue.lock().push(work);
+        self.push_nothing(board);
+    }
+
+    /// Runs whatever is queued, unless someone else is running the engine.
+    fn push_nothing(&self, board: &Board) {
         loop {
+            if self.queue.lock().is_empty() {
+                return;
+            }
             let Some(mut st) = self.state.try_lock() else {
                 return;
             };
             self.drain(&mut st, board);
-            drop(st);
-            if self.queue.lock().is_empty() {
-                return;
-            }
         }
     }
 
@@ -451,26 +446,36 @@ impl Shared {
                 return;
             }
             let mut plans = Vec::new();
-            let mut seen = HashSet::new();
             for w in work {
-                st.affected(w, board, &mut |p| {
-                    if seen.insert(p) {
-                        plans.push(p);
-                    }
-                });
+                st.affected(w, board, &mut |p| add_once(&mut plans, p));
             }
-            for p in plans {
-                if budget == 0 {
-                    tracing::error!(
-                        "plan evaluations exceeded {MAX_EVALUATIONS_PER_CHANGE} for one change; dropping the rest"
-                    );
-                    self.queue.lock().clear();
-                    return;
-                }
-                budget -= 1;
-                self.evaluate(st, p, board);
+            budget = self.evaluate_all(st, plans, board, budget);
+            if budget == 0 {
+                return;
             }
         }
+    }
+
+    /// Evaluates plans within a budget of evaluations; returns what is left of it.
+    fn evaluate_all(
+        &self,
+        st: &mut State,
+        plans: Vec<usize>,
+        board: &Board,
+        mut budget: usize,
+    ) -> usize {
+        for p in plans {
+            if budget == 0 {
+                tracing::error!(
+                    "plan evaluations exceeded {MAX_EVALUATIONS_PER_CHANGE} for one change; dropping the rest"
+                );
+                self.queue.lock().clear();
+                return 0;
+            }
+            budget -= 1;
+            self.evaluate(st, p, board);
+        }
+        budget
     }
 
     fn evaluate(&self, st: &mut State, idx: usize, board: &Board) {
@@ -517,7 +522,9 @@ impl Shared {
         let rt = &mut st.plans[idx];
         rt.fired += 1;
         let (name, fired) = (rt.plan.name.clone(), rt.fired);
-        let result = effects.and_then(|effects| apply(board, &name, fired, &effects, self));
+        let had_error = rt.last_error.is_some();
+        let result =
+            effects.and_then(|effects| apply(board, &name, fired, had_error, &effects, self));
         let rt = &mut st.plans[idx];
         rt.last_error = result.as_ref().err().cloned();
         if let Err(e) = &result {
@@ -527,11 +534,14 @@ impl Shared {
                 .write(&name, "last_error", e.as_str());
             let _ = batch.commit();
         }
-        self.outbox.event(PlanEvent::Triggered {
-            plan: name.to_string(),
-            fired,
-            error: result.err(),
-        });
+        if self.outbox.has_event_subscribers() {
+            let error = result.err();
+            self.outbox.event(PlanEvent::Triggered {
+                plan: name.to_string(),
+                fired,
+                error,
+            });
+        }
     }
 }
 
@@ -637,64 +647,7 @@ impl State {
     }
 
     fn touched(&mut self, t: &Touched, board: &Board, f: &mut dyn FnMut(usize)) {
-        let lineage = self.lineage(t.class, board);
-        let ix = &mut self.index;
-        let mut lists: Vec<&Vec<usize>> = Vec::new();
-        match t.kind {
-            TouchKind::Write => {
-                let attr = t
-                    .attr
-                    .map(|a| board.attr_name(a))
-                    .unwrap_or_else(|| "".into());
-                if let Some(name) = ix.ids.get(&t.object) {
-                    lists.extend(ix.by_object.get(&(name.clone(), attr.clone())));
-                }
-                if t.object == t.class {
-                    // A class-level write changes what every instance without its own value reads.
-                    lists.extend(
-                        ix.by_object
-                            .iter()
-                            .filter(|((_, a), _)| *a == attr)
-                            .map(|(_, l)| l),
-                    );
-                }
-                for class in lineage.iter() {
-                    lists.extend(ix.by_class.get(&(class.clone(), attr.clone())));
-                }
-                lists.extend(ix.by_attr.get(&attr));
-            }
-            TouchKind::Create | TouchKind::Delete => {
-                let name = if t.kind == TouchKind::Create {
-                    let name = board
-                        .name_of(t.object)
-                        .filter(|n| ix.by_name.contains_key(n));
-                    if let Some(n) = &name {
-                        ix.ids.insert(t.object, n.clone());
-                    }
-                    name
-                } else {
-                    ix.ids.remove(&t.object)
-                };
-                for class in lineage.iter() {
-                    lists.extend(ix.members.get(class));
-                }
-                lists.extend(name.and_then(|n| ix.by_name.get(&n)));
-            }
-        }
-        lists.into_iter().flatten().for_each(|p| f(*p));
-    }
-
-    fn lineage(&mut self, class: ObjectId, board: &Board) -> Arc<[Arc<str>]> {
-        self.lineages
-            .entry(class)
-            .or_insert_with(|| {
-                board
-                    .lineage(class)
-                    .into_iter()
-                    .filter_map(|c| board.name_of(c))
-                    .collect()
-            })
-            .clone()
+        self.index.touched(t, board, f);
     }
 }
 
@@ -704,6 +657,7 @@ fn apply(
     board: &Board,
     plan: &str,
     fired: u64,
+    clear_error: bool,
     effects: &[Effect],
     engine: &Shared,
 ) -> Result<(), String> {
@@ -711,15 +665,16 @@ fn apply(
     let mut batch = board.batch();
     for e in effects {
         match e {
-            Effect::Write(o, a, u) => drop(batch.write(o, a, u.clone())),
+            Effect::Write(o, a, u) => drop(batch.write_shared(o.clone(), a.clone(), u.clone())),
             Effect::Create(spec) => drop(batch.create_with(spec.clone())),
             Effect::Delete(o) => drop(batch.delete(o)),
             _ => {}
         }
     }
-    batch
-        .write(plan, "fired", fired as i64)
-        .write(plan, "last_error", "");
+    batch.write(plan, "fired", fired as i64);
+    if clear_error {
+        batch.write(plan, "last_error", "");
+    }
     batch.commit().map_err(|e| e.to_string())?;
     for e in effects {
         match e {

@@ -45,6 +45,7 @@ mod engine;
 mod env;
 mod eval;
 mod fns;
+mod index;
 mod lexer;
 mod load;
 mod outbox;

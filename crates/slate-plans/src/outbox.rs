@@ -119,6 +119,11 @@ impl Outbox {
             .retain(|tx| tx.send(msg.clone()).is_ok());
     }
 
+    /// Is anyone listening to events? (Lets the hot path skip building them.)
+    pub fn has_event_subscribers(&self) -> bool {
+        !self.events.lock().is_empty()
+    }
+
     pub fn event(&self, e: PlanEvent) {
         tracing::debug!(?e, "plan event");
         self.events.lock().retain(|tx| tx.send(e.clone()).is_ok());

@@ -2,6 +2,7 @@
 //! several samples, each against a baseline measured in the same run.
 
 pub mod core;
+pub mod plans;
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};

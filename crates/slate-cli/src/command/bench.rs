@@ -18,6 +18,7 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
     }
     let report = match args.suite {
         Suite::Core => bench::core::run(&cfg, &mut |step| eprintln!("  measuring {step} ...")),
+        Suite::Plans => bench::plans::run(&cfg, &mut |step| eprintln!("  measuring {step} ...")),
     };
     match format {
         Format::Json => println!("{}", serde_json::to_string_pretty(&report.json())?),
@@ -29,7 +30,7 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
 impl Report {
     fn text(&self) -> String {
         let mut out = format!(
-            "{}\n\n{:<28} {:>12}  {}\n",
+            "{}\n\n{:<36} {:>12}  {}\n",
             self.title, "operation", "median", "vs baseline"
         );
         for m in &self.rows {
@@ -44,8 +45,9 @@ impl Report {
                 };
                 format!("  (target <= {t}x: {verdict})")
             });
+            let unit = if m.name.ends_with("_ms") { "ms" } else { "ns" };
             out.push_str(&format!(
-                "{:<28} {:>9.1} ns  {ratio}{target}\n",
+                "{:<36} {:>9.1} {unit}  {ratio}{target}\n",
                 m.name, m.ns
             ));
         }

@@ -1,3 +1,4 @@
 //! One file per verb.
 
 pub mod bench;
+pub mod check;

@@ -1,11 +1,13 @@
 //! Atomic batches: all operations apply, under one lock and one revision, or none do.
 
+use std::sync::Arc;
+
 use super::txn::Txn;
 use super::{Board, Chain, NewObject, Target};
 use crate::{BatchError, Key, Update};
 
 enum Op {
-    Write(String, String, Update),
+    Write(Arc<str>, Arc<str>, Update),
     WriteKey(Key, Update),
     Create(NewObject),
     Delete(String),
@@ -43,7 +45,13 @@ impl<'b> Batch<'b> {
     /// Adds a write.
     pub fn write(&mut self, object: &str, attr: &str, update: impl Into<Update>) -> &mut Self {
         self.ops
-            .push(Op::Write(object.to_owned(), attr.to_owned(), update.into()));
+            .push(Op::Write(object.into(), attr.into(), update.into()));
+        self
+    }
+
+    /// Adds a write with names the caller already shares (no copy of the names).
+    pub fn write_shared(&mut self, object: Arc<str>, attr: Arc<str>, update: Update) -> &mut Self {
+        self.ops.push(Op::Write(object, attr, update));
         self
     }
 

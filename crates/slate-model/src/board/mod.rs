@@ -100,7 +100,7 @@ impl BoardBuilder {
             inner: RwLock::new(Inner {
                 state: State::new(),
                 watchers: Vec::new(),
-                hooks: Vec::new(),
+                hooks: Arc::new([]),
             }),
             clock: self.clock.unwrap_or_default(),
             address: self.address.unwrap_or_else(default_address),
@@ -640,7 +640,7 @@ impl Board {
                 self.run_isolated(func.as_ref(), &mut call);
             }
         }
-        for hook in hooks {
+        for hook in hooks.iter().flat_map(|h| h.iter()) {
             hook.changed(self, revision, &touched);
         }
         revision
@@ -648,7 +648,10 @@ impl Board {
 
     /// Adds a change hook, called in the writer's thread after every committed change.
     pub fn add_hook(&self, hook: Arc<dyn ChangeHook>) {
-        self.inner.write().hooks.push(hook);
+        let mut inner = self.inner.write();
+        let mut hooks = inner.hooks.to_vec();
+        hooks.push(hook);
+        inner.hooks = hooks.into();
     }
 
     /// Runs one function; an error or a panic becomes an event, never a failure of the

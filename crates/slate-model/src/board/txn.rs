@@ -16,7 +16,7 @@ use crate::{
 pub(crate) struct Inner {
     pub state: State,
     pub watchers: Vec<Watcher>,
-    pub hooks: Vec<Arc<dyn ChangeHook>>,
+    pub hooks: Arc<[Arc<dyn ChangeHook>]>,
 }
 
 impl Inner {
@@ -31,7 +31,7 @@ pub(crate) struct Committed {
     pub revision: u64,
     pub fired: Vec<Fired>,
     pub touched: Vec<Touched>,
-    pub hooks: Vec<Arc<dyn ChangeHook>>,
+    pub hooks: Option<Arc<[Arc<dyn ChangeHook>]>>,
 }
 
 enum Undo {
@@ -241,11 +241,7 @@ impl<'s> Txn<'s> {
         for i in dead.into_iter().rev() {
             inner.watchers.swap_remove(i);
         }
-        let hooks = if touched.is_empty() {
-            Vec::new()
-        } else {
-            inner.hooks.clone()
-        };
+        let hooks = (!touched.is_empty()).then(|| inner.hooks.clone());
         Committed {
             revision,
             fired,

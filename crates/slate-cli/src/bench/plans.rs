@@ -1,0 +1,173 @@
+//! `slate bench plans`: the plan engine's costs. The baseline is the same write on a board
+//! whose engine has no plan at all, measured in the same run.
+
+use std::fmt::Write as _;
+use std::hint::black_box;
+use std::sync::Arc;
+use std::time::Instant;
+
+use slate_model::{Board, Clock, Key};
+use slate_plans::Engine;
+
+use super::{Config, Report, measure};
+
+const WORLD: &str =
+    "class Cell { v: real = 0.0; w: real = 0.0; }\nclass Obstacle { range: real = 100.0; }\n";
+
+fn engine() -> (Arc<Board>, Engine) {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    engine.load("world.slate", WORLD).expect("world loads");
+    (board, engine)
+}
+
+/// `n` cells and one plan per cell whose trigger never fires.
+fn unrelated(n: usize) -> String {
+    let mut s = String::new();
+    for i in 0..n {
+        let _ = writeln!(s, "object c{i} : Cell;");
+        let _ = writeln!(
+            s,
+            "plan p{i} {{ trigger: c{i}.v > 1000000.0; action {{ set c{i}.w = 1.0; }} }}"
+        );
+    }
+    s
+}
+
+/// Runs the suite; `progress` is told each step.
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Report {
+    let mut r =
+        Report::new("slate bench plans: plan engine (write costs vs the same write with no plan)");
+    progress("compiling 1000 plans");
+    r.add("compile_1000_plans_ms", compile_1000(cfg));
+    progress("writes");
+    writes(cfg, &mut r);
+    progress("write to action");
+    write_to_action(cfg, &mut r);
+    progress("quantifier over 10 000 objects");
+    quantifier(cfg, &mut r);
+    r
+}
+
+fn compile_1000(cfg: &Config) -> f64 {
+    let source = format!("{WORLD}{}", unrelated(1000));
+    let mut times: Vec<f64> = (0..cfg.samples.clamp(3, 7))
+        .map(|_| {
+            let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+            let engine = Engine::new(&board);
+            let start = Instant::now();
+            engine
+                .load("bench.slate", &source)
+                .expect("1000 plans load");
+            start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn write_loop(cfg: &Config, board: &Board, key: Key) -> f64 {
+    let mut v = 0.0;
+    measure(cfg, || {
+        v = if v >= 100.0 { 0.0 } else { v + 1.0 };
+        drop(black_box(board.write_key(key, v)));
+    })
+}
+
+fn writes(cfg: &Config, r: &mut Report) {
+    let (board, engine) = engine();
+    engine.load("x.slate", "object x : Cell;").expect("x");
+    let key = board.key("x", "v").expect("key");
+    r.add("write_no_plans_ns", write_loop(cfg, &board, key));
+    engine
+        .load(
+            "dep.slate",
+            "plan dep { trigger: x.v > 1000000.0; action { set x.w = 1.0; } }",
+        )
+        .expect("dep");
+    r.compare(
+        "write_1_dependent_ns",
+        write_loop(cfg, &board, key),
+        "write_no_plans_ns",
+        None,
+    );
+    engine
+        .load("many.slate", &unrelated(10_000))
+        .expect("10k plans");
+    let ns = write_loop(cfg, &board, key);
+    r.compare(
+        "write_1_dependent_10k_unrelated_ns",
+        ns,
+        "write_1_dependent_ns",
+        Some(2.0),
+    );
+}
+
+/// A write that makes a trigger true and the action that runs, minus a write that
+/// does not (the plan alternates between the two).
+fn write_to_action(cfg: &Config, r: &mut Report) {
+    let (board, engine) = engine();
+    engine
+        .load(
+            "a.slate",
+            "object x : Cell;\nplan act { trigger: x.v > 0.5; action { set x.w = x.v; } }",
+        )
+        .expect("act");
+    let key = board.key("x", "v").expect("key");
+    let mut on = false;
+    let pair = measure(cfg, || {
+        on = !on;
+        drop(black_box(board.write_key(key, if on { 1.0 } else { 0.0 })));
+    }) * 2.0;
+    let quiet = write_loop(cfg, &board, board.key("x", "w").expect("key"));
+    let fired = engine.status("act").expect("act").fired;
+    assert!(fired > 0, "the action ran");
+    r.add("write_to_action_ns", pair - quiet);
+}
+
+fn quantifier(cfg: &Config, r: &mut Report) {
+    let (board, engine) = engine();
+    let mut batch = board.batch();
+    for i in 0..10_000 {
+        batch.create("Obstacle", &format!("o{i}"));
+    }
+    batch.commit().expect("10k obstacles");
+    engine
+        .load("q.slate", "object x : Cell;\nplan crowd { trigger: (count o: Obstacle where o.range < 5.0) > 20000; action { set x.w = 1.0; } }")
+        .expect("crowd");
+    let key = board.key("o5", "range").expect("key");
+    let mut v = 50.0;
+    let ns = measure(cfg, || {
+        v = if v >= 90.0 { 50.0 } else { v + 1.0 };
+        drop(black_box(board.write_key(key, v)));
+    });
+    r.add("quantifier_10k_ns", ns);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_plans_suite_reports_every_field() {
+        let cfg = Config {
+            samples: 3,
+            sample_ms: 1,
+        };
+        let j = run(&cfg, &mut |_| {}).json();
+        for f in [
+            "compile_1000_plans_ms",
+            "write_no_plans_ns",
+            "write_1_dependent_ns",
+            "write_1_dependent_10k_unrelated_ns",
+            "write_to_action_ns",
+            "quantifier_10k_ns",
+        ] {
+            assert!(
+                j[f].as_f64().is_some_and(|x| x.is_finite()),
+                "{f}: {}",
+                j[f]
+            );
+        }
+    }
+}
