@@ -3,9 +3,9 @@
 
 use std::sync::Arc;
 
-use slate_model::{Address, Context, NewObject, Update, Value};
+use slate_model::{Address, Context, Key, NewObject, Update, Value};
 
-use crate::eval::{Ctx, EvalError, Node, Obj, object_name};
+use crate::eval::{Ctx, EvalError, KeyCache, Node, Obj, object_name};
 
 /// `set OBJ.ATTR = value [accuracy a] [confidence c]`.
 #[derive(Clone, Debug, PartialEq)]
@@ -17,6 +17,8 @@ pub(crate) struct Write {
     pub confidence: Option<Node>,
     /// The attribute is real: integers are written as reals.
     pub real: bool,
+    /// The board handle of a named target.
+    pub cache: KeyCache,
 }
 
 /// A compiled action.
@@ -45,7 +47,8 @@ pub(crate) enum Act {
 /// What running actions will do, in order.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Effect {
-    Write(Arc<str>, Arc<str>, Update),
+    /// Object, attribute, update, and the board handle when known.
+    Write(Arc<str>, Arc<str>, Update, Option<Key>),
     Create(NewObject),
     Delete(Arc<str>),
     Report {
@@ -130,7 +133,11 @@ fn write(w: &Write, cx: &mut Ctx<'_>) -> Result<Effect, EvalError> {
     let mut update = Update::new(value);
     update.accuracy = number(&w.accuracy, cx)?;
     update.confidence = number(&w.confidence, cx)?;
-    Ok(Effect::Write(object, w.attr.clone(), update))
+    let key = match &w.obj {
+        Obj::Named(_) => cx.env.key(&object, &w.attr, &w.cache),
+        _ => None,
+    };
+    Ok(Effect::Write(object, w.attr.clone(), update, key))
 }
 
 fn number(n: &Option<Node>, cx: &mut Ctx<'_>) -> Result<Option<f64>, EvalError> {

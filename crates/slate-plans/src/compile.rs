@@ -12,7 +12,7 @@ use crate::ast::{
     QuantifierKind, UnaryOp,
 };
 use crate::diagnostic::{Diagnostic, Span, Stage};
-use crate::eval::{Arith, Builtin, Cmp, Field, Node, Obj, Quant, QuantKind};
+use crate::eval::{Arith, Builtin, Cmp, Field, KeyCache, Node, Obj, Quant, QuantKind};
 use crate::scope::Scope;
 
 /// The static type of an expression. `Unknown` follows an error (and checks nothing more).
@@ -463,7 +463,12 @@ impl<'s> Checker<'s> {
             let Some(ty) = self.attr_type(&base, f) else {
                 return unknown;
             };
-            let attr = Node::Attr(Box::new((base.obj, f.name.as_str().into(), Field::Value)));
+            let attr = Node::Attr(Box::new((
+                base.obj,
+                f.name.as_str().into(),
+                Field::Value,
+                KeyCache::default(),
+            )));
             let Some(next) = fields.get(i + 1) else {
                 return (attr, ty);
             };
@@ -630,6 +635,7 @@ impl<'s> Checker<'s> {
             accuracy,
             confidence,
             real: ty == Ty::Real,
+            cache: KeyCache::default(),
         })
     }
 
@@ -726,6 +732,7 @@ impl<'s> Checker<'s> {
                 accuracy,
                 confidence,
                 real: ty == Ty::Real,
+                cache: KeyCache::default(),
             });
         }
         Some(Act::Create {

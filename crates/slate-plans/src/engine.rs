@@ -17,9 +17,10 @@ use std::time::Duration;
 use crossbeam_channel::Receiver;
 use parking_lot::{Condvar, Mutex};
 use slate_model::{
-    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, NewObject, ObjectId, Touched,
-    Value, ValueType,
+    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, Key, NewObject, ObjectId,
+    Touched, Value, ValueType,
 };
+use smallvec::SmallVec;
 
 use crate::action::{Act, Effect, effects};
 use crate::env::SnapEnv;
@@ -117,6 +118,8 @@ struct PlanRt {
     baseline: Vec<Option<Value>>,
     next_every: Option<f64>,
     timer_gen: u64,
+    /// The plan object's `fired` attribute.
+    fired_key: Option<Key>,
 }
 
 #[derive(Default)]
@@ -128,7 +131,7 @@ struct State {
 }
 
 enum Work {
-    Touched(Vec<Touched>),
+    Touched(SmallVec<[Touched; 4]>),
     Due,
     Plan(usize),
 }
@@ -316,6 +319,7 @@ impl Engine {
                 baseline: vec![None; sites],
                 next_every: None,
                 timer_gen: 0,
+                fired_key: board.key(&name, "fired").ok(),
             });
             idx
         };
@@ -355,7 +359,7 @@ impl ChangeHook for Hook {
         }
         // The common case, nobody else running the engine: no queueing, no copy.
         if let Some(mut st) = shared.state.try_lock() {
-            let mut plans = Vec::new();
+            let mut plans = SmallVec::new();
             for t in touched {
                 st.touched(t, board, &mut |p| add_once(&mut plans, p));
             }
@@ -363,12 +367,12 @@ impl ChangeHook for Hook {
             drop(st);
             shared.push_nothing(board);
         } else {
-            shared.push(Work::Touched(touched.to_vec()), board);
+            shared.push(Work::Touched(SmallVec::from_slice(touched)), board);
         }
     }
 }
 
-fn add_once(plans: &mut Vec<usize>, p: usize) {
+fn add_once(plans: &mut SmallVec<[usize; 8]>, p: usize) {
     if !plans.contains(&p) {
         plans.push(p);
     }
@@ -445,7 +449,7 @@ impl Shared {
             if work.is_empty() {
                 return;
             }
-            let mut plans = Vec::new();
+            let mut plans = SmallVec::new();
             for w in work {
                 st.affected(w, board, &mut |p| add_once(&mut plans, p));
             }
@@ -460,7 +464,7 @@ impl Shared {
     fn evaluate_all(
         &self,
         st: &mut State,
-        plans: Vec<usize>,
+        plans: SmallVec<[usize; 8]>,
         board: &Board,
         mut budget: usize,
     ) -> usize {
@@ -522,9 +526,13 @@ impl Shared {
         let rt = &mut st.plans[idx];
         rt.fired += 1;
         let (name, fired) = (rt.plan.name.clone(), rt.fired);
-        let had_error = rt.last_error.is_some();
-        let result =
-            effects.and_then(|effects| apply(board, &name, fired, had_error, &effects, self));
+        let progress = Progress {
+            name: &name,
+            fired,
+            fired_key: rt.fired_key,
+            clear_error: rt.last_error.is_some(),
+        };
+        let result = effects.and_then(|effects| apply(board, &progress, effects, self));
         let rt = &mut st.plans[idx];
         rt.last_error = result.as_ref().err().cloned();
         if let Err(e) = &result {
@@ -562,7 +570,7 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
         return out;
     }
     let plan = rt.plan.clone();
-    let name = plan.name.to_string();
+    let name = &plan.name;
     let baseline = rt.baseline.clone();
     let mut cx = Ctx::new(env, plan.slots, &baseline);
     let check = |node: &Option<Node>, absent: bool, cx: &mut Ctx<'_>, out: &mut Outcome| match node
@@ -576,7 +584,9 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
     if check(&plan.termination, false, &mut cx, &mut out) {
         rt.state = PlanState::Terminated;
         out.new_state = Some(PlanState::Terminated);
-        out.events.push(PlanEvent::Terminated { plan: name });
+        out.events.push(PlanEvent::Terminated {
+            plan: name.to_string(),
+        });
         return out;
     }
     if rt.state == PlanState::Pending {
@@ -587,7 +597,9 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
         rt.state = PlanState::Active;
         rt.last_trigger = false;
         out.new_state = Some(PlanState::Active);
-        out.events.push(PlanEvent::Initiated { plan: name.clone() });
+        out.events.push(PlanEvent::Initiated {
+            plan: name.to_string(),
+        });
     }
     let trig = check(&plan.trigger, true, &mut cx, &mut out);
     let now = env.clock.physical().as_secs_f64();
@@ -653,48 +665,61 @@ impl State {
 
 /// Applies a plan's effects: writes, creations and deletions as one batch together with
 /// the plan object's progress, then the reports and plans it sends.
+/// A firing's update of its plan object.
+struct Progress<'a> {
+    name: &'a str,
+    fired: u64,
+    fired_key: Option<Key>,
+    clear_error: bool,
+}
+
 fn apply(
     board: &Board,
-    plan: &str,
-    fired: u64,
-    clear_error: bool,
-    effects: &[Effect],
+    progress: &Progress<'_>,
+    effects: Vec<Effect>,
     engine: &Shared,
 ) -> Result<(), String> {
     let outbox = &engine.outbox;
+    let plan = progress.name;
     let mut batch = board.batch();
+    let mut messages = Vec::new();
     for e in effects {
         match e {
-            Effect::Write(o, a, u) => drop(batch.write_shared(o.clone(), a.clone(), u.clone())),
-            Effect::Create(spec) => drop(batch.create_with(spec.clone())),
-            Effect::Delete(o) => drop(batch.delete(o)),
-            _ => {}
+            Effect::Write(_, _, u, Some(key)) => drop(batch.write_key(key, u)),
+            Effect::Write(o, a, u, None) => drop(batch.write_shared(o, a, u)),
+            Effect::Create(spec) => drop(batch.create_with(spec)),
+            Effect::Delete(o) => drop(batch.delete(&o)),
+            other => messages.push(other),
         }
     }
-    batch.write(plan, "fired", fired as i64);
-    if clear_error {
+    let fired = progress.fired as i64;
+    match progress.fired_key {
+        Some(key) => drop(batch.write_key(key, fired)),
+        None => drop(batch.write(plan, "fired", fired)),
+    }
+    if progress.clear_error {
         batch.write(plan, "last_error", "");
     }
     batch.commit().map_err(|e| e.to_string())?;
-    for e in effects {
+    for e in messages {
         match e {
             Effect::Report { targets, to } => {
-                let items = report_items(board, targets);
+                let items = report_items(board, &targets);
                 outbox.send(Outgoing::Report(Report {
                     origin: plan.to_owned(),
-                    to: to.clone(),
+                    to,
                     items,
                 }));
             }
             Effect::Send { name, text, to } => {
-                let Some(text) = text.clone().or_else(|| engine.plan_text(name)) else {
+                let Some(text) = text.or_else(|| engine.plan_text(&name)) else {
                     return Err(format!("send {name}: no plan of that name was loaded"));
                 };
                 outbox.send(Outgoing::Plan(PlanMessage {
                     origin: plan.to_owned(),
-                    name: name.clone(),
+                    name,
                     text,
-                    to: to.clone(),
+                    to,
                 }));
             }
             _ => {}

@@ -4,9 +4,9 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_model::{Call, Clock, Packet, Snapshot};
+use slate_model::{Call, Clock, Key, Packet, Snapshot};
 
-use crate::eval::Env;
+use crate::eval::{Env, KeyCache};
 
 /// Conditions evaluated on one consistent snapshot.
 pub(crate) struct SnapEnv<'a> {
@@ -17,6 +17,26 @@ pub(crate) struct SnapEnv<'a> {
 impl Env for SnapEnv<'_> {
     fn read(&self, object: &str, attr: &str) -> Option<Packet> {
         self.snap.read(object, attr).ok()
+    }
+
+    fn read_cached(&self, object: &str, attr: &str, cache: &KeyCache) -> Option<Packet> {
+        if let Some(Ok(p)) = cache.get().map(|k| self.snap.read_key(k)) {
+            return Some(p);
+        }
+        let key = self.key(object, attr, cache)?;
+        self.snap.read_key(key).ok()
+    }
+
+    fn key(&self, object: &str, attr: &str, cache: &KeyCache) -> Option<Key> {
+        if let Some(k) = cache
+            .get()
+            .filter(|k| self.snap.name_of(k.object).is_some())
+        {
+            return Some(k);
+        }
+        let key = self.snap.key(object, attr).ok()?;
+        cache.set(key);
+        Some(key)
     }
 
     fn instances(&self, class: &str) -> Vec<Arc<str>> {

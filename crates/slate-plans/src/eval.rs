@@ -9,7 +9,9 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_model::{Packet, Value};
+use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+
+use slate_model::{AttrId, Key, ObjectId, Packet, Value};
 
 /// Most evaluation steps one evaluation may take (a quantifier over 10 000 objects with a
 /// small filter takes about 100 000).
@@ -19,6 +21,17 @@ pub const MAX_OPS: u64 = 5_000_000;
 pub trait Env {
     /// The packet `object.attr` reads, or `None` if the object or attribute is unknown.
     fn read(&self, object: &str, attr: &str) -> Option<Packet>;
+    /// The same, using and refreshing a cached handle (an environment without handles
+    /// just reads by name).
+    fn read_cached(&self, object: &str, attr: &str, cache: &KeyCache) -> Option<Packet> {
+        let _ = cache;
+        self.read(object, attr)
+    }
+    /// The board handle of `object.attr`, if this environment has handles.
+    fn key(&self, object: &str, attr: &str, cache: &KeyCache) -> Option<Key> {
+        let _ = (object, attr, cache);
+        None
+    }
     /// Names of the instances of `class` and its subclasses.
     fn instances(&self, class: &str) -> Vec<Arc<str>>;
     /// Does an object or class of that name exist?
@@ -40,6 +53,46 @@ pub enum EvalError {
     /// The evaluation took more than [`MAX_OPS`] steps.
     #[error("evaluation stopped after {MAX_OPS} steps")]
     Limit,
+}
+
+/// The board handle a named attribute last resolved to, so that evaluations skip the name
+/// lookups. A stale handle (the object was deleted) fails its lookup and is resolved again.
+#[derive(Debug, Default)]
+pub struct KeyCache {
+    object: AtomicU64,
+    /// Attribute id + 1; 0 means empty.
+    attr: AtomicU32,
+}
+
+impl KeyCache {
+    /// The cached handle, if any.
+    pub fn get(&self) -> Option<Key> {
+        let attr = self.attr.load(Ordering::Relaxed).checked_sub(1)?;
+        let object = ObjectId::from_bits(self.object.load(Ordering::Relaxed));
+        Some(Key {
+            object,
+            attr: AttrId::from_bits(attr),
+        })
+    }
+
+    /// Remembers a handle.
+    pub fn set(&self, key: Key) {
+        self.object.store(key.object.to_bits(), Ordering::Relaxed);
+        self.attr
+            .store(key.attr.to_bits().saturating_add(1), Ordering::Relaxed);
+    }
+}
+
+impl Clone for KeyCache {
+    fn clone(&self) -> Self {
+        KeyCache::default()
+    }
+}
+
+impl PartialEq for KeyCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 /// Packet fields an expression can read.
@@ -122,11 +175,14 @@ pub(crate) struct Quant {
     pub order: Option<(Node, bool)>,
 }
 
+/// An attribute read: whose, which, which packet field, and the cached handle.
+pub(crate) type AttrNode = (Obj, Arc<str>, Field, KeyCache);
+
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Node {
     Const(Value),
-    Attr(Box<(Obj, Arc<str>, Field)>),
+    Attr(Box<(Obj, Arc<str>, Field, KeyCache)>),
     /// The object itself, as a reference value.
     Token(Obj),
     Vector(Vec<Node>),
@@ -193,10 +249,18 @@ impl<'a> Ctx<'a> {
     pub fn new(env: &'a dyn Env, slots: usize, baseline: &'a [Option<Value>]) -> Self {
         Ctx {
             env,
-            frame: vec![None; slots],
+            frame: if slots == 0 {
+                Vec::new()
+            } else {
+                vec![None; slots]
+            },
             this: None,
             baseline,
-            seen: vec![None; baseline.len()],
+            seen: if baseline.is_empty() {
+                Vec::new()
+            } else {
+                vec![None; baseline.len()]
+            },
             deadline: None,
             unanchored_time: false,
             newest: 0.0,
@@ -236,7 +300,7 @@ impl Node {
         cx.step()?;
         match self {
             Node::Const(v) => Ok(v.clone()),
-            Node::Attr(a) => Ok(read_field(cx, &a.0, &a.1, a.2)?.unwrap_or(Value::None)),
+            Node::Attr(a) => Ok(read_field(cx, a)?.unwrap_or(Value::None)),
             Node::Token(obj) => Ok(object_name(cx, obj)?.map_or(Value::None, Value::Ref)),
             Node::Vector(items) => vector(cx, items),
             Node::Not(n) => Ok(match n.eval(cx)? {
@@ -277,28 +341,24 @@ pub(crate) fn object_name(cx: &mut Ctx<'_>, obj: &Obj) -> Result<Option<Arc<str>
 }
 
 /// Reads an attribute's packet (`None` if unknown or unbound).
-pub(crate) fn read_packet(
-    cx: &mut Ctx<'_>,
-    obj: &Obj,
-    attr: &str,
-) -> Result<Option<Packet>, EvalError> {
-    let Some(name) = object_name(cx, obj)? else {
-        return Ok(None);
+pub(crate) fn read_packet(cx: &mut Ctx<'_>, a: &AttrNode) -> Result<Option<Packet>, EvalError> {
+    let (obj, attr, _, cache) = a;
+    let packet = match obj {
+        Obj::Named(name) => cx.env.read_cached(name, attr, cache),
+        _ => match object_name(cx, obj)? {
+            Some(name) => cx.env.read(&name, attr),
+            None => return Ok(None),
+        },
     };
-    let packet = cx.env.read(&name, attr);
     if let Some(p) = &packet {
         cx.newest = cx.newest.max(p.timestamp.as_secs_f64());
     }
     Ok(packet)
 }
 
-fn read_field(
-    cx: &mut Ctx<'_>,
-    obj: &Obj,
-    attr: &str,
-    field: Field,
-) -> Result<Option<Value>, EvalError> {
-    Ok(read_packet(cx, obj, attr)?.map(|p| match field {
+fn read_field(cx: &mut Ctx<'_>, a: &AttrNode) -> Result<Option<Value>, EvalError> {
+    let field = a.2;
+    Ok(read_packet(cx, a)?.map(|p| match field {
         Field::Value => p.value,
         Field::Accuracy => Value::Real(p.accuracy),
         Field::Confidence => Value::Real(p.confidence),
@@ -427,7 +487,7 @@ fn time_base(cx: &mut Ctx<'_>, node: &Node) -> Result<Option<f64>, EvalError> {
     Ok(match node {
         Node::Call(Builtin::Now, _) => Some(0.0),
         Node::Call(Builtin::Age, args) => match args.first() {
-            Some(Node::Attr(a)) => read_packet(cx, &a.0, &a.1)?.map(|p| p.timestamp.as_secs_f64()),
+            Some(Node::Attr(a)) => read_packet(cx, a)?.map(|p| p.timestamp.as_secs_f64()),
             _ => None,
         },
         _ => None,
@@ -469,7 +529,7 @@ fn age(cx: &mut Ctx<'_>, args: &[Node]) -> Result<Value, EvalError> {
     let Some(Node::Attr(a)) = args.first() else {
         return Ok(Value::None);
     };
-    let Some(p) = read_packet(cx, &a.0, &a.1)? else {
+    let Some(p) = read_packet(cx, a)? else {
         return Ok(Value::None);
     };
     if p.timestamp == slate_model::Timestamp::ZERO {

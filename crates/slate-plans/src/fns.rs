@@ -96,7 +96,7 @@ impl ActiveFn for Rule {
             effects(&self.acts, &mut cx).map_err(|e| FnError::Message(e.to_string()))?
         };
         for e in &planned {
-            if let Effect::Write(o, a, u) = e {
+            if let Effect::Write(o, a, u, _) = e {
                 call.write(o, a, u.clone())?;
             }
         }

@@ -55,6 +55,11 @@ impl<'b> Snapshot<'b> {
         super::instances(&self.inner.state, query)
     }
 
+    /// Resolves `object.attr` as [`Board::key`] does.
+    pub fn key(&self, object: &str, attr: &str) -> Result<Key, LookupError> {
+        Ok(self.inner.state.key(object, attr)?)
+    }
+
     /// The handle of an object or class by name.
     pub fn id_of(&self, name: &str) -> Option<ObjectId> {
         self.inner.state.id(name)

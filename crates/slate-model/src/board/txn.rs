@@ -6,6 +6,8 @@ use std::sync::Arc;
 use super::hook::{ChangeHook, TouchKind, Touched};
 use super::state::{Entity, State, Stored};
 use super::watch::{Change, ChangeItem, Watcher};
+use smallvec::SmallVec;
+
 use crate::active::FnRef;
 use crate::{
     Address, AttrId, Clock, Context, CreateError, DeleteError, Key, ObjectId, Packet, Timestamp,
@@ -30,7 +32,7 @@ impl Inner {
 pub(crate) struct Committed {
     pub revision: u64,
     pub fired: Vec<Fired>,
-    pub touched: Vec<Touched>,
+    pub touched: SmallVec<[Touched; 4]>,
     pub hooks: Option<Arc<[Arc<dyn ChangeHook>]>>,
 }
 
@@ -59,7 +61,7 @@ pub(crate) struct Txn<'s> {
     undo: Option<Vec<Undo>>,
     notes: Vec<Vec<ChangeItem>>,
     fired: Vec<Fired>,
-    touched: Vec<Touched>,
+    touched: SmallVec<[Touched; 4]>,
 }
 
 impl<'s> Txn<'s> {
@@ -77,7 +79,7 @@ impl<'s> Txn<'s> {
             undo: (ops > 1).then(|| Vec::with_capacity(ops)),
             notes: Vec::new(),
             fired: Vec::new(),
-            touched: Vec::new(),
+            touched: SmallVec::new(),
         }
     }
 
