@@ -1,0 +1,350 @@
+//! The conformance suite every [`Transport`] must pass.
+//!
+//! An implementation provides a [`TransportFactory`] (a fresh network per test) and
+//! instantiates the suite in its tests with [`transport_conformance!`](crate::transport_conformance),
+//! one `#[test]` per case, or calls [`run_all`]. The simulator's instantiation is in this
+//! crate's `tests/ici/conformance.rs`; a Zenoh transport does the same:
+//!
+//! ```ignore
+//! mod conformance {
+//!     slate_ici::transport_conformance!(my_transport::Factory::new());
+//! }
+//! ```
+//!
+//! Addresses used: `conf/r1/a`, `conf/r1/b` (one robot) and `conf/r2/c` (another).
+
+use std::sync::Arc;
+
+use parking_lot::Mutex;
+use slate_model::Address;
+
+use crate::{Handler, LinkKind, MsgKind, SendError, Transport};
+
+/// Makes endpoints on one fresh network and lets it run.
+pub trait TransportFactory {
+    /// The transport under test.
+    type Transport: Transport + 'static;
+
+    /// A new endpoint at `address`.
+    fn join(&mut self, address: &Address) -> Arc<Self::Transport>;
+
+    /// Lets the network run until `done()` holds or the factory's bound passes (virtual
+    /// time for a simulator, a few seconds of wall time for a real network); returns
+    /// whether `done()` held.
+    fn run_until(&mut self, done: &mut dyn FnMut() -> bool) -> bool;
+
+    /// Lets whatever is in flight arrive (a short, bounded while).
+    fn settle(&mut self);
+}
+
+/// A handler that records everything, for the suite's assertions.
+#[derive(Default)]
+pub struct Inbox {
+    messages: Mutex<Vec<(Address, Vec<u8>)>>,
+    peers: Mutex<Vec<(Address, bool)>>,
+}
+
+impl Inbox {
+    /// The messages received so far, in order.
+    pub fn messages(&self) -> Vec<(Address, Vec<u8>)> {
+        self.messages.lock().clone()
+    }
+
+    /// The peer events received so far, in order.
+    pub fn peer_events(&self) -> Vec<(Address, bool)> {
+        self.peers.lock().clone()
+    }
+
+    /// How many messages arrived.
+    pub fn len(&self) -> usize {
+        self.messages.lock().len()
+    }
+
+    /// Has nothing arrived?
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl Handler for Inbox {
+    fn message(&self, from: &Address, payload: &[u8]) {
+        self.messages.lock().push((from.clone(), payload.to_vec()));
+    }
+
+    fn peer(&self, peer: &Address, up: bool) {
+        self.peers.lock().push((peer.clone(), up));
+    }
+}
+
+/// Three endpoints: `a` and `b` on robot r1, `c` on robot r2, each with an [`Inbox`].
+pub struct Trio<T> {
+    /// `conf/r1/a`.
+    pub a: Arc<T>,
+    /// `conf/r1/b`.
+    pub b: Arc<T>,
+    /// `conf/r2/c`.
+    pub c: Arc<T>,
+    /// What `a`, `b`, `c` received.
+    pub inboxes: [Arc<Inbox>; 3],
+}
+
+fn address(text: &str) -> Address {
+    Address::new(text).unwrap_or_else(|e| panic!("{text}: {e}"))
+}
+
+fn endpoint<F: TransportFactory>(f: &mut F, text: &str) -> (Arc<F::Transport>, Arc<Inbox>) {
+    let t = f.join(&address(text));
+    let inbox = Arc::new(Inbox::default());
+    t.set_handler(inbox.clone());
+    (t, inbox)
+}
+
+/// Joins the three endpoints and waits until each sees the two others.
+pub fn trio<F: TransportFactory>(f: &mut F) -> Trio<F::Transport> {
+    let (a, ia) = endpoint(f, "conf/r1/a");
+    let (b, ib) = endpoint(f, "conf/r1/b");
+    let (c, ic) = endpoint(f, "conf/r2/c");
+    let all = [a.clone(), b.clone(), c.clone()];
+    let up = f.run_until(&mut || all.iter().all(|t| t.peers().len() == 2));
+    assert!(up, "the three endpoints never saw each other");
+    Trio {
+        a,
+        b,
+        c,
+        inboxes: [ia, ib, ic],
+    }
+}
+
+/// Every endpoint hears the others come up, through `peers()` and its handler.
+pub fn peers_come_up<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    let mut seen: Vec<Address> = t.a.peers();
+    seen.sort();
+    assert_eq!(seen, vec![address("conf/r1/b"), address("conf/r2/c")]);
+    for inbox in &t.inboxes {
+        let ups = inbox.peer_events().iter().filter(|(_, up)| *up).count();
+        assert!(ups >= 2, "{:?}", inbox.peer_events());
+    }
+}
+
+/// A publish on the robot link reaches the robot's other modules, not other robots,
+/// not the sender.
+pub fn publish_on_the_robot_link_stays_on_the_robot<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    t.a.publish(LinkKind::Robot, MsgKind::Report, b"robot")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(f.run_until(&mut || t.inboxes[1].len() == 1));
+    f.settle();
+    assert_eq!(
+        t.inboxes[1].messages(),
+        vec![(address("conf/r1/a"), b"robot".to_vec())]
+    );
+    assert!(t.inboxes[0].is_empty(), "no echo to the sender");
+    assert!(
+        t.inboxes[2].is_empty(),
+        "another robot got a robot-link publish"
+    );
+}
+
+/// A publish on the team link reaches the other robots' modules only.
+pub fn publish_on_the_team_link_reaches_other_robots<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    t.a.publish(LinkKind::Team, MsgKind::Heartbeat, b"team")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(f.run_until(&mut || t.inboxes[2].len() == 1));
+    f.settle();
+    assert_eq!(
+        t.inboxes[2].messages(),
+        vec![(address("conf/r1/a"), b"team".to_vec())]
+    );
+    assert!(t.inboxes[0].is_empty() && t.inboxes[1].is_empty());
+}
+
+/// A send reaches its addressee only, which learns who sent it.
+pub fn send_reaches_only_the_addressee<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    t.c.send(t.b.address(), MsgKind::Plan, b"to b")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(f.run_until(&mut || t.inboxes[1].len() == 1));
+    f.settle();
+    assert_eq!(
+        t.inboxes[1].messages(),
+        vec![(address("conf/r2/c"), b"to b".to_vec())]
+    );
+    assert!(t.inboxes[0].is_empty() && t.inboxes[2].is_empty());
+}
+
+/// Sends to one peer arrive once each, in order.
+pub fn sends_arrive_once_and_in_order<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    let n: u32 = 200;
+    for i in 0..n {
+        t.a.send(t.c.address(), MsgKind::PlanAck, &i.to_be_bytes())
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    assert!(f.run_until(&mut || t.inboxes[2].len() >= n as usize));
+    f.settle();
+    let got: Vec<u32> = t.inboxes[2]
+        .messages()
+        .iter()
+        .map(|(_, p)| u32::from_be_bytes(p[..4].try_into().unwrap_or_default()))
+        .collect();
+    assert_eq!(got, (0..n).collect::<Vec<_>>());
+}
+
+/// Payloads arrive byte for byte up to the wire format's limit; larger ones are refused.
+pub fn payloads_arrive_intact_up_to_the_limit<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    let sizes = [1usize, 1000, slate_wire::MAX_MESSAGE_BYTES];
+    let payloads: Vec<Vec<u8>> = sizes
+        .iter()
+        .map(|n| (0..*n).map(|i| (i * 7 % 251) as u8).collect())
+        .collect();
+    for p in &payloads {
+        t.a.send(t.b.address(), MsgKind::CatchUpAnswer, p)
+            .unwrap_or_else(|e| panic!("{e}"));
+    }
+    assert!(f.run_until(&mut || t.inboxes[1].len() == payloads.len()));
+    let got: Vec<Vec<u8>> = t.inboxes[1]
+        .messages()
+        .into_iter()
+        .map(|(_, p)| p)
+        .collect();
+    assert_eq!(got, payloads);
+    let big = vec![0u8; slate_wire::MAX_MESSAGE_BYTES + 1];
+    assert!(matches!(
+        t.a.send(t.b.address(), MsgKind::CatchUpAnswer, &big),
+        Err(SendError::TooLarge { .. })
+    ));
+}
+
+/// A closed endpoint goes down for its peers, cannot send, and receives nothing more.
+pub fn a_closed_endpoint_goes_down_and_goes_quiet<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    t.c.close();
+    let c = address("conf/r2/c");
+    assert!(f.run_until(&mut || !t.a.peers().contains(&c) && !t.b.peers().contains(&c)));
+    assert!(t.inboxes[0].peer_events().contains(&(c.clone(), false)));
+    assert_eq!(
+        t.c.send(t.a.address(), MsgKind::Plan, b"x"),
+        Err(SendError::Closed)
+    );
+    t.a.publish(LinkKind::Team, MsgKind::Heartbeat, b"x")
+        .unwrap_or_else(|e| panic!("{e}"));
+    t.a.send(&c, MsgKind::Plan, b"x")
+        .unwrap_or_else(|e| panic!("{e}"));
+    f.settle();
+    assert!(t.inboxes[2].is_empty());
+}
+
+/// Stats count messages and bytes by link kind and message kind, both ways.
+pub fn stats_count_traffic_by_link_and_kind<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    let (s0a, s0c) = (t.a.stats(), t.c.stats());
+    t.a.publish(LinkKind::Team, MsgKind::Report, &[1; 10])
+        .unwrap_or_else(|e| panic!("{e}"));
+    t.a.send(t.c.address(), MsgKind::Plan, &[2; 20])
+        .unwrap_or_else(|e| panic!("{e}"));
+    t.a.send(t.b.address(), MsgKind::Plan, &[3; 30])
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(f.run_until(&mut || t.inboxes[2].len() == 2 && t.inboxes[1].len() == 1));
+    let (sa, sc) = (t.a.stats(), t.c.stats());
+    let diff = |a: u64, b: u64| a - b;
+    let team_report = sa.get(LinkKind::Team, MsgKind::Report);
+    let base = s0a.get(LinkKind::Team, MsgKind::Report);
+    assert_eq!(diff(team_report.sent_msgs, base.sent_msgs), 1);
+    assert_eq!(diff(team_report.sent_bytes, base.sent_bytes), 10);
+    let plan_team = sa.get(LinkKind::Team, MsgKind::Plan);
+    assert_eq!(
+        diff(
+            plan_team.sent_bytes,
+            s0a.get(LinkKind::Team, MsgKind::Plan).sent_bytes
+        ),
+        20
+    );
+    let plan_robot = sa.get(LinkKind::Robot, MsgKind::Plan);
+    assert_eq!(
+        diff(
+            plan_robot.sent_bytes,
+            s0a.get(LinkKind::Robot, MsgKind::Plan).sent_bytes
+        ),
+        30
+    );
+    let got = sc.link(LinkKind::Team);
+    let before = s0c.link(LinkKind::Team);
+    assert_eq!(diff(got.recv_msgs, before.recv_msgs), 2);
+    assert_eq!(diff(got.recv_bytes, before.recv_bytes), 30);
+}
+
+/// One case of the suite: its name and the test.
+pub type Case<F> = (&'static str, fn(&mut F));
+
+/// Every case of the suite, by name.
+pub fn cases<F: TransportFactory>() -> Vec<Case<F>> {
+    vec![
+        ("peers_come_up", peers_come_up::<F>),
+        (
+            "publish_on_the_robot_link_stays_on_the_robot",
+            publish_on_the_robot_link_stays_on_the_robot::<F>,
+        ),
+        (
+            "publish_on_the_team_link_reaches_other_robots",
+            publish_on_the_team_link_reaches_other_robots::<F>,
+        ),
+        (
+            "send_reaches_only_the_addressee",
+            send_reaches_only_the_addressee::<F>,
+        ),
+        (
+            "sends_arrive_once_and_in_order",
+            sends_arrive_once_and_in_order::<F>,
+        ),
+        (
+            "payloads_arrive_intact_up_to_the_limit",
+            payloads_arrive_intact_up_to_the_limit::<F>,
+        ),
+        (
+            "a_closed_endpoint_goes_down_and_goes_quiet",
+            a_closed_endpoint_goes_down_and_goes_quiet::<F>,
+        ),
+        (
+            "stats_count_traffic_by_link_and_kind",
+            stats_count_traffic_by_link_and_kind::<F>,
+        ),
+    ]
+}
+
+/// Runs every case, each on a fresh network from `new`.
+pub fn run_all<F: TransportFactory>(mut new: impl FnMut() -> F) {
+    for (name, case) in cases::<F>() {
+        tracing::info!(case = name, "transport conformance");
+        case(&mut new());
+    }
+}
+
+/// Instantiates the conformance suite: one `#[test]` per case, each on a fresh network
+/// made by evaluating `$factory`.
+#[macro_export]
+macro_rules! transport_conformance {
+    ($factory:expr) => {
+        $crate::transport_conformance!(@cases $factory;
+            peers_come_up,
+            publish_on_the_robot_link_stays_on_the_robot,
+            publish_on_the_team_link_reaches_other_robots,
+            send_reaches_only_the_addressee,
+            sends_arrive_once_and_in_order,
+            payloads_arrive_intact_up_to_the_limit,
+            a_closed_endpoint_goes_down_and_goes_quiet,
+            stats_count_traffic_by_link_and_kind
+        );
+    };
+    (@cases $factory:expr; $($case:ident),*) => {
+        $(
+            #[test]
+            fn $case() {
+                let mut factory = $factory;
+                $crate::conformance::$case(&mut factory);
+            }
+        )*
+    };
+}

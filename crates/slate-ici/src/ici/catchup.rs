@@ -1,0 +1,345 @@
+//! Catch-up: a receiver that lost track of a source (a gap, a late join, a restart, a
+//! missed name or class) asks for the source's *current* state, not its history. The
+//! answer is the packets the source wrote and those of the objects it owns (and every
+//! fused estimate it holds), filtered by the receiver's interest and, off the robot,
+//! by the export policy; then the list of the objects it owns, so the receiver can
+//! create the ones it lacks and delete the ones that are gone.
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+
+use slate_model::{Address, ClassDef, ObjectInfo, Packet, Query, THING};
+use slate_wire::{Assertion, CatchUpRequest, Message, ObjectEntry, Report};
+
+use super::classes::ClassSet;
+use super::frame::{Frame, Listed, ObjectList};
+use super::module::MODULE_CLASS;
+use super::state::{Origin, Request, State};
+use crate::{LinkKind, MsgKind};
+
+/// Class definitions per `Classes` message.
+const CLASSES_PER_MESSAGE: usize = 32;
+
+impl State {
+    /// Asks `source` for its current state, unless a request that covers this is out.
+    pub fn request_catch_up(&mut self, source: &Address, names: bool, classes: bool) {
+        let now = self.now;
+        let p = self.peer(source);
+        let prev = p.catch_up;
+        if prev.is_some_and(|r| (r.names || !names) && (r.classes || !classes)) {
+            return;
+        }
+        let req = Request {
+            since: now,
+            names: names || prev.is_some_and(|r| r.names),
+            classes: classes || prev.is_some_and(|r| r.classes),
+        };
+        p.catch_up = Some(req);
+        self.stats.catch_up.requested += 1;
+        self.send_request(source, req);
+    }
+
+    /// Sends (or re-sends) a request.
+    pub fn send_request(&mut self, source: &Address, req: Request) {
+        let have = self.peers.get(source).map_or(0, |p| p.stream.have());
+        let msg = Message::CatchUpRequest(CatchUpRequest {
+            have_seq: have,
+            needs_names: req.names || !self.decoder.knows(source),
+            needs_classes: req.classes,
+        });
+        self.send_message(source, &msg);
+    }
+
+    /// Encodes a message with the stream encoder of `to`'s link and sends it reliably.
+    fn send_message(&mut self, to: &Address, msg: &Message) -> bool {
+        let link = LinkKind::between(&self.me, to);
+        let Some(out) = self.out.get_mut(&link) else {
+            return false;
+        };
+        match out.encoder.encode(msg, &self.catalog.schema) {
+            Ok(bytes) => {
+                self.send_to(to, MsgKind::of_message(msg), &bytes);
+                true
+            }
+            Err(e) => {
+                self.stats.reports.encode_errors += 1;
+                tracing::warn!(to = %to, error = %e, "message not encoded");
+                false
+            }
+        }
+    }
+
+    // ----- the source's side -----
+
+    /// Answers a request with the current state.
+    pub fn on_request(&mut self, from: &Address, req: CatchUpRequest) {
+        self.stats.catch_up.answered += 1;
+        self.refresh_catalog();
+        let link = LinkKind::between(&self.me, from);
+        if req.needs_names
+            && let Some(out) = self.out.get_mut(&link)
+        {
+            out.encoder.reset_announcements();
+        }
+        if req.needs_classes {
+            self.send_classes(from);
+        }
+        let seq = self.out.get(&link).map_or(0, |o| o.seq);
+        let (items, objects) = self.current_state(from, link);
+        for chunk in items.chunks(self.config.max_report_items.max(1)) {
+            self.send_answer(from, seq, chunk);
+        }
+        self.send_object_list(from, seq, objects);
+    }
+
+    fn send_classes(&mut self, to: &Address) {
+        let defs: Vec<ClassDef> = self
+            .board
+            .class_defs()
+            .into_iter()
+            .filter(|d| d.name != MODULE_CLASS)
+            .collect();
+        for chunk in defs.chunks(CLASSES_PER_MESSAGE) {
+            if self.send_message(to, &Message::Classes(chunk.to_vec())) {
+                self.stats.catch_up.classes_sent += chunk.len() as u64;
+            }
+        }
+    }
+
+    /// One part of an answer; a part that does not encode is split until the faulty
+    /// packet is isolated and dropped.
+    fn send_answer(&mut self, to: &Address, seq: u64, items: &[Assertion]) {
+        let msg = Message::CatchUpAnswer(Report {
+            seq,
+            items: items.to_vec(),
+        });
+        let link = LinkKind::between(&self.me, to);
+        let Some(out) = self.out.get_mut(&link) else {
+            return;
+        };
+        match out.encoder.encode(&msg, &self.catalog.schema) {
+            Ok(bytes) => self.send_to(to, MsgKind::CatchUpAnswer, &bytes),
+            Err(_) if items.len() > 1 => {
+                let (a, b) = items.split_at(items.len() / 2);
+                self.send_answer(to, seq, a);
+                self.send_answer(to, seq, b);
+            }
+            Err(e) => {
+                self.stats.reports.encode_errors += 1;
+                tracing::warn!(object = %items[0].object.name, error = %e, "packet left out of a catch-up");
+            }
+        }
+    }
+
+    /// What `to` is to hold of this board: packets, and the objects this board owns.
+    fn current_state(&self, to: &Address, link: LinkKind) -> (Vec<Assertion>, Vec<Listed>) {
+        let interest = self.peers.get(to).and_then(|p| p.interest.clone());
+        let interest = interest.unwrap_or_else(ClassSet::all);
+        let (mut items, mut objects) = (Vec::new(), Vec::new());
+        let snap = self.board.snapshot();
+        for id in snap.objects() {
+            let Some(info) = snap.info(id) else { continue };
+            let entry = ObjectEntry::from(&info);
+            if &*entry.class == MODULE_CLASS
+                || !self.answer_wants(&interest, link, &info, &entry, to)
+            {
+                continue;
+            }
+            let owned = !info.is_class && info.owner == self.me;
+            if owned {
+                objects.push(self.listing(&info));
+            }
+            let values = snap.own_values(id).into_iter().map(|(a, p, _)| (a, p));
+            for (attr, packet) in values.filter(|(_, p)| self.relays(&info, owned, p)) {
+                items.push(Assertion {
+                    object: entry.clone(),
+                    attr,
+                    packet,
+                });
+            }
+            for (attr, packet) in self.fusion.estimates(&info.name) {
+                items.push(Assertion {
+                    object: entry.clone(),
+                    attr,
+                    packet,
+                });
+            }
+        }
+        (items, objects)
+    }
+
+    /// Does a catch-up answer carry this packet? This module's own, all packets of
+    /// the objects it owns, and (having no owner to relay them) class-level values and
+    /// what a restarted module's previous incarnation wrote. Never the fusion of a
+    /// `fused` attribute (its source is unknown): the estimates go instead.
+    fn relays(&self, info: &ObjectInfo, owned: bool, packet: &Packet) -> bool {
+        let ours = packet.source == self.me || owned || info.is_class || self.orphan(packet);
+        ours && !packet.source.is_unknown()
+    }
+
+    fn listing(&self, info: &ObjectInfo) -> Listed {
+        Listed {
+            name: info.name.clone(),
+            class: info.class.clone(),
+            fingerprint: self.catalog.schema.fingerprint(&info.class).unwrap_or(0),
+            context: info.context,
+        }
+    }
+
+    fn answer_wants(
+        &self,
+        interest: &ClassSet,
+        link: LinkKind,
+        info: &ObjectInfo,
+        entry: &ObjectEntry,
+        to: &Address,
+    ) -> bool {
+        let Some(lineage) = self.catalog.lineage(&entry.class) else {
+            return false;
+        };
+        let export = &self.config.export;
+        let team = link == LinkKind::Team;
+        if info.is_class {
+            return interest.relates_to_class(&lineage, &self.catalog)
+                && (!team || export.relates_to_class(&lineage, &self.catalog));
+        }
+        let context = State::context_on(info.context, &info.owner, to);
+        interest.contains(&lineage, context) && (!team || export.contains(&lineage, info.context))
+    }
+
+    /// Was the packet written by a previous incarnation of a module that restarted?
+    pub fn orphan(&self, packet: &Packet) -> bool {
+        self.before_incarnation(&packet.source, packet.timestamp)
+    }
+
+    /// Re-publishes what a restarted module's previous incarnation wrote, as this board
+    /// holds it: the module itself no longer has it, and some boards may have missed it.
+    pub fn relay_orphans(&mut self, source: &Address) {
+        let mut found = Vec::new();
+        {
+            let snap = self.board.snapshot();
+            for id in snap.objects() {
+                let Some(name) = snap.name_of(id) else {
+                    continue;
+                };
+                for (attr, packet, _) in snap.own_values(id) {
+                    if packet.source == *source && self.orphan(&packet) {
+                        found.push((name.clone(), attr, packet));
+                    }
+                }
+                for (attr, packet) in self.fusion.estimates(&name) {
+                    if packet.source == *source && self.orphan(&packet) {
+                        found.push((name.clone(), attr, packet));
+                    }
+                }
+            }
+        }
+        let items = found
+            .into_iter()
+            .filter_map(|(o, a, p)| self.value_item(&o, &a, p))
+            .collect();
+        self.flush(items);
+    }
+
+    /// Ends the answer with the owned objects, cut to fit one message if need be.
+    fn send_object_list(&mut self, to: &Address, seq: u64, mut objects: Vec<Listed>) {
+        let stamp = self.board.clock().now();
+        let mut complete = objects.len() <= slate_wire::MAX_ITEMS;
+        objects.truncate(slate_wire::MAX_ITEMS);
+        loop {
+            let list = ObjectList {
+                seq,
+                stamp,
+                complete,
+                objects: objects.clone(),
+            };
+            let bytes = Frame::ObjectList(list).encode();
+            if bytes.len() <= slate_wire::MAX_MESSAGE_BYTES || objects.is_empty() {
+                self.send_to(to, MsgKind::ObjectList, &bytes);
+                return;
+            }
+            complete = false;
+            objects.truncate(objects.len() / 2);
+        }
+    }
+
+    // ----- the receiver's side -----
+
+    /// The end of an answer: complete the catch-up, create what is listed, sweep what
+    /// is not. If a part of the answer was refused, ask again instead.
+    pub fn on_object_list(&mut self, from: &Address, list: ObjectList) {
+        let now = self.now;
+        if self.before_incarnation(from, list.stamp) {
+            self.stats.rejects.stale += 1;
+            return;
+        }
+        let p = self.peer(from);
+        // Does this list answer the request outstanding (made before the list was)?
+        let pending = p.catch_up;
+        let current = pending.is_none_or(|r| list.stamp.physical() >= r.since);
+        if current {
+            p.catch_up = None;
+        }
+        if std::mem::take(&mut p.failed) {
+            if current {
+                let (names, classes) = pending.map_or((true, false), |r| (r.names, r.classes));
+                self.request_catch_up(from, names, classes);
+            }
+            return;
+        }
+        p.stream.caught_up(list.seq, now);
+        self.stats.catch_up.completed += 1;
+        for l in &list.objects {
+            self.listed(
+                from,
+                l,
+                Origin {
+                    seq: Some(list.seq),
+                    stamp: list.stamp,
+                },
+            );
+        }
+        if list.complete {
+            self.sweep(from, &list);
+        }
+    }
+
+    /// Deletes the objects `from` owns that this board models but the list does not
+    /// hold, unless this board heard of them after the list was made. An object heard
+    /// of from another module after the list was made is checked again with a new list.
+    fn sweep(&mut self, from: &Address, list: &ObjectList) {
+        let listed: BTreeSet<&str> = list.objects.iter().map(|l| &*l.name).collect();
+        let query = Query::class(THING).owner(from.clone());
+        let ids = self.board.query(&query).unwrap_or_default();
+        let names: Vec<Arc<str>> = ids
+            .into_iter()
+            .filter_map(|id| self.board.name_of(id))
+            .collect();
+        let mut recheck = false;
+        for name in names.into_iter().filter(|n| !listed.contains(&**n)) {
+            let origin = self.origins.get(&name).copied();
+            let newer = origin.is_some_and(|o| match o.seq {
+                Some(seq) => seq > list.seq,
+                None => o.stamp >= list.stamp,
+            });
+            recheck |= newer && origin.is_some_and(|o| o.seq.is_none());
+            if !newer && self.models(&name) {
+                self.remote_delete(from, name, list.stamp);
+            }
+        }
+        if recheck {
+            self.request_catch_up(from, false, false);
+        }
+    }
+
+    /// Does this board model the object it holds under `name`?
+    fn models(&mut self, name: &str) -> bool {
+        let Some(info) = self.board.info(name) else {
+            return false;
+        };
+        let Some(lineage) = self.lineage(&info.class) else {
+            return false;
+        };
+        self.config.interest.contains(&lineage, info.context)
+    }
+}

@@ -1,0 +1,375 @@
+//! The ICI: one board, one transport, and the protocol between them.
+
+mod catchup;
+mod classes;
+mod config;
+mod filter;
+mod frame;
+mod fuse;
+mod module;
+mod ops;
+mod recv;
+mod send;
+mod state;
+mod stats;
+mod stream;
+mod tick;
+
+use std::collections::VecDeque;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Weak};
+use std::time::Duration;
+
+use parking_lot::{Mutex, RwLock};
+use slate_model::{Address, Board, ClockListener, DefineError, Filter, LookupError, Touched};
+use slate_wire::{EncodeError, Encoder, Message, Schema};
+
+pub use classes::ClassSet;
+pub use config::{IciConfig, Liveliness};
+pub use module::{MODULE_CLASS, module_class, module_object_name};
+use ops::BoardOp;
+use state::State;
+pub use stats::{CatchUpStats, IciStats, LivelinessStats, MergeStats, RejectStats, ReportStats};
+
+use crate::{LinkKind, MsgKind, SendError, Transport};
+
+/// Where plans meet the ICI: the plan engine installs one with
+/// [`Ici::set_plan_handler`] to receive the `Plan`, `PlanAck` and `PlanCancel` messages
+/// that reach this module, and to hear modules die (so it can ack `DestinationLost`).
+/// It sends with [`Ici::send_raw`]. Calls come from the ICI's callers' threads (the
+/// transport's, or the simulator's step loop), with no ICI lock held.
+pub trait PlanHandler: Send + Sync {
+    /// A plan message arrived.
+    fn message(&self, from: &Address, msg: Message);
+
+    /// A module became alive (again) or died, as this ICI judges it.
+    fn peer(&self, peer: &Address, alive: bool) {
+        let _ = (peer, alive);
+    }
+}
+
+/// A channel is a plan handler: it receives the plan messages (peer news is dropped).
+impl PlanHandler for crossbeam_channel::Sender<(Address, Message)> {
+    fn message(&self, from: &Address, msg: Message) {
+        let _ = self.send((from.clone(), msg));
+    }
+}
+
+/// What the plan handler is told.
+pub(crate) enum PlanEvent {
+    Message(Address, Message),
+    Peer(Address, bool),
+}
+
+/// Why an ICI could not start.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum StartError {
+    /// The board and the transport must be the same module.
+    #[error("the board is {board} but the transport is {transport}")]
+    AddressMismatch {
+        /// The board's address.
+        board: Address,
+        /// The transport's address.
+        transport: Address,
+    },
+    /// The board has a `Module` class that differs from the ICI's.
+    #[error("cannot define the Module class: {0}")]
+    Define(#[from] DefineError),
+    /// The board refused a watch.
+    #[error("cannot watch the board: {0}")]
+    Watch(#[from] LookupError),
+}
+
+/// Why [`Ici::send_raw`] failed.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum SendRawError {
+    /// Only plans, acks and cancels go raw; reports go through the board.
+    #[error("send_raw carries plans, acks and cancels, not {0} messages")]
+    NotAPlanMessage(MsgKind),
+    /// The message did not encode.
+    #[error("cannot encode: {0}")]
+    Encode(#[from] EncodeError),
+    /// The transport refused it.
+    #[error("cannot send: {0}")]
+    Send(#[from] SendError),
+}
+
+/// The Intelligent Communications Interface of one module: keeps its board consistent
+/// with the boards of the other modules it hears, over one [`Transport`].
+///
+/// It reports the packets its board writes (through each attribute's report policy,
+/// to the peers interested, within the export policy), merges what it receives through
+/// each attribute's merge policy, creates and deletes objects as their owners do,
+/// catches up with sources it lost track of, and turns liveliness into `Module`
+/// objects. The protocol is in `docs/ici.md`.
+///
+/// On a manual clock (the simulator) it runs its timers whenever the clock moves; on
+/// the system clock, call [`tick`](Ici::tick) every few tens of milliseconds.
+/// Dropping the last handle stops it.
+#[derive(Clone)]
+pub struct Ici {
+    shared: Arc<Shared>,
+}
+
+struct Shared {
+    board: Arc<Board>,
+    transport: Arc<dyn Transport>,
+    state: Mutex<State>,
+    /// The board committed changes not drained yet.
+    changes: AtomicBool,
+    /// Held while board ops are applied (one applier at a time, in queue order).
+    apply: Mutex<()>,
+    queue: Mutex<VecDeque<BoardOp>>,
+    plan_handler: RwLock<Option<Arc<dyn PlanHandler>>>,
+    ticker: Arc<Ticker>,
+}
+
+impl Ici {
+    /// Connects `board` to `transport` (both at the same address) and starts: defines
+    /// the `Module` class on the board, watches it, and greets the peers already up.
+    pub fn new(
+        board: Arc<Board>,
+        transport: Arc<dyn Transport>,
+        config: IciConfig,
+    ) -> Result<Ici, StartError> {
+        if board.address() != transport.address() {
+            return Err(StartError::AddressMismatch {
+                board: board.address().clone(),
+                transport: transport.address().clone(),
+            });
+        }
+        board.define(module_class())?;
+        let watch = board.watch(Filter::all())?;
+        let state = State::new(board.clone(), transport.clone(), config, watch);
+        let shared = Arc::new_cyclic(|me: &Weak<Shared>| Shared {
+            board: board.clone(),
+            transport: transport.clone(),
+            state: Mutex::new(state),
+            changes: AtomicBool::new(false),
+            apply: Mutex::new(()),
+            queue: Mutex::new(VecDeque::new()),
+            plan_handler: RwLock::new(None),
+            ticker: Arc::new(Ticker(me.clone())),
+        });
+        shared.with_state(State::adopt_own_objects);
+        shared.connect();
+        for peer in transport.peers() {
+            shared.with_state(|st| st.on_peer(&peer, true));
+        }
+        Ok(Ici { shared })
+    }
+
+    /// The module's address.
+    pub fn address(&self) -> &Address {
+        self.shared.transport.address()
+    }
+
+    /// The board.
+    pub fn board(&self) -> &Arc<Board> {
+        &self.shared.board
+    }
+
+    /// Runs the timers due now (heartbeats, trailing edges, timeouts, retries).
+    pub fn tick(&self) {
+        self.shared.with_state(State::tick);
+    }
+
+    /// Counters so far.
+    pub fn stats(&self) -> IciStats {
+        let st = self.shared.state.lock();
+        let mut stats = st.stats.clone();
+        stats.rejects.decode = st.decoder.stats();
+        stats
+    }
+
+    /// The modules this ICI currently holds alive.
+    pub fn alive_peers(&self) -> Vec<Address> {
+        let st = self.shared.state.lock();
+        st.peers
+            .iter()
+            .filter(|(_, p)| p.alive == Some(true))
+            .map(|(a, _)| a.clone())
+            .collect()
+    }
+
+    /// Changes what this board models: tells every peer, and catches up with each.
+    pub fn set_interest(&self, interest: ClassSet) {
+        self.shared.with_state(|st| {
+            st.config.interest = interest;
+            for link in LinkKind::ALL {
+                for peer in st.up_peers(link) {
+                    st.send_hello(&peer);
+                    st.request_catch_up(&peer, false, false);
+                }
+            }
+        });
+    }
+
+    /// Changes what may leave the robot on the team link, from now on.
+    pub fn set_export(&self, export: ClassSet) {
+        self.shared.with_state(|st| st.config.export = export);
+    }
+
+    /// Asks `source` for its current state now.
+    pub fn catch_up(&self, source: &Address) {
+        self.shared
+            .with_state(|st| st.request_catch_up(source, false, false));
+    }
+
+    /// Installs the handler of inbound plan messages (replacing any other).
+    pub fn set_plan_handler(&self, handler: Arc<dyn PlanHandler>) {
+        *self.shared.plan_handler.write() = Some(handler);
+    }
+
+    /// Sends a `Plan`, `PlanAck` or `PlanCancel` to one module, reliably. This is the
+    /// plan engine's way out; everything else goes through the board.
+    pub fn send_raw(&self, to: &Address, msg: &Message) -> Result<(), SendRawError> {
+        let kind = MsgKind::of_message(msg);
+        if !matches!(kind, MsgKind::Plan | MsgKind::PlanAck | MsgKind::PlanCancel) {
+            return Err(SendRawError::NotAPlanMessage(kind));
+        }
+        let bytes = Encoder::new(self.address().clone()).encode(msg, &Schema::default())?;
+        self.shared.transport.send(to, kind, &bytes)?;
+        let link = LinkKind::between(self.address(), to);
+        self.shared.state.lock().stats.sent(link, kind, bytes.len());
+        Ok(())
+    }
+}
+
+impl Shared {
+    /// Hooks the ICI to the board (changes), the clock (ticks) and the transport.
+    fn connect(self: &Arc<Self>) {
+        let me = Arc::downgrade(self);
+        self.board.add_hook(Arc::new(Doorbell(me.clone())));
+        if self.board.clock().is_manual() {
+            let listener: Arc<dyn ClockListener> = self.ticker.clone();
+            self.board.clock().subscribe(Arc::downgrade(&listener));
+        }
+        self.transport.set_handler(Arc::new(Inbound(me)));
+    }
+
+    /// Runs `f` on the state, then applies the board ops it queued and hands out the
+    /// plan events, with the state lock released.
+    fn with_state<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
+        let (result, ops, plans) = {
+            let mut st = self.state.lock();
+            st.now = self.board.clock().physical();
+            let result = f(&mut st);
+            (
+                result,
+                std::mem::take(&mut st.ops),
+                std::mem::take(&mut st.plans),
+            )
+        };
+        self.after(ops, plans);
+        result
+    }
+
+    fn after(&self, ops: Vec<BoardOp>, plans: Vec<PlanEvent>) {
+        if !ops.is_empty() {
+            self.queue.lock().extend(ops);
+            self.run_queue();
+        }
+        self.deliver(plans);
+        self.pump();
+    }
+
+    /// The board committed something.
+    fn changed(&self) {
+        self.changes.store(true, Ordering::SeqCst);
+        self.pump();
+    }
+
+    /// Drains the board's changes, unless another caller holds the state: that caller
+    /// drains them when it lets go (it checks the flag after releasing the lock).
+    fn pump(&self) {
+        while self.changes.load(Ordering::SeqCst) {
+            let Some(mut st) = self.state.try_lock() else {
+                return;
+            };
+            self.changes.store(false, Ordering::SeqCst);
+            st.now = self.board.clock().physical();
+            st.drain_changes();
+            let (ops, plans) = (std::mem::take(&mut st.ops), std::mem::take(&mut st.plans));
+            drop(st);
+            self.queue.lock().extend(ops);
+            self.run_queue();
+            self.deliver(plans);
+        }
+    }
+
+    /// Applies queued board ops, unless another caller is applying: that caller takes
+    /// what is queued before it lets go.
+    fn run_queue(&self) {
+        loop {
+            let Some(guard) = self.apply.try_lock() else {
+                return;
+            };
+            loop {
+                let op = self.queue.lock().pop_front();
+                let Some(op) = op else { break };
+                ops::apply(&self.board, &self.state, op);
+            }
+            drop(guard);
+            if self.queue.lock().is_empty() {
+                return;
+            }
+        }
+    }
+
+    fn deliver(&self, events: Vec<PlanEvent>) {
+        if events.is_empty() {
+            return;
+        }
+        let Some(handler) = self.plan_handler.read().clone() else {
+            return;
+        };
+        for event in events {
+            match event {
+                PlanEvent::Message(from, msg) => handler.message(&from, msg),
+                PlanEvent::Peer(peer, alive) => handler.peer(&peer, alive),
+            }
+        }
+    }
+}
+
+/// The board's change hook: rings the ICI.
+struct Doorbell(Weak<Shared>);
+
+impl slate_model::ChangeHook for Doorbell {
+    fn changed(&self, _: &Board, _: u64, _: &[Touched]) {
+        if let Some(shared) = self.0.upgrade() {
+            shared.changed();
+        }
+    }
+}
+
+/// The manual clock's listener: runs the timers.
+struct Ticker(Weak<Shared>);
+
+impl ClockListener for Ticker {
+    fn advanced(&self, _: Duration) {
+        if let Some(shared) = self.0.upgrade() {
+            shared.with_state(State::tick);
+        }
+    }
+}
+
+/// The transport's handler.
+struct Inbound(Weak<Shared>);
+
+impl crate::Handler for Inbound {
+    fn message(&self, from: &Address, payload: &[u8]) {
+        if let Some(shared) = self.0.upgrade() {
+            shared.with_state(|st| st.on_message(from, payload));
+        }
+    }
+
+    fn peer(&self, peer: &Address, up: bool) {
+        if let Some(shared) = self.0.upgrade() {
+            shared.with_state(|st| st.on_peer(peer, up));
+        }
+    }
+}

@@ -1,0 +1,177 @@
+//! Board changes the ICI decided on, applied outside its state lock: a board's hooks
+//! run in the writing thread, and may call back into the ICI (or a plan engine may).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use parking_lot::Mutex;
+use slate_model::{
+    Address, Board, Context, CreateError, Merged, NewObject, Packet, Update, WriteError,
+};
+
+use super::filter::Key;
+use super::module::{MODULE_CLASS, module_object_name};
+use super::state::State;
+use crate::LinkKind;
+
+/// One board change.
+#[derive(Debug)]
+pub(crate) enum BoardOp {
+    /// Create the object unless it exists.
+    Ensure(NewObject),
+    /// Merge a received packet through the attribute's policy.
+    Merge {
+        object: Arc<str>,
+        attr: Arc<str>,
+        packet: Packet,
+    },
+    /// Write the current fusion of a `fused` attribute.
+    Fuse(Key),
+    /// Replace an own packet by its quantised form, if it is still the board's.
+    Normalise {
+        key: Key,
+        exact: Packet,
+        quantised: Packet,
+    },
+    /// Delete the object if `owner` owns it.
+    Delete { object: Arc<str>, owner: Address },
+    /// Update a peer's `Module` object.
+    Module {
+        peer: Address,
+        alive: bool,
+        last_seen: Duration,
+    },
+}
+
+/// Applies one change, counting the outcome in `state`'s stats.
+pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp) {
+    match op {
+        BoardOp::Ensure(spec) => ensure(board, state, spec),
+        BoardOp::Merge {
+            object,
+            attr,
+            packet,
+        } => merge(board, state, &object, &attr, packet),
+        BoardOp::Fuse(key) => fuse(board, state, &key),
+        BoardOp::Normalise {
+            key,
+            exact,
+            quantised,
+        } => normalise(board, state, &key, &exact, quantised),
+        BoardOp::Delete { object, owner } => delete(board, state, &object, &owner),
+        BoardOp::Module {
+            peer,
+            alive,
+            last_seen,
+        } => module(board, &peer, alive, last_seen),
+    }
+}
+
+fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
+    if board.info(&spec.name).is_some() {
+        return;
+    }
+    let name = spec.name.clone();
+    match board.create_with(spec) {
+        Ok(_) => state.lock().stats.merges.created += 1,
+        Err(CreateError::Exists(_)) => {}
+        Err(e) => {
+            state.lock().stats.rejects.invalid += 1;
+            tracing::debug!(object = %name, error = %e, "object not created");
+        }
+    }
+}
+
+fn merge(board: &Board, state: &Mutex<State>, object: &str, attr: &str, packet: Packet) {
+    let result = board.merge(object, attr, packet);
+    let mut st = state.lock();
+    let m = &mut st.stats.merges;
+    match result {
+        Ok(Merged::Applied(_)) => m.applied += 1,
+        Ok(Merged::Kept) => m.kept += 1,
+        Ok(Merged::NotOwner) => m.not_owner += 1,
+        Err(e) => {
+            st.stats.rejects.invalid += 1;
+            tracing::debug!(%object, %attr, error = %e, "packet refused");
+        }
+    }
+}
+
+/// Writes the fusion as it is now (not as it was when the op was queued), so the last
+/// fusion written is always the latest, whatever the order threads apply ops in.
+fn fuse(board: &Board, state: &Mutex<State>, key: &Key) {
+    let fused = {
+        let st = state.lock();
+        let class = board
+            .info(&key.0)
+            .map(|i| if i.is_class { i.name } else { i.class });
+        let bounds = class.and_then(|c| st.catalog.decl(&c, &key.1).and_then(|d| d.bounds));
+        st.fusion.result(key, bounds)
+    };
+    let Some(packet) = fused else { return };
+    if own_packet(board, key).as_ref() == Some(&packet) {
+        return;
+    }
+    if let Err(e) = board.write(&key.0, &key.1, Update::from(packet)) {
+        refused(state, &key.0, &key.1, &e);
+    }
+}
+
+/// Replaces the exact packet by the quantised one, unless the attribute was written
+/// again meanwhile (then the marker that silences the replacement is dropped).
+fn normalise(board: &Board, state: &Mutex<State>, key: &Key, exact: &Packet, quantised: Packet) {
+    if own_packet(board, key).as_ref() != Some(exact) {
+        let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
+        state.lock().normalising.remove(&marker);
+        return;
+    }
+    if let Err(e) = board.write(&key.0, &key.1, Update::from(quantised)) {
+        refused(state, &key.0, &key.1, &e);
+    }
+}
+
+/// The packet an object holds itself for an attribute (not inherited).
+pub(crate) fn own_packet(board: &Board, key: &Key) -> Option<Packet> {
+    let snap = board.snapshot();
+    let id = snap.id_of(&key.0)?;
+    snap.own_values(id)
+        .into_iter()
+        .find(|(a, _, _)| *a == key.1)
+        .map(|(_, p, _)| p)
+}
+
+fn refused(state: &Mutex<State>, object: &str, attr: &str, e: &WriteError) {
+    state.lock().stats.rejects.invalid += 1;
+    tracing::debug!(%object, %attr, error = %e, "write refused");
+}
+
+fn delete(board: &Board, state: &Mutex<State>, object: &str, owner: &Address) {
+    if board
+        .info(object)
+        .is_none_or(|i| i.is_class || i.owner != *owner)
+    {
+        return;
+    }
+    if board.delete(object).is_ok() {
+        state.lock().stats.merges.deleted += 1;
+    }
+}
+
+/// Creates (if need be) and writes a peer's `Module` object in one batch.
+fn module(board: &Board, peer: &Address, alive: bool, last_seen: Duration) {
+    let name = module_object_name(peer);
+    let context = match LinkKind::between(board.address(), peer) {
+        LinkKind::Robot => Context::Self_,
+        LinkKind::Team => Context::System,
+    };
+    let mut batch = board.batch();
+    if board.info(&name).is_none() {
+        batch.create_with(NewObject::new(MODULE_CLASS, &name).context(context));
+        batch.write(&name, "address", peer.as_str());
+    }
+    batch.write(&name, "alive", alive);
+    batch.write(&name, "last_seen", last_seen.as_secs_f64());
+    if let Err(e) = batch.commit() {
+        tracing::warn!(module = %peer, error = %e, "module object not written");
+    }
+}

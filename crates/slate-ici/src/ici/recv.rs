@@ -1,0 +1,414 @@
+//! Incoming: decode, check interest and tombstones, create objects on receipt, and
+//! queue merges (or fusion) for the board.
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+
+use slate_model::{
+    Address, ClassDef, Context, DefineError, MergePolicy, NewObject, Packet, Timestamp,
+};
+use slate_wire::{Assertion, DecodeError, Heartbeat, Message, ObjectEntry, Report};
+
+use super::frame::{Frame, Hello, Lifecycle, Listed};
+use super::module::MODULE_CLASS;
+use super::ops::BoardOp;
+use super::state::{Origin, State};
+use super::stream::Inbound;
+use crate::{LinkKind, MsgKind};
+
+impl State {
+    /// A message from `from`.
+    pub fn on_message(&mut self, from: &Address, bytes: &[u8]) {
+        let kind = MsgKind::of(bytes);
+        self.stats
+            .received(LinkKind::between(&self.me, from), kind, bytes.len());
+        if *from == self.me {
+            return;
+        }
+        self.heard(from);
+        match kind {
+            MsgKind::Hello | MsgKind::Lifecycle | MsgKind::ObjectList => self.on_frame(from, bytes),
+            _ => self.on_wire(from, kind, bytes),
+        }
+    }
+
+    /// Anything from a peer shows it alive.
+    fn heard(&mut self, from: &Address) {
+        let now = self.now;
+        let timeout = self.config.link(LinkKind::between(&self.me, from)).timeout;
+        let p = self.peer(from);
+        p.last_heard = now;
+        p.up = true;
+        let fresh = p.alive == Some(true) && now.saturating_sub(p.seen_written) < timeout / 2;
+        if fresh {
+            return;
+        }
+        if p.alive != Some(true) {
+            self.stats.liveliness.found += 1;
+            self.plans.push(super::PlanEvent::Peer(from.clone(), true));
+        }
+        self.set_alive(from, true);
+    }
+
+    /// Writes a peer's `Module` object.
+    pub fn set_alive(&mut self, peer: &Address, alive: bool) {
+        let now = self.now;
+        let p = self.peer(peer);
+        p.alive = Some(alive);
+        p.seen_written = now;
+        let last_seen = p.last_heard;
+        self.ops.push(BoardOp::Module {
+            peer: peer.clone(),
+            alive,
+            last_seen,
+        });
+    }
+
+    fn on_frame(&mut self, from: &Address, bytes: &[u8]) {
+        match Frame::decode(bytes) {
+            Ok(Frame::Hello(h)) => self.on_hello(from, h),
+            Ok(Frame::Lifecycle(l)) => self.on_lifecycle(from, l),
+            Ok(Frame::ObjectList(o)) => self.on_object_list(from, o),
+            Err(e) => {
+                self.stats.rejects.frames += 1;
+                tracing::debug!(from = %from, error = %e, "frame refused");
+            }
+        }
+    }
+
+    fn on_wire(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) {
+        let msg = match self.decode(from, bytes) {
+            Ok(msg) => msg,
+            Err(e) => return self.decode_failed(from, kind, &e),
+        };
+        match msg {
+            Message::Report(r) => self.on_report(from, r),
+            Message::CatchUpAnswer(r) => self.apply_items(from, r.items, None),
+            Message::Classes(defs) => self.on_classes(defs),
+            Message::CatchUpRequest(req) => self.on_request(from, req),
+            Message::Heartbeat(h) => self.on_heartbeat(from, h),
+            Message::Names(_) => {}
+            plan @ (Message::Plan(_) | Message::PlanAck(_) | Message::PlanCancel { .. }) => {
+                self.plans
+                    .push(super::PlanEvent::Message(from.clone(), plan));
+            }
+        }
+    }
+
+    /// Decodes against the catalog, refreshed once if the board has learned a class.
+    fn decode(&mut self, from: &Address, bytes: &[u8]) -> Result<Message, DecodeError> {
+        match self.decoder.decode(from, bytes, &self.catalog.schema) {
+            Err(DecodeError::SchemaMismatch { class, .. }) if !self.catalog.knows(&class) => {
+                self.refresh_catalog();
+                self.decoder.decode(from, bytes, &self.catalog.schema)
+            }
+            other => other,
+        }
+    }
+
+    /// A refused message: ask its source for what was missing (names, classes).
+    fn decode_failed(&mut self, from: &Address, kind: MsgKind, e: &DecodeError) {
+        tracing::debug!(from = %from, %kind, error = %e, "message refused");
+        let (names, classes) = match e {
+            DecodeError::UnknownName { .. } => (true, false),
+            DecodeError::SchemaMismatch { class, .. } => {
+                (false, !self.conflicts.contains(class.as_str()))
+            }
+            _ => return,
+        };
+        if !(names || classes) {
+            return;
+        }
+        if kind == MsgKind::CatchUpAnswer {
+            self.peer(from).failed = true;
+        }
+        self.request_catch_up(from, names, classes);
+    }
+
+    fn on_report(&mut self, from: &Address, r: Report) {
+        let now = self.now;
+        let old = r
+            .items
+            .iter()
+            .any(|a| a.packet.source == *from && self.before_incarnation(from, a.packet.timestamp));
+        if old {
+            // A late message of the source's previous incarnation: its names may have
+            // replaced the new incarnation's in the decoder, so start those afresh.
+            self.stats.rejects.stale += 1;
+            self.decoder.forget(from);
+            self.request_catch_up(from, true, false);
+            return;
+        }
+        if !self.peer(from).stream.receive(r.seq, now) {
+            self.stats.rejects.duplicates += 1;
+            return;
+        }
+        self.apply_items(from, r.items, Some(r.seq));
+    }
+
+    fn on_heartbeat(&mut self, from: &Address, h: Heartbeat) {
+        let now = self.now;
+        self.peer(from).stream.announce(h.seq, now);
+    }
+
+    fn on_hello(&mut self, from: &Address, hello: Hello) {
+        let p = self.peer(from);
+        let restarted = p.incarnation.is_some_and(|i| i != hello.incarnation);
+        p.incarnation = Some(hello.incarnation);
+        p.interest = Some(hello.interest);
+        if restarted {
+            p.stream = Inbound::default();
+            p.catch_up = None;
+            self.stats.liveliness.restarts += 1;
+            self.decoder.forget(from);
+            self.forget_origins(from);
+            self.request_catch_up(from, true, false);
+            self.relay_orphans(from);
+        }
+    }
+
+    /// A restarted source owns only what its new incarnation lists: what this board
+    /// heard from its previous one no longer shields objects from the sweep.
+    fn forget_origins(&mut self, owner: &Address) {
+        let board = &self.board;
+        self.origins
+            .retain(|name, _| board.info(name).is_none_or(|i| i.owner != *owner));
+    }
+
+    fn on_classes(&mut self, defs: Vec<ClassDef>) {
+        for def in defs.into_iter().filter(|d| d.name != MODULE_CLASS) {
+            let name: Arc<str> = def.name.as_str().into();
+            match self.board.define(def) {
+                Ok(_) => {}
+                Err(DefineError::Conflict { .. }) => {
+                    self.stats.rejects.class_conflicts += 1;
+                    self.conflicts.insert(name);
+                }
+                Err(e) => tracing::debug!(class = %name, error = %e, "class not defined"),
+            }
+        }
+        self.refresh_catalog();
+    }
+
+    fn on_lifecycle(&mut self, from: &Address, l: Lifecycle) {
+        let now = self.now;
+        let stamps = l
+            .created
+            .iter()
+            .map(|(_, t)| *t)
+            .chain(l.deleted.iter().map(|(_, t)| *t));
+        if stamps.into_iter().any(|t| self.before_incarnation(from, t)) {
+            self.stats.rejects.stale += 1;
+            return;
+        }
+        if !self.peer(from).stream.receive(l.seq, now) {
+            self.stats.rejects.duplicates += 1;
+            return;
+        }
+        for (listed, stamp) in l.created {
+            self.listed(
+                from,
+                &listed,
+                Origin {
+                    seq: Some(l.seq),
+                    stamp,
+                },
+            );
+        }
+        for (name, stamp) in l.deleted {
+            self.remote_delete(from, name, stamp);
+        }
+    }
+
+    /// Was something stamped `stamp` by `from` made before its current incarnation
+    /// started (a late message of the incarnation before a restart)?
+    pub fn before_incarnation(&self, from: &Address, stamp: Timestamp) -> bool {
+        let incarnation = self.peers.get(from).and_then(|p| p.incarnation);
+        incarnation.is_some_and(|i| stamp.raw() < i)
+    }
+
+    /// An object its owner says exists: create it if this board models it and holds
+    /// the same definition of its class.
+    pub fn listed(&mut self, from: &Address, listed: &Listed, origin: Origin) {
+        if !self.same_class(from, &listed.class, listed.fingerprint) {
+            return;
+        }
+        let entry = ObjectEntry::new(&listed.name, &listed.class)
+            .context(listed.context)
+            .owner(from.clone());
+        let Some(context) = self.interested(from, &entry) else {
+            return;
+        };
+        self.ensure(from, &entry, context, origin, &mut BTreeSet::new());
+    }
+
+    /// Does this board define `class` as the sender does? If it does not know the
+    /// class, or knows another, it asks for the sender's definitions (which tells a
+    /// conflict from a missing class).
+    fn same_class(&mut self, from: &Address, class: &str, fingerprint: u32) -> bool {
+        if self.catalog.schema.fingerprint(class) != Some(fingerprint) {
+            self.refresh_catalog();
+        }
+        if self.catalog.schema.fingerprint(class) == Some(fingerprint) {
+            return true;
+        }
+        if self.conflicts.contains(class) {
+            self.stats.rejects.object_conflicts += 1;
+        } else {
+            self.peer(from).failed = true;
+            self.request_catch_up(from, false, true);
+        }
+        false
+    }
+
+    /// The owner deleted an object.
+    pub fn remote_delete(&mut self, owner: &Address, name: Arc<str>, stamp: Timestamp) {
+        let max = self.config.max_tombstones;
+        self.tombstones
+            .bury(name.clone(), owner.clone(), stamp, max);
+        self.origins.remove(&name);
+        self.ops.push(BoardOp::Delete {
+            object: name,
+            owner: owner.clone(),
+        });
+    }
+
+    // ----- assertions -----
+
+    /// Applies a report's (or catch-up answer's) assertions; `seq` is the stream
+    /// position of a report.
+    pub fn apply_items(&mut self, from: &Address, items: Vec<Assertion>, seq: Option<u64>) {
+        let mut ensured = BTreeSet::new();
+        for a in items {
+            self.apply_item(from, a, seq, &mut ensured);
+        }
+    }
+
+    fn apply_item(
+        &mut self,
+        from: &Address,
+        a: Assertion,
+        seq: Option<u64>,
+        ensured: &mut BTreeSet<Arc<str>>,
+    ) {
+        let Some(context) = self.interested(from, &a.object) else {
+            return;
+        };
+        if !a.object.is_class() {
+            let origin = Origin {
+                seq: seq.filter(|_| *from == a.object.owner),
+                stamp: a.packet.timestamp,
+            };
+            if !self.ensure(from, &a.object, context, origin, ensured) {
+                return;
+            }
+        }
+        self.merge_item(&a.object.name, &a.object.class, a.attr, a.packet);
+    }
+
+    /// The context the object takes on this board, if this board models it.
+    fn interested(&mut self, from: &Address, entry: &ObjectEntry) -> Option<Context> {
+        if &*entry.class == MODULE_CLASS {
+            return None;
+        }
+        let Some(lineage) = self.lineage(&entry.class) else {
+            if !self.conflicts.contains(&entry.class) {
+                self.peer(from).failed = true;
+                self.request_catch_up(from, false, true);
+            }
+            return None;
+        };
+        let context = State::context_on(entry.context, &entry.owner, &self.me);
+        let interest = &self.config.interest;
+        let wanted = if entry.is_class() {
+            interest.relates_to_class(&lineage, &self.catalog)
+        } else {
+            interest.contains(&lineage, context)
+        };
+        if !wanted {
+            self.stats.rejects.uninterested += 1;
+        }
+        wanted.then_some(context)
+    }
+
+    /// Makes sure the object exists (queues its creation); false if it must not.
+    fn ensure(
+        &mut self,
+        from: &Address,
+        entry: &ObjectEntry,
+        context: Context,
+        origin: Origin,
+        ensured: &mut BTreeSet<Arc<str>>,
+    ) -> bool {
+        if ensured.contains(&entry.name) {
+            return true;
+        }
+        if let Some(info) = self.board.info(&entry.name) {
+            let same = !info.is_class && info.class == entry.class;
+            if !same {
+                self.stats.rejects.object_conflicts += 1;
+            }
+            return same;
+        }
+        if !self.may_create(from, entry, origin.stamp) {
+            self.stats.rejects.stale += 1;
+            return false;
+        }
+        let spec = NewObject::new(&entry.class, &entry.name)
+            .context(context)
+            .owner(entry.owner.clone());
+        self.ops.push(BoardOp::Ensure(spec));
+        self.origins.insert(entry.name.clone(), origin);
+        ensured.insert(entry.name.clone());
+        if *from != entry.owner && !entry.owner.is_unknown() {
+            // Heard of it from another module: let its owner confirm it exists.
+            self.request_catch_up(&entry.owner, false, false);
+        }
+        true
+    }
+
+    /// May an object this board lacks be created from what `from` said at `stamp`?
+    /// Never an object this board owns (it deleted it); a deleted one only by its owner,
+    /// after the deletion.
+    fn may_create(&self, from: &Address, entry: &ObjectEntry, stamp: Timestamp) -> bool {
+        if entry.owner == self.me {
+            return false;
+        }
+        match self.tombstones.get(&entry.name) {
+            Some((_, deleted)) => *from == entry.owner && stamp > *deleted,
+            None => true,
+        }
+    }
+
+    fn merge_item(&mut self, object: &Arc<str>, class: &str, attr: Arc<str>, packet: Packet) {
+        let Some(decl) = self.catalog.decl(class, &attr) else {
+            self.stats.rejects.invalid += 1;
+            return;
+        };
+        if decl.merge == MergePolicy::Confident {
+            let key = (object.clone(), attr.clone());
+            if self
+                .best
+                .get(&key)
+                .is_none_or(|b| super::send::better(&packet, b))
+            {
+                self.best.insert(key, packet.clone());
+            }
+        }
+        if decl.merge != MergePolicy::Fused {
+            self.ops.push(BoardOp::Merge {
+                object: object.clone(),
+                attr,
+                packet,
+            });
+            return;
+        }
+        let key = (object.clone(), attr);
+        if self.fusion.update(key.clone(), packet) {
+            self.stats.merges.fused += 1;
+            self.ops.push(BoardOp::Fuse(key));
+        } else {
+            self.stats.merges.kept += 1;
+        }
+    }
+}

@@ -1,0 +1,377 @@
+//! Outgoing: the board's committed changes become items (own packets through their
+//! report filters, creations and deletions of owned objects), and items become
+//! messages on each link kind for the peers there that want them.
+
+use std::sync::Arc;
+
+use slate_model::{Address, AttrDecl, ChangeItem, Context, MergePolicy, Packet, Timestamp};
+use slate_wire::{Assertion, Decoder, EncodeError, Encoder, Message, ObjectEntry, Report};
+
+use super::filter::Key;
+use super::frame::{Frame, Lifecycle, Listed};
+use super::module::MODULE_CLASS;
+use super::ops::BoardOp;
+use super::state::State;
+use crate::{LinkKind, MsgKind};
+
+/// Something to put on the streams.
+pub(crate) enum What {
+    Created(Listed, Timestamp),
+    Value(Assertion),
+    Deleted(Arc<str>, Timestamp),
+}
+
+/// An item with what deciding its destinations needs.
+pub(crate) struct Item {
+    pub what: What,
+    pub lineage: Vec<Arc<str>>,
+    pub context: Context,
+    pub owner: Address,
+    pub is_class: bool,
+}
+
+impl State {
+    /// Takes every change committed since the last call and sends what is due.
+    pub fn drain_changes(&mut self) {
+        let mut items = Vec::new();
+        while let Some(change) = self.watch.try_recv() {
+            for item in change.items {
+                self.collect(item, &mut items);
+            }
+        }
+        self.flush(items);
+    }
+
+    fn collect(&mut self, item: ChangeItem, out: &mut Vec<Item>) {
+        match item {
+            // A packet of this module's previous incarnation, handed back by a peer, is
+            // not a new write.
+            ChangeItem::Write {
+                object,
+                attr,
+                packet,
+            } if packet.source == self.me && packet.timestamp.raw() >= self.incarnation => {
+                self.own_write(object, attr, packet, out);
+            }
+            ChangeItem::Write { .. } => {}
+            ChangeItem::Create { object, .. } => self.own_create(object, out),
+            ChangeItem::Delete { object, .. } => self.deleted(object, out),
+        }
+    }
+
+    fn own_write(&mut self, object: Arc<str>, attr: Arc<str>, packet: Packet, out: &mut Vec<Item>) {
+        let key = (object, attr);
+        if self
+            .normalising
+            .remove(&(key.0.clone(), key.1.clone(), packet.timestamp))
+        {
+            return;
+        }
+        let Some(mut item) = self.value_item(&key.0, &key.1, packet) else {
+            return;
+        };
+        let What::Value(a) = &mut item.what else {
+            return;
+        };
+        let Some(decl) = self.decl(&item.lineage[0], &key.1) else {
+            return;
+        };
+        self.stats.reports.written += 1;
+        let exact = a.packet.clone();
+        a.packet = self.quantise(&a.object, &key.1, exact.clone());
+        if decl.merge == MergePolicy::Fused {
+            self.fusion.update(key.clone(), a.packet.clone());
+            self.ops.push(BoardOp::Fuse(key.clone()));
+        } else if a.packet != exact {
+            self.normalise(&key, exact, a.packet.clone());
+        }
+        if decl.merge == MergePolicy::Confident {
+            self.keep_best(&key, &a.packet);
+        }
+        let (now, quiet) = (self.now, self.config.quiet);
+        match self
+            .filters
+            .offer(key, a.packet.clone(), &decl.report, now, quiet)
+        {
+            Some(_) => out.push(item),
+            None => self.stats.reports.held += 1,
+        }
+    }
+
+    /// A local write replaces whatever the board held; under `confident`, a better
+    /// packet this module heard of before must win again (as it does on every other
+    /// board), so it is merged back.
+    fn keep_best(&mut self, key: &Key, own: &Packet) {
+        match self.best.get(key) {
+            Some(best) if better(best, own) => {
+                let (object, attr, packet) = (key.0.clone(), key.1.clone(), best.clone());
+                self.ops.push(BoardOp::Merge {
+                    object,
+                    attr,
+                    packet,
+                });
+            }
+            _ => {
+                self.best.insert(key.clone(), own.clone());
+            }
+        }
+    }
+
+    /// The declaration of `class.attr`, refreshing the catalog once if need be.
+    fn decl(&mut self, class: &str, attr: &str) -> Option<AttrDecl> {
+        if self.catalog.decl(class, attr).is_none() {
+            self.refresh_catalog();
+        }
+        self.catalog.decl(class, attr).cloned()
+    }
+
+    /// The board is to hold what every receiver decodes: the quantised packet replaces
+    /// the exact one (silently: it is not reported again).
+    fn normalise(&mut self, key: &Key, exact: Packet, quantised: Packet) {
+        let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
+        self.normalising.insert(marker);
+        self.ops.push(BoardOp::Normalise {
+            key: key.clone(),
+            exact,
+            quantised,
+        });
+    }
+
+    /// An item reporting `packet` of `object.attr`, if the object still exists.
+    pub fn value_item(
+        &mut self,
+        object: &Arc<str>,
+        attr: &Arc<str>,
+        packet: Packet,
+    ) -> Option<Item> {
+        let info = self.board.info(object)?;
+        let entry = ObjectEntry::from(&info);
+        if &*entry.class == MODULE_CLASS {
+            return None;
+        }
+        let lineage = self.lineage(&entry.class)?;
+        Some(Item {
+            what: What::Value(Assertion {
+                object: entry,
+                attr: attr.clone(),
+                packet,
+            }),
+            lineage,
+            context: info.context,
+            owner: info.owner,
+            is_class: info.is_class,
+        })
+    }
+
+    fn own_create(&mut self, object: Arc<str>, out: &mut Vec<Item>) {
+        let Some(info) = self.board.info(&object) else {
+            return;
+        };
+        if info.is_class || info.owner != self.me || &*info.class == MODULE_CLASS {
+            return;
+        }
+        let Some(lineage) = self.lineage(&info.class) else {
+            return;
+        };
+        self.own_objects
+            .insert(object.clone(), (info.class.clone(), info.context));
+        let fingerprint = self.catalog.schema.fingerprint(&info.class).unwrap_or(0);
+        let listed = Listed {
+            name: object,
+            class: info.class,
+            fingerprint,
+            context: info.context,
+        };
+        out.push(Item {
+            what: What::Created(listed, self.board.clock().now()),
+            lineage,
+            context: info.context,
+            owner: self.me.clone(),
+            is_class: false,
+        });
+    }
+
+    fn deleted(&mut self, object: Arc<str>, out: &mut Vec<Item>) {
+        self.filters.forget(&object);
+        self.best.retain(|(o, _), _| *o != object);
+        self.fusion.forget(&object);
+        self.origins.remove(&object);
+        let Some((class, context)) = self.own_objects.remove(&object) else {
+            return;
+        };
+        let stamp = self.board.clock().now();
+        let max = self.config.max_tombstones;
+        self.tombstones
+            .bury(object.clone(), self.me.clone(), stamp, max);
+        let lineage = self.lineage(&class).unwrap_or_else(|| vec![class]);
+        out.push(Item {
+            what: What::Deleted(object, stamp),
+            lineage,
+            context,
+            owner: self.me.clone(),
+            is_class: false,
+        });
+    }
+
+    /// The packet as every receiver will decode it (values and qualities quantised),
+    /// so that this module's own estimate of a fused attribute is the one others fuse.
+    fn quantise(&self, entry: &ObjectEntry, attr: &Arc<str>, packet: Packet) -> Packet {
+        let item = Assertion {
+            object: entry.clone(),
+            attr: attr.clone(),
+            packet: packet.clone(),
+        };
+        let msg = Message::Report(Report {
+            seq: 1,
+            items: vec![item],
+        });
+        let schema = &self.catalog.schema;
+        let decoded = Encoder::new(self.me.clone())
+            .encode(&msg, schema)
+            .ok()
+            .and_then(|bytes| Decoder::new().decode(&self.me, &bytes, schema).ok());
+        match decoded {
+            Some(Message::Report(mut r)) => r.items.pop().map_or(packet, |a| a.packet),
+            _ => packet,
+        }
+    }
+
+    // ----- destinations -----
+
+    /// Sends items on each link kind to the peers there that want them.
+    pub fn flush(&mut self, items: Vec<Item>) {
+        if items.is_empty() {
+            return;
+        }
+        for link in LinkKind::ALL {
+            let peers = self.up_peers(link);
+            let chosen: Vec<&Item> = items
+                .iter()
+                .filter(|i| self.wanted(link, i, &peers))
+                .collect();
+            self.emit(link, &chosen);
+        }
+    }
+
+    /// Does anyone on `link` want this item (and may it go there)? Counts it if not.
+    fn wanted(&mut self, link: LinkKind, item: &Item, peers: &[Address]) -> bool {
+        let export = &self.config.export;
+        let exported = link == LinkKind::Robot
+            || if item.is_class {
+                export.relates_to_class(&item.lineage, &self.catalog)
+            } else {
+                export.contains(&item.lineage, item.context)
+            };
+        if !exported {
+            self.stats.reports.suppressed_export += 1;
+            return false;
+        }
+        let wanted = peers.iter().any(|p| self.peer_wants_item(p, item));
+        if !wanted {
+            self.stats.reports.suppressed_interest += 1;
+        }
+        wanted
+    }
+
+    fn peer_wants_item(&self, p: &Address, item: &Item) -> bool {
+        if !item.is_class {
+            return self.peer_wants(p, &item.lineage, item.context, &item.owner);
+        }
+        let interest = self.peers.get(p).and_then(|p| p.interest.as_ref());
+        interest.is_some_and(|i| i.relates_to_class(&item.lineage, &self.catalog))
+    }
+
+    /// Groups consecutive items into messages: lifecycle frames (creations, then
+    /// deletions) and reports, keeping the order of the board's changes.
+    fn emit(&mut self, link: LinkKind, items: &[&Item]) {
+        let mut life = Lifecycle::default();
+        let mut values: Vec<Assertion> = Vec::new();
+        for item in items {
+            match &item.what {
+                What::Value(a) => {
+                    self.emit_lifecycle(link, &mut life);
+                    values.push(a.clone());
+                }
+                What::Created(l, ts) => {
+                    self.emit_values(link, &mut values);
+                    if !life.deleted.is_empty() {
+                        self.emit_lifecycle(link, &mut life);
+                    }
+                    life.created.push((l.clone(), *ts));
+                }
+                What::Deleted(name, ts) => {
+                    self.emit_values(link, &mut values);
+                    life.deleted.push((name.clone(), *ts));
+                }
+            }
+        }
+        self.emit_values(link, &mut values);
+        self.emit_lifecycle(link, &mut life);
+    }
+
+    fn emit_lifecycle(&mut self, link: LinkKind, life: &mut Lifecycle) {
+        if life.created.is_empty() && life.deleted.is_empty() {
+            return;
+        }
+        let Some(out) = self.out.get_mut(&link) else {
+            return;
+        };
+        out.seq += 1;
+        life.seq = out.seq;
+        let bytes = Frame::Lifecycle(std::mem::take(life)).encode();
+        self.publish(link, MsgKind::Lifecycle, &bytes);
+    }
+
+    fn emit_values(&mut self, link: LinkKind, values: &mut Vec<Assertion>) {
+        let values = std::mem::take(values);
+        for chunk in values.chunks(self.config.max_report_items.max(1)) {
+            self.emit_report(link, chunk);
+        }
+    }
+
+    /// Encodes and publishes one report; a batch that does not encode is split until
+    /// the faulty packet is isolated and dropped.
+    fn emit_report(&mut self, link: LinkKind, items: &[Assertion]) {
+        let Some(out) = self.out.get_mut(&link) else {
+            return;
+        };
+        let report = Report {
+            seq: out.seq + 1,
+            items: items.to_vec(),
+        };
+        match out
+            .encoder
+            .encode(&Message::Report(report), &self.catalog.schema)
+        {
+            Ok(bytes) => {
+                out.seq += 1;
+                self.stats.reports.items_sent += items.len() as u64;
+                self.publish(link, MsgKind::Report, &bytes);
+            }
+            Err(e) if items.len() > 1 => {
+                let (a, b) = items.split_at(items.len() / 2);
+                tracing::trace!(error = %e, "splitting a report");
+                self.emit_report(link, a);
+                self.emit_report(link, b);
+            }
+            Err(e) => self.encode_failed(&items[0], &e),
+        }
+    }
+
+    fn encode_failed(&mut self, a: &Assertion, e: &EncodeError) {
+        self.stats.reports.encode_errors += 1;
+        if matches!(
+            e,
+            EncodeError::UnknownClass { .. } | EncodeError::UnknownAttr { .. }
+        ) {
+            self.refresh_catalog();
+        }
+        tracing::warn!(object = %a.object.name, attr = %a.attr, error = %e, "packet not reported");
+    }
+}
+
+/// Does `a` win over `b` under `confident` (as `Board::merge` decides)?
+pub(crate) fn better(a: &Packet, b: &Packet) -> bool {
+    a.confidence > b.confidence
+        || (a.confidence == b.confidence && (a.timestamp, &a.source) > (b.timestamp, &b.source))
+}

@@ -1,0 +1,275 @@
+//! The ICI's protocol state, behind one lock: streams, peers, filters, fusion,
+//! tombstones and counters. Board changes it decides on are queued as [`BoardOp`]s and
+//! applied after the lock is released (board hooks may call back into the ICI).
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_model::{Address, Board, Context, Packet, Timestamp, Watch};
+use slate_wire::{Decoder, Encoder};
+
+use super::classes::{Catalog, ClassSet};
+use super::config::IciConfig;
+use super::filter::{Filters, Key};
+use super::fuse::Fusion;
+use super::module::MODULE_CLASS;
+use super::ops::BoardOp;
+use super::stats::IciStats;
+use super::stream::Inbound;
+use crate::{LinkKind, MsgKind, Transport};
+
+/// One of this module's outgoing streams (one per link kind): its position and the
+/// encoder whose dictionary its receivers share.
+pub(crate) struct Outbound {
+    pub seq: u64,
+    pub encoder: Encoder,
+}
+
+/// An outstanding catch-up request.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Request {
+    pub since: Duration,
+    pub names: bool,
+    pub classes: bool,
+}
+
+/// What this module knows of another.
+pub(crate) struct Peer {
+    pub link: LinkKind,
+    /// Reachable, as far as the transport (or its traffic) says.
+    pub up: bool,
+    pub interest: Option<ClassSet>,
+    pub incarnation: Option<u64>,
+    pub last_heard: Duration,
+    /// `alive` as last written to its `Module` object.
+    pub alive: Option<bool>,
+    pub seen_written: Duration,
+    pub stream: Inbound,
+    pub catch_up: Option<Request>,
+    /// A part of the answer being received was refused: do not count it as complete.
+    pub failed: bool,
+}
+
+impl Peer {
+    fn new(me: &Address, them: &Address) -> Self {
+        Peer {
+            link: LinkKind::between(me, them),
+            up: false,
+            interest: None,
+            incarnation: None,
+            last_heard: Duration::ZERO,
+            alive: None,
+            seen_written: Duration::ZERO,
+            stream: Inbound::default(),
+            catch_up: None,
+            failed: false,
+        }
+    }
+}
+
+/// Where an object created on receipt came from, to decide whether a catch-up's object
+/// list may sweep it: created from the owner's stream at `seq`, or from a packet stamped
+/// `stamp` (another module's report).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Origin {
+    pub seq: Option<u64>,
+    pub stamp: Timestamp,
+}
+
+/// Deleted objects: name, owner, when. The oldest are forgotten past the limit.
+#[derive(Default)]
+pub(crate) struct Tombstones {
+    by_name: BTreeMap<Arc<str>, (Address, Timestamp)>,
+    order: VecDeque<Arc<str>>,
+}
+
+impl Tombstones {
+    pub fn bury(&mut self, name: Arc<str>, owner: Address, stamp: Timestamp, max: usize) {
+        if self.by_name.insert(name.clone(), (owner, stamp)).is_none() {
+            self.order.push_back(name);
+        }
+        while self.order.len() > max {
+            if let Some(old) = self.order.pop_front() {
+                self.by_name.remove(&old);
+            }
+        }
+    }
+
+    pub fn get(&self, name: &str) -> Option<&(Address, Timestamp)> {
+        self.by_name.get(name)
+    }
+}
+
+pub(crate) struct State {
+    pub me: Address,
+    pub board: Arc<Board>,
+    pub transport: Arc<dyn Transport>,
+    pub config: IciConfig,
+    pub incarnation: u64,
+    pub catalog: Catalog,
+    pub out: BTreeMap<LinkKind, Outbound>,
+    pub decoder: Decoder,
+    pub peers: BTreeMap<Address, Peer>,
+    pub filters: Filters,
+    pub fusion: Fusion,
+    /// The best packet heard of, per `confident` attribute.
+    pub best: BTreeMap<Key, Packet>,
+    /// Objects this board owns: name → (class, context).
+    pub own_objects: BTreeMap<Arc<str>, (Arc<str>, Context)>,
+    pub tombstones: Tombstones,
+    pub origins: BTreeMap<Arc<str>, Origin>,
+    /// Own packets being replaced by their quantised form: `(object, attr, timestamp)`.
+    pub normalising: BTreeSet<(Arc<str>, Arc<str>, Timestamp)>,
+    pub conflicts: BTreeSet<Arc<str>>,
+    pub next_heartbeat: BTreeMap<LinkKind, Duration>,
+    pub watch: Watch,
+    pub stats: IciStats,
+    /// Physical time of the operation in progress.
+    pub now: Duration,
+    /// Decided board changes, applied after the lock is released.
+    pub ops: Vec<BoardOp>,
+    /// Plan messages received, handed to the plan handler after the lock is released.
+    pub plans: Vec<super::PlanEvent>,
+}
+
+impl State {
+    pub fn new(
+        board: Arc<Board>,
+        transport: Arc<dyn Transport>,
+        config: IciConfig,
+        watch: Watch,
+    ) -> Self {
+        let me = transport.address().clone();
+        let out = LinkKind::ALL
+            .into_iter()
+            .map(|l| {
+                (
+                    l,
+                    Outbound {
+                        seq: 0,
+                        encoder: Encoder::new(me.clone()),
+                    },
+                )
+            })
+            .collect();
+        let now = board.clock().physical();
+        State {
+            incarnation: board.clock().now().raw(),
+            catalog: Catalog::new(&board),
+            me,
+            board,
+            transport,
+            config,
+            out,
+            decoder: Decoder::new(),
+            peers: BTreeMap::new(),
+            filters: Filters::default(),
+            fusion: Fusion::default(),
+            best: BTreeMap::new(),
+            own_objects: BTreeMap::new(),
+            tombstones: Tombstones::default(),
+            origins: BTreeMap::new(),
+            normalising: BTreeSet::new(),
+            conflicts: BTreeSet::new(),
+            next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
+            watch,
+            stats: IciStats::default(),
+            now,
+            ops: Vec::new(),
+            plans: Vec::new(),
+        }
+    }
+
+    /// Takes note of the objects this board owns already.
+    pub fn adopt_own_objects(&mut self) {
+        let snap = self.board.snapshot();
+        let owned: Vec<_> = snap
+            .objects()
+            .into_iter()
+            .filter_map(|id| snap.info(id))
+            .filter(|i| !i.is_class && i.owner == self.me && &*i.class != MODULE_CLASS)
+            .map(|i| (i.name, (i.class, i.context)))
+            .collect();
+        drop(snap);
+        self.own_objects.extend(owned);
+    }
+
+    /// The peer entry of `address`, made on first mention.
+    pub fn peer(&mut self, address: &Address) -> &mut Peer {
+        let me = &self.me;
+        self.peers
+            .entry(address.clone())
+            .or_insert_with(|| Peer::new(me, address))
+    }
+
+    /// Rebuilds the catalog from the board (a class was missing).
+    pub fn refresh_catalog(&mut self) {
+        self.catalog = Catalog::new(&self.board);
+    }
+
+    /// The class chain of `class`, refreshing the catalog once if it is unknown.
+    pub fn lineage(&mut self, class: &str) -> Option<Vec<Arc<str>>> {
+        if !self.catalog.knows(class) {
+            self.refresh_catalog();
+        }
+        self.catalog.lineage(class)
+    }
+
+    /// The context an object has on `board_of`'s board: SELF on the owner's robot is
+    /// SYSTEM on every other robot; everything else keeps its context.
+    pub fn context_on(context: Context, owner: &Address, board_of: &Address) -> Context {
+        if context == Context::Self_ && LinkKind::between(owner, board_of) == LinkKind::Team {
+            Context::System
+        } else {
+            context
+        }
+    }
+
+    /// Does peer `p` model an object of chain `lineage`, with `context` and `owner` as
+    /// this board has them? A peer whose interest is not known yet models nothing.
+    pub fn peer_wants(
+        &self,
+        p: &Address,
+        lineage: &[Arc<str>],
+        context: Context,
+        owner: &Address,
+    ) -> bool {
+        let Some(interest) = self.peers.get(p).and_then(|p| p.interest.as_ref()) else {
+            return false;
+        };
+        interest.contains(lineage, State::context_on(context, owner, p))
+    }
+
+    /// The peers up on one link kind.
+    pub fn up_peers(&self, link: LinkKind) -> Vec<Address> {
+        self.peers
+            .iter()
+            .filter(|(_, p)| p.up && p.link == link)
+            .map(|(a, _)| a.clone())
+            .collect()
+    }
+
+    /// Sends one message reliably to `to`, counting it.
+    pub fn send_to(&mut self, to: &Address, kind: MsgKind, bytes: &[u8]) {
+        let link = LinkKind::between(&self.me, to);
+        match self.transport.send(to, kind, bytes) {
+            Ok(()) => self.stats.sent(link, kind, bytes.len()),
+            Err(e) => {
+                self.stats.reports.send_errors += 1;
+                tracing::debug!(to = %to, %kind, error = %e, "send refused");
+            }
+        }
+    }
+
+    /// Publishes one message on `link`, counting it.
+    pub fn publish(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
+        match self.transport.publish(link, kind, bytes) {
+            Ok(()) => self.stats.sent(link, kind, bytes.len()),
+            Err(e) => {
+                self.stats.reports.send_errors += 1;
+                tracing::debug!(%link, %kind, error = %e, "publish refused");
+            }
+        }
+    }
+}

@@ -1,0 +1,173 @@
+//! Timers, run on every tick of the clock: held values at their trailing edge,
+//! attribute heartbeats, module heartbeats, liveliness timeouts, catch-up retries and
+//! gaps that stayed open.
+
+use slate_model::Address;
+use slate_wire::{Heartbeat, Message};
+
+use super::filter::Due;
+use super::frame::{Frame, Hello};
+use super::ops::own_packet;
+use super::state::State;
+use crate::{LinkKind, MsgKind};
+
+impl State {
+    /// Runs whatever is due at `self.now`.
+    pub fn tick(&mut self) {
+        self.filter_timers();
+        self.heartbeats();
+        self.timeouts();
+        self.catch_up_timers();
+    }
+
+    fn filter_timers(&mut self) {
+        if self.filters.next_due().is_none_or(|t| t > self.now) {
+            return;
+        }
+        let due = self.filters.due(self.now);
+        let mut items = Vec::new();
+        for d in due {
+            let (key, packet) = match d {
+                Due::Trailing(key, packet) => {
+                    self.stats.reports.trailing += 1;
+                    (key, packet)
+                }
+                Due::Heartbeat(key) => {
+                    let current = own_packet(&self.board, &key).filter(|p| p.source == self.me);
+                    self.filters.sent(&key, current.clone(), self.now);
+                    let Some(packet) = current else { continue };
+                    self.stats.reports.heartbeats += 1;
+                    (key, packet)
+                }
+            };
+            items.extend(self.value_item(&key.0, &key.1, packet));
+        }
+        self.flush(items);
+    }
+
+    /// Publishes this module's heartbeat on each link kind where it is due and someone
+    /// listens: its stream position, so receivers find a lost tail.
+    fn heartbeats(&mut self) {
+        for link in LinkKind::ALL {
+            let due = self
+                .next_heartbeat
+                .get(&link)
+                .is_none_or(|t| *t <= self.now);
+            if !due {
+                continue;
+            }
+            let next = self.now + self.config.link(link).heartbeat;
+            self.next_heartbeat.insert(link, next);
+            if self.up_peers(link).is_empty() {
+                continue;
+            }
+            let hb = self.heartbeat(link);
+            let Some(out) = self.out.get_mut(&link) else {
+                continue;
+            };
+            if let Ok(bytes) = out
+                .encoder
+                .encode(&Message::Heartbeat(hb), &self.catalog.schema)
+            {
+                self.stats.liveliness.heartbeats_sent += 1;
+                self.publish(link, MsgKind::Heartbeat, &bytes);
+            }
+        }
+    }
+
+    fn heartbeat(&self, link: LinkKind) -> Heartbeat {
+        let total = |sent: bool| {
+            self.stats
+                .traffic
+                .values()
+                .map(|t| if sent { t.sent_msgs } else { t.recv_msgs })
+                .sum()
+        };
+        let decode = self.decoder.stats();
+        Heartbeat {
+            seq: self.out.get(&link).map_or(0, |o| o.seq),
+            sent: total(true),
+            received: total(false),
+            rejected: decode.rejected() + self.stats.rejects.frames,
+        }
+    }
+
+    /// Peers silent past their link's timeout are dead.
+    fn timeouts(&mut self) {
+        let now = self.now;
+        let dead: Vec<Address> = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.alive == Some(true))
+            .filter(|(_, p)| now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout)
+            .map(|(a, _)| a.clone())
+            .collect();
+        for peer in dead {
+            self.lost(&peer);
+        }
+    }
+
+    /// A peer is dead (timeout or the transport's word).
+    pub fn lost(&mut self, peer: &Address) {
+        self.stats.liveliness.lost += 1;
+        self.set_alive(peer, false);
+        self.plans.push(super::PlanEvent::Peer(peer.clone(), false));
+    }
+
+    /// Re-sends unanswered requests; asks for a catch-up where a gap stayed open.
+    fn catch_up_timers(&mut self) {
+        let (now, retry, grace) = (self.now, self.config.catch_up_retry, self.config.gap_grace);
+        let peers: Vec<Address> = self.peers.keys().cloned().collect();
+        for a in peers {
+            let Some(p) = self.peers.get_mut(&a) else {
+                continue;
+            };
+            match p.catch_up {
+                Some(_) if !p.up => p.catch_up = None,
+                Some(mut r) if now.saturating_sub(r.since) >= retry => {
+                    r.since = now;
+                    p.catch_up = Some(r);
+                    self.stats.catch_up.retried += 1;
+                    self.send_request(&a, r);
+                }
+                Some(_) => {}
+                None if p.up && p.stream.gap_age(now).is_some_and(|age| age >= grace) => {
+                    self.stats.catch_up.gaps += 1;
+                    self.request_catch_up(&a, false, false);
+                }
+                None => {}
+            }
+        }
+    }
+
+    /// A peer came up or went down, as the transport says.
+    pub fn on_peer(&mut self, peer: &Address, up: bool) {
+        let now = self.now;
+        let p = self.peer(peer);
+        p.up = up;
+        p.catch_up = None;
+        if !up {
+            if p.alive == Some(true) {
+                self.lost(peer);
+            }
+            return;
+        }
+        p.last_heard = now;
+        if p.alive != Some(true) {
+            self.stats.liveliness.found += 1;
+            self.set_alive(peer, true);
+            self.plans.push(super::PlanEvent::Peer(peer.clone(), true));
+        }
+        self.send_hello(peer);
+        self.request_catch_up(peer, false, false);
+    }
+
+    /// Tells a peer this module's incarnation and interest.
+    pub fn send_hello(&mut self, to: &Address) {
+        let hello = Hello {
+            incarnation: self.incarnation,
+            interest: self.config.interest.clone(),
+        };
+        self.send_to(to, MsgKind::Hello, &Frame::Hello(hello).encode());
+    }
+}

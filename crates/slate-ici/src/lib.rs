@@ -1,0 +1,61 @@
+//! slate's Intelligent Communications Interface (the paper's ICI): keeps the boards of
+//! many modules and robots consistent over a [`Transport`], sending as little as it can.
+//!
+//! An [`Ici`] connects one [`Board`](slate_model::Board) to one transport. It reports
+//! what its board writes (through each attribute's report policy: minimum interval,
+//! heartbeat, dead-band, accuracy; never losing the last value), only to the peers
+//! interested and, between robots, only what the export policy lets out. It applies
+//! what it receives through each attribute's merge policy (`latest`, `confident`,
+//! `owned`, `fused`), creates and deletes objects as their owners do, catches up with a
+//! source's current state after loss or a late join, and makes other modules'
+//! liveliness a world-model fact (`Module` objects).
+//!
+//! [`SimNet`] is a deterministic network simulator (virtual time, seeded loss,
+//! duplication, reordering, delay, partitions, bandwidth caps, killed nodes) on which
+//! whole teams run reproducibly; [`conformance`] is the test suite every transport
+//! passes.
+//!
+//! ```
+//! use std::sync::Arc;
+//! use std::time::Duration;
+//! use slate_ici::{ClassSet, Ici, IciConfig, SimNet};
+//! use slate_model::{Address, AttrDecl, Board, ClassDef, ValueType};
+//!
+//! let net = SimNet::new(1);
+//! let vehicle = ClassDef::new("Vehicle").attr(AttrDecl::new("speed", ValueType::Real));
+//! let start = |text: &str| -> Result<(Arc<Board>, Ici), Box<dyn std::error::Error>> {
+//!     let address = Address::new(text)?;
+//!     let board = Arc::new(Board::builder().clock(net.clock()).address(address.clone()).build());
+//!     board.define(vehicle.clone())?;
+//!     let config = IciConfig::default().export(ClassSet::all());
+//!     let ici = Ici::new(board.clone(), net.join(&address), config)?;
+//!     Ok((board, ici))
+//! };
+//! let (nav, _nav_ici) = start("team/r1/nav")?;
+//! let (base, _base_ici) = start("team/base/console")?;
+//! net.run_for(Duration::from_millis(500)); // they meet
+//!
+//! nav.create("Vehicle", "gsr")?;
+//! nav.write("gsr", "speed", 2.5)?;
+//! net.run_for(Duration::from_millis(500));
+//! assert_eq!(base.read("gsr", "speed")?.value.as_f64(), Some(2.5));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The protocol, the simulator's model and the counters are described in `docs/ici.md`.
+#![warn(missing_docs)]
+
+pub mod conformance;
+mod ici;
+mod sim;
+mod transport;
+
+pub use ici::{
+    CatchUpStats, ClassSet, Ici, IciConfig, IciStats, Liveliness, LivelinessStats, MODULE_CLASS,
+    MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, StartError, module_class,
+    module_object_name,
+};
+pub use sim::{
+    LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimFactory, SimNet, SimStats, SimTransport,
+};
+pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};

@@ -1,0 +1,459 @@
+//! The simulated network's state: endpoints, the event queue, partitions, transmitters,
+//! and the model of how a message travels (or does not).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_model::Address;
+
+use super::rng::Rng;
+use super::stats::SimStats;
+use super::{LinkConfig, SimConfig};
+use crate::{Handler, LinkKind, LinkStats, MsgKind, SendError};
+
+/// Something the step loop does at a virtual time.
+pub(crate) enum Action {
+    /// Hand a message to an endpoint.
+    Deliver {
+        from: Address,
+        to: usize,
+        kind: MsgKind,
+        payload: Arc<[u8]>,
+        /// The sending endpoint, for a reliable send (its retransmissions stop if it dies).
+        reliable_from: Option<usize>,
+    },
+    /// Bring `to`'s view of `peer` up to date (liveliness).
+    Review { to: usize, peer: Address },
+}
+
+/// What a delivery or review asks the step loop to call, outside the lock.
+pub(crate) enum Call {
+    Message(Arc<dyn Handler>, Address, Arc<[u8]>),
+    Peer(Arc<dyn Handler>, Address, bool),
+}
+
+pub(crate) struct Endpoint {
+    pub address: Address,
+    pub alive: bool,
+    pub handler: Option<Arc<dyn Handler>>,
+    /// The peers this endpoint has heard come up, and which incarnation.
+    pub view: BTreeMap<Address, usize>,
+    pub stats: LinkStats,
+}
+
+/// Time is virtual: a `Duration` since the network was created.
+pub(crate) struct Net {
+    pub config: SimConfig,
+    pub rng: Rng,
+    pub now: Duration,
+    queue: BTreeMap<(Duration, u64, u64), Action>,
+    seq: u64,
+    pub endpoints: Vec<Endpoint>,
+    current: BTreeMap<Address, usize>,
+    cuts: Vec<(BTreeSet<Address>, BTreeSet<Address>)>,
+    reliable_tail: BTreeMap<(usize, usize), Duration>,
+    busy_until: BTreeMap<(usize, LinkKind), Duration>,
+    pub stats: SimStats,
+}
+
+impl Net {
+    pub fn new(seed: u64, config: SimConfig) -> Self {
+        Net {
+            config,
+            rng: Rng::new(seed),
+            now: Duration::ZERO,
+            queue: BTreeMap::new(),
+            seq: 0,
+            endpoints: Vec::new(),
+            current: BTreeMap::new(),
+            cuts: Vec::new(),
+            reliable_tail: BTreeMap::new(),
+            busy_until: BTreeMap::new(),
+            stats: SimStats::default(),
+        }
+    }
+
+    fn schedule(&mut self, at: Duration, action: Action) {
+        self.seq += 1;
+        let tie = self.rng.next_u64();
+        self.queue.insert((at, tie, self.seq), action);
+    }
+
+    /// The time of the next event, if any.
+    pub fn next_at(&self) -> Option<Duration> {
+        self.queue.first_key_value().map(|(k, _)| k.0)
+    }
+
+    /// Takes the next event if it is due by `limit`.
+    pub fn pop_due(&mut self, limit: Duration) -> Option<(Duration, Action)> {
+        if self.next_at()? > limit {
+            return None;
+        }
+        self.stats.events += 1;
+        self.queue.pop_first().map(|(k, a)| (k.0, a))
+    }
+
+    fn link_config(&self, kind: LinkKind) -> LinkConfig {
+        match kind {
+            LinkKind::Robot => self.config.robot,
+            LinkKind::Team => self.config.team,
+        }
+    }
+
+    // ----- membership -----
+
+    /// A new endpoint at `address`; an endpoint already there is replaced (a restart).
+    pub fn join(&mut self, address: &Address) -> usize {
+        if let Some(old) = self.current.get(address).copied() {
+            self.endpoints[old].alive = false;
+            self.endpoints[old].view.clear();
+        }
+        let index = self.endpoints.len();
+        self.endpoints.push(Endpoint {
+            address: address.clone(),
+            alive: true,
+            handler: None,
+            view: BTreeMap::new(),
+            stats: LinkStats::default(),
+        });
+        self.current.insert(address.clone(), index);
+        self.review_all(address, self.config.liveliness_delay);
+        index
+    }
+
+    /// Kills (`alive = false`) or revives the current endpoint at `address`.
+    pub fn set_alive(&mut self, address: &Address, alive: bool) {
+        let Some(index) = self.current.get(address).copied() else {
+            return;
+        };
+        let ep = &mut self.endpoints[index];
+        if ep.alive == alive {
+            return;
+        }
+        ep.alive = alive;
+        ep.view.clear();
+        let delay = if alive {
+            self.config.liveliness_delay
+        } else {
+            self.config.lease
+        };
+        self.review_all(address, delay);
+    }
+
+    /// Closes one endpoint (only if it is still the current one at its address).
+    pub fn close(&mut self, index: usize) {
+        let address = self.endpoints[index].address.clone();
+        if self.current.get(&address) == Some(&index) {
+            self.set_alive(&address, false);
+        }
+    }
+
+    pub fn partition(&mut self, a: &[Address], b: &[Address]) {
+        let (a, b): (BTreeSet<_>, BTreeSet<_>) =
+            (a.iter().cloned().collect(), b.iter().cloned().collect());
+        self.cuts.push((a.clone(), b.clone()));
+        let lease = self.config.lease;
+        for x in &a {
+            self.review_all(x, lease);
+        }
+        for y in &b {
+            self.review_all(y, lease);
+        }
+    }
+
+    pub fn heal(&mut self) {
+        let cuts = std::mem::take(&mut self.cuts);
+        let delay = self.config.liveliness_delay;
+        for (a, b) in cuts {
+            for x in a.iter().chain(b.iter()) {
+                self.review_all(x, delay);
+            }
+        }
+    }
+
+    fn is_cut(&self, x: &Address, y: &Address) -> bool {
+        self.cuts
+            .iter()
+            .any(|(a, b)| (a.contains(x) && b.contains(y)) || (a.contains(y) && b.contains(x)))
+    }
+
+    /// Schedules reviews of every pair involving `address`, both ways.
+    fn review_all(&mut self, address: &Address, delay: Duration) {
+        let at = self.now + delay;
+        let others: Vec<(usize, Address)> = self
+            .current
+            .iter()
+            .filter(|(a, _)| *a != address)
+            .map(|(a, i)| (*i, a.clone()))
+            .collect();
+        let Some(me) = self.current.get(address).copied() else {
+            return;
+        };
+        for (other, other_address) in others {
+            self.schedule(
+                at,
+                Action::Review {
+                    to: other,
+                    peer: address.clone(),
+                },
+            );
+            self.schedule(
+                at,
+                Action::Review {
+                    to: me,
+                    peer: other_address,
+                },
+            );
+        }
+    }
+
+    /// Which incarnation of `peer` endpoint `to` can reach now, if any.
+    fn reachable(&self, to: usize, peer: &Address) -> Option<usize> {
+        let ep = &self.endpoints[to];
+        let index = *self.current.get(peer)?;
+        let ok = ep.alive && self.endpoints[index].alive && !self.is_cut(&ep.address, peer);
+        ok.then_some(index)
+    }
+
+    /// Updates `to`'s view of `peer`; returns the peer events to deliver.
+    pub fn review(&mut self, to: usize, peer: &Address) -> Vec<Call> {
+        let truth = self.reachable(to, peer);
+        let ep = &mut self.endpoints[to];
+        let seen = ep.view.get(peer).copied();
+        if seen == truth || !ep.alive {
+            return Vec::new();
+        }
+        let mut events = Vec::new();
+        if seen.is_some() {
+            ep.view.remove(peer);
+            events.push(false);
+        }
+        if let Some(index) = truth {
+            ep.view.insert(peer.clone(), index);
+            events.push(true);
+        }
+        let Some(handler) = ep.handler.clone() else {
+            return Vec::new();
+        };
+        events
+            .into_iter()
+            .map(|up| Call::Peer(handler.clone(), peer.clone(), up))
+            .collect()
+    }
+
+    // ----- traffic -----
+
+    /// Reserves `from`'s transmitter for `airtime`; returns when the transmission starts.
+    fn transmit(&mut self, from: usize, link: LinkKind, bytes: u64, airtime: Duration) -> Duration {
+        let busy = self.busy_until.entry((from, link)).or_default();
+        let start = (*busy).max(self.now);
+        *busy = start + airtime;
+        let waited = start - self.now;
+        let radio = self
+            .stats
+            .radios
+            .entry((self.endpoints[from].address.clone(), link))
+            .or_default();
+        radio.msgs += 1;
+        radio.bytes += bytes;
+        radio.busy += airtime;
+        radio.queued += waited;
+        radio.max_queued = radio.max_queued.max(waited);
+        start
+    }
+
+    fn check_send(&self, from: usize, payload: &[u8]) -> Result<(), SendError> {
+        if !self.endpoints[from].alive {
+            return Err(SendError::Closed);
+        }
+        if payload.len() > slate_wire::MAX_MESSAGE_BYTES {
+            return Err(SendError::TooLarge {
+                len: payload.len(),
+                max: slate_wire::MAX_MESSAGE_BYTES,
+            });
+        }
+        Ok(())
+    }
+
+    /// Best effort to every live endpoint on `link`: one transmission, then independent
+    /// loss, duplication and jitter per receiver.
+    pub fn publish(
+        &mut self,
+        from: usize,
+        link: LinkKind,
+        kind: MsgKind,
+        payload: &[u8],
+    ) -> Result<(), SendError> {
+        self.check_send(from, payload)
+            .inspect_err(|_| self.endpoints[from].stats.refused += 1)?;
+        let sender = self.endpoints[from].address.clone();
+        let receivers: Vec<usize> = self
+            .current
+            .iter()
+            .filter(|(a, i)| {
+                **a != sender && self.endpoints[**i].alive && LinkKind::between(&sender, a) == link
+            })
+            .map(|(_, i)| *i)
+            .collect();
+        self.endpoints[from].stats.sent(link, kind, payload.len());
+        if receivers.is_empty() {
+            return Ok(());
+        }
+        let cfg = self.link_config(link);
+        let airtime = cfg.transmit_time(payload.len());
+        let start = self.transmit(from, link, payload.len() as u64, airtime);
+        let payload: Arc<[u8]> = payload.into();
+        for to in receivers {
+            self.fan_out(&sender, to, kind, &payload, start + airtime, &cfg);
+        }
+        Ok(())
+    }
+
+    fn fan_out(
+        &mut self,
+        sender: &Address,
+        to: usize,
+        kind: MsgKind,
+        payload: &Arc<[u8]>,
+        done: Duration,
+        cfg: &LinkConfig,
+    ) {
+        let receiver = self.endpoints[to].address.clone();
+        let counter = self.stats.link(sender, &receiver, kind);
+        counter.sent_msgs += 1;
+        counter.sent_bytes += payload.len() as u64;
+        if self.rng.chance(cfg.loss) {
+            self.stats.link(sender, &receiver, kind).lost += 1;
+            return;
+        }
+        let copies = if self.rng.chance(cfg.duplicate) { 2 } else { 1 };
+        for copy in 0..copies {
+            if copy == 1 {
+                self.stats.link(sender, &receiver, kind).duplicated += 1;
+            }
+            let at = done + cfg.delay + self.rng.duration(cfg.jitter);
+            let action = Action::Deliver {
+                from: sender.clone(),
+                to,
+                kind,
+                payload: payload.clone(),
+                reliable_from: None,
+            };
+            self.schedule(at, action);
+        }
+    }
+
+    /// Reliable and in order to the current endpoint at `to`: lost attempts are
+    /// retransmitted after the RTO, each occupying the transmitter again.
+    pub fn send(
+        &mut self,
+        from: usize,
+        to: &Address,
+        kind: MsgKind,
+        payload: &[u8],
+    ) -> Result<(), SendError> {
+        self.check_send(from, payload)
+            .inspect_err(|_| self.endpoints[from].stats.refused += 1)?;
+        let sender = self.endpoints[from].address.clone();
+        let link = LinkKind::between(&sender, to);
+        self.endpoints[from].stats.sent(link, kind, payload.len());
+        let Some(target) = self.current.get(to).copied() else {
+            return Ok(());
+        };
+        let cfg = self.link_config(link);
+        let (attempts, delivered) = self.attempts(cfg.loss);
+        let airtime = cfg.transmit_time(payload.len()) * attempts;
+        let start = self.transmit(
+            from,
+            link,
+            payload.len() as u64 * u64::from(attempts),
+            airtime,
+        );
+        self.count_attempts(&sender, to, kind, payload.len(), attempts, delivered);
+        if !delivered {
+            return Ok(());
+        }
+        let rto = self.config.rto * (attempts - 1);
+        let at = start + airtime + rto + cfg.delay + self.rng.duration(cfg.jitter);
+        let action = Action::Deliver {
+            from: sender,
+            to: target,
+            kind,
+            payload: payload.into(),
+            reliable_from: Some(from),
+        };
+        self.schedule_in_order(from, target, at, action);
+        Ok(())
+    }
+
+    /// Schedules a reliable delivery no earlier than the previous one on its pair of
+    /// endpoints: reliable sends arrive in order.
+    fn schedule_in_order(&mut self, from: usize, to: usize, at: Duration, action: Action) {
+        let tail = self.reliable_tail.entry((from, to)).or_default();
+        let at = at.max(*tail + Duration::from_nanos(1));
+        *tail = at;
+        self.schedule(at, action);
+    }
+
+    fn count_attempts(
+        &mut self,
+        from: &Address,
+        to: &Address,
+        kind: MsgKind,
+        len: usize,
+        attempts: u32,
+        delivered: bool,
+    ) {
+        let counter = self.stats.link(from, to, kind);
+        counter.sent_msgs += u64::from(attempts);
+        counter.sent_bytes += len as u64 * u64::from(attempts);
+        counter.retransmits += u64::from(attempts - 1);
+        if !delivered {
+            counter.lost += 1;
+        }
+    }
+
+    /// How many attempts a reliable send takes, and whether the last one got through.
+    fn attempts(&mut self, loss: f64) -> (u32, bool) {
+        let max = self.config.max_attempts.max(1);
+        for n in 1..=max {
+            if !self.rng.chance(loss) {
+                return (n, true);
+            }
+        }
+        (max, false)
+    }
+
+    /// Takes a delivery: counts it, or drops it if the receiver is dead or cut off, or
+    /// if it is a reliable send whose sender died before it got through (a dead process
+    /// retransmits nothing).
+    pub fn deliver(
+        &mut self,
+        from: &Address,
+        to: usize,
+        kind: MsgKind,
+        payload: Arc<[u8]>,
+        reliable_from: Option<usize>,
+    ) -> Option<Call> {
+        let ep = &self.endpoints[to];
+        let receiver = ep.address.clone();
+        let sender_died = reliable_from.is_some_and(|i| !self.endpoints[i].alive);
+        if !ep.alive || sender_died {
+            self.stats.link(from, &receiver, kind).dead += 1;
+            return None;
+        }
+        if self.is_cut(from, &receiver) {
+            self.stats.link(from, &receiver, kind).cut += 1;
+            return None;
+        }
+        let counter = self.stats.link(from, &receiver, kind);
+        counter.delivered_msgs += 1;
+        counter.delivered_bytes += payload.len() as u64;
+        let ep = &mut self.endpoints[to];
+        ep.stats
+            .received(LinkKind::between(from, &receiver), kind, payload.len());
+        let handler = ep.handler.clone()?;
+        Some(Call::Message(handler, from.clone(), payload))
+    }
+}

@@ -1,0 +1,105 @@
+//! What the simulated network carried: per directed link and message kind, per
+//! transmitter, and what it dropped.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use slate_model::Address;
+
+use crate::{LinkKind, MsgKind};
+
+/// One directed link's counters for one message kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkCounter {
+    /// Transmissions put on the link (a reliable send's retransmissions included).
+    pub sent_msgs: u64,
+    /// Bytes put on the link (retransmissions included).
+    pub sent_bytes: u64,
+    /// Messages delivered (duplicates included).
+    pub delivered_msgs: u64,
+    /// Bytes delivered.
+    pub delivered_bytes: u64,
+    /// Deliveries lost to the link's loss rate (a reliable send: after every attempt).
+    pub lost: u64,
+    /// Extra copies delivered.
+    pub duplicated: u64,
+    /// Dropped because a partition separated the two ends.
+    pub cut: u64,
+    /// Dropped because the receiver was dead (killed, closed, restarted).
+    pub dead: u64,
+    /// Retransmissions of reliable sends.
+    pub retransmits: u64,
+}
+
+impl LinkCounter {
+    /// Adds another counter to this one.
+    pub fn add(&mut self, o: &LinkCounter) {
+        self.sent_msgs += o.sent_msgs;
+        self.sent_bytes += o.sent_bytes;
+        self.delivered_msgs += o.delivered_msgs;
+        self.delivered_bytes += o.delivered_bytes;
+        self.lost += o.lost;
+        self.duplicated += o.duplicated;
+        self.cut += o.cut;
+        self.dead += o.dead;
+        self.retransmits += o.retransmits;
+    }
+}
+
+/// One sender's transmitter on one kind of link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Radio {
+    /// Messages transmitted (a publish once, however many receive it).
+    pub msgs: u64,
+    /// Bytes transmitted.
+    pub bytes: u64,
+    /// Time spent transmitting.
+    pub busy: Duration,
+    /// Total time messages waited for the transmitter.
+    pub queued: Duration,
+    /// The longest any message waited.
+    pub max_queued: Duration,
+}
+
+/// Everything a [`SimNet`](crate::SimNet) counted. Same seed, same scenario: same stats.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SimStats {
+    /// Per directed link `(from, to)` and message kind.
+    pub links: BTreeMap<(Address, Address), BTreeMap<MsgKind, LinkCounter>>,
+    /// Per transmitter `(sender, kind of link)`.
+    pub radios: BTreeMap<(Address, LinkKind), Radio>,
+    /// Events processed by the step loop.
+    pub events: u64,
+}
+
+impl SimStats {
+    /// All links of one kind and message kinds together.
+    pub fn total(&self, kind: LinkKind) -> LinkCounter {
+        self.sum(|link, _| link == kind)
+    }
+
+    /// One message kind over all links of one kind.
+    pub fn kind(&self, kind: LinkKind, msg: MsgKind) -> LinkCounter {
+        self.sum(|link, m| link == kind && m == msg)
+    }
+
+    fn sum(&self, pick: impl Fn(LinkKind, MsgKind) -> bool) -> LinkCounter {
+        let mut total = LinkCounter::default();
+        for ((from, to), kinds) in &self.links {
+            let link = LinkKind::between(from, to);
+            for (msg, c) in kinds.iter().filter(|(m, _)| pick(link, **m)) {
+                let _ = msg;
+                total.add(c);
+            }
+        }
+        total
+    }
+
+    pub(crate) fn link(&mut self, from: &Address, to: &Address, kind: MsgKind) -> &mut LinkCounter {
+        self.links
+            .entry((from.clone(), to.clone()))
+            .or_default()
+            .entry(kind)
+            .or_default()
+    }
+}

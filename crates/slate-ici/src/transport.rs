@@ -1,0 +1,328 @@
+//! The transport trait: how an ICI reaches other modules, whatever carries the bytes.
+//!
+//! A transport speaks module addresses (`team/robot/module`), link kinds and message
+//! kinds; it never sees topics. An implementation over a pub/sub network (Zenoh) derives
+//! every key expression from `(address, link kind, message kind)` in one function of its
+//! own; nothing else formats keys.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::sync::Arc;
+
+use slate_model::Address;
+use slate_wire::Message;
+
+/// The two kinds of links: between modules of one robot, and between robots.
+///
+/// Two modules are on one robot when their addresses share `team/robot`. A publish names
+/// the kind of link it goes out on: [`LinkKind::Robot`] reaches the other modules of the
+/// sender's robot, [`LinkKind::Team`] the modules of every other robot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum LinkKind {
+    /// Inside one robot: fast, clean, cheap.
+    Robot,
+    /// Between robots: slow, lossy, expensive (radio, acoustic modem).
+    Team,
+}
+
+impl LinkKind {
+    /// Both kinds.
+    pub const ALL: [LinkKind; 2] = [LinkKind::Robot, LinkKind::Team];
+
+    /// The kind of the link between two modules.
+    pub fn between(a: &Address, b: &Address) -> LinkKind {
+        if a.team() == b.team() && a.robot() == b.robot() {
+            LinkKind::Robot
+        } else {
+            LinkKind::Team
+        }
+    }
+
+    /// Lower-case name (`robot`, `team`).
+    pub fn name(self) -> &'static str {
+        match self {
+            LinkKind::Robot => "robot",
+            LinkKind::Team => "team",
+        }
+    }
+}
+
+impl fmt::Display for LinkKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What a message is, for routing (a transport may give kinds their own keys,
+/// priorities or reliability) and for statistics.
+///
+/// The first nine are slate-wire messages (header version 1); the last three are the
+/// ICI's own frames (header version 0, see `docs/ici.md`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[non_exhaustive]
+pub enum MsgKind {
+    /// A report of attribute packets.
+    Report,
+    /// Dictionary entries.
+    Names,
+    /// Class definitions.
+    Classes,
+    /// A plan.
+    Plan,
+    /// A plan acknowledgement.
+    PlanAck,
+    /// A plan cancellation.
+    PlanCancel,
+    /// A catch-up request.
+    CatchUpRequest,
+    /// A catch-up answer (the source's current packets).
+    CatchUpAnswer,
+    /// A heartbeat.
+    Heartbeat,
+    /// The ICI's hello: incarnation and declared interest.
+    Hello,
+    /// The ICI's object creations and deletions.
+    Lifecycle,
+    /// The ICI's list of the objects a source owns (ends a catch-up answer).
+    ObjectList,
+    /// Bytes that are none of the above.
+    Unknown,
+}
+
+impl MsgKind {
+    /// Every kind.
+    pub const ALL: [MsgKind; 13] = [
+        MsgKind::Report,
+        MsgKind::Names,
+        MsgKind::Classes,
+        MsgKind::Plan,
+        MsgKind::PlanAck,
+        MsgKind::PlanCancel,
+        MsgKind::CatchUpRequest,
+        MsgKind::CatchUpAnswer,
+        MsgKind::Heartbeat,
+        MsgKind::Hello,
+        MsgKind::Lifecycle,
+        MsgKind::ObjectList,
+        MsgKind::Unknown,
+    ];
+
+    /// The kind of a message, read from its first byte.
+    pub fn of(payload: &[u8]) -> MsgKind {
+        let Some(&first) = payload.first() else {
+            return MsgKind::Unknown;
+        };
+        let index = match (first >> 4, first & 0xf) {
+            (1, k @ 1..=9) => k - 1,
+            (0, k @ 1..=3) => k + 8,
+            _ => return MsgKind::Unknown,
+        };
+        MsgKind::ALL[usize::from(index)]
+    }
+
+    /// The kind of a slate-wire message.
+    pub fn of_message(msg: &Message) -> MsgKind {
+        match msg {
+            Message::Report(_) => MsgKind::Report,
+            Message::Names(_) => MsgKind::Names,
+            Message::Classes(_) => MsgKind::Classes,
+            Message::Plan(_) => MsgKind::Plan,
+            Message::PlanAck(_) => MsgKind::PlanAck,
+            Message::PlanCancel { .. } => MsgKind::PlanCancel,
+            Message::CatchUpRequest(_) => MsgKind::CatchUpRequest,
+            Message::CatchUpAnswer(_) => MsgKind::CatchUpAnswer,
+            Message::Heartbeat(_) => MsgKind::Heartbeat,
+        }
+    }
+
+    /// Lower-case name, usable as the last segment of a key.
+    pub fn name(self) -> &'static str {
+        match self {
+            MsgKind::Report => "report",
+            MsgKind::Names => "names",
+            MsgKind::Classes => "classes",
+            MsgKind::Plan => "plan",
+            MsgKind::PlanAck => "plan_ack",
+            MsgKind::PlanCancel => "plan_cancel",
+            MsgKind::CatchUpRequest => "catch_up_request",
+            MsgKind::CatchUpAnswer => "catch_up_answer",
+            MsgKind::Heartbeat => "heartbeat",
+            MsgKind::Hello => "hello",
+            MsgKind::Lifecycle => "lifecycle",
+            MsgKind::ObjectList => "object_list",
+            MsgKind::Unknown => "unknown",
+        }
+    }
+}
+
+impl fmt::Display for MsgKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Messages and bytes one way and the other.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Traffic {
+    /// Messages sent.
+    pub sent_msgs: u64,
+    /// Bytes sent.
+    pub sent_bytes: u64,
+    /// Messages received.
+    pub recv_msgs: u64,
+    /// Bytes received.
+    pub recv_bytes: u64,
+}
+
+impl Traffic {
+    /// Counts one message sent.
+    pub fn sent(&mut self, bytes: usize) {
+        self.sent_msgs += 1;
+        self.sent_bytes += bytes as u64;
+    }
+
+    /// Counts one message received.
+    pub fn received(&mut self, bytes: usize) {
+        self.recv_msgs += 1;
+        self.recv_bytes += bytes as u64;
+    }
+
+    /// Adds another count to this one.
+    pub fn add(&mut self, other: &Traffic) {
+        self.sent_msgs += other.sent_msgs;
+        self.sent_bytes += other.sent_bytes;
+        self.recv_msgs += other.recv_msgs;
+        self.recv_bytes += other.recv_bytes;
+    }
+}
+
+/// What an endpoint sent and received, by link kind and message kind, and what it
+/// could not send. A publish counts once, however many peers it reaches.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LinkStats {
+    /// Traffic per link kind and message kind.
+    pub traffic: BTreeMap<(LinkKind, MsgKind), Traffic>,
+    /// Sends refused (closed endpoint, unknown peer, too large).
+    pub refused: u64,
+}
+
+impl LinkStats {
+    /// The traffic of one link kind, all message kinds together.
+    pub fn link(&self, link: LinkKind) -> Traffic {
+        let mut total = Traffic::default();
+        for (_, t) in self.traffic.iter().filter(|((l, _), _)| *l == link) {
+            total.add(t);
+        }
+        total
+    }
+
+    /// The traffic of one message kind on one link kind.
+    pub fn get(&self, link: LinkKind, kind: MsgKind) -> Traffic {
+        self.traffic.get(&(link, kind)).copied().unwrap_or_default()
+    }
+
+    /// Counts a message sent.
+    pub fn sent(&mut self, link: LinkKind, kind: MsgKind, bytes: usize) {
+        self.traffic.entry((link, kind)).or_default().sent(bytes);
+    }
+
+    /// Counts a message received.
+    pub fn received(&mut self, link: LinkKind, kind: MsgKind, bytes: usize) {
+        self.traffic
+            .entry((link, kind))
+            .or_default()
+            .received(bytes);
+    }
+}
+
+/// Why a transport refused to send.
+#[non_exhaustive]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SendError {
+    /// The endpoint is closed (or its node was killed).
+    #[error("the endpoint is closed")]
+    Closed,
+    /// The payload is over the transport's limit.
+    #[error("payload of {len} bytes is over the limit of {max}")]
+    TooLarge {
+        /// Payload size.
+        len: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// The transport failed (I/O, session).
+    #[error("transport failure: {0}")]
+    Failed(String),
+}
+
+/// Receives what a transport delivers. Called from the transport's threads (or the
+/// simulator's step loop); it must not block for long.
+pub trait Handler: Send + Sync {
+    /// A message from `from`.
+    fn message(&self, from: &Address, payload: &[u8]);
+
+    /// A peer became reachable (`up`) or stopped being so.
+    fn peer(&self, peer: &Address, up: bool);
+}
+
+/// Moves ICI messages between modules.
+///
+/// Contract (checked by [`crate::conformance`]):
+/// - [`publish`](Transport::publish) is best effort: a message reaches each live peer on
+///   that kind of link once, or not at all, or twice, in any order.
+/// - [`send`](Transport::send) is reliable: messages to one peer arrive once and in order
+///   while the peer stays reachable; a peer that goes down may miss some.
+/// - Request and response are two `send`s (a catch-up request, then its answer); there is
+///   no separate query primitive.
+/// - Liveliness: the handler's [`peer`](Handler::peer) hears every peer that comes up and
+///   goes down; [`peers`](Transport::peers) lists those currently up.
+/// - Neither `publish` nor `send` calls the handler synchronously: a handler may send.
+/// - An endpoint never receives its own messages.
+pub trait Transport: Send + Sync {
+    /// This endpoint's module address.
+    fn address(&self) -> &Address;
+
+    /// Installs the handler of inbound messages and peer events (replacing any other).
+    fn set_handler(&self, handler: Arc<dyn Handler>);
+
+    /// Sends to every live peer on `link` (best effort).
+    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError>;
+
+    /// Sends to one peer, reliably and in order.
+    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError>;
+
+    /// The peers currently up.
+    fn peers(&self) -> Vec<Address>;
+
+    /// Counters of what this endpoint sent and received.
+    fn stats(&self) -> LinkStats;
+
+    /// Leaves the network: stops sending and receiving; peers see it go down.
+    fn close(&self);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn kinds_are_read_from_the_header_byte() {
+        assert_eq!(MsgKind::of(&[0x11]), MsgKind::Report);
+        assert_eq!(MsgKind::of(&[0x19]), MsgKind::Heartbeat);
+        assert_eq!(MsgKind::of(&[0x01]), MsgKind::Hello);
+        assert_eq!(MsgKind::of(&[0x03]), MsgKind::ObjectList);
+        for bad in [[0x10], [0x1a], [0x00], [0x04], [0x21], [0xff]] {
+            assert_eq!(MsgKind::of(&bad), MsgKind::Unknown, "{bad:?}");
+        }
+        assert_eq!(MsgKind::of(&[]), MsgKind::Unknown);
+    }
+
+    #[test]
+    fn links_are_robot_or_team_by_address() {
+        let a = Address::new("t/r1/nav").unwrap();
+        let b = Address::new("t/r1/cam").unwrap();
+        let c = Address::new("t/r2/nav").unwrap();
+        assert_eq!(LinkKind::between(&a, &b), LinkKind::Robot);
+        assert_eq!(LinkKind::between(&a, &c), LinkKind::Team);
+    }
+}

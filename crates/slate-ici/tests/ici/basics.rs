@@ -1,0 +1,207 @@
+//! Reports, objects, contexts, classes and deletions on clean links.
+
+use slate_ici::{IciConfig, LinkKind, MsgKind};
+use slate_model::{AttrDecl, ClassDef, Context, NewObject, Update, Value, ValueType};
+
+use crate::common::{Team, addr, classes, open};
+
+fn pair() -> Team {
+    let mut team = Team::new(1);
+    team.add("t/r1/nav", open());
+    team.add("t/r1/planner", open());
+    team.add("t/r2/nav", open());
+    team.run(0.5);
+    team
+}
+
+#[test]
+fn a_write_reaches_every_interested_board_with_its_packet() {
+    let team = pair();
+    let nav = team.board("t/r1/nav");
+    nav.create("Vehicle", "gsr").unwrap();
+    nav.write("gsr", "speed", Update::new(2.5).confidence(0.5))
+        .unwrap();
+    team.run(0.5);
+    let here = nav.read("gsr", "speed").unwrap();
+    for other in ["t/r1/planner", "t/r2/nav"] {
+        let b = team.board(other);
+        let there = b.read("gsr", "speed").unwrap();
+        assert_eq!(
+            (&there.value, there.timestamp, &there.source),
+            (&here.value, here.timestamp, &here.source)
+        );
+        assert!(
+            (there.confidence - 0.5).abs() <= 1.0 / 510.0,
+            "quantised to 8 bits"
+        );
+        let info = b.info("gsr").unwrap();
+        assert_eq!((&*info.class, &info.owner), ("Vehicle", &addr("t/r1/nav")));
+    }
+}
+
+#[test]
+fn self_objects_are_system_on_other_robots_and_self_on_their_own() {
+    let team = pair();
+    let nav = team.board("t/r1/nav");
+    nav.create_with(NewObject::new("Vehicle", "me").context(Context::Self_))
+        .unwrap();
+    nav.write("me", "speed", 1.0).unwrap();
+    team.run(0.5);
+    assert_eq!(
+        team.board("t/r1/planner").info("me").unwrap().context,
+        Context::Self_
+    );
+    assert_eq!(
+        team.board("t/r2/nav").info("me").unwrap().context,
+        Context::System
+    );
+}
+
+#[test]
+fn an_object_without_values_still_reaches_its_peers() {
+    let team = pair();
+    team.board("t/r1/nav").create("Rock", "boulder").unwrap();
+    team.run(0.5);
+    let info = team.board("t/r2/nav").info("boulder").unwrap();
+    assert_eq!(&*info.class, "Rock");
+}
+
+#[test]
+fn deleting_an_object_deletes_every_copy() {
+    let team = pair();
+    let nav = team.board("t/r1/nav");
+    nav.create("Rock", "boulder").unwrap();
+    nav.write("boulder", "x", 3.0).unwrap();
+    team.run(0.5);
+    assert!(team.board("t/r2/nav").info("boulder").is_some());
+    nav.delete("boulder").unwrap();
+    team.run(0.5);
+    for n in ["t/r1/planner", "t/r2/nav"] {
+        assert!(team.board(n).info("boulder").is_none(), "{n}");
+    }
+    assert!(team.node("t/r2/nav").ici.stats().merges.deleted >= 1);
+}
+
+#[test]
+fn only_the_owner_deletes_other_copies() {
+    let team = pair();
+    team.board("t/r1/nav").create("Rock", "boulder").unwrap();
+    team.run(0.5);
+    team.board("t/r1/planner").delete("boulder").unwrap();
+    team.run(0.5);
+    assert!(team.board("t/r2/nav").info("boulder").is_some());
+    assert!(team.board("t/r1/nav").info("boulder").is_some());
+}
+
+#[test]
+fn a_report_written_before_a_deletion_does_not_bring_the_object_back() {
+    let team = pair();
+    let (nav, planner) = (team.board("t/r1/nav"), team.board("t/r1/planner"));
+    nav.create("Rock", "boulder").unwrap();
+    team.run(0.5);
+    // The planner writes, but its report is cut off from r2 until after the deletion.
+    team.net
+        .partition(&[addr("t/r1/planner")], &[addr("t/r2/nav")]);
+    planner.write("boulder", "x", 1.0).unwrap();
+    nav.delete("boulder").unwrap();
+    team.run(0.5);
+    team.net.heal();
+    team.run(5.0);
+    assert!(team.board("t/r2/nav").info("boulder").is_none());
+    assert!(planner.info("boulder").is_none());
+}
+
+#[test]
+fn class_level_values_reach_every_board() {
+    let team = pair();
+    team.board("t/r1/nav")
+        .write("Tracked", "label", "unknown")
+        .unwrap();
+    team.run(0.5);
+    let b = team.board("t/r2/nav");
+    b.create("Rock", "pebble").unwrap();
+    assert_eq!(
+        b.read("pebble", "label").unwrap().value,
+        Value::from("unknown")
+    );
+}
+
+#[test]
+fn a_board_lacking_a_class_asks_for_it_and_gets_the_values() {
+    let mut team = Team::new(2);
+    let sonar = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
+    let mut with_sonar = classes();
+    with_sonar.push(sonar.clone());
+    team.add_with("t/r1/nav", open(), &with_sonar);
+    team.add("t/r2/nav", open());
+    team.run(0.5);
+    let nav = team.board("t/r1/nav");
+    nav.create("Sonar", "s1").unwrap();
+    nav.write("s1", "ping", 0.25).unwrap();
+    team.run(2.0);
+    let other = team.board("t/r2/nav");
+    assert_eq!(other.class_def("Sonar"), Some(sonar));
+    assert_eq!(other.read("s1", "ping").unwrap().value.as_f64(), Some(0.25));
+    assert!(team.node("t/r1/nav").ici.stats().catch_up.classes_sent >= 1);
+}
+
+#[test]
+fn a_class_defined_differently_is_refused_and_counted_not_merged() {
+    let mut team = Team::new(3);
+    let a = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
+    let b = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Int));
+    let with = |d: &ClassDef| {
+        let mut v = classes();
+        v.push(d.clone());
+        v
+    };
+    team.add_with("t/r1/nav", open(), &with(&a));
+    team.add_with("t/r2/nav", open(), &with(&b));
+    team.run(0.5);
+    let nav = team.board("t/r1/nav");
+    nav.create("Sonar", "s1").unwrap();
+    nav.write("s1", "ping", 0.25).unwrap();
+    team.run(5.0);
+    let other = team.node("t/r2/nav");
+    assert_eq!(other.board.class_def("Sonar"), Some(b));
+    assert!(other.board.info("s1").is_none());
+    let stats = other.ici.stats();
+    assert!(stats.rejects.class_conflicts >= 1, "{stats:?}");
+    assert!(stats.rejects.decode.schema_mismatch >= 1);
+    assert!(stats.catch_up.requested <= 4, "no request storm: {stats:?}");
+}
+
+#[test]
+fn the_robot_link_carries_intra_robot_traffic_and_the_team_link_the_rest() {
+    let team = pair();
+    let nav = team.board("t/r1/nav");
+    nav.create("Vehicle", "gsr").unwrap();
+    nav.write("gsr", "speed", 1.0).unwrap();
+    team.run(0.5);
+    let stats = team.node("t/r1/nav").ici.stats();
+    assert_eq!(stats.get(LinkKind::Robot, MsgKind::Report).sent_msgs, 1);
+    assert_eq!(stats.get(LinkKind::Team, MsgKind::Report).sent_msgs, 1);
+    let sim = team.net.stats();
+    let report = sim.kind(LinkKind::Team, MsgKind::Report);
+    assert_eq!(report.delivered_msgs, 1, "one report to r2/nav");
+    assert_eq!(sim.kind(LinkKind::Robot, MsgKind::Report).delivered_msgs, 1);
+}
+
+#[test]
+fn interest_defaults_to_everything_and_export_to_nothing() {
+    let config = IciConfig::default();
+    assert!(config.interest.is_all());
+    assert!(config.export.is_empty());
+    let mut team = Team::new(4);
+    team.add("t/r1/nav", config.clone());
+    team.add("t/r1/cam", config.clone());
+    team.add("t/r2/nav", config);
+    team.run(0.5);
+    let nav = team.board("t/r1/nav");
+    nav.create("Vehicle", "gsr").unwrap();
+    nav.write("gsr", "speed", 1.0).unwrap();
+    team.run(1.0);
+    assert!(team.board("t/r1/cam").info("gsr").is_some());
+    assert!(team.board("t/r2/nav").info("gsr").is_none());
+    assert!(team.node("t/r1/nav").ici.stats().reports.suppressed_export >= 1);
+}

@@ -1,0 +1,304 @@
+//! A team on a simulated network, and the convergence check.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_ici::{ClassSet, Ici, IciConfig, MODULE_CLASS, Rng, SimConfig, SimNet};
+use slate_model::{
+    Address, AttrDecl, Board, ClassDef, Context, MergePolicy, NewObject, ObjectInfo, Packet,
+    Update, Value, ValueType,
+};
+
+pub fn addr(text: &str) -> Address {
+    Address::new(text).unwrap()
+}
+
+pub fn secs(s: f64) -> Duration {
+    Duration::from_secs_f64(s)
+}
+
+/// The classes every test board knows.
+pub fn classes() -> Vec<ClassDef> {
+    let real = |n| AttrDecl::new(n, ValueType::Real);
+    vec![
+        ClassDef::new("Tracked")
+            .attr(real("x"))
+            .attr(real("y"))
+            .attr(AttrDecl::new("label", ValueType::Str))
+            .attr(AttrDecl::new("hits", ValueType::Int))
+            .attr(real("seen").merge(MergePolicy::Confident)),
+        ClassDef::new("Rock").parent("Tracked"),
+        ClassDef::new("Vehicle")
+            .attr(real("speed"))
+            .attr(real("heading").merge(MergePolicy::Owned))
+            .attr(AttrDecl::new("mode", ValueType::Str)),
+        ClassDef::new("Target").attr(real("range").merge(MergePolicy::Fused)),
+        ClassDef::new("Raw").attr(real("sample")),
+    ]
+}
+
+/// One module: its board, its ICI, and the config it runs.
+pub struct Node {
+    pub address: Address,
+    pub board: Arc<Board>,
+    pub ici: Ici,
+    pub config: IciConfig,
+}
+
+/// Modules on one simulated network.
+pub struct Team {
+    pub net: SimNet,
+    pub nodes: Vec<Node>,
+}
+
+impl Team {
+    pub fn new(seed: u64) -> Self {
+        Team::with(seed, SimConfig::default())
+    }
+
+    pub fn with(seed: u64, config: SimConfig) -> Self {
+        Team {
+            net: SimNet::with_config(seed, config),
+            nodes: Vec::new(),
+        }
+    }
+
+    /// A team of `robots` × `modules`, everyone interested in everything and exporting
+    /// everything: `t/r{i}/m{j}`.
+    pub fn grid(seed: u64, config: SimConfig, robots: usize, modules: usize) -> Self {
+        let mut team = Team::with(seed, config);
+        for r in 0..robots {
+            for m in 0..modules {
+                team.add(&format!("t/r{r}/m{m}"), open());
+            }
+        }
+        team
+    }
+
+    /// Adds a module with the test classes defined.
+    pub fn add(&mut self, address: &str, config: IciConfig) -> &Node {
+        self.add_with(address, config, &classes())
+    }
+
+    pub fn add_with(&mut self, address: &str, config: IciConfig, defs: &[ClassDef]) -> &Node {
+        let address = addr(address);
+        let board = Arc::new(
+            Board::builder()
+                .clock(self.net.clock())
+                .address(address.clone())
+                .build(),
+        );
+        for def in defs {
+            board.define(def.clone()).unwrap();
+        }
+        let transport = self.net.join(&address);
+        let ici = Ici::new(board.clone(), transport, config.clone()).unwrap();
+        self.nodes.retain(|n| n.address != address);
+        self.nodes.push(Node {
+            address,
+            board,
+            ici,
+            config,
+        });
+        self.nodes.last().unwrap()
+    }
+
+    pub fn node(&self, address: &str) -> &Node {
+        let a = addr(address);
+        self.nodes
+            .iter()
+            .find(|n| n.address == a)
+            .unwrap_or_else(|| panic!("no node {address}"))
+    }
+
+    pub fn board(&self, address: &str) -> &Arc<Board> {
+        &self.node(address).board
+    }
+
+    pub fn run(&self, s: f64) {
+        self.net.run_for(secs(s));
+    }
+
+    /// Runs in one-second steps until the boards agree or `max` seconds pass; returns
+    /// the last disagreement.
+    pub fn settle(&self, max: u32) -> Option<String> {
+        for _ in 0..max {
+            // `?`: nothing differs, the boards agree.
+            divergence(&self.nodes)?;
+            self.run(1.0);
+        }
+        divergence(&self.nodes)
+    }
+
+    /// Panics with the disagreement if the boards do not agree within `max` seconds.
+    pub fn assert_converges(&self, max: u32) {
+        if let Some(d) = self.settle(max) {
+            panic!("boards did not converge in {max} s: {d}");
+        }
+    }
+}
+
+/// Interest in everything, export of everything.
+pub fn open() -> IciConfig {
+    IciConfig::default().export(ClassSet::all())
+}
+
+/// The chain of `class` on `board`, class first.
+pub fn lineage(board: &Board, class: &str) -> Vec<Arc<str>> {
+    let Some(info) = board.info(class) else {
+        return Vec::new();
+    };
+    board
+        .lineage(info.id)
+        .into_iter()
+        .filter_map(|id| board.name_of(id))
+        .collect()
+}
+
+/// Does `b` model the object `info` that another board holds?
+fn models(b: &Node, info: &ObjectInfo) -> bool {
+    if info.is_class {
+        return b.board.info(&info.name).is_some();
+    }
+    let context = match b.board.info(&info.name) {
+        Some(mine) => mine.context,
+        None if info.context == Context::Self_ && robot(&info.owner) != robot(&b.address) => {
+            Context::System
+        }
+        None => info.context,
+    };
+    b.config
+        .interest
+        .contains(&lineage(&b.board, &info.class), context)
+}
+
+fn robot(a: &Address) -> (&str, &str) {
+    (a.team(), a.robot())
+}
+
+/// The packets an object holds itself, by attribute.
+pub fn own(board: &Board, name: &str) -> Vec<(Arc<str>, Packet)> {
+    let snap = board.snapshot();
+    let Some(id) = snap.id_of(name) else {
+        return Vec::new();
+    };
+    snap.own_values(id)
+        .into_iter()
+        .map(|(a, p, _)| (a, p))
+        .collect()
+}
+
+/// The first disagreement between the boards: an object one holds that another board
+/// modelling it lacks, or holds with other packets. `Module` objects are local facts
+/// and left out.
+pub fn divergence(nodes: &[Node]) -> Option<String> {
+    for a in nodes {
+        let infos: Vec<ObjectInfo> = {
+            let snap = a.board.snapshot();
+            snap.objects()
+                .into_iter()
+                .filter_map(|id| snap.info(id))
+                .collect()
+        };
+        for info in infos.iter().filter(|i| &*i.class != MODULE_CLASS) {
+            let mine = own(&a.board, &info.name);
+            for b in nodes
+                .iter()
+                .filter(|b| b.address != a.address && models(b, info))
+            {
+                if b.board.info(&info.name).is_none() {
+                    return Some(format!(
+                        "{} holds {} but {} does not",
+                        a.address, info.name, b.address
+                    ));
+                }
+                let theirs = own(&b.board, &info.name);
+                if mine != theirs {
+                    return Some(format!(
+                        "{}: {} has {:?}\n  but {} has {:?}",
+                        info.name, a.address, mine, b.address, theirs
+                    ));
+                }
+            }
+        }
+    }
+    None
+}
+
+/// Random work on random boards: creations, deletions of own objects, class-level
+/// writes, and writes of every merge policy (owned only by the owner), `steps` times,
+/// `dt` seconds apart.
+pub fn workload(team: &Team, rng: &mut Rng, steps: usize, dt: f64) {
+    for _ in 0..steps {
+        let node = &team.nodes[rng.below(team.nodes.len() as u64) as usize];
+        let roll = rng.below(100);
+        match roll {
+            0..10 => create(node, rng),
+            10..13 => delete_own(node, rng),
+            13..15 => {
+                let label = format!("class{}", rng.below(5));
+                let _ = node.board.write("Tracked", "label", label);
+            }
+            _ => write_some(node, rng),
+        }
+        team.run(dt);
+    }
+}
+
+fn create(node: &Node, rng: &mut Rng) {
+    let class = ["Rock", "Vehicle", "Target"][rng.below(3) as usize];
+    let context = [Context::Self_, Context::Surroundings, Context::System][rng.below(3) as usize];
+    let (robot, module) = (node.address.robot(), node.address.module());
+    let name = format!(
+        "{}_{robot}_{module}_{}",
+        class.to_lowercase(),
+        rng.below(1 << 20)
+    );
+    let _ = node
+        .board
+        .create_with(NewObject::new(class, &name).context(context));
+}
+
+fn objects(node: &Node) -> Vec<ObjectInfo> {
+    let snap = node.board.snapshot();
+    snap.objects()
+        .into_iter()
+        .filter_map(|id| snap.info(id))
+        .filter(|i| !i.is_class && &*i.class != MODULE_CLASS)
+        .collect()
+}
+
+fn delete_own(node: &Node, rng: &mut Rng) {
+    let own: Vec<_> = objects(node)
+        .into_iter()
+        .filter(|i| i.owner == node.address)
+        .collect();
+    if !own.is_empty() {
+        let victim = &own[rng.below(own.len() as u64) as usize];
+        let _ = node.board.delete(&victim.name);
+    }
+}
+
+fn write_some(node: &Node, rng: &mut Rng) {
+    let all = objects(node);
+    if all.is_empty() {
+        return create(node, rng);
+    }
+    let o = &all[rng.below(all.len() as u64) as usize];
+    let v = (rng.next_f64() * 1000.0).round() / 8.0;
+    let b = &node.board;
+    let _ = match (&*o.class, rng.below(4)) {
+        ("Rock", 0) => b.write(&o.name, "x", v),
+        ("Rock", 1) => b.write(&o.name, "hits", Value::Int(rng.below(100) as i64)),
+        ("Rock", 2) => b.write(&o.name, "seen", Update::new(v).confidence(rng.next_f64())),
+        ("Rock", _) => b.write(&o.name, "label", format!("l{}", rng.below(10))),
+        ("Vehicle", 0) if o.owner == node.address => b.write(&o.name, "heading", v),
+        ("Vehicle", 1) => b.write(&o.name, "mode", format!("m{}", rng.below(4))),
+        ("Vehicle", _) => b.write(&o.name, "speed", v),
+        (_, _) => b.write(
+            &o.name,
+            "range",
+            Update::new(v).accuracy(0.5 + rng.next_f64() * 5.0),
+        ),
+    };
+}

@@ -1,0 +1,181 @@
+//! Convergence under loss, duplication, reordering, partitions, late joins, restarts,
+//! and a killed module seen dead everywhere.
+
+use slate_ici::{LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
+use slate_model::Value;
+
+use crate::common::{Team, addr, open, secs, workload};
+
+/// 3 robots × 2 modules on links with these faults, some random work, then the boards
+/// must agree (faults still on).
+fn converge_under(seed: u64, link: LinkConfig) -> Team {
+    let config = SimConfig {
+        robot: link.delay(secs(0.0001)),
+        team: link.delay(secs(0.02)),
+        ..SimConfig::default()
+    };
+    let team = Team::grid(seed, config, 3, 2);
+    team.run(0.5);
+    workload(&team, &mut Rng::new(seed), 150, 0.05);
+    team.assert_converges(60);
+    team
+}
+
+#[test]
+fn boards_converge_without_loss() {
+    converge_under(20, LinkConfig::clean());
+}
+
+#[test]
+fn boards_converge_with_10_percent_loss() {
+    converge_under(21, LinkConfig::clean().loss(0.1));
+}
+
+#[test]
+fn boards_converge_with_30_percent_loss() {
+    converge_under(22, LinkConfig::clean().loss(0.3));
+}
+
+#[test]
+fn boards_converge_with_50_percent_loss() {
+    let team = converge_under(23, LinkConfig::clean().loss(0.5));
+    let requested: u64 = team
+        .nodes
+        .iter()
+        .map(|n| n.ici.stats().catch_up.completed)
+        .sum();
+    assert!(requested > 0, "loss was recovered by catch-ups");
+}
+
+#[test]
+fn boards_converge_with_duplication() {
+    let team = converge_under(24, LinkConfig::clean().duplicate(0.5));
+    let dups: u64 = team
+        .nodes
+        .iter()
+        .map(|n| n.ici.stats().rejects.duplicates)
+        .sum();
+    assert!(dups > 0);
+}
+
+#[test]
+fn boards_converge_with_reordering() {
+    converge_under(25, LinkConfig::clean().jitter(secs(0.5)));
+}
+
+#[test]
+fn boards_converge_on_a_slow_lossy_radio() {
+    let team = converge_under(26, LinkConfig::clean().bandwidth(9600).loss(0.1));
+    let radios = team.net.stats().radios;
+    let queued = radios
+        .iter()
+        .filter(|((_, link), _)| *link == LinkKind::Team)
+        .map(|(_, r)| r.queued)
+        .max()
+        .unwrap_or_default();
+    assert!(queued > secs(0.0), "the 9600 bit/s link queued messages");
+}
+
+#[test]
+fn boards_converge_after_a_partition_heals() {
+    let team = Team::grid(27, SimConfig::default(), 3, 2);
+    team.run(0.5);
+    let r0 = [addr("t/r0/m0"), addr("t/r0/m1")];
+    let rest: Vec<_> = team
+        .nodes
+        .iter()
+        .map(|n| n.address.clone())
+        .filter(|a| !r0.contains(a))
+        .collect();
+    let mut rng = Rng::new(27);
+    workload(&team, &mut rng, 40, 0.05);
+    team.net.partition(&r0, &rest);
+    workload(&team, &mut rng, 100, 0.05);
+    assert!(
+        crate::common::divergence(&team.nodes).is_some(),
+        "the partition made a difference"
+    );
+    team.net.heal();
+    team.assert_converges(60);
+}
+
+#[test]
+fn a_late_joiner_catches_up_with_the_current_state() {
+    let mut team = Team::grid(28, SimConfig::default(), 2, 2);
+    team.run(0.5);
+    workload(&team, &mut Rng::new(28), 100, 0.05);
+    team.add("t/r2/late", open());
+    team.assert_converges(30);
+    let late = team.node("t/r2/late").ici.stats();
+    assert!(late.catch_up.completed >= 4, "{:?}", late.catch_up);
+}
+
+#[test]
+fn a_restarted_module_catches_up_and_is_caught_up_with() {
+    let mut team = Team::grid(29, SimConfig::default(), 2, 2);
+    team.run(0.5);
+    let mut rng = Rng::new(29);
+    workload(&team, &mut rng, 60, 0.05);
+    // The module restarts with an empty board: same address, new incarnation.
+    team.add("t/r1/m0", open());
+    workload(&team, &mut rng, 60, 0.05);
+    team.assert_converges(30);
+    let restarts: u64 = team
+        .nodes
+        .iter()
+        .map(|n| n.ici.stats().liveliness.restarts)
+        .sum();
+    assert!(restarts >= 1);
+}
+
+#[test]
+fn a_killed_module_is_dead_on_every_other_board_and_alive_again_when_back() {
+    let team = Team::grid(30, SimConfig::default(), 3, 2);
+    team.run(1.0);
+    let victim = addr("t/r1/m1");
+    let name = module_object_name(&victim);
+    let alive = |n: &crate::common::Node| n.board.read(&name, "alive").map(|p| p.value).ok();
+    for n in team.nodes.iter().filter(|n| n.address != victim) {
+        assert_eq!(alive(n), Some(Value::Bool(true)), "{}", n.address);
+    }
+    team.net.kill(&victim);
+    team.run(6.0);
+    for n in team.nodes.iter().filter(|n| n.address != victim) {
+        assert_eq!(alive(n), Some(Value::Bool(false)), "{}", n.address);
+        assert!(n.ici.stats().liveliness.lost >= 1);
+    }
+    team.net.revive(&victim);
+    team.run(2.0);
+    for n in team.nodes.iter().filter(|n| n.address != victim) {
+        assert_eq!(alive(n), Some(Value::Bool(true)), "{}", n.address);
+    }
+}
+
+#[test]
+fn a_silent_module_is_declared_dead_by_the_heartbeat_timeout() {
+    // The transport never reports it down (a lease longer than the test): only the
+    // ICI's heartbeat timeout can tell.
+    let config = SimConfig {
+        lease: secs(1000.0),
+        ..SimConfig::default()
+    };
+    let team = Team::grid(31, config, 2, 1);
+    team.run(1.0);
+    let victim = addr("t/r1/m0");
+    team.net.kill(&victim);
+    team.run(6.0);
+    let other = team.board("t/r0/m0");
+    let name = module_object_name(&victim);
+    assert_eq!(
+        other.read(&name, "alive").unwrap().value,
+        Value::Bool(false)
+    );
+    let seen = other
+        .read(&name, "last_seen")
+        .unwrap()
+        .value
+        .as_f64()
+        .unwrap();
+    let now = team.net.clock().physical().as_secs_f64();
+    assert!(now - seen >= 5.0, "last seen {seen}, now {now}");
+}

@@ -1,0 +1,325 @@
+//! [`ZenohTransport`]: a Zenoh session per module.
+
+use std::collections::BTreeSet;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use parking_lot::{Mutex, RwLock};
+use slate_ici::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
+use slate_model::Address;
+use zenoh::Wait;
+use zenoh::liveliness::LivelinessToken;
+use zenoh::pubsub::Subscriber;
+use zenoh::qos::CongestionControl;
+use zenoh::sample::{Sample, SampleKind};
+
+use crate::keys;
+
+/// Zenoh's role for this node.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    /// Talks to its peers directly (the default: no infrastructure needed).
+    #[default]
+    Peer,
+    /// Routes for others (a team spanning networks).
+    Router,
+    /// Connects to a router only.
+    Client,
+}
+
+impl Mode {
+    fn name(self) -> &'static str {
+        match self {
+            Mode::Peer => "peer",
+            Mode::Router => "router",
+            Mode::Client => "client",
+        }
+    }
+}
+
+/// How to join the network.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ZenohConfig {
+    /// Peer, router or client.
+    pub mode: Mode,
+    /// Endpoints to listen on, like `tcp/127.0.0.1:7447`.
+    pub listen: Vec<String>,
+    /// Endpoints to connect to.
+    pub connect: Vec<String>,
+    /// Find peers by UDP multicast scouting (off by default: endpoints are explicit).
+    pub multicast_scouting: bool,
+}
+
+/// The session could not be opened.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    /// A configuration value was refused.
+    #[error("zenoh configuration {key}: {reason}")]
+    Config {
+        /// The configuration key.
+        key: &'static str,
+        /// Zenoh's reason.
+        reason: String,
+    },
+    /// Zenoh failed to open the session or declare what slate needs.
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+}
+
+impl ZenohConfig {
+    fn to_zenoh(&self) -> Result<zenoh::Config, OpenError> {
+        let mut c = zenoh::Config::default();
+        let json = |v: &[String]| {
+            format!(
+                "[{}]",
+                v.iter()
+                    .map(|e| format!("{e:?}"))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        };
+        let settings = [
+            ("mode", format!("{:?}", self.mode.name())),
+            ("listen/endpoints", json(&self.listen)),
+            ("connect/endpoints", json(&self.connect)),
+            (
+                "scouting/multicast/enabled",
+                self.multicast_scouting.to_string(),
+            ),
+            // slate stamps its own packets (hybrid logical clock); Zenoh need not add bytes.
+            (
+                "timestamping/enabled",
+                "{ router: false, peer: false, client: false }".to_owned(),
+            ),
+        ];
+        for (key, value) in settings {
+            c.insert_json5(key, &value).map_err(|e| OpenError::Config {
+                key,
+                reason: e.to_string(),
+            })?;
+        }
+        Ok(c)
+    }
+}
+
+struct Inner {
+    address: Address,
+    session: zenoh::Session,
+    handler: RwLock<Option<Arc<dyn Handler>>>,
+    peers: Mutex<BTreeSet<Address>>,
+    stats: Mutex<LinkStats>,
+    subscribers: Mutex<Vec<Subscriber<()>>>,
+    token: Mutex<Option<LivelinessToken>>,
+    closed: AtomicBool,
+}
+
+/// One module's endpoint on a Zenoh network.
+pub struct ZenohTransport {
+    inner: Arc<Inner>,
+}
+
+impl ZenohTransport {
+    /// Opens a Zenoh session for `address` and declares its subscriptions and liveliness.
+    pub fn open(address: Address, config: &ZenohConfig) -> Result<Arc<ZenohTransport>, OpenError> {
+        let zerr = |e: zenoh::Error| OpenError::Zenoh(e.to_string());
+        let session = zenoh::open(config.to_zenoh()?).wait().map_err(zerr)?;
+        let inner = Arc::new(Inner {
+            address,
+            session,
+            handler: RwLock::new(None),
+            peers: Mutex::new(BTreeSet::new()),
+            stats: Mutex::new(LinkStats::default()),
+            subscribers: Mutex::new(Vec::new()),
+            token: Mutex::new(None),
+            closed: AtomicBool::new(false),
+        });
+        declare(&inner).map_err(zerr)?;
+        Ok(Arc::new(ZenohTransport { inner }))
+    }
+
+    /// The Zenoh session (for tools that need more than the transport trait).
+    pub fn session(&self) -> &zenoh::Session {
+        &self.inner.session
+    }
+}
+
+/// Declares the subscriptions (robot and team publications, the inbox) and liveliness.
+fn declare(inner: &Arc<Inner>) -> zenoh::Result<()> {
+    let me = &inner.address;
+    let mut subs = Vec::new();
+    for (key, link) in [
+        (
+            keys::publications_for(me, LinkKind::Robot),
+            Some(LinkKind::Robot),
+        ),
+        (
+            keys::publications_for(me, LinkKind::Team),
+            Some(LinkKind::Team),
+        ),
+        (keys::inbox(me), None),
+    ] {
+        let weak = Arc::downgrade(inner);
+        let sub = inner
+            .session
+            .declare_subscriber(key)
+            .callback(move |s: Sample| {
+                if let Some(inner) = weak.upgrade() {
+                    inner.received(&s, link);
+                }
+            })
+            .wait()?;
+        subs.push(sub);
+    }
+    let weak = Arc::downgrade(inner);
+    let alive = inner
+        .session
+        .liveliness()
+        .declare_subscriber(keys::alive_in(me.team()))
+        .history(true)
+        .callback(move |s: Sample| {
+            if let Some(inner) = weak.upgrade() {
+                inner.liveliness(&s);
+            }
+        })
+        .wait()?;
+    subs.push(alive);
+    *inner.subscribers.lock() = subs;
+    *inner.token.lock() = Some(
+        inner
+            .session
+            .liveliness()
+            .declare_token(keys::alive(me))
+            .wait()?,
+    );
+    Ok(())
+}
+
+impl Inner {
+    fn received(&self, s: &Sample, link: Option<LinkKind>) {
+        if self.closed.load(Ordering::Acquire) {
+            return;
+        }
+        let Some(from) = keys::source(s.key_expr().as_str()) else {
+            return;
+        };
+        if from == self.address {
+            return;
+        }
+        let link = link.unwrap_or_else(|| LinkKind::between(&self.address, &from));
+        if link == LinkKind::Team && LinkKind::between(&self.address, &from) == LinkKind::Robot {
+            return; // team publications of my own robot's modules are not for me
+        }
+        let payload = s.payload().to_bytes();
+        self.stats
+            .lock()
+            .received(link, MsgKind::of(&payload), payload.len());
+        let handler = self.handler.read().clone();
+        if let Some(h) = handler {
+            h.message(&from, &payload);
+        }
+    }
+
+    fn liveliness(&self, s: &Sample) {
+        let Some(peer) = keys::source(s.key_expr().as_str()) else {
+            return;
+        };
+        if peer == self.address || self.closed.load(Ordering::Acquire) {
+            return;
+        }
+        let up = s.kind() == SampleKind::Put;
+        let changed = if up {
+            self.peers.lock().insert(peer.clone())
+        } else {
+            self.peers.lock().remove(&peer)
+        };
+        let handler = self.handler.read().clone();
+        if let (true, Some(h)) = (changed, handler) {
+            h.peer(&peer, up);
+        }
+    }
+
+    fn put(
+        &self,
+        key: String,
+        link: LinkKind,
+        kind: MsgKind,
+        payload: &[u8],
+        reliable: bool,
+    ) -> Result<(), SendError> {
+        if self.closed.load(Ordering::Acquire) {
+            return Err(SendError::Closed);
+        }
+        if payload.len() > slate_wire::MAX_MESSAGE_BYTES {
+            self.stats.lock().refused += 1;
+            return Err(SendError::TooLarge {
+                len: payload.len(),
+                max: slate_wire::MAX_MESSAGE_BYTES,
+            });
+        }
+        let congestion = if reliable {
+            CongestionControl::Block
+        } else {
+            CongestionControl::Drop
+        };
+        self.session
+            .put(key, payload.to_vec())
+            .congestion_control(congestion)
+            .wait()
+            .map_err(|e| SendError::Failed(e.to_string()))?;
+        self.stats.lock().sent(link, kind, payload.len());
+        Ok(())
+    }
+}
+
+impl Transport for ZenohTransport {
+    fn address(&self) -> &Address {
+        &self.inner.address
+    }
+
+    fn set_handler(&self, handler: Arc<dyn Handler>) {
+        *self.inner.handler.write() = Some(handler.clone());
+        // Peers seen before the handler was installed.
+        for p in self.inner.peers.lock().clone() {
+            handler.peer(&p, true);
+        }
+    }
+
+    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        let key = keys::publication(&self.inner.address, link, kind);
+        self.inner.put(key, link, kind, payload, false)
+    }
+
+    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        let key = keys::direct(to, &self.inner.address, kind);
+        let link = LinkKind::between(&self.inner.address, to);
+        self.inner.put(key, link, kind, payload, true)
+    }
+
+    fn peers(&self) -> Vec<Address> {
+        self.inner.peers.lock().iter().cloned().collect()
+    }
+
+    fn stats(&self) -> LinkStats {
+        self.inner.stats.lock().clone()
+    }
+
+    fn close(&self) {
+        if self.inner.closed.swap(true, Ordering::AcqRel) {
+            return;
+        }
+        if let Some(token) = self.inner.token.lock().take() {
+            let _ = token.undeclare().wait();
+        }
+        for sub in self.inner.subscribers.lock().drain(..) {
+            let _ = sub.undeclare().wait();
+        }
+        let _ = self.inner.session.close().wait();
+    }
+}
+
+impl Drop for ZenohTransport {
+    fn drop(&mut self) {
+        self.close();
+    }
+}
