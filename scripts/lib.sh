@@ -18,3 +18,18 @@ need_cargo() {
 }
 
 step() { printf '\n==> %s\n' "$*" >&2; }
+
+# The dashboard's browser test needs Debian's chromium; install it when we can (root),
+# and make its absence a failure only when it is installed.
+need_chromium() {
+  if ! command -v chromium >/dev/null 2>&1 && [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then
+    step "installing chromium for the dashboard's browser test"
+    (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null) \
+      || echo "slate: could not install chromium; the browser test will be skipped" >&2
+  fi
+  if command -v chromium >/dev/null 2>&1; then
+    export SLATE_BROWSER_TESTS=1
+  else
+    export SLATE_BROWSER_TESTS=0
+  fi
+}

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# Runs every test of slate: formatting, lints, then the Rust test suites (unit,
-# integration, property, doc and example tests). CI runs exactly this (.ci/run).
+# Runs every test of slate: formatting, lints, the Rust test suites (unit, integration,
+# property, doc, example, transport conformance over the simulator and over Zenoh on
+# 127.0.0.1, the dashboard in headless Chromium), then the Python package's tests.
+# CI runs exactly this (.ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/lib.sh
 need_cargo
+need_chromium
 
 step "cargo fmt --check"
 cargo fmt --all -- --check
@@ -14,3 +17,6 @@ cargo clippy --workspace --all-targets -- -D warnings
 
 step "cargo test"
 cargo test --workspace
+
+step "python package: build with maturin, then pytest"
+bash python/build.sh

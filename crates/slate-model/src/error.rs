@@ -170,8 +170,9 @@ pub enum WriteError {
     /// The write was refused to stop a chain of active functions.
     #[error(transparent)]
     Chain(#[from] ChainError),
-    /// The write was attempted from an on-read function or a snapshot, which may not write.
-    #[error("writes are not allowed here (inside a snapshot or an on-read function)")]
+    /// The write was attempted inside a snapshot (by an on-read function run for it),
+    /// which may not write.
+    #[error("writes are not allowed inside a snapshot")]
     ReadOnly,
 }
 
@@ -203,8 +204,8 @@ pub enum BatchError {
         /// Why.
         source: DeleteError,
     },
-    /// Batches may not be committed from an on-read function or a snapshot.
-    #[error("writes are not allowed here (inside a snapshot or an on-read function)")]
+    /// Batches may not be committed inside a snapshot.
+    #[error("writes are not allowed inside a snapshot")]
     ReadOnly,
 }
 

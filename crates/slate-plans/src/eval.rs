@@ -282,8 +282,12 @@ impl<'a> Ctx<'a> {
         }
     }
 
+    /// Notes the moment a time condition flips. A moment equal to now (the clock stopped
+    /// exactly on it) means the condition flips just after: look again a microsecond on.
     fn note_deadline(&mut self, at: f64) {
-        if at > self.now() {
+        let now = self.now();
+        if at >= now {
+            let at = at.max(now + 1e-6);
             self.deadline = Some(self.deadline.map_or(at, |d| d.min(at)));
         }
     }

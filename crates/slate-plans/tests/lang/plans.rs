@@ -272,6 +272,30 @@ fn an_age_condition_fires_exactly_when_its_deadline_passes() {
 }
 
 #[test]
+fn an_age_condition_fires_after_the_clock_stopped_exactly_on_its_deadline() {
+    let (b, e) = vehicles(
+        r#"plan position_lost {
+            trigger: age(gsr.position) > 2s;
+            action { set gsr.mode = "lost"; }
+        }"#,
+    );
+    let clock = b.clock().clone();
+    b.write("gsr", "position", [0.0, 0.0]).unwrap();
+    clock.advance(Duration::from_secs(2)).unwrap();
+    assert_eq!(
+        e.status("position_lost").unwrap().fired,
+        0,
+        "at exactly 2 s, age > 2s is false"
+    );
+    clock.advance(Duration::from_millis(1)).unwrap();
+    assert_eq!(
+        e.status("position_lost").unwrap().fired,
+        1,
+        "just after, it fires without a write"
+    );
+}
+
+#[test]
 fn a_failing_action_is_recorded_and_applies_nothing() {
     let (b, e) = vehicles(
         r#"plan bad {

@@ -1,0 +1,217 @@
+//! `Event`: something a board or its plans report about themselves (not a change of the
+//! world model), and `Events`, the iterator that yields them.
+
+use std::sync::{Arc, Weak};
+use std::time::Duration;
+
+use crossbeam_channel::Receiver;
+use parking_lot::Mutex;
+use pyo3::prelude::*;
+use slate_model::{Board, BoardEvent};
+use slate_plans::PlanEvent;
+
+use crate::packet::quote;
+use crate::stream;
+
+/// An event. `kind` says which; the other fields are set where they apply:
+///
+/// - board events: `"function_failed"` (`function`, `object`, `attr`, `trigger`, `error`:
+///   an active function raised or failed; the access that ran it stands) and
+///   `"chain_cut"` (`error`: a chain of active functions was too deep or a cycle);
+/// - plan events: `"installed"`, `"initiated"`, `"triggered"` (`fired`, and `error` if the
+///   action failed), `"terminated"`, `"cancelled"`, `"failed"` (`error`: a condition could
+///   not be evaluated), all with `plan`.
+#[pyclass(module = "slate", name = "Event", frozen, get_all)]
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Event {
+    /// What happened.
+    kind: &'static str,
+    /// The plan, for plan events.
+    plan: Option<String>,
+    /// The active function, for `function_failed`.
+    function: Option<String>,
+    /// The object accessed, for `function_failed`.
+    object: Option<String>,
+    /// The attribute accessed, for `function_failed`.
+    attr: Option<String>,
+    /// `"read"` or `"write"`, for `function_failed`.
+    trigger: Option<String>,
+    /// What went wrong, if something did.
+    error: Option<String>,
+    /// Times the plan has fired, for `triggered`.
+    fired: Option<u64>,
+}
+
+#[pymethods]
+impl Event {
+    fn __repr__(&self) -> String {
+        let mut parts = vec![quote(self.kind)];
+        let fields = [
+            ("plan", &self.plan),
+            ("function", &self.function),
+            ("object", &self.object),
+            ("attr", &self.attr),
+            ("trigger", &self.trigger),
+            ("error", &self.error),
+        ];
+        for (name, value) in fields {
+            if let Some(v) = value {
+                parts.push(format!("{name}={}", quote(v)));
+            }
+        }
+        if let Some(n) = self.fired {
+            parts.push(format!("fired={n}"));
+        }
+        format!("Event({})", parts.join(", "))
+    }
+}
+
+impl From<BoardEvent> for Event {
+    fn from(e: BoardEvent) -> Self {
+        match e {
+            BoardEvent::FunctionFailed {
+                function,
+                object,
+                attr,
+                trigger,
+                error,
+            } => Event {
+                kind: "function_failed",
+                function: Some(function),
+                object: Some(object),
+                attr: Some(attr),
+                trigger: Some(trigger.to_string()),
+                error: Some(error),
+                ..Event::default()
+            },
+            BoardEvent::ChainCut(cut) => Event {
+                kind: "chain_cut",
+                error: Some(cut.to_string()),
+                ..Event::default()
+            },
+            other => Event {
+                kind: "other",
+                error: Some(format!("{other:?}")),
+                ..Event::default()
+            },
+        }
+    }
+}
+
+impl From<PlanEvent> for Event {
+    fn from(e: PlanEvent) -> Self {
+        let (kind, plan, fired, error) = match e {
+            PlanEvent::Installed { plan } => ("installed", plan, None, None),
+            PlanEvent::Initiated { plan } => ("initiated", plan, None, None),
+            PlanEvent::Triggered { plan, fired, error } => ("triggered", plan, Some(fired), error),
+            PlanEvent::Terminated { plan } => ("terminated", plan, None, None),
+            PlanEvent::Cancelled { plan } => ("cancelled", plan, None, None),
+            PlanEvent::Failed { plan, error } => ("failed", plan, None, Some(error)),
+        };
+        Event {
+            kind,
+            plan: Some(plan),
+            fired,
+            error,
+            ..Event::default()
+        }
+    }
+}
+
+/// The two sources of events.
+enum Source {
+    Board(Receiver<BoardEvent>),
+    Plans(Receiver<PlanEvent>),
+}
+
+/// A subscription to a board's events (`Board.events`) or its plans' (`Board.plan_events`).
+///
+/// Iterating waits for the next event (with the GIL released); with a `timeout`, the
+/// iteration stops when none comes within it. Events from before the subscription are
+/// not seen.
+#[pyclass(module = "slate", name = "Events", frozen)]
+pub(crate) struct Events {
+    source: Mutex<Option<Arc<Source>>>,
+    board: Weak<Board>,
+    timeout: Option<Duration>,
+}
+
+impl Events {
+    pub(crate) fn board(rx: Receiver<BoardEvent>, board: &Arc<Board>, t: Option<Duration>) -> Self {
+        Events::new(Source::Board(rx), board, t)
+    }
+
+    pub(crate) fn plans(rx: Receiver<PlanEvent>, board: &Arc<Board>, t: Option<Duration>) -> Self {
+        Events::new(Source::Plans(rx), board, t)
+    }
+
+    fn new(source: Source, board: &Arc<Board>, timeout: Option<Duration>) -> Self {
+        Events {
+            source: Mutex::new(Some(Arc::new(source))),
+            board: Arc::downgrade(board),
+            timeout,
+        }
+    }
+
+    fn next_event(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Event>> {
+        let Some(source) = self.source.lock().clone() else {
+            return Ok(None);
+        };
+        let alive = || self.source.lock().is_some() && self.board.strong_count() > 0;
+        Ok(match source.as_ref() {
+            Source::Board(rx) => stream::next_from(py, rx, timeout, &alive)?.map(Event::from),
+            Source::Plans(rx) => stream::next_from(py, rx, timeout, &alive)?.map(Event::from),
+        })
+    }
+}
+
+#[pymethods]
+impl Events {
+    /// The next event, waiting at most `timeout` seconds (`None`: the subscription's own
+    /// timeout); `None` if nothing came.
+    #[pyo3(signature = (timeout=None))]
+    fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<Event>> {
+        let timeout = stream::timeout(timeout)?.or(self.timeout);
+        self.next_event(py, timeout)
+    }
+
+    /// Events already waiting, without blocking.
+    fn drain(&self) -> Vec<Event> {
+        let Some(source) = self.source.lock().clone() else {
+            return Vec::new();
+        };
+        match source.as_ref() {
+            Source::Board(rx) => rx.try_iter().map(Event::from).collect(),
+            Source::Plans(rx) => rx.try_iter().map(Event::from).collect(),
+        }
+    }
+
+    /// Unsubscribes; iteration ends.
+    fn close(&self) {
+        self.source.lock().take();
+    }
+
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&self, py: Python<'_>) -> PyResult<Option<Event>> {
+        self.next_event(py, self.timeout)
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
+    fn __exit__(
+        &self,
+        exc_type: Option<&Bound<'_, PyAny>>,
+        exc_value: Option<&Bound<'_, PyAny>>,
+        traceback: Option<&Bound<'_, PyAny>>,
+    ) -> bool {
+        let _ = (exc_type, exc_value, traceback);
+        self.close();
+        false
+    }
+}

@@ -1,0 +1,65 @@
+//! The native module `slate._slate`: slate's world model and plan engine for Python.
+//!
+//! The pure-Python package `slate` (in `python/slate/`) re-exports what is here; its
+//! `_slate.pyi` stub describes every class and is checked against this module by stubtest.
+//! One file per wrapped concept:
+//!
+//! | file | holds |
+//! |---|---|
+//! | `board.rs` | `Board` (the SBIPs), `Info` |
+//! | `batch.rs` | `Batch` (atomic groups of operations, a context manager) |
+//! | `packet.rs` | `Packet`, `Ref`, value conversion between Python and slate |
+//! | `clock.rs` | `Clock` (system or manual) |
+//! | `watch.rs` | `Watch` (iterator over changes), `Change`, `ChangeItem` |
+//! | `events.rs` | `Event`, `Events` (board and plan events) |
+//! | `active.rs` | Python callables as active functions, and the `Call` they receive |
+//! | `engine.rs` | `load`, `Plan`, `Loaded`, and the outbox: `Outbox`, `Report`, `PlanMessage` |
+//! | `errors.rs` | the exception classes, mirroring the core's error enums; `Diagnostic` |
+//! | `stream.rs` | waiting on a subscription with the GIL released |
+#![warn(missing_docs)]
+
+mod active;
+mod batch;
+mod board;
+mod clock;
+mod engine;
+mod errors;
+mod events;
+mod packet;
+mod stream;
+mod watch;
+
+use pyo3::prelude::*;
+
+/// The native part of the `slate` package.
+#[pymodule]
+fn _slate(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    errors::register(m)?;
+    m.add_class::<board::PyBoard>()?;
+    m.add_class::<batch::PyBatch>()?;
+    m.add_class::<board::Info>()?;
+    m.add_class::<packet::PyPacket>()?;
+    m.add_class::<packet::Reference>()?;
+    m.add_class::<clock::PyClock>()?;
+    m.add_class::<watch::PyWatch>()?;
+    m.add_class::<watch::Change>()?;
+    m.add_class::<watch::PyChangeItem>()?;
+    m.add_class::<events::Event>()?;
+    m.add_class::<events::Events>()?;
+    m.add_class::<active::PyCall>()?;
+    m.add_class::<engine::Loaded>()?;
+    m.add_class::<engine::Plan>()?;
+    m.add_class::<engine::Report>()?;
+    m.add_class::<engine::ReportItem>()?;
+    m.add_class::<engine::PlanMessage>()?;
+    m.add_class::<engine::Outbox>()?;
+    m.add_class::<errors::PyDiagnostic>()?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    let profile = if cfg!(debug_assertions) {
+        "debug"
+    } else {
+        "release"
+    };
+    m.add("BUILD_PROFILE", profile)?;
+    Ok(())
+}

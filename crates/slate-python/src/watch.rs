@@ -1,0 +1,218 @@
+//! `Watch`: an iterator over a board's changes, and the `Change` items it yields.
+
+use std::sync::{Arc, Weak};
+use std::time::Duration;
+
+use crossbeam_channel::RecvTimeoutError;
+use parking_lot::Mutex;
+use pyo3::prelude::*;
+use slate_model::{Board, ChangeItem, Watch};
+
+use crate::packet::{PyPacket, quote, quote_opt, repr_value};
+use crate::stream;
+
+/// A subscription to the changes of a board that match a filter.
+///
+/// Iterating waits for the next change (with the GIL released); with a `timeout`, the
+/// iteration stops when no change comes within it. Every write is one change, every
+/// batch one change with all its items, in revision order. Changes made before the watch
+/// was created are not seen. `close()` (or leaving a `with` block) unsubscribes.
+#[pyclass(module = "slate", name = "Watch", frozen)]
+pub(crate) struct PyWatch {
+    inner: Mutex<Option<Arc<Watch>>>,
+    board: Weak<Board>,
+    timeout: Option<Duration>,
+}
+
+impl PyWatch {
+    pub(crate) fn new(watch: Watch, board: &Arc<Board>, timeout: Option<Duration>) -> Self {
+        PyWatch {
+            inner: Mutex::new(Some(Arc::new(watch))),
+            board: Arc::downgrade(board),
+            timeout,
+        }
+    }
+
+    fn watch(&self) -> Option<Arc<Watch>> {
+        self.inner.lock().clone()
+    }
+
+    fn next_change(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Change>> {
+        let Some(watch) = self.watch() else {
+            return Ok(None);
+        };
+        let alive = || self.inner.lock().is_some() && self.board.strong_count() > 0;
+        let change = stream::next(py, timeout, &alive, |slice| {
+            watch.recv_timeout(slice).ok_or(RecvTimeoutError::Timeout)
+        })?;
+        change.map(|c| Change::new(py, c)).transpose()
+    }
+}
+
+#[pymethods]
+impl PyWatch {
+    /// The next change, waiting at most `timeout` seconds (`None`: the watch's own
+    /// timeout, given to `Board.watch`); `None` if nothing came.
+    #[pyo3(signature = (timeout=None))]
+    fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<Change>> {
+        let timeout = stream::timeout(timeout)?.or(self.timeout);
+        self.next_change(py, timeout)
+    }
+
+    /// Changes already waiting, without blocking.
+    fn drain(&self, py: Python<'_>) -> PyResult<Vec<Change>> {
+        let Some(watch) = self.watch() else {
+            return Ok(Vec::new());
+        };
+        std::iter::from_fn(|| watch.try_recv())
+            .map(|c| Change::new(py, c))
+            .collect()
+    }
+
+    /// Number of changes waiting.
+    #[getter]
+    fn pending(&self) -> usize {
+        self.inner.lock().as_ref().map_or(0, |w| w.pending())
+    }
+
+    /// Unsubscribes; iteration ends.
+    fn close(&self) {
+        self.inner.lock().take();
+    }
+
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&self, py: Python<'_>) -> PyResult<Option<Change>> {
+        self.next_change(py, self.timeout)
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
+    fn __exit__(
+        &self,
+        exc_type: Option<&Bound<'_, PyAny>>,
+        exc_value: Option<&Bound<'_, PyAny>>,
+        traceback: Option<&Bound<'_, PyAny>>,
+    ) -> bool {
+        let _ = (exc_type, exc_value, traceback);
+        self.close();
+        false
+    }
+}
+
+/// The changes one revision made (a write, or a whole batch) that match a watch.
+#[pyclass(module = "slate", name = "Change", frozen)]
+pub(crate) struct Change {
+    /// The board revision of the change.
+    #[pyo3(get)]
+    revision: u64,
+    /// What changed, in the order it was applied.
+    #[pyo3(get)]
+    items: Vec<Py<PyChangeItem>>,
+}
+
+impl Change {
+    fn new(py: Python<'_>, c: slate_model::Change) -> PyResult<Self> {
+        let items = c
+            .items
+            .into_iter()
+            .map(|i| Py::new(py, PyChangeItem::from(i)))
+            .collect::<PyResult<_>>()?;
+        Ok(Change {
+            revision: c.revision,
+            items,
+        })
+    }
+}
+
+#[pymethods]
+impl Change {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        let items: Vec<String> = self.items.iter().map(|i| i.get().__repr__(py)).collect();
+        format!(
+            "Change(revision={}, items=[{}])",
+            self.revision,
+            items.join(", ")
+        )
+    }
+}
+
+/// One item of a change: an attribute written, or an object created or deleted.
+#[pyclass(module = "slate", name = "ChangeItem", frozen)]
+pub(crate) struct PyChangeItem {
+    /// `"write"`, `"create"` or `"delete"`.
+    #[pyo3(get)]
+    kind: &'static str,
+    /// The object (or class, for a class-level write).
+    #[pyo3(get)]
+    object: String,
+    /// The attribute written (`None` for creations and deletions).
+    #[pyo3(get)]
+    attr: Option<String>,
+    /// The class of the object created or deleted (`None` for writes).
+    #[pyo3(get)]
+    class_name: Option<String>,
+    packet: Option<PyPacket>,
+}
+
+impl From<ChangeItem> for PyChangeItem {
+    fn from(item: ChangeItem) -> Self {
+        let (kind, object, attr, class_name, packet) = match item {
+            ChangeItem::Write {
+                object,
+                attr,
+                packet,
+            } => (
+                "write",
+                object,
+                Some(attr.to_string()),
+                None,
+                Some(PyPacket { inner: packet }),
+            ),
+            ChangeItem::Create { object, class } => {
+                ("create", object, None, Some(class.to_string()), None)
+            }
+            ChangeItem::Delete { object, class } => {
+                ("delete", object, None, Some(class.to_string()), None)
+            }
+        };
+        PyChangeItem {
+            kind,
+            object: object.to_string(),
+            attr,
+            class_name,
+            packet,
+        }
+    }
+}
+
+#[pymethods]
+impl PyChangeItem {
+    /// The packet stored (`None` for creations and deletions).
+    #[getter]
+    fn packet(&self) -> Option<PyPacket> {
+        self.packet.clone()
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> String {
+        match (&self.attr, &self.packet, &self.class_name) {
+            (Some(attr), Some(p), _) => format!(
+                "ChangeItem('write', {}.{} = {})",
+                self.object,
+                attr,
+                repr_value(py, &p.inner.value)
+            ),
+            (_, _, class) => format!(
+                "ChangeItem({}, {}, class_name={})",
+                quote(self.kind),
+                quote(&self.object),
+                quote_opt(class.as_deref())
+            ),
+        }
+    }
+}

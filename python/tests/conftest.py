@@ -1,0 +1,64 @@
+"""Shared fixtures: a small world after the paper's Ground Surveillance Robot."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+import slate
+
+WORLD = """
+class Vehicle {
+    position: vec<2> [m] = [0.0, 0.0] accuracy 100.0 confidence 0.0;
+    speed: real [m/s] in 0 .. 10 = 0.0;
+    count: int = 0;
+    mode: string = "auto";
+    alive: bool = true;
+    target: ref;
+}
+class Rover : Vehicle { wheels: int = 6; }
+class Obstacle {
+    position: vec<2> [m];
+    range: real [m];
+    clearance: real [m] = 1.5;
+}
+object gsr : Vehicle context self owner "team/r1/nav";
+object r2 : Rover context system;
+"""
+
+
+@pytest.fixture
+def board() -> slate.Board:
+    """A board on a manual clock with the world loaded."""
+    b = slate.Board(clock="manual", address="team/r1/nav")
+    b.load(WORLD, name="world.slate")
+    return b
+
+
+@pytest.fixture
+def world_file(tmp_path: Path) -> Path:
+    path = tmp_path / "world.slate"
+    path.write_text(WORLD)
+    return path
+
+
+def run_with_timeout(fn: Callable[[], object], seconds: float = 20.0) -> None:
+    """Runs `fn` in a daemon thread and fails if it does not finish in time (a deadlock
+    then fails the test instead of hanging the suite). Exceptions are re-raised."""
+    errors: list[BaseException] = []
+
+    def target() -> None:
+        try:
+            fn()
+        except BaseException as e:  # noqa: BLE001 - re-raised in the test's thread
+            errors.append(e)
+
+    t = threading.Thread(target=target, daemon=True)
+    t.start()
+    t.join(seconds)
+    assert not t.is_alive(), f"did not finish within {seconds} s (deadlock?)"
+    if errors:
+        raise errors[0]
