@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Runs slate's demo. Until the multi-robot mission (`slate demo`) lands, this runs the
-# Ground Surveillance Robot world on one board and prints what happened.
+# Runs slate's demo: three robots and an operator console coordinated through slate, on
+# the deterministic network simulator. Extra arguments go to `slate demo` (see
+# `slate demo --help`: --seed, --robots, --network zenoh, --dashboard 127.0.0.1:8080, ...).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/lib.sh
 need_cargo
 
-step "building and running the GSR world example (release)"
-cargo run --release -q -p slate-model --example gsr_world
+step "building slate (release) and running the demo"
+cargo run --release -q -p slate-cli -- demo "$@"

@@ -24,6 +24,8 @@ __all__ = [
     "LoadError",
     "ClockError",
     "AddressError",
+    "NodeError",
+    "PlanError",
     "Board",
     "Batch",
     "Info",
@@ -43,6 +45,10 @@ __all__ = [
     "PlanMessage",
     "Outbox",
     "Diagnostic",
+    "Node",
+    "PlanHandle",
+    "Acks",
+    "Ack",
     "__version__",
     "BUILD_PROFILE",
 ]
@@ -120,6 +126,12 @@ class ClockError(SlateError):
 
 class AddressError(SlateError, ValueError):
     """Not a module address of the form team/robot/module."""
+
+class NodeError(SlateError):
+    """A node did not start: the network, its board or its sources refused."""
+
+class PlanError(SlateError):
+    """A plan could not be sent or cancelled: not one plan, or the circuit refused it."""
 
 # ----- values and packets -----
 
@@ -515,3 +527,94 @@ class Outbox:
         exc_value: BaseException | None = None,
         traceback: TracebackType | None = None,
     ) -> bool: ...
+
+# ----- the node -----
+
+_StepName = Literal[
+    "received",
+    "accepted",
+    "rejected",
+    "initiated",
+    "triggered",
+    "terminated",
+    "cancelled",
+    "destination_lost",
+]
+
+@final
+class Node:
+    """One module on the network: a board, its plan engine, its ICI over Zenoh and its
+    plan circuits. A `with` block closes it."""
+
+    def __new__(
+        cls,
+        address: str,
+        board: Board | None = None,
+        *,
+        connect: Sequence[str] | None = None,
+        listen: Sequence[str] | None = None,
+        mode: Literal["peer", "router", "client"] = "peer",
+        interest: Sequence[str] | None = None,
+        export: Sequence[str] | None = None,
+        dashboard: str | None = None,
+    ) -> Node: ...
+    @property
+    def address(self) -> str: ...
+    @property
+    def board(self) -> Board: ...
+    @property
+    def listening(self) -> list[str]: ...
+    @property
+    def dashboard_url(self) -> str | None: ...
+    @property
+    def closed(self) -> bool: ...
+    def peers(self) -> list[str]: ...
+    def send_plan(self, source: str, *, to: str) -> PlanHandle: ...
+    def snapshot(self) -> dict[str, Any]: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> Node: ...
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None = None,
+        exc_value: BaseException | None = None,
+        traceback: TracebackType | None = None,
+    ) -> bool: ...
+
+@final
+class PlanHandle:
+    """A plan sent to another module: its circuit, and its acknowledgements."""
+
+    @property
+    def circuit(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def to(self) -> str: ...
+    @property
+    def acks(self) -> Acks: ...
+    @property
+    def done(self) -> bool: ...
+    def get(self, timeout: float | None = None) -> Ack | None: ...
+    def cancel(self) -> None: ...
+
+@final
+class Acks:
+    """The acknowledgements of a plan as they arrive (ends after the last one)."""
+
+    def __iter__(self) -> Iterator[Ack]: ...
+    def __next__(self) -> Ack: ...
+
+@final
+class Ack:
+    """One step of a plan's progression, as its destination acknowledged it."""
+
+    @property
+    def step(self) -> _StepName: ...
+    @property
+    def ok(self) -> bool: ...
+    @property
+    def detail(self) -> str: ...
+    @property
+    def last(self) -> bool: ...
+    def __eq__(self, other: object, /) -> bool: ...
+    def __hash__(self) -> int: ...

@@ -35,3 +35,17 @@ def test_effector_example_reacts_to_commanded_speeds() -> None:
     assert "loco: obstacle at 4.0 m -> driving at 0.0 m/s" in out
     assert "ValueError: cannot drive backwards at -1.0 m/s" in out
     assert "loco: 5 commands executed, motor current now 0.0 A" in out
+
+
+def test_planner_example_prints_every_acknowledgement_over_zenoh() -> None:
+    out = run_example("planner.py")
+    steps = [line for line in out.splitlines() if line.startswith("planner: slow_down ")]
+    assert steps == [
+        "planner: slow_down received",
+        "planner: slow_down accepted",
+        "planner: slow_down initiated",
+        "planner: slow_down triggered (fired 1)",
+        "planner: slow_down terminated",
+    ], out
+    assert "planner: gsr is slow at 2.0 m/s (written by team/r1/loco)" in out
+    assert "loco: plan slow_down terminated, fired 1 time(s)" in out

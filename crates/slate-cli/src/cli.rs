@@ -6,9 +6,15 @@ use clap::{Parser, Subcommand, ValueEnum};
 #[derive(Debug, Parser)]
 #[command(name = "slate", version, about, long_about = None)]
 pub struct Cli {
-    /// Output format: readable text, or one JSON object for scripts.
+    /// Output format: readable text, or one JSON object for scripts (one per line for
+    /// `watch`, `plan send` and `node`).
     #[arg(long, global = true, value_enum, default_value_t = Format::Text)]
     pub format: Format,
+
+    /// Log filter for stderr, like `info` or `warn,slate_ici=debug` (default: `RUST_LOG`,
+    /// else slate's news and Zenoh's warnings for `slate node`, errors for the other verbs).
+    #[arg(long, global = true, value_name = "FILTER")]
+    pub log: Option<String>,
 
     /// What to do.
     #[command(subcommand)]
@@ -20,7 +26,7 @@ pub struct Cli {
 pub enum Format {
     /// Human-readable text.
     Text,
-    /// One JSON object.
+    /// JSON: one object (one per line for the verbs that stream).
     Json,
 }
 
@@ -43,6 +49,80 @@ pub enum Command {
     ///
     /// Example: slate check examples/gsr.slate
     Check(CheckArgs),
+
+    /// Run the multi-robot demo: three robots (five boards each) and an operator console
+    /// on a simulated world, coordinated through slate; prints a summary.
+    ///
+    /// Example: slate demo --seed 3 --dashboard 127.0.0.1:8080
+    Demo(crate::command::demo::DemoArgs),
+
+    /// Run one module: its board, plan engine and ICI over Zenoh, from a TOML config.
+    ///
+    /// The config names the module's address, its Zenoh endpoints, the .slate files it
+    /// loads, its interest, export policy and optional dashboard (every key is in
+    /// docs/config.md). The node logs where it listens and every peer that comes up or goes
+    /// down, and runs until SIGINT (Ctrl-C) or SIGTERM; then it flushes what is in flight,
+    /// leaves the network and exits 0. It prints one line when it is ready (with `--format
+    /// json`, one JSON object) and one when it stops.
+    ///
+    /// Example: slate node --config nav.toml --log info,slate_ici=debug
+    Node(NodeArgs),
+
+    /// Print the class tree of a live team, or of .slate files.
+    ///
+    /// With files, they are loaded in order into a scratch board (no network). Without,
+    /// the command joins the team as a short-lived observer and prints the classes its
+    /// modules have, with their attributes and how many objects each has.
+    ///
+    /// Example: slate tree examples/gsr.slate
+    ///
+    /// Example: slate tree --connect tcp/127.0.0.1:7447
+    Tree(TreeArgs),
+
+    /// List the objects of a class (and of its subclasses) on a live team.
+    ///
+    /// Prints each object's name, class, context and owner. `slate ls Module` lists the
+    /// modules seen, `slate ls Plan` the plans; `slate ls Thing` everything.
+    ///
+    /// Example: slate ls Obstacle
+    Ls(LsArgs),
+
+    /// Read an object's packets on a live team: value, accuracy, confidence, age, source.
+    ///
+    /// `OBJ` prints every attribute that has a value; `OBJ.ATTR` one attribute. A class
+    /// name reads its class-level values.
+    ///
+    /// Example: slate get gsr
+    ///
+    /// Example: slate get gsr.position --format json
+    Get(GetArgs),
+
+    /// Write one attribute on a live team: the packet goes to every module interested.
+    ///
+    /// VALUE is read as the attribute's declared type: `2.5`, `3`, `true`, `auto`, `&gsr`
+    /// (a reference), `[10.0, 20.5]` (a vector). The writer (the packet's source) is the
+    /// observer, `TEAM/ROBOT/cli-PID`. An `owned` attribute is refused: only its owner may
+    /// write it.
+    ///
+    /// Example: slate put gsr.mode manual --confidence 0.9
+    Put(PutArgs),
+
+    /// Watch a live team's changes, one line each, until Ctrl-C or `--count` lines.
+    ///
+    /// PATTERN is `*` (everything but the Module objects), a class (its instances and
+    /// subclasses), an object, or either with `.ATTR`; `*.ATTR` watches one attribute on
+    /// every object. Creations and deletions always show.
+    ///
+    /// Example: slate watch Vehicle
+    ///
+    /// Example: slate watch gsr.speed --count 5 --format json
+    Watch(WatchArgs),
+
+    /// Send plans to modules of a live team, list them, cancel them.
+    ///
+    /// Example: slate plan send patrol.slate --to team/r2/loco
+    #[command(subcommand)]
+    Plan(PlanCommand),
 }
 
 /// Arguments of `slate check`.
@@ -76,4 +156,170 @@ pub enum Suite {
     Core,
     /// The plan engine: compiling plans, writes with plans installed, write to action.
     Plans,
+    /// Bytes on the wire: per update (one, a batch, over a real Zenoh TCP link) and per
+    /// pose report, against JSON and a naive binary struct.
+    Wire,
+    /// Two nodes over Zenoh on 127.0.0.1: write-to-visible latency and updates per
+    /// second, against raw Zenoh puts of the same size.
+    Net,
+}
+
+/// Where the live verbs join the team.
+#[derive(Debug, clap::Args)]
+pub struct LiveArgs {
+    /// Zenoh endpoint of a node to connect to (repeatable).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    pub connect: Vec<String>,
+
+    /// The observer's own address (default: TEAM/ROBOT/cli-PID on the robot of the first
+    /// module found, by address; an observer on another robot sees only what is exported).
+    #[arg(long = "as", value_name = "ADDRESS")]
+    pub address: Option<String>,
+
+    /// Seconds to wait for the team to answer and catch up (it goes on as soon as it has).
+    #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
+    pub wait: f64,
+}
+
+/// Arguments of `slate node`.
+#[derive(Debug, clap::Args)]
+pub struct NodeArgs {
+    /// The module's TOML config.
+    #[arg(long, short, value_name = "FILE")]
+    pub config: std::path::PathBuf,
+}
+
+/// Arguments of `slate tree`.
+#[derive(Debug, clap::Args)]
+pub struct TreeArgs {
+    /// .slate files (none: the live team's classes).
+    pub files: Vec<std::path::PathBuf>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate ls`.
+#[derive(Debug, clap::Args)]
+pub struct LsArgs {
+    /// The class.
+    pub class: String,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate get`.
+#[derive(Debug, clap::Args)]
+pub struct GetArgs {
+    /// `OBJ` or `OBJ.ATTR`.
+    #[arg(value_name = "OBJ[.ATTR]")]
+    pub target: String,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate put`.
+#[derive(Debug, clap::Args)]
+pub struct PutArgs {
+    /// The attribute, `OBJ.ATTR`.
+    #[arg(value_name = "OBJ.ATTR")]
+    pub target: String,
+
+    /// The value, read as the attribute's declared type.
+    #[arg(allow_hyphen_values = true)]
+    pub value: String,
+
+    /// Accuracy, in the attribute's unit (default: the declared default).
+    #[arg(long, value_name = "A")]
+    pub accuracy: Option<f64>,
+
+    /// Confidence in [0, 1] (default: the declared default).
+    #[arg(long, value_name = "C")]
+    pub confidence: Option<f64>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate watch`.
+#[derive(Debug, clap::Args)]
+pub struct WatchArgs {
+    /// `*`, `CLASS`, `OBJ`, `CLASS.ATTR`, `OBJ.ATTR` or `*.ATTR`.
+    pub pattern: String,
+
+    /// Stop after this many lines.
+    #[arg(long, value_name = "N")]
+    pub count: Option<u64>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// `slate plan` verbs.
+#[derive(Debug, Subcommand)]
+pub enum PlanCommand {
+    /// Send a plan to a module and print each acknowledgement as it arrives.
+    ///
+    /// FILE holds one `plan NAME { ... }`. The acknowledgements are: received, accepted
+    /// (or rejected, with the reason), initiated, triggered (ok or failed) each time the
+    /// action runs, terminated, cancelled, destination lost. The command exits when the
+    /// plan is terminated, rejected, cancelled or its destination lost (exit 0 for
+    /// terminated, 1 otherwise), or after `--timeout` (exit 0; the plan keeps running). On
+    /// Ctrl-C it cancels the plan and waits briefly for the `cancelled` acknowledgement.
+    ///
+    /// Example: slate plan send patrol.slate --to team/r2/loco --timeout 30
+    Send(PlanSendArgs),
+
+    /// List the plans on a live team's boards: state, times fired, where they run, who
+    /// sent them, the last error.
+    ///
+    /// Example: slate plan ls --format json
+    Ls(PlanLsArgs),
+
+    /// Cancel a plan running on a module: it never acts again.
+    ///
+    /// Example: slate plan cancel patrol --on team/r2/loco
+    Cancel(PlanCancelArgs),
+}
+
+/// Arguments of `slate plan send`.
+#[derive(Debug, clap::Args)]
+pub struct PlanSendArgs {
+    /// The .slate file with one plan.
+    pub file: std::path::PathBuf,
+
+    /// The module that is to run it, `team/robot/module`.
+    #[arg(long, value_name = "ADDRESS")]
+    pub to: String,
+
+    /// Stop waiting for acknowledgements after this many seconds.
+    #[arg(long, value_name = "SECONDS")]
+    pub timeout: Option<f64>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate plan ls`.
+#[derive(Debug, clap::Args)]
+pub struct PlanLsArgs {
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate plan cancel`.
+#[derive(Debug, clap::Args)]
+pub struct PlanCancelArgs {
+    /// The plan's name.
+    pub name: String,
+
+    /// The module running it (default: the one module whose board has a plan of that
+    /// name).
+    #[arg(long, value_name = "ADDRESS")]
+    pub on: Option<String>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
 }

@@ -10,6 +10,11 @@
 //! source's current state after loss or a late join, and makes other modules'
 //! liveliness a world-model fact (`Module` objects).
 //!
+//! [`PlanCircuits`] joins a plan engine to the ICI: a plan sent to another module travels
+//! on a virtual circuit whose origin hears every step of its progression (received,
+//! accepted or rejected, initiated, triggered, terminated, cancelled, destination lost),
+//! and plans' `report` actions go out through [`Ici::report`].
+//!
 //! [`SimNet`] is a deterministic network simulator (virtual time, seeded loss,
 //! duplication, reordering, delay, partitions, bandwidth caps, killed nodes) on which
 //! whole teams run reproducibly; [`conformance`] is the test suite every transport
@@ -45,11 +50,13 @@
 //! The protocol, the simulator's model and the counters are described in `docs/ici.md`.
 #![warn(missing_docs)]
 
+mod circuits;
 pub mod conformance;
 mod ici;
 mod sim;
 mod transport;
 
+pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
 pub use ici::{
     CatchUpStats, ClassSet, Ici, IciConfig, IciStats, Liveliness, LivelinessStats, MODULE_CLASS,
     MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, StartError, module_class,

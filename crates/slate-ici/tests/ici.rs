@@ -2,6 +2,8 @@
 
 #[path = "ici/basics.rs"]
 mod basics;
+#[path = "ici/circuits.rs"]
+mod circuits;
 #[path = "ici/common.rs"]
 mod common;
 #[path = "ici/conformance.rs"]

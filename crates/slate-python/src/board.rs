@@ -45,6 +45,20 @@ pub(crate) struct PyBoard {
 }
 
 impl PyBoard {
+    /// The core board.
+    pub(crate) fn inner(&self) -> &Arc<Board> {
+        &self.board
+    }
+
+    /// A board at `address` on the system clock, for a node given none.
+    pub(crate) fn for_node(address: slate_model::Address) -> Self {
+        PyBoard {
+            board: Arc::new(Board::builder().address(address).build()),
+            engine: OnceLock::new(),
+            fns: Mutex::new(Vec::new()),
+        }
+    }
+
     /// Runs a board call with the GIL released (see the module's GIL rule).
     fn without_gil<T: Send>(&self, py: Python<'_>, f: impl FnOnce(&Board) -> T + Send) -> T {
         py.detach(|| f(&self.board))
@@ -54,7 +68,7 @@ impl PyBoard {
     /// every change, so boards without plans do without it). On the system clock it
     /// runs a timer thread for plan deadlines (a manual clock runs them as it moves); the
     /// thread ends with the engine.
-    fn engine(&self, py: Python<'_>) -> &Engine {
+    pub(crate) fn engine(&self, py: Python<'_>) -> &Engine {
         if let Some(e) = self.engine.get() {
             return e;
         }

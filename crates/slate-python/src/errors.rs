@@ -21,7 +21,9 @@
 //! ├── DefineError, CreateError, DeleteError  the other board operations
 //! ├── LoadError                              a .slate source did not load (diagnostics)
 //! ├── ClockError                             the clock cannot be moved like that
-//! └── AddressError (ValueError)              not a team/robot/module address
+//! ├── AddressError (ValueError)              not a team/robot/module address
+//! ├── NodeError                              a node did not start (network, config, board)
+//! └── PlanError                              a plan could not be sent or cancelled
 //! ```
 
 use pyo3::IntoPyObjectExt;
@@ -57,6 +59,8 @@ pub(crate) enum Kind {
     Load,
     Clock,
     Address,
+    Node,
+    Plan,
 }
 
 /// A base of an exception class: one of ours, or a builtin.
@@ -175,6 +179,18 @@ const SPECS: &[(Kind, &str, &[Base], &str)] = &[
         "AddressError",
         &[Base::Ours(Kind::Slate), Base::Builtin("ValueError")],
         "Not a module address of the form team/robot/module.",
+    ),
+    (
+        Kind::Node,
+        "NodeError",
+        &[Base::Ours(Kind::Slate)],
+        "A node did not start: the network, its board or its sources refused.",
+    ),
+    (
+        Kind::Plan,
+        "PlanError",
+        &[Base::Ours(Kind::Slate)],
+        "A plan could not be sent or cancelled: not one plan, or the circuit refused it.",
     ),
 ];
 

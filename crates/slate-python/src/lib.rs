@@ -13,6 +13,7 @@
 //! | `watch.rs` | `Watch` (iterator over changes), `Change`, `ChangeItem` |
 //! | `events.rs` | `Event`, `Events` (board and plan events) |
 //! | `active.rs` | Python callables as active functions, and the `Call` they receive |
+//! | `node.rs` | `Node` (a board on the network), `PlanHandle`, `Acks`, `Ack` |
 //! | `engine.rs` | `load`, `Plan`, `Loaded`, and the outbox: `Outbox`, `Report`, `PlanMessage` |
 //! | `errors.rs` | the exception classes, mirroring the core's error enums; `Diagnostic` |
 //! | `stream.rs` | waiting on a subscription with the GIL released |
@@ -25,6 +26,7 @@ mod clock;
 mod engine;
 mod errors;
 mod events;
+mod node;
 mod packet;
 mod stream;
 mod watch;
@@ -54,6 +56,10 @@ fn _slate(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<engine::PlanMessage>()?;
     m.add_class::<engine::Outbox>()?;
     m.add_class::<errors::PyDiagnostic>()?;
+    m.add_class::<node::PyNode>()?;
+    m.add_class::<node::PlanHandle>()?;
+    m.add_class::<node::Acks>()?;
+    m.add_class::<node::Ack>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     let profile = if cfg!(debug_assertions) {
         "debug"

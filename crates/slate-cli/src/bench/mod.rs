@@ -2,7 +2,11 @@
 //! several samples, each against a baseline measured in the same run.
 
 pub mod core;
+pub mod net;
 pub mod plans;
+mod proxy;
+pub mod wire;
+mod zenoh_pair;
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -18,17 +22,92 @@ pub struct Config {
     pub sample_ms: u64,
 }
 
-/// One measured operation.
+/// What a row's figure counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unit {
+    /// Nanoseconds per operation.
+    Ns,
+    /// Microseconds.
+    Us,
+    /// Milliseconds.
+    Ms,
+    /// Bytes.
+    Bytes,
+    /// Operations per second (more is better).
+    PerSec,
+}
+
+impl Unit {
+    fn symbol(self) -> &'static str {
+        match self {
+            Unit::Ns => "ns",
+            Unit::Us => "us",
+            Unit::Ms => "ms",
+            Unit::Bytes => "B",
+            Unit::PerSec => "/s",
+        }
+    }
+
+    /// The unit a row's name ends with (`_ns`, `_ms`, `_us`); nanoseconds otherwise.
+    fn of_name(name: &str) -> Unit {
+        if name.ends_with("_ms") {
+            Unit::Ms
+        } else if name.ends_with("_us") {
+            Unit::Us
+        } else {
+            Unit::Ns
+        }
+    }
+}
+
+/// What a row must achieve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Target {
+    /// Its ratio to the baseline is at most this.
+    RatioAtMost(f64),
+    /// Its ratio to the baseline is at least this (throughputs).
+    RatioAtLeast(f64),
+    /// Its figure is at most this.
+    AtMost(f64),
+    /// Its figure is at least this.
+    AtLeast(f64),
+}
+
+impl Target {
+    fn met(self, row: &Row) -> bool {
+        let ratio = row.baseline.map(|(_, r)| r);
+        match self {
+            Target::RatioAtMost(t) => ratio.is_some_and(|r| r <= t),
+            Target::RatioAtLeast(t) => ratio.is_some_and(|r| r >= t),
+            Target::AtMost(t) => row.ns <= t,
+            Target::AtLeast(t) => row.ns >= t,
+        }
+    }
+
+    fn describe(self, unit: Unit) -> String {
+        match self {
+            Target::RatioAtMost(t) => format!("<= {t}x"),
+            Target::RatioAtLeast(t) => format!(">= {t}x"),
+            Target::AtMost(t) => format!("<= {t} {}", unit.symbol()),
+            Target::AtLeast(t) => format!(">= {t} {}", unit.symbol()),
+        }
+    }
+}
+
+/// One measured figure.
 #[derive(Clone, Debug)]
 pub struct Row {
     /// JSON field name, e.g. `read_ns`.
     pub name: &'static str,
-    /// Median nanoseconds per operation.
+    /// The figure: median nanoseconds per operation for the timing suites, or the
+    /// row's [`Unit`].
     pub ns: f64,
+    /// What the figure counts.
+    pub unit: Unit,
     /// The baseline row's name and this row's ratio to it.
     pub baseline: Option<(&'static str, f64)>,
-    /// The target ratio, if the issue sets one.
-    pub target: Option<f64>,
+    /// Targets the row must meet (a ratio to the baseline, or a bound on the figure).
+    pub targets: Vec<Target>,
 }
 
 /// The result of a suite.
@@ -38,6 +117,8 @@ pub struct Report {
     pub title: String,
     /// Rows, baselines included.
     pub rows: Vec<Row>,
+    /// Extra facts for the JSON object (settings, counts).
+    pub facts: Vec<(&'static str, Value)>,
 }
 
 impl Report {
@@ -46,16 +127,23 @@ impl Report {
         Report {
             title: title.to_owned(),
             rows: Vec::new(),
+            facts: Vec::new(),
         }
     }
 
-    /// Adds a measured row.
+    /// Adds a measured row (its unit from its name: `_ms`, `_us`, else nanoseconds).
     pub fn add(&mut self, name: &'static str, ns: f64) {
+        self.add_in(name, ns, Unit::of_name(name));
+    }
+
+    /// Adds a measured row in `unit`.
+    pub fn add_in(&mut self, name: &'static str, value: f64, unit: Unit) {
         self.rows.push(Row {
             name,
-            ns,
+            ns: value,
+            unit,
             baseline: None,
-            target: None,
+            targets: Vec::new(),
         });
     }
 
@@ -67,6 +155,19 @@ impl Report {
         baseline: &'static str,
         target: Option<f64>,
     ) {
+        let targets = target.map(Target::RatioAtMost).into_iter().collect();
+        self.compare_in(name, ns, Unit::of_name(name), baseline, targets);
+    }
+
+    /// Adds a row in `unit` compared with an earlier baseline row, with its targets.
+    pub fn compare_in(
+        &mut self,
+        name: &'static str,
+        value: f64,
+        unit: Unit,
+        baseline: &'static str,
+        targets: Vec<Target>,
+    ) {
         let base = self
             .rows
             .iter()
@@ -74,24 +175,33 @@ impl Report {
             .map_or(f64::NAN, |r| r.ns);
         self.rows.push(Row {
             name,
-            ns,
-            baseline: Some((baseline, ns / base)),
-            target,
+            ns: value,
+            unit,
+            baseline: Some((baseline, value / base)),
+            targets,
         });
     }
 
-    /// One JSON object: every row's median as a field, plus `<row>_ratio` fields, the
-    /// build profile and whether every target was met.
+    /// Records a fact for the JSON object.
+    pub fn fact(&mut self, name: &'static str, value: Value) {
+        self.facts.push((name, value));
+    }
+
+    /// One JSON object: every row's figure as a field, plus `<row>_ratio` fields, the
+    /// facts, the build profile and whether every target was met.
     pub fn json(&self) -> Value {
         let mut m = Map::new();
         for r in &self.rows {
             m.insert(r.name.to_owned(), json!(round(r.ns)));
             if let Some((_, ratio)) = r.baseline {
-                m.insert(
-                    format!("{}_ratio", r.name.trim_end_matches("_ns")),
-                    json!(round(ratio)),
-                );
+                let stem = ["_ns", "_us", "_ms"]
+                    .iter()
+                    .fold(r.name, |n, s| n.strip_suffix(s).unwrap_or(n));
+                m.insert(format!("{stem}_ratio"), json!(round(ratio)));
             }
+        }
+        for (name, value) in &self.facts {
+            m.insert((*name).to_owned(), value.clone());
         }
         m.insert(
             "build".into(),
@@ -105,12 +215,31 @@ impl Report {
         Value::Object(m)
     }
 
-    /// Did every row with a target meet it?
+    /// Did every row meet each of its targets?
     pub fn targets_met(&self) -> bool {
-        self.rows.iter().all(|r| {
-            r.target
-                .is_none_or(|t| r.baseline.is_some_and(|(_, ratio)| ratio <= t))
-        })
+        self.rows.iter().all(|r| r.targets.iter().all(|t| t.met(r)))
+    }
+}
+
+impl Row {
+    /// `(target <= 2x: meets)` for each target, or nothing.
+    pub fn verdicts(&self) -> String {
+        self.targets
+            .iter()
+            .map(|t| {
+                let verdict = if t.met(self) { "meets" } else { "MISSES" };
+                format!("  (target {}: {verdict})", t.describe(self.unit))
+            })
+            .collect()
+    }
+
+    /// The figure with its unit, for text output.
+    pub fn figure(&self) -> String {
+        match self.unit {
+            Unit::PerSec => format!("{:>12.0} {}", self.ns, self.unit.symbol()),
+            Unit::Bytes => format!("{:>12.2} {}", self.ns, self.unit.symbol()),
+            u => format!("{:>12.1} {}", self.ns, u.symbol()),
+        }
     }
 }
 

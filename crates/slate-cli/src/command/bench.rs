@@ -19,6 +19,8 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
     let report = match args.suite {
         Suite::Core => bench::core::run(&cfg, &mut |step| eprintln!("  measuring {step} ...")),
         Suite::Plans => bench::plans::run(&cfg, &mut |step| eprintln!("  measuring {step} ...")),
+        Suite::Wire => bench::wire::run(&cfg, &mut |step| eprintln!("  measuring {step} ..."))?,
+        Suite::Net => bench::net::run(&cfg, &mut |step| eprintln!("  measuring {step} ..."))?,
     };
     match format {
         Format::Json => println!("{}", serde_json::to_string_pretty(&report.json())?),
@@ -30,25 +32,18 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
 impl Report {
     fn text(&self) -> String {
         let mut out = format!(
-            "{}\n\n{:<36} {:>12}  {}\n",
-            self.title, "operation", "median", "vs baseline"
+            "{}\n\n{:<36} {:>15}  {}\n",
+            self.title, "figure", "value", "vs baseline"
         );
         for m in &self.rows {
             let ratio = m
                 .baseline
                 .map_or(String::new(), |(name, ratio)| format!("{ratio:.2}x {name}"));
-            let target = m.target.map_or(String::new(), |t| {
-                let verdict = if m.baseline.is_some_and(|(_, r)| r <= t) {
-                    "meets"
-                } else {
-                    "MISSES"
-                };
-                format!("  (target <= {t}x: {verdict})")
-            });
-            let unit = if m.name.ends_with("_ms") { "ms" } else { "ns" };
             out.push_str(&format!(
-                "{:<36} {:>9.1} {unit}  {ratio}{target}\n",
-                m.name, m.ns
+                "{:<36} {}  {ratio}{}\n",
+                m.name,
+                m.figure(),
+                m.verdicts()
             ));
         }
         out

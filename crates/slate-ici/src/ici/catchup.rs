@@ -108,7 +108,7 @@ impl State {
 
     /// One part of an answer; a part that does not encode is split until the faulty
     /// packet is isolated and dropped.
-    fn send_answer(&mut self, to: &Address, seq: u64, items: &[Assertion]) {
+    pub(super) fn send_answer(&mut self, to: &Address, seq: u64, items: &[Assertion]) {
         let msg = Message::CatchUpAnswer(Report {
             seq,
             items: items.to_vec(),

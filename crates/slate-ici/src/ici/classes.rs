@@ -1,7 +1,7 @@
 //! Class sets (what a board models, what may leave a robot) and the catalog of class
 //! definitions the ICI encodes and matches with.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 
 use slate_model::{AttrDecl, Board, ClassDef, Context, THING};
@@ -104,11 +104,16 @@ impl ClassSet {
     }
 }
 
+/// A class and its ancestors, class first, `Thing` last (shared: the catalog computes
+/// each chain once).
+pub(crate) type Lineage = Arc<[Arc<str>]>;
+
 /// The class definitions of a board, as the ICI needs them: the wire schema and the
 /// class tree. Rebuilt from the board when a class is missing.
 pub(crate) struct Catalog {
     pub schema: Schema,
     parents: BTreeMap<Arc<str>, Arc<str>>,
+    lineages: HashMap<Arc<str>, Lineage>,
 }
 
 impl Catalog {
@@ -117,13 +122,23 @@ impl Catalog {
     }
 
     pub fn from_defs(defs: &[ClassDef]) -> Self {
-        let parents = defs
+        let parents: BTreeMap<Arc<str>, Arc<str>> = defs
             .iter()
             .map(|d| (Arc::from(d.name.as_str()), Arc::from(d.parent.as_str())))
+            .collect();
+        let lineages = parents
+            .keys()
+            .cloned()
+            .chain([Arc::from(THING)])
+            .map(|c| {
+                let chain = chain(&parents, &c);
+                (c, chain)
+            })
             .collect();
         Catalog {
             schema: Schema::new(defs),
             parents,
+            lineages,
         }
     }
 
@@ -133,27 +148,30 @@ impl Catalog {
     }
 
     /// The class and its ancestors, up to `Thing`.
-    pub fn lineage(&self, class: &str) -> Option<Vec<Arc<str>>> {
-        if !self.knows(class) {
-            return None;
-        }
-        let mut out: Vec<Arc<str>> = vec![class.into()];
-        while let Some(parent) = out.last().and_then(|c| self.parents.get(c)) {
-            if out.contains(parent) || out.len() > 256 {
-                break;
-            }
-            out.push(parent.clone());
-        }
-        if out.last().is_none_or(|c| &**c != THING) {
-            out.push(THING.into());
-        }
-        Some(out)
+    pub fn lineage(&self, class: &str) -> Option<Lineage> {
+        self.lineages.get(class).cloned()
     }
 
     /// The declaration of `class.attr` (declared there or by an ancestor).
     pub fn decl(&self, class: &str, attr: &str) -> Option<&AttrDecl> {
         self.schema.attr(class, attr)
     }
+}
+
+/// The chain of `class` in a class tree, up to `Thing` (a cycle or a chain over 256
+/// classes is cut).
+fn chain(parents: &BTreeMap<Arc<str>, Arc<str>>, class: &Arc<str>) -> Lineage {
+    let mut out: Vec<Arc<str>> = vec![class.clone()];
+    while let Some(parent) = out.last().and_then(|c| parents.get(c)) {
+        if out.contains(parent) || out.len() > 256 {
+            break;
+        }
+        out.push(parent.clone());
+    }
+    if out.last().is_none_or(|c| &**c != THING) {
+        out.push(THING.into());
+    }
+    out.into()
 }
 
 #[cfg(test)]
@@ -168,7 +186,7 @@ mod tests {
         ])
     }
 
-    fn chain(c: &Catalog, class: &str) -> Vec<Arc<str>> {
+    fn chain(c: &Catalog, class: &str) -> Lineage {
         c.lineage(class).unwrap()
     }
 

@@ -53,6 +53,10 @@ impl Filters {
         now: Duration,
         quiet: Duration,
     ) -> Option<Packet> {
+        if is_unfiltered(policy) {
+            // Nothing to hold, nothing to repeat: no state to keep either.
+            return Some(packet);
+        }
         let st = self.states.entry(key.clone()).or_default();
         st.policy = policy.clone();
         let hold_until = if !significant(st, &packet) {
@@ -157,6 +161,11 @@ impl Filters {
             self.timers.insert((t, key.clone()));
         }
     }
+}
+
+/// A policy that sends every packet at once and never repeats one.
+fn is_unfiltered(p: &ReportPolicy) -> bool {
+    p.min_interval.is_none() && p.heartbeat.is_none() && p.deadband.is_none() && !p.on_accuracy
 }
 
 fn mark_sent(st: &mut State, packet: Packet, now: Duration) {

@@ -3,11 +3,13 @@
 mod catchup;
 mod classes;
 mod config;
+mod explicit;
 mod filter;
 mod frame;
 mod fuse;
 mod module;
 mod ops;
+mod quantise;
 mod recv;
 mod send;
 mod state;
@@ -223,6 +225,25 @@ impl Ici {
         *self.shared.plan_handler.write() = Some(handler);
     }
 
+    /// Delivers packets now, whoever wrote them: to one module (`Some(to)`, reliably,
+    /// off the report stream) or to every peer interested (`None`, on the report stream
+    /// of each link kind, like any report). This is a plan's `report` action: it skips
+    /// the report filters and the export policy, but not the receivers' interest. Only
+    /// packets the object (or class) holds itself go: `(object, attribute, packet)`
+    /// triples whose value is inherited, a default or `none` are left out. Returns how
+    /// many packets went out (a packet sent on both link kinds counts twice).
+    pub fn report(
+        &self,
+        to: Option<&Address>,
+        packets: Vec<(
+            std::sync::Arc<str>,
+            std::sync::Arc<str>,
+            slate_model::Packet,
+        )>,
+    ) -> usize {
+        self.shared.with_state(|st| st.report_explicit(to, packets))
+    }
+
     /// Sends a `Plan`, `PlanAck` or `PlanCancel` to one module, reliably. This is the
     /// plan engine's way out; everything else goes through the board.
     pub fn send_raw(&self, to: &Address, msg: &Message) -> Result<(), SendRawError> {
@@ -276,9 +297,14 @@ impl Shared {
         self.pump();
     }
 
-    /// The board committed something.
+    /// The board committed something. While board ops are being applied (received
+    /// packets, mostly), the applier drains the changes once it is done (`after`
+    /// pumps after `run_queue`), not once per op.
     fn changed(&self) {
         self.changes.store(true, Ordering::SeqCst);
+        if self.apply.is_locked() {
+            return;
+        }
         self.pump();
     }
 
@@ -307,11 +333,13 @@ impl Shared {
             let Some(guard) = self.apply.try_lock() else {
                 return;
             };
+            let mut tally = ops::Tally::default();
             loop {
                 let op = self.queue.lock().pop_front();
                 let Some(op) = op else { break };
-                ops::apply(&self.board, &self.state, op);
+                ops::apply(&self.board, &self.state, op, &mut tally);
             }
+            tally.flush(&self.state);
             drop(guard);
             if self.queue.lock().is_empty() {
                 return;

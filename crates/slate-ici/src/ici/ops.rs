@@ -14,6 +14,9 @@ use super::module::{MODULE_CLASS, module_object_name};
 use super::state::State;
 use crate::LinkKind;
 
+/// An own packet to replace: key, the exact packet written, its quantised form.
+pub(crate) type Normalised = (Key, Packet, Packet);
+
 /// One board change.
 #[derive(Debug)]
 pub(crate) enum BoardOp {
@@ -27,12 +30,8 @@ pub(crate) enum BoardOp {
     },
     /// Write the current fusion of a `fused` attribute.
     Fuse(Key),
-    /// Replace an own packet by its quantised form, if it is still the board's.
-    Normalise {
-        key: Key,
-        exact: Packet,
-        quantised: Packet,
-    },
+    /// Replace own packets by their quantised form, where they are still the board's.
+    Normalise(Vec<Normalised>),
     /// Delete the object if `owner` owns it.
     Delete { object: Arc<str>, owner: Address },
     /// Update a peer's `Module` object.
@@ -43,21 +42,41 @@ pub(crate) enum BoardOp {
     },
 }
 
-/// Applies one change, counting the outcome in `state`'s stats.
-pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp) {
+/// Outcomes of merges, counted outside the state lock and added to its stats once.
+#[derive(Default)]
+pub(crate) struct Tally {
+    applied: u64,
+    kept: u64,
+    not_owner: u64,
+    invalid: u64,
+}
+
+impl Tally {
+    /// Adds the counts to the state's stats (one lock for a whole queue of merges).
+    pub fn flush(self, state: &Mutex<State>) {
+        if self.applied + self.kept + self.not_owner + self.invalid == 0 {
+            return;
+        }
+        let mut st = state.lock();
+        let m = &mut st.stats.merges;
+        m.applied += self.applied;
+        m.kept += self.kept;
+        m.not_owner += self.not_owner;
+        st.stats.rejects.invalid += self.invalid;
+    }
+}
+
+/// Applies one change, counting the outcome in `state`'s stats (merges in `tally`).
+pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mut Tally) {
     match op {
         BoardOp::Ensure(spec) => ensure(board, state, spec),
         BoardOp::Merge {
             object,
             attr,
             packet,
-        } => merge(board, state, &object, &attr, packet),
+        } => merge(board, tally, &object, &attr, packet),
         BoardOp::Fuse(key) => fuse(board, state, &key),
-        BoardOp::Normalise {
-            key,
-            exact,
-            quantised,
-        } => normalise(board, state, &key, &exact, quantised),
+        BoardOp::Normalise(list) => normalise(board, state, list),
         BoardOp::Delete { object, owner } => delete(board, state, &object, &owner),
         BoardOp::Module {
             peer,
@@ -82,16 +101,13 @@ fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
     }
 }
 
-fn merge(board: &Board, state: &Mutex<State>, object: &str, attr: &str, packet: Packet) {
-    let result = board.merge(object, attr, packet);
-    let mut st = state.lock();
-    let m = &mut st.stats.merges;
-    match result {
-        Ok(Merged::Applied(_)) => m.applied += 1,
-        Ok(Merged::Kept) => m.kept += 1,
-        Ok(Merged::NotOwner) => m.not_owner += 1,
+fn merge(board: &Board, tally: &mut Tally, object: &str, attr: &str, packet: Packet) {
+    match board.merge(object, attr, packet) {
+        Ok(Merged::Applied(_)) => tally.applied += 1,
+        Ok(Merged::Kept) => tally.kept += 1,
+        Ok(Merged::NotOwner) => tally.not_owner += 1,
         Err(e) => {
-            st.stats.rejects.invalid += 1;
+            tally.invalid += 1;
             tracing::debug!(%object, %attr, error = %e, "packet refused");
         }
     }
@@ -117,16 +133,51 @@ fn fuse(board: &Board, state: &Mutex<State>, key: &Key) {
     }
 }
 
-/// Replaces the exact packet by the quantised one, unless the attribute was written
-/// again meanwhile (then the marker that silences the replacement is dropped).
-fn normalise(board: &Board, state: &Mutex<State>, key: &Key, exact: &Packet, quantised: Packet) {
-    if own_packet(board, key).as_ref() != Some(exact) {
-        let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
-        state.lock().normalising.remove(&marker);
-        return;
+/// Replaces exact packets by their quantised forms in one batch, except where the
+/// attribute was written again since (then the marker that silences the replacement
+/// is dropped).
+///
+/// Lock order: the board's snapshot is released before the state is locked (a thread
+/// holding the state may be waiting to read the board).
+fn normalise(board: &Board, state: &Mutex<State>, list: Vec<Normalised>) {
+    let mut batch = board.batch();
+    let (mut written, mut dropped) = (Vec::new(), Vec::new());
+    {
+        let snap = board.snapshot();
+        for (key, exact, quantised) in list {
+            let current = snap.id_of(&key.0).and_then(|id| {
+                snap.own_values(id)
+                    .into_iter()
+                    .find(|(a, _, _)| *a == key.1)
+                    .map(|(_, p, _)| p)
+            });
+            let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
+            // The board holds the exact packet, or an older one: another thread's
+            // normalisation, checked before this packet was written and committed after,
+            // replaced it. Either way the quantised packet goes (it is the latest).
+            // A newer packet stays: its own normalisation follows.
+            let replace = current
+                .as_ref()
+                .is_some_and(|c| *c == exact || c.timestamp < exact.timestamp);
+            if replace {
+                batch.write_shared(key.0, key.1, Update::from(quantised));
+                written.push(marker);
+            } else {
+                dropped.push(marker);
+            }
+        }
     }
-    if let Err(e) = board.write(&key.0, &key.1, Update::from(quantised)) {
-        refused(state, &key.0, &key.1, &e);
+    let failed = !batch.is_empty() && batch.commit().is_err();
+    if failed {
+        tracing::debug!("own packets not normalised");
+        dropped.append(&mut written);
+    }
+    if failed || !dropped.is_empty() {
+        let mut st = state.lock();
+        st.stats.rejects.invalid += u64::from(failed);
+        for marker in dropped {
+            st.normalising.remove(&marker);
+        }
     }
 }
 

@@ -4,13 +4,15 @@
 
 use std::sync::Arc;
 
-use slate_model::{Address, AttrDecl, ChangeItem, Context, MergePolicy, Packet, Timestamp};
-use slate_wire::{Assertion, Decoder, EncodeError, Encoder, Message, ObjectEntry, Report};
+use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, Timestamp};
+use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
+use super::classes::Lineage;
 use super::filter::Key;
 use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
-use super::ops::BoardOp;
+use super::ops::{BoardOp, Normalised};
+use super::quantise::quantised;
 use super::state::State;
 use crate::{LinkKind, MsgKind};
 
@@ -24,25 +26,37 @@ pub(crate) enum What {
 /// An item with what deciding its destinations needs.
 pub(crate) struct Item {
     pub what: What,
-    pub lineage: Vec<Arc<str>>,
+    pub lineage: Lineage,
     pub context: Context,
     pub owner: Address,
     pub is_class: bool,
 }
 
+/// A change waiting for its own writes to be quantised.
+enum Pending {
+    /// Ready to go (a creation or a deletion).
+    Ready(Item),
+    /// An own packet: object, attribute, packet.
+    Own(Arc<str>, Arc<str>, Packet),
+}
+
 impl State {
     /// Takes every change committed since the last call and sends what is due.
     pub fn drain_changes(&mut self) {
-        let mut items = Vec::new();
+        let mut pending = Vec::new();
         while let Some(change) = self.watch.try_recv() {
             for item in change.items {
-                self.collect(item, &mut items);
+                self.collect(item, &mut pending);
             }
         }
+        if pending.is_empty() {
+            return;
+        }
+        let items = self.own_writes(pending);
         self.flush(items);
     }
 
-    fn collect(&mut self, item: ChangeItem, out: &mut Vec<Item>) {
+    fn collect(&mut self, item: ChangeItem, out: &mut Vec<Pending>) {
         match item {
             // A packet of this module's previous incarnation, handed back by a peer, is
             // not a new write.
@@ -51,50 +65,80 @@ impl State {
                 attr,
                 packet,
             } if packet.source == self.me && packet.timestamp.raw() >= self.incarnation => {
-                self.own_write(object, attr, packet, out);
+                let marker = (object, attr, packet.timestamp);
+                if self.normalising.is_empty() || !self.normalising.remove(&marker) {
+                    out.push(Pending::Own(marker.0, marker.1, packet));
+                }
             }
             ChangeItem::Write { .. } => {}
-            ChangeItem::Create { object, .. } => self.own_create(object, out),
-            ChangeItem::Delete { object, .. } => self.deleted(object, out),
+            ChangeItem::Create { object, .. } => {
+                out.extend(self.own_create(object).map(Pending::Ready))
+            }
+            ChangeItem::Delete { object, .. } => {
+                out.extend(self.deleted(object).map(Pending::Ready))
+            }
         }
     }
 
-    fn own_write(&mut self, object: Arc<str>, attr: Arc<str>, packet: Packet, out: &mut Vec<Item>) {
-        let key = (object, attr);
-        if self
-            .normalising
-            .remove(&(key.0.clone(), key.1.clone(), packet.timestamp))
-        {
-            return;
+    /// Turns own packets into items, in order with the other changes (quantised, fused,
+    /// normalised, filtered); the normalisations of a drain are one board batch.
+    fn own_writes(&mut self, pending: Vec<Pending>) -> Vec<Item> {
+        let mut normalise = Vec::new();
+        let mut out = Vec::with_capacity(pending.len());
+        for p in pending {
+            match p {
+                Pending::Ready(item) => out.push(item),
+                Pending::Own(o, a, packet) => {
+                    let item = self.value_item(&o, &a, packet);
+                    out.extend(item.and_then(|i| self.own_value(i, &mut normalise)));
+                }
+            }
         }
-        let Some(mut item) = self.value_item(&key.0, &key.1, packet) else {
-            return;
-        };
+        if !normalise.is_empty() {
+            self.ops.push(BoardOp::Normalise(normalise));
+        }
+        out
+    }
+
+    /// An own packet: quantised as receivers will decode it, fused, normalised, kept
+    /// as the best heard of, and offered to its report filter (the item, if it is to
+    /// go now).
+    fn own_value(&mut self, mut item: Item, normalise: &mut Vec<Normalised>) -> Option<Item> {
         let What::Value(a) = &mut item.what else {
-            return;
+            return Some(item);
         };
-        let Some(decl) = self.decl(&item.lineage[0], &key.1) else {
-            return;
-        };
+        let key = (a.object.name.clone(), a.attr.clone());
+        if self.catalog.decl(&item.lineage[0], &key.1).is_none() {
+            self.refresh_catalog();
+        }
+        let decl = self.catalog.decl(&item.lineage[0], &key.1)?;
+        let (merge, report) = (decl.merge, decl.report.clone());
+        let q = quantised(decl, &a.packet);
+        let exact = std::mem::replace(&mut a.packet, q);
         self.stats.reports.written += 1;
-        let exact = a.packet.clone();
-        a.packet = self.quantise(&a.object, &key.1, exact.clone());
-        if decl.merge == MergePolicy::Fused {
+        if merge == MergePolicy::Fused {
             self.fusion.update(key.clone(), a.packet.clone());
             self.ops.push(BoardOp::Fuse(key.clone()));
         } else if a.packet != exact {
-            self.normalise(&key, exact, a.packet.clone());
+            // The board is to hold what every receiver decodes: the quantised packet
+            // replaces the exact one (silently: it is not reported again).
+            let marker = (key.0.clone(), key.1.clone(), a.packet.timestamp);
+            self.normalising.insert(marker);
+            normalise.push((key.clone(), exact, a.packet.clone()));
         }
-        if decl.merge == MergePolicy::Confident {
+        if merge == MergePolicy::Confident {
             self.keep_best(&key, &a.packet);
         }
         let (now, quiet) = (self.now, self.config.quiet);
         match self
             .filters
-            .offer(key, a.packet.clone(), &decl.report, now, quiet)
+            .offer(key, a.packet.clone(), &report, now, quiet)
         {
-            Some(_) => out.push(item),
-            None => self.stats.reports.held += 1,
+            Some(_) => Some(item),
+            None => {
+                self.stats.reports.held += 1;
+                None
+            }
         }
     }
 
@@ -115,26 +159,6 @@ impl State {
                 self.best.insert(key.clone(), own.clone());
             }
         }
-    }
-
-    /// The declaration of `class.attr`, refreshing the catalog once if need be.
-    fn decl(&mut self, class: &str, attr: &str) -> Option<AttrDecl> {
-        if self.catalog.decl(class, attr).is_none() {
-            self.refresh_catalog();
-        }
-        self.catalog.decl(class, attr).cloned()
-    }
-
-    /// The board is to hold what every receiver decodes: the quantised packet replaces
-    /// the exact one (silently: it is not reported again).
-    fn normalise(&mut self, key: &Key, exact: Packet, quantised: Packet) {
-        let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
-        self.normalising.insert(marker);
-        self.ops.push(BoardOp::Normalise {
-            key: key.clone(),
-            exact,
-            quantised,
-        });
     }
 
     /// An item reporting `packet` of `object.attr`, if the object still exists.
@@ -163,16 +187,12 @@ impl State {
         })
     }
 
-    fn own_create(&mut self, object: Arc<str>, out: &mut Vec<Item>) {
-        let Some(info) = self.board.info(&object) else {
-            return;
-        };
+    fn own_create(&mut self, object: Arc<str>) -> Option<Item> {
+        let info = self.board.info(&object)?;
         if info.is_class || info.owner != self.me || &*info.class == MODULE_CLASS {
-            return;
+            return None;
         }
-        let Some(lineage) = self.lineage(&info.class) else {
-            return;
-        };
+        let lineage = self.lineage(&info.class)?;
         self.own_objects
             .insert(object.clone(), (info.class.clone(), info.context));
         let fingerprint = self.catalog.schema.fingerprint(&info.class).unwrap_or(0);
@@ -182,58 +202,35 @@ impl State {
             fingerprint,
             context: info.context,
         };
-        out.push(Item {
+        Some(Item {
             what: What::Created(listed, self.board.clock().now()),
             lineage,
             context: info.context,
             owner: self.me.clone(),
             is_class: false,
-        });
+        })
     }
 
-    fn deleted(&mut self, object: Arc<str>, out: &mut Vec<Item>) {
+    fn deleted(&mut self, object: Arc<str>) -> Option<Item> {
         self.filters.forget(&object);
         self.best.retain(|(o, _), _| *o != object);
         self.fusion.forget(&object);
         self.origins.remove(&object);
-        let Some((class, context)) = self.own_objects.remove(&object) else {
-            return;
-        };
+        let (class, context) = self.own_objects.remove(&object)?;
         let stamp = self.board.clock().now();
         let max = self.config.max_tombstones;
         self.tombstones
             .bury(object.clone(), self.me.clone(), stamp, max);
-        let lineage = self.lineage(&class).unwrap_or_else(|| vec![class]);
-        out.push(Item {
+        let lineage = self
+            .lineage(&class)
+            .unwrap_or_else(|| Arc::from(vec![class]));
+        Some(Item {
             what: What::Deleted(object, stamp),
             lineage,
             context,
             owner: self.me.clone(),
             is_class: false,
-        });
-    }
-
-    /// The packet as every receiver will decode it (values and qualities quantised),
-    /// so that this module's own estimate of a fused attribute is the one others fuse.
-    fn quantise(&self, entry: &ObjectEntry, attr: &Arc<str>, packet: Packet) -> Packet {
-        let item = Assertion {
-            object: entry.clone(),
-            attr: attr.clone(),
-            packet: packet.clone(),
-        };
-        let msg = Message::Report(Report {
-            seq: 1,
-            items: vec![item],
-        });
-        let schema = &self.catalog.schema;
-        let decoded = Encoder::new(self.me.clone())
-            .encode(&msg, schema)
-            .ok()
-            .and_then(|bytes| Decoder::new().decode(&self.me, &bytes, schema).ok());
-        match decoded {
-            Some(Message::Report(mut r)) => r.items.pop().map_or(packet, |a| a.packet),
-            _ => packet,
-        }
+        })
     }
 
     // ----- destinations -----
@@ -273,7 +270,7 @@ impl State {
         wanted
     }
 
-    fn peer_wants_item(&self, p: &Address, item: &Item) -> bool {
+    pub(super) fn peer_wants_item(&self, p: &Address, item: &Item) -> bool {
         if !item.is_class {
             return self.peer_wants(p, &item.lineage, item.context, &item.owner);
         }
@@ -283,7 +280,7 @@ impl State {
 
     /// Groups consecutive items into messages: lifecycle frames (creations, then
     /// deletions) and reports, keeping the order of the board's changes.
-    fn emit(&mut self, link: LinkKind, items: &[&Item]) {
+    pub(super) fn emit(&mut self, link: LinkKind, items: &[&Item]) {
         let mut life = Lifecycle::default();
         let mut values: Vec<Assertion> = Vec::new();
         for item in items {
@@ -323,35 +320,38 @@ impl State {
     }
 
     fn emit_values(&mut self, link: LinkKind, values: &mut Vec<Assertion>) {
-        let values = std::mem::take(values);
-        for chunk in values.chunks(self.config.max_report_items.max(1)) {
-            self.emit_report(link, chunk);
+        let mut values = std::mem::take(values);
+        let max = self.config.max_report_items.max(1);
+        while !values.is_empty() {
+            let rest = values.split_off(values.len().min(max));
+            self.emit_report(link, std::mem::replace(&mut values, rest));
         }
     }
 
     /// Encodes and publishes one report; a batch that does not encode is split until
     /// the faulty packet is isolated and dropped.
-    fn emit_report(&mut self, link: LinkKind, items: &[Assertion]) {
+    fn emit_report(&mut self, link: LinkKind, items: Vec<Assertion>) {
         let Some(out) = self.out.get_mut(&link) else {
             return;
         };
-        let report = Report {
+        let msg = Message::Report(Report {
             seq: out.seq + 1,
-            items: items.to_vec(),
+            items,
+        });
+        let result = out.encoder.encode(&msg, &self.catalog.schema);
+        let Message::Report(Report { mut items, .. }) = msg else {
+            return;
         };
-        match out
-            .encoder
-            .encode(&Message::Report(report), &self.catalog.schema)
-        {
+        match result {
             Ok(bytes) => {
                 out.seq += 1;
                 self.stats.reports.items_sent += items.len() as u64;
                 self.publish(link, MsgKind::Report, &bytes);
             }
             Err(e) if items.len() > 1 => {
-                let (a, b) = items.split_at(items.len() / 2);
+                let b = items.split_off(items.len() / 2);
                 tracing::trace!(error = %e, "splitting a report");
-                self.emit_report(link, a);
+                self.emit_report(link, items);
                 self.emit_report(link, b);
             }
             Err(e) => self.encode_failed(&items[0], &e),

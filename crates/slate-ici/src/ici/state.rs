@@ -2,14 +2,14 @@
 //! tombstones and counters. Board changes it decides on are queued as [`BoardOp`]s and
 //! applied after the lock is released (board hooks may call back into the ICI).
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, HashSet, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
 use slate_model::{Address, Board, Context, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder};
 
-use super::classes::{Catalog, ClassSet};
+use super::classes::{Catalog, ClassSet, Lineage};
 use super::config::IciConfig;
 use super::filter::{Filters, Key};
 use super::fuse::Fusion;
@@ -120,7 +120,7 @@ pub(crate) struct State {
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
     /// Own packets being replaced by their quantised form: `(object, attr, timestamp)`.
-    pub normalising: BTreeSet<(Arc<str>, Arc<str>, Timestamp)>,
+    pub normalising: HashSet<(Arc<str>, Arc<str>, Timestamp)>,
     pub conflicts: BTreeSet<Arc<str>>,
     pub next_heartbeat: BTreeMap<LinkKind, Duration>,
     pub watch: Watch,
@@ -170,7 +170,7 @@ impl State {
             own_objects: BTreeMap::new(),
             tombstones: Tombstones::default(),
             origins: BTreeMap::new(),
-            normalising: BTreeSet::new(),
+            normalising: HashSet::new(),
             conflicts: BTreeSet::new(),
             next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
             watch,
@@ -209,7 +209,7 @@ impl State {
     }
 
     /// The class chain of `class`, refreshing the catalog once if it is unknown.
-    pub fn lineage(&mut self, class: &str) -> Option<Vec<Arc<str>>> {
+    pub fn lineage(&mut self, class: &str) -> Option<Lineage> {
         if !self.catalog.knows(class) {
             self.refresh_catalog();
         }

@@ -64,6 +64,9 @@ pub struct ReportStats {
     pub trailing: u64,
     /// Packets re-sent by an attribute's heartbeat.
     pub heartbeats: u64,
+    /// Packets sent by explicit reports ([`Ici::report`](crate::Ici::report), a plan's
+    /// `report` action), per link kind or destination they went to.
+    pub explicit: u64,
     /// Packets (and object creations and deletions) not sent on a link kind because no
     /// peer there is interested.
     pub suppressed_interest: u64,

@@ -1,0 +1,136 @@
+//! `slate demo`: the multi-robot mission of `slate-demo` — three Ground Surveillance
+//! Robots and an operator console on a simulated world — headless or with the live
+//! dashboard. Progress goes to stderr, the summary to stdout.
+
+use std::io::Write as _;
+use std::net::SocketAddr;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::ValueEnum;
+use slate_demo::{DemoConfig, NetworkKind, Progress};
+
+use crate::cli::Format;
+
+/// Arguments of `slate demo`.
+#[derive(Debug, clap::Args)]
+pub struct DemoArgs {
+    /// Seeds the world, the sensors' noise and the simulated network (same seed, same run).
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+
+    /// Robots in the team (each five modules: five boards, five ICIs).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=8))]
+    pub robots: u8,
+
+    /// The network: the deterministic simulator (team link 9600 bit/s, 5 % loss), or Zenoh
+    /// on 127.0.0.1 with one session per module, all in this process (real time).
+    #[arg(long, value_enum, default_value_t = Network::Sim)]
+    pub network: Network,
+
+    /// Serve the live dashboard at this address, like 127.0.0.1:8080 (the simulator then
+    /// runs at real time so people can watch).
+    #[arg(long, value_name = "ADDR")]
+    pub dashboard: Option<SocketAddr>,
+
+    /// The longest the mission may run, in seconds of world time (the console calls the
+    /// robots home at 80 % of it).
+    #[arg(long, default_value_t = 240.0, value_name = "S")]
+    pub duration: f64,
+
+    /// When the last robot dies, in seconds into the run.
+    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    pub fault_at: f64,
+
+    /// Nobody dies.
+    #[arg(long)]
+    pub no_fault: bool,
+
+    /// Simulator only: world seconds per real second (default: as fast as it goes, or 1
+    /// with --dashboard).
+    #[arg(long, value_name = "X")]
+    pub speed: Option<f64>,
+
+    /// With --dashboard: how long the page stays up after the run, in seconds.
+    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    pub linger: f64,
+
+    /// Print no progress, only the summary.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The network to run on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Network {
+    /// The deterministic in-process simulator.
+    Sim,
+    /// Zenoh on 127.0.0.1.
+    Zenoh,
+}
+
+/// Runs the demo; exits 0 when the mission completes, 1 when it does not.
+pub fn run(args: &DemoArgs, format: Format) -> anyhow::Result<ExitCode> {
+    let config = config(args)?;
+    let quiet = args.quiet;
+    let summary = slate_demo::run(config, &mut |p| {
+        if !quiet {
+            show(&p);
+        }
+    })?;
+    match format {
+        Format::Text => print!("{}", summary.to_text()),
+        Format::Json => println!("{}", serde_json::to_string_pretty(&summary.to_json())?),
+    }
+    std::io::stdout().flush()?;
+    Ok(if summary.mission_complete {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
+    anyhow::ensure!(
+        args.duration.is_finite() && args.duration >= 10.0,
+        "--duration must be at least 10 seconds"
+    );
+    anyhow::ensure!(
+        args.linger.is_finite() && args.linger >= 0.0,
+        "--linger must be >= 0"
+    );
+    let mut config = DemoConfig::default()
+        .seed(args.seed)
+        .robots(usize::from(args.robots))
+        .network(match args.network {
+            Network::Sim => NetworkKind::Sim,
+            Network::Zenoh => NetworkKind::Zenoh,
+        })
+        .duration(Duration::from_secs_f64(args.duration))
+        .fault_at((!args.no_fault).then_some(args.fault_at));
+    if let Some(addr) = args.dashboard {
+        config = config.dashboard(addr);
+        config.linger = Duration::from_secs_f64(args.linger);
+    }
+    if args.speed.is_some() {
+        config = config.pace(args.speed);
+    }
+    Ok(config)
+}
+
+fn show(p: &Progress) {
+    match p {
+        Progress::Started(what) => eprintln!("{what}"),
+        Progress::Dashboard(url) => eprintln!("dashboard: {url}"),
+        Progress::Event(e) => eprintln!("[{:6.1} s] {}{}", e.t, level(e.level), e.text),
+        Progress::Status(s) => eprintln!("  ── {s}"),
+    }
+}
+
+fn level(l: slate_demo::Level) -> &'static str {
+    match l {
+        slate_demo::Level::Warn => "! ",
+        slate_demo::Level::Error => "!! ",
+        _ => "",
+    }
+}

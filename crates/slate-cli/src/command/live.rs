@@ -1,0 +1,173 @@
+//! What the live verbs share: joining the team as a short-lived observer, Ctrl-C and
+//! SIGTERM, and showing packets.
+
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use anyhow::Context as _;
+use crossbeam_channel::Receiver;
+use serde_json::{Value as Json, json};
+use slate_model::{Address, Board, Packet, Value};
+use slate_node::{Node, ObserverOptions, inspect::Classes, observe, value_text};
+
+use crate::cli::LiveArgs;
+use crate::command::failed;
+
+/// Joins the team as an observer and waits for its catch-up.
+pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
+    let address = live
+        .address
+        .as_deref()
+        .map(Address::new)
+        .transpose()
+        .context("--as")?;
+    let wait = Duration::try_from_secs_f64(live.wait)
+        .ok()
+        .filter(|w| !w.is_zero())
+        .with_context(|| {
+            format!(
+                "--wait {}: expected a positive number of seconds",
+                live.wait
+            )
+        })?;
+    let options = ObserverOptions {
+        connect: live.connect.clone(),
+        address,
+        wait,
+    };
+    Ok(observe(&options)?)
+}
+
+/// Fires once on SIGINT (Ctrl-C) or SIGTERM. The handler is installed on first use.
+pub fn interrupted() -> anyhow::Result<&'static Receiver<()>> {
+    static SIGNALS: OnceLock<Result<Receiver<()>, String>> = OnceLock::new();
+    let installed = SIGNALS.get_or_init(|| {
+        let (tx, rx) = crossbeam_channel::bounded(1);
+        ctrlc::set_handler(move || {
+            let _ = tx.try_send(());
+        })
+        .map(|()| rx)
+        .map_err(|e| e.to_string())
+    });
+    installed
+        .as_ref()
+        .map_err(|e| anyhow::anyhow!("cannot handle Ctrl-C: {e}"))
+}
+
+/// `OBJ.ATTR` or `OBJ` split at the first dot.
+pub fn split(target: &str) -> (&str, Option<&str>) {
+    match target.split_once('.') {
+        Some((o, a)) => (o, Some(a)),
+        None => (target, None),
+    }
+}
+
+/// Fails (exit 1) unless `object` is an object or class on the board.
+pub fn known(board: &Board, object: &str) -> anyhow::Result<()> {
+    if board.info(object).is_some() {
+        return Ok(());
+    }
+    failed(format!(
+        "no object or class named {object:?} on the boards of {} (see `slate ls Thing`)",
+        team_of(board)
+    ))
+}
+
+/// `team t` of an observer's board.
+pub fn team_of(board: &Board) -> String {
+    format!("team {}", board.address().team())
+}
+
+/// Seconds since the packet was written (0 for a declared default).
+pub fn age(board: &Board, p: &Packet) -> f64 {
+    if p.timestamp.raw() == 0 {
+        0.0
+    } else {
+        board.clock().age(p.timestamp).as_secs_f64()
+    }
+}
+
+/// A value as JSON: numbers, booleans, strings, arrays; a reference as `{"ref": name}`;
+/// `none` as null.
+pub fn value_json(v: &Value) -> Json {
+    match v {
+        Value::None => Json::Null,
+        Value::Int(i) => json!(i),
+        Value::Real(x) => json!(x),
+        Value::Bool(b) => json!(b),
+        Value::Str(s) => json!(&**s),
+        Value::Ref(r) => json!({"ref": &**r}),
+        Value::Vector(xs) => json!(&**xs),
+    }
+}
+
+/// A packet as JSON, with its attribute's name and unit.
+pub fn packet_json(board: &Board, attr: &str, unit: Option<&str>, p: &Packet) -> Json {
+    json!({
+        "attr": attr, "value": value_json(&p.value), "unit": unit, "accuracy": p.accuracy,
+        "confidence": p.confidence, "age": age(board, p),
+        "timestamp": p.timestamp.as_secs_f64(), "source": p.source.to_string(),
+    })
+}
+
+/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`.
+pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
+    let unit = unit.map_or(String::new(), |u| format!(" {u}"));
+    let accuracy = if p.accuracy > 0.0 {
+        format!(" ± {}", short(p.accuracy))
+    } else {
+        String::new()
+    };
+    format!(
+        "{}{accuracy}{unit}  confidence {:.2}  age {}  from {}",
+        value_text(&p.value),
+        p.confidence,
+        age_text(age(board, p)),
+        p.source
+    )
+}
+
+/// A number with four significant digits at most (accuracies are quantised on a log
+/// scale: 0.10511205 reads better as 0.1051).
+pub fn short(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    let text = format!("{x:.digits$}");
+    if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        text
+    }
+}
+
+fn age_text(seconds: f64) -> String {
+    if seconds < 10.0 {
+        format!("{seconds:.1} s")
+    } else {
+        format!("{seconds:.0} s")
+    }
+}
+
+/// The unit declared for `object.attr`.
+pub fn unit<'a>(board: &Board, classes: &'a Classes, object: &str, attr: &str) -> Option<&'a str> {
+    let info = board.info(object)?;
+    let class = if info.is_class { object } else { &*info.class };
+    classes.decl(class, attr)?.unit.as_deref()
+}
+
+/// Prints the one JSON object of a verb's answer.
+pub fn print_json(j: &Json) -> anyhow::Result<()> {
+    println!("{}", serde_json::to_string_pretty(j)?);
+    Ok(())
+}
+
+/// Prints one JSON object on one line (the verbs that stream).
+pub fn print_line(j: &Json) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{}", serde_json::to_string(j)?)?;
+    out.flush()?;
+    Ok(())
+}

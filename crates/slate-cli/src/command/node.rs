@@ -1,0 +1,47 @@
+//! `slate node --config FILE`: run one module until SIGINT or SIGTERM.
+
+use std::process::ExitCode;
+
+use serde_json::json;
+use slate_node::{Node, NodeConfig};
+
+use crate::cli::{Format, NodeArgs};
+use crate::command::live::{interrupted, print_line};
+
+/// Starts the node, says where it listens, waits for a signal, stops cleanly.
+pub fn run(args: &NodeArgs, format: Format) -> anyhow::Result<ExitCode> {
+    let config = NodeConfig::read(&args.config)?;
+    let signals = interrupted()?;
+    let node = Node::start(&config)?;
+    let dashboard = node.dashboard_url();
+    match format {
+        Format::Json => print_line(&json!({
+            "event": "ready", "address": node.address().as_str(),
+            "listening": node.listening(), "connect": config.zenoh.connect,
+            "dashboard": dashboard, "pid": std::process::id(),
+        }))?,
+        Format::Text => {
+            let listening = match node.listening() {
+                [] => "nowhere (connects only)".to_owned(),
+                l => l.join(", "),
+            };
+            let dashboard = dashboard.map_or(String::new(), |u| format!("; dashboard at {u}"));
+            println!(
+                "slate node {}: listening on {listening}{dashboard}",
+                node.address()
+            );
+        }
+    }
+    let _ = signals.recv();
+    let peers = node.peers().len();
+    let revision = node.board().revision();
+    node.close();
+    match format {
+        Format::Json => print_line(&json!({
+            "event": "stopped", "address": node.address().as_str(),
+            "peers": peers, "revision": revision,
+        }))?,
+        Format::Text => println!("slate node {}: stopped", node.address()),
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,125 @@
+//! `slate tree [FILE...]`: the class tree of a live team, or of .slate files.
+
+use std::collections::BTreeMap;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::Context as _;
+use serde_json::json;
+use slate_model::{Board, Clock, THING};
+use slate_node::inspect::Classes;
+use slate_plans::Engine;
+
+use crate::cli::{Format, TreeArgs};
+use crate::command::failed;
+use crate::command::live::{join, print_json};
+
+/// Prints the tree.
+pub fn run(args: &TreeArgs, format: Format) -> anyhow::Result<ExitCode> {
+    if args.files.is_empty() {
+        let node = join(&args.live)?;
+        let result = print(node.board(), format);
+        node.close();
+        result?;
+    } else {
+        let board = load(&args.files)?;
+        print(&board, format)?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// A scratch board with the files loaded in order (the first error fails, exit 1).
+fn load(files: &[std::path::PathBuf]) -> anyhow::Result<Arc<Board>> {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    for path in files {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {name}"))?;
+        if let Err(e) = engine.load(&name, &text) {
+            return failed(e.rendered);
+        }
+    }
+    Ok(board)
+}
+
+fn print(board: &Board, format: Format) -> anyhow::Result<()> {
+    let classes = Classes::of(board);
+    let counts = counts(board);
+    let mut children: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
+    for d in classes.defs() {
+        children.entry(d.parent.as_str()).or_default().push(&d.name);
+    }
+    match format {
+        Format::Json => {
+            let list: Vec<_> = classes
+                .defs()
+                .map(|d| {
+                    let attrs: Vec<&str> = d.attrs.iter().map(|a| a.name.as_str()).collect();
+                    json!({
+                        "name": d.name, "parent": d.parent, "attrs": attrs,
+                        "objects": counts.get(d.name.as_str()).copied().unwrap_or(0),
+                    })
+                })
+                .collect();
+            print_json(&json!({"classes": list}))
+        }
+        Format::Text => {
+            println!("{THING}");
+            print_children(&classes, &children, &counts, THING, "");
+            Ok(())
+        }
+    }
+}
+
+/// Objects per class (direct instances).
+fn counts(board: &Board) -> BTreeMap<String, usize> {
+    let mut counts = BTreeMap::new();
+    for id in board.instances(THING).unwrap_or_default() {
+        if let Some(info) = board.name_of(id).and_then(|n| board.info(&n)) {
+            *counts.entry(info.class.to_string()).or_default() += 1;
+        }
+    }
+    counts
+}
+
+fn print_children(
+    classes: &Classes,
+    children: &BTreeMap<&str, Vec<&str>>,
+    counts: &BTreeMap<String, usize>,
+    parent: &str,
+    indent: &str,
+) {
+    let kids = children.get(parent).map(Vec::as_slice).unwrap_or_default();
+    for (i, name) in kids.iter().enumerate() {
+        if *name == THING {
+            continue;
+        }
+        let last = i + 1 == kids.len();
+        let (branch, more) = if last {
+            ("└── ", "    ")
+        } else {
+            ("├── ", "│   ")
+        };
+        println!("{indent}{branch}{}", line(classes, counts, name));
+        print_children(classes, children, counts, name, &format!("{indent}{more}"));
+    }
+}
+
+/// `Vehicle (position, speed): 2 objects`.
+fn line(classes: &Classes, counts: &BTreeMap<String, usize>, name: &str) -> String {
+    let attrs: Vec<&str> = classes
+        .defs()
+        .find(|d| d.name == name)
+        .map(|d| d.attrs.iter().map(|a| a.name.as_str()).collect())
+        .unwrap_or_default();
+    let attrs = if attrs.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", attrs.join(", "))
+    };
+    match counts.get(name).copied().unwrap_or(0) {
+        0 => format!("{name}{attrs}"),
+        1 => format!("{name}{attrs}: 1 object"),
+        n => format!("{name}{attrs}: {n} objects"),
+    }
+}

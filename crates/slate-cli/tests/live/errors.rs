@@ -1,0 +1,138 @@
+//! Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit. And every
+//! verb explains itself with an example.
+
+use crate::team::{Team, free_port, show, slate, temp_dir};
+
+fn one_line_error(out: &std::process::Output, code: i32, says: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(code), "{}", show(out));
+    assert!(out.stdout.is_empty(), "{}", show(out));
+    assert_eq!(err.lines().count(), 1, "{}", show(out));
+    assert!(err.contains(says), "want {says:?}\n{}", show(out));
+}
+
+#[test]
+fn a_bad_config_key_names_the_file_and_the_key() {
+    let dir = temp_dir("badkey");
+    let path = dir.join("m.toml");
+    std::fs::write(
+        &path,
+        "address = \"t/r1/nav\"\n[zenoh]\nlisen = [\"tcp/127.0.0.1:7447\"]\n",
+    )
+    .unwrap();
+    let out = slate(&["node", "--config", path.to_str().unwrap()]);
+    one_line_error(
+        &out,
+        2,
+        "m.toml: unknown key `zenoh.lisen` (known keys: zenoh.mode, zenoh.listen",
+    );
+    std::fs::write(&path, "address = \"nav\"\n").unwrap();
+    let out = slate(&["node", "--config", path.to_str().unwrap()]);
+    one_line_error(&out, 2, "m.toml: key `address`: expected a module address");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn no_node_to_talk_to_is_one_line() {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let out = slate(&["get", "gsr", "--connect", &endpoint, "--wait", "1"]);
+    one_line_error(&out, 2, "no slate module reachable through");
+}
+
+#[test]
+fn bad_addresses_values_and_names_against_a_live_node() {
+    let mut team = Team::new("errors");
+    team.add("t/r1/nav", "object gsr : Vehicle context self;");
+    team.wait_connected();
+    let cases: [(&[&str], i32, &str); 8] = [
+        (
+            &["get", "gsr", "--as", "nav"],
+            2,
+            "--as: address \"nav\" must have the form team/robot/module",
+        ),
+        (
+            &["get", "ghost"],
+            1,
+            "no object or class named \"ghost\" on the boards of team t",
+        ),
+        (
+            &["get", "gsr.sped"],
+            1,
+            "gsr (Vehicle) has no attribute \"sped\" (it has: position, speed, mode)",
+        ),
+        (&["ls", "Ghost"], 1, "no class named \"Ghost\""),
+        (&["put", "gsr.speed", "fast"], 2, "\"fast\" is not a real"),
+        (
+            &["put", "gsr.speed", "50"],
+            2,
+            "outside the declared bounds [0, 10]",
+        ),
+        (&["put", "gsr", "1"], 2, "expected OBJ.ATTR"),
+        (
+            &["watch", "ghost.speed"],
+            1,
+            "no object or class named \"ghost\"",
+        ),
+    ];
+    for (args, code, says) in cases {
+        one_line_error(&team.slate(args), code, says);
+    }
+    let plan = team.dir.join("p.slate");
+    std::fs::write(&plan, "plan p { action { } }").unwrap();
+    let out = team.slate(&["plan", "send", plan.to_str().unwrap(), "--to", "t/r1"]);
+    one_line_error(
+        &out,
+        2,
+        "--to: address \"t/r1\" must have the form team/robot/module",
+    );
+    let out = team.slate(&["plan", "send", plan.to_str().unwrap(), "--to", "t/r9/ghost"]);
+    one_line_error(&out, 1, "no module t/r9/ghost on team t");
+    team.stop();
+}
+
+#[test]
+fn help_explains_every_verb_with_an_example() {
+    for verb in [
+        &["node"][..],
+        &["tree"],
+        &["ls"],
+        &["get"],
+        &["put"],
+        &["watch"],
+        &["plan"],
+        &["plan", "send"],
+        &["plan", "ls"],
+        &["plan", "cancel"],
+        &["check"],
+        &["bench"],
+    ] {
+        let mut args = verb.to_vec();
+        args.push("--help");
+        let out = slate(&args);
+        assert!(out.status.success(), "{verb:?}");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("Example: slate "), "{verb:?}: {text}");
+        assert!(text.contains("--format"), "{verb:?}: {text}");
+    }
+}
+
+#[test]
+fn tree_of_files_needs_no_network() {
+    let gsr = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/gsr.slate");
+    let out = slate(&["tree", gsr]);
+    assert!(out.status.success(), "{}", show(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("├── Obstacle (observer, range, bearing, position, clearance)"),
+        "{text}"
+    );
+    let out = slate(&["tree", gsr, "--format", "json"]);
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        j["classes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c["name"] == "Target")
+    );
+}

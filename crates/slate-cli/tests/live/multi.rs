@@ -1,0 +1,119 @@
+//! Teams of two and three `slate node` processes over Zenoh on 127.0.0.1: reports, a plan
+//! with its acknowledgements, a late joiner catching up, clean shutdown.
+
+use std::time::Duration;
+
+use crate::team::{Team, eventually, show};
+
+#[test]
+fn two_nodes_exchange_reports_both_ways_and_stop_cleanly() {
+    let mut team = Team::new("two");
+    team.add("t/r1/nav", "object gsr : Vehicle context self;");
+    team.add("t/r2/loco", "object rock : Obstacle { range = 7.5; }");
+    team.wait_connected();
+    let nav = team.node("t/r1/nav");
+    let loco = team.node("t/r2/loco");
+    assert!(nav.wait_value("rock", "range", "7.5"), "{}", team.logs());
+    assert!(
+        loco.wait_value("gsr", "mode", "auto")
+            || loco.snapshot()["objects"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|o| o["name"] == "gsr")
+    );
+    team.ok(&["put", "rock.range", "3.25"]);
+    assert!(nav.wait_value("rock", "range", "3.25"), "{}", team.logs());
+    assert!(loco.wait_value("rock", "range", "3.25"));
+    assert!(nav.log().contains("peer t/r2/loco up"), "{}", nav.log());
+    team.stop();
+}
+
+#[test]
+fn three_nodes_a_plan_with_acks_and_a_late_joiner_that_catches_up() {
+    let mut team = Team::new("three");
+    team.add("t/r1/nav", "object gsr : Vehicle context self;");
+    team.add("t/r2/loco", "");
+    team.wait_connected();
+    // Writes before the third node exists.
+    for speed in ["1", "2", "3"] {
+        team.ok(&["put", "gsr.speed", speed]);
+    }
+    team.ok(&["put", "gsr.position", "[4.5, 6.0]"]);
+    team.add("t/base/console", "");
+    team.wait_connected();
+    let console = team.node("t/base/console");
+    assert!(console.wait_value("gsr", "speed", "3.0"), "{}", team.logs());
+    assert!(console.wait_value("gsr", "position", "[4.5, 6.0]"));
+
+    // A plan from the console's side of the team to loco, acknowledged step by step.
+    let plan = team.dir.join("go.slate");
+    std::fs::write(&plan, "plan go { trigger: gsr.speed > 2.0; termination: gsr.mode == \"go\"; action { set gsr.mode = \"go\"; } }").unwrap();
+    let out = team.slate(&[
+        "plan",
+        "send",
+        plan.to_str().unwrap(),
+        "--to",
+        "t/r2/loco",
+        "--timeout",
+        "20",
+        "--format",
+        "json",
+    ]);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    let steps: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["step"]
+                .as_str()
+                .unwrap()
+                .to_owned()
+        })
+        .collect();
+    assert_eq!(
+        steps,
+        [
+            "received",
+            "accepted",
+            "initiated",
+            "triggered",
+            "terminated"
+        ],
+        "{}",
+        show(&out)
+    );
+    for node in &team.nodes {
+        assert!(
+            node.wait_value("gsr", "mode", "go"),
+            "{}: {}",
+            node.address,
+            team.logs()
+        );
+    }
+    let loco = team.node("t/r2/loco");
+    let snap = loco.snapshot();
+    let go = snap["plans"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "go")
+        .unwrap()
+        .clone();
+    assert_eq!(go["state"], "terminated");
+    assert!(go["origin"].as_str().unwrap().contains("/cli-"), "{go}");
+    assert_eq!(go["acks"].as_array().unwrap().last().unwrap(), "terminated");
+
+    // A node that stops is seen going down by the others.
+    let console = team.nodes.pop().unwrap();
+    let (clean, _) = console.stop();
+    assert!(clean);
+    let nav = team.node("t/r1/nav");
+    assert!(
+        eventually(Duration::from_secs(10), || nav
+            .log()
+            .contains("peer t/base/console down")),
+        "{}",
+        nav.log()
+    );
+    team.stop();
+}

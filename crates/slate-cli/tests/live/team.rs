@@ -1,0 +1,405 @@
+//! A team of `slate node` processes on loopback, and running `slate` with a time limit.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The classes every node loads.
+pub const WORLD: &str = r#"
+class Vehicle {
+    position: vec<2> [m] = [0.0, 0.0] accuracy 1.0;
+    speed: real [m/s] in 0 .. 10 = 0.0;
+    mode: string = "auto";
+}
+class Obstacle { position: vec<2> [m]; range: real [m]; }
+"#;
+
+/// Longest any one `slate` command may take.
+const COMMAND_LIMIT: Duration = Duration::from_secs(30);
+
+/// A free TCP port on 127.0.0.1 (the listener is dropped before use).
+pub fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// A fresh temporary folder.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let d = std::env::temp_dir().join(format!("slate-live-{name}-{}-{nanos}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn command() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_slate"));
+    c.env_remove("RUST_LOG");
+    c
+}
+
+/// Runs `slate ARGS`, killed if it takes longer than [`COMMAND_LIMIT`].
+pub fn slate(args: &[&str]) -> Output {
+    let child = command()
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run slate");
+    wait_output(child, COMMAND_LIMIT)
+}
+
+/// Waits for a child's output, killing it (by pid) past `limit`.
+pub fn wait_output(mut child: Child, limit: Duration) -> Output {
+    let out = drain(child.stdout.take());
+    let err = drain(child.stderr.take());
+    let deadline = Instant::now() + limit;
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            break child.wait().unwrap();
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    Output {
+        status,
+        stdout: out.join().unwrap(),
+        stderr: err.join().unwrap(),
+    }
+}
+
+/// Reads a pipe to its end in a thread (nothing if the pipe was taken already).
+fn drain(pipe: Option<impl Read + Send + 'static>) -> std::thread::JoinHandle<Vec<u8>> {
+    std::thread::spawn(move || {
+        let mut b = Vec::new();
+        if let Some(mut p) = pipe {
+            let _ = p.read_to_end(&mut b);
+        }
+        b
+    })
+}
+
+/// A child process killed (by pid) if the test ends before it was waited for.
+pub struct Guard(pub Option<Child>);
+
+impl Guard {
+    /// Takes the child back, to wait for it.
+    pub fn take(mut self) -> Child {
+        self.0.take().expect("a child")
+    }
+}
+
+impl Drop for Guard {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// Stdout and stderr as text, for assertion messages.
+pub fn show(out: &Output) -> String {
+    format!(
+        "exit {:?}\n--- stdout\n{}--- stderr\n{}",
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// One `slate node` process.
+pub struct NodeProc {
+    pub address: String,
+    pub endpoint: String,
+    pub dashboard: String,
+    child: Child,
+    log: PathBuf,
+}
+
+impl NodeProc {
+    /// Starts `slate node` with a config in `dir`: it listens on a free port, connects to
+    /// `connect`, serves its dashboard on a free port, loads WORLD and `extra`. Returns
+    /// once it printed its ready line.
+    pub fn start(dir: &Path, address: &str, extra: &str, connect: &[String]) -> NodeProc {
+        let stem = address.replace('/', "_");
+        std::fs::write(dir.join("world.slate"), WORLD).unwrap();
+        std::fs::write(dir.join(format!("{stem}.slate")), extra).unwrap();
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let dashboard = format!("127.0.0.1:{}", free_port());
+        let connect: Vec<String> = connect.iter().map(|c| format!("{c:?}")).collect();
+        let config = format!(
+            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [\"Thing\"]\ndashboard = \"{dashboard}\"\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n",
+            connect.join(", ")
+        );
+        let path = dir.join(format!("{stem}.toml"));
+        std::fs::write(&path, config).unwrap();
+        let log = dir.join(format!("{stem}.log"));
+        let mut child = command()
+            .args([
+                "node",
+                "--config",
+                path.to_str().unwrap(),
+                "--format",
+                "json",
+            ])
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .expect("start slate node");
+        let ready = first_line(&mut child, Duration::from_secs(30));
+        let j: serde_json::Value = serde_json::from_str(&ready)
+            .unwrap_or_else(|e| panic!("{address} not ready ({e}): {ready:?}\n{}", read(&log)));
+        assert_eq!(j["event"], "ready", "{j}");
+        assert_eq!(j["address"], address);
+        NodeProc {
+            address: address.to_owned(),
+            endpoint,
+            dashboard: format!("http://{dashboard}/"),
+            child,
+            log,
+        }
+    }
+
+    /// Its dashboard's snapshot: the node's own board.
+    pub fn snapshot(&self) -> serde_json::Value {
+        let host = self
+            .dashboard
+            .trim_start_matches("http://")
+            .trim_end_matches('/');
+        let mut s = TcpStream::connect(host).expect("dashboard");
+        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+        write!(
+            s,
+            "GET /api/snapshot HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+        )
+        .unwrap();
+        let mut text = String::new();
+        s.read_to_string(&mut text).unwrap();
+        let body = text.split_once("\r\n\r\n").map_or("", |(_, b)| b);
+        serde_json::from_str(body).unwrap_or_else(|e| panic!("{e}: {text}"))
+    }
+
+    /// The value text of `object.attr` on this node's board, if it has one.
+    pub fn value(&self, object: &str, attr: &str) -> Option<String> {
+        let snap = self.snapshot();
+        let o = snap["objects"]
+            .as_array()?
+            .iter()
+            .find(|o| o["name"] == object)?
+            .clone();
+        let a = o["attrs"]
+            .as_array()?
+            .iter()
+            .find(|a| a["name"] == attr)?
+            .clone();
+        a["value"].as_str().map(str::to_owned)
+    }
+
+    /// Waits (at most 10 s) until `object.attr` reads `value` on this node.
+    pub fn wait_value(&self, object: &str, attr: &str, value: &str) -> bool {
+        eventually(Duration::from_secs(10), || {
+            self.value(object, attr).as_deref() == Some(value)
+        })
+    }
+
+    /// Its log so far.
+    pub fn log(&self) -> String {
+        read(&self.log)
+    }
+
+    /// Stops it by pid with SIGTERM and waits (SIGKILL after 10 s); returns its stdout.
+    pub fn stop(mut self) -> (bool, String) {
+        self.terminate()
+    }
+
+    fn terminate(&mut self) -> (bool, String) {
+        let pid = self.child.id().to_string();
+        let _ = Command::new("kill").args(["-TERM", &pid]).status();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let mut clean = true;
+        while self.child.try_wait().ok().flatten().is_none() {
+            if Instant::now() > deadline {
+                let _ = self.child.kill();
+                clean = false;
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        let status = self.child.wait().ok();
+        let mut rest = String::new();
+        if let Some(mut out) = self.child.stdout.take() {
+            let _ = out.read_to_string(&mut rest);
+        }
+        (clean && status.is_some_and(|s| s.success()), rest)
+    }
+}
+
+impl Drop for NodeProc {
+    fn drop(&mut self) {
+        if self.child.try_wait().ok().flatten().is_none() {
+            self.terminate();
+        }
+    }
+}
+
+fn read(path: &Path) -> String {
+    std::fs::read_to_string(path).unwrap_or_default()
+}
+
+/// The first line a child prints on stdout (empty if none within `limit`).
+fn first_line(child: &mut Child, limit: Duration) -> String {
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut reader = BufReader::new(stdout);
+        let mut line = String::new();
+        let _ = reader.read_line(&mut line);
+        let _ = tx.send((line, reader.into_inner()));
+    });
+    match rx.recv_timeout(limit) {
+        Ok((line, stdout)) => {
+            child.stdout = Some(stdout);
+            line
+        }
+        Err(_) => String::new(),
+    }
+}
+
+/// Polls `done` until it holds or `limit` passes.
+pub fn eventually(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    done()
+}
+
+/// A team of node processes; each connects to the ones started before it. One team
+/// runs at a time (on two cores, several teams at once starve each other's timers).
+pub struct Team {
+    pub dir: PathBuf,
+    pub nodes: Vec<NodeProc>,
+    _turn: std::sync::MutexGuard<'static, ()>,
+}
+
+static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+impl Team {
+    pub fn new(name: &str) -> Team {
+        let turn = TURN
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        Team {
+            dir: temp_dir(name),
+            nodes: Vec::new(),
+            _turn: turn,
+        }
+    }
+
+    /// Starts one more node.
+    pub fn add(&mut self, address: &str, extra: &str) -> &NodeProc {
+        let connect: Vec<String> = self.nodes.iter().map(|n| n.endpoint.clone()).collect();
+        let node = NodeProc::start(&self.dir, address, extra, &connect);
+        self.nodes.push(node);
+        self.nodes.last().unwrap()
+    }
+
+    /// The node at `address`.
+    pub fn node(&self, address: &str) -> &NodeProc {
+        self.nodes.iter().find(|n| n.address == address).unwrap()
+    }
+
+    /// `--connect E` for every node, so an observer reaches all at once.
+    pub fn connect_args(&self) -> Vec<String> {
+        self.nodes
+            .iter()
+            .flat_map(|n| ["--connect".to_owned(), n.endpoint.clone()])
+            .collect()
+    }
+
+    /// Runs a live verb against the team.
+    pub fn slate(&self, args: &[&str]) -> Output {
+        let connect = self.connect_args();
+        let mut all: Vec<&str> = args.to_vec();
+        all.extend(connect.iter().map(String::as_str));
+        slate(&all)
+    }
+
+    /// Runs a live verb and expects success.
+    pub fn ok(&self, args: &[&str]) -> String {
+        let out = self.slate(args);
+        assert!(
+            out.status.success(),
+            "slate {args:?}\n{}\n{}",
+            show(&out),
+            self.logs()
+        );
+        String::from_utf8(out.stdout).unwrap()
+    }
+
+    /// Runs a live verb with `--format json` and parses its one JSON object.
+    pub fn json(&self, args: &[&str]) -> serde_json::Value {
+        let mut all = args.to_vec();
+        all.extend(["--format", "json"]);
+        let text = self.ok(&all);
+        serde_json::from_str(&text).unwrap_or_else(|e| panic!("{e}: {text}"))
+    }
+
+    /// Waits until every node sees every other alive.
+    pub fn wait_connected(&self) {
+        let n = self.nodes.len();
+        for node in &self.nodes {
+            let met = eventually(Duration::from_secs(15), || {
+                let snap = node.snapshot();
+                snap["summary"]["peers alive"].as_u64() >= Some(n as u64 - 1)
+            });
+            assert!(
+                met,
+                "{} did not meet the team\n{}",
+                node.address,
+                self.logs()
+            );
+        }
+    }
+
+    /// Every node's log, for failure messages.
+    pub fn logs(&self) -> String {
+        self.nodes
+            .iter()
+            .map(|n| format!("--- log of {}\n{}", n.address, n.log()))
+            .collect()
+    }
+
+    /// Stops every node by pid; asserts each stopped cleanly and said so.
+    pub fn stop(mut self) {
+        let logs = self.logs();
+        for node in self.nodes.drain(..) {
+            let address = node.address.clone();
+            let (clean, rest) = node.stop();
+            assert!(clean, "{address} did not stop cleanly\n{logs}");
+            assert!(rest.contains("\"stopped\""), "{address}: {rest}");
+        }
+    }
+}
+
+impl Drop for Team {
+    /// Stops what is left (a failed test) and removes the folder.
+    fn drop(&mut self) {
+        self.nodes.clear();
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}

@@ -1,0 +1,269 @@
+//! Each live verb against a two-node team: t/r1/nav owns gsr and rock, t/r2/loco runs
+//! plans. Both export everything.
+
+use std::io::{BufRead, BufReader};
+use std::process::Stdio;
+use std::time::Duration;
+
+use crate::team::{Guard, Team, show, wait_output};
+
+const NAV: &str = "object gsr : Vehicle context self { position = [10.0, 20.0] accuracy 0.5; }\nobject rock : Obstacle { position = [15.0, 22.0]; range = 5.4; }";
+
+fn two_nodes(name: &str) -> Team {
+    let mut team = Team::new(name);
+    team.add("t/r1/nav", NAV);
+    team.add("t/r2/loco", "");
+    team.wait_connected();
+    team
+}
+
+#[test]
+fn tree_ls_and_get_show_the_team_as_text_and_json() {
+    let team = two_nodes("inspect");
+    let tree = team.ok(&["tree"]);
+    assert!(tree.starts_with("Thing\n"), "{tree}");
+    assert!(
+        tree.contains("Vehicle (position, speed, mode): 1 object"),
+        "{tree}"
+    );
+    assert!(
+        tree.contains("Obstacle (position, range): 1 object"),
+        "{tree}"
+    );
+    let j = team.json(&["tree"]);
+    let vehicle = j["classes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "Vehicle")
+        .unwrap();
+    assert_eq!(vehicle["objects"], 1);
+    assert_eq!(vehicle["parent"], "Thing");
+
+    let ls = team.ok(&["ls", "Vehicle"]);
+    assert!(ls.starts_with("gsr") && ls.contains("t/r1/nav"), "{ls}");
+    let j = team.json(&["ls", "Thing"]);
+    let names: Vec<&str> = j["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|o| o["name"].as_str())
+        .collect();
+    assert!(
+        names.contains(&"gsr") && names.contains(&"rock") && names.contains(&"t_r1_nav"),
+        "{names:?}"
+    );
+
+    let get = team.ok(&["get", "gsr"]);
+    assert!(get.contains("gsr: Vehicle"), "{get}");
+    assert!(
+        get.contains("position = [10.0, 20.0] ± 0.5 m  confidence 1.00"),
+        "{get}"
+    );
+    assert!(get.contains("from t/r1/nav"), "{get}");
+    let j = team.json(&["get", "rock.range"]);
+    assert_eq!(j["object"], "rock");
+    assert_eq!(j["owner"], "t/r1/nav");
+    let a = &j["attrs"][0];
+    assert_eq!(
+        (a["attr"].as_str(), a["value"].as_f64(), a["unit"].as_str()),
+        (Some("range"), Some(5.4), Some("m"))
+    );
+    assert_eq!(a["confidence"], 1.0);
+    assert_eq!(a["source"], "t/r1/nav");
+    assert!(a["age"].as_f64().is_some_and(|x| x >= 0.0));
+    team.stop();
+}
+
+#[test]
+fn put_on_one_node_is_seen_by_get_and_on_the_other_node_and_watch_prints_it() {
+    let team = two_nodes("put");
+    // A watcher, started first; it says on stderr when it is watching.
+    let connect = team.connect_args();
+    let mut args = vec![
+        "watch",
+        "gsr.speed",
+        "--count",
+        "2",
+        "--format",
+        "json",
+        "--log",
+        "slate_ici=debug,slate_node=debug",
+    ];
+    args.extend(connect.iter().map(String::as_str));
+    let mut watcher = Guard(Some(
+        std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
+            .args(&args)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap(),
+    ));
+    let stderr = watcher.0.as_mut().and_then(|c| c.stderr.take()).unwrap();
+    let mut stderr = BufReader::new(stderr);
+    let mut line = String::new();
+    let mut log = String::new();
+    while stderr.read_line(&mut line).unwrap() > 0 && !line.starts_with("watching") {
+        log.push_str(&line);
+        line.clear();
+    }
+    assert!(line.starts_with("watching gsr.speed on team t"), "{line}");
+    let rest = std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = std::io::Read::read_to_string(&mut stderr, &mut text);
+        text
+    });
+
+    let out = team.ok(&[
+        "put",
+        "gsr.speed",
+        "3.5",
+        "--accuracy",
+        "0.1",
+        "--confidence",
+        "0.8",
+    ]);
+    assert!(out.starts_with("gsr.speed = 3.5 ± 0.1"), "{out}");
+    let j = team.json(&["put", "gsr.speed", "4"]);
+    assert_eq!(j["value"], 4.0);
+
+    let loco = team.node("t/r2/loco");
+    assert!(loco.wait_value("gsr", "speed", "4.0"), "{}", team.logs());
+    let nav = team.node("t/r1/nav");
+    assert!(nav.wait_value("gsr", "speed", "4.0"));
+    let got = team.json(&["get", "gsr.speed"]);
+    assert_eq!(got["attrs"][0]["value"], 4.0);
+    assert!(
+        got["attrs"][0]["source"]
+            .as_str()
+            .unwrap()
+            .contains("/cli-")
+    );
+
+    let out = wait_output(watcher.take(), Duration::from_secs(20));
+    let log = log + &rest.join().unwrap();
+    assert!(out.status.success(), "{}\n{log}", show(&out));
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 2, "{}", show(&out));
+    assert_eq!(lines[0]["object"], "gsr");
+    assert_eq!(lines[0]["value"], 3.5);
+    assert_eq!(lines[1]["value"], 4.0);
+    assert_eq!(lines[1]["kind"], "write");
+    team.stop();
+}
+
+#[test]
+fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
+    let team = two_nodes("plans");
+    let plans = team.dir.join("fast.slate");
+    std::fs::write(
+        &plans,
+        "plan fast {\n    trigger: gsr.speed > 5.0;\n    termination: gsr.mode == \"stopped\";\n    action { set gsr.mode = \"slow\"; }\n}\n",
+    )
+    .unwrap();
+    let file = plans.to_str().unwrap();
+    // Triggered at once (speed 6 before it is sent), then terminated by the mode.
+    team.ok(&["put", "gsr.speed", "6"]);
+    let sender = {
+        let connect = team.connect_args();
+        let mut args = vec!["plan", "send", file, "--to", "t/r2/loco", "--timeout", "20"];
+        args.extend(connect.iter().map(String::as_str));
+        Guard(Some(
+            std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
+                .args(&args)
+                .stdin(Stdio::null())
+                .stdout(Stdio::piped())
+                .stderr(Stdio::piped())
+                .spawn()
+                .unwrap(),
+        ))
+    };
+    let loco = team.node("t/r2/loco");
+    assert!(
+        crate::team::eventually(Duration::from_secs(15), || loco
+            .value("gsr", "mode")
+            .as_deref()
+            == Some("slow")),
+        "{}",
+        team.logs()
+    );
+    let ls = team.ok(&["plan", "ls"]);
+    assert!(
+        ls.contains("fast") && ls.contains("fired 1") && ls.contains("on t/r2/loco"),
+        "{ls}"
+    );
+    team.ok(&["put", "gsr.mode", "stopped"]);
+    let out = wait_output(sender.take(), Duration::from_secs(25));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{}", show(&out));
+    for step in [
+        "received",
+        "accepted",
+        "initiated",
+        "triggered ok",
+        "terminated",
+    ] {
+        assert!(
+            text.contains(&format!("fast -> t/r2/loco: {step}")),
+            "{step}: {text}"
+        );
+    }
+    let j = team.json(&["plan", "ls"]);
+    let fast = j["plans"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "fast")
+        .unwrap();
+    assert_eq!(fast["state"], "terminated");
+    assert_eq!(fast["on"], "t/r2/loco");
+    assert_eq!(fast["fired"], 1);
+
+    // A plan that stays active, cancelled from another command.
+    let slow = team.dir.join("slow.slate");
+    std::fs::write(
+        &slow,
+        "plan slow { trigger: gsr.speed > 9.0; action { set gsr.mode = \"x\"; } }",
+    )
+    .unwrap();
+    let out = team.slate(&[
+        "plan",
+        "send",
+        slow.to_str().unwrap(),
+        "--to",
+        "t/r2/loco",
+        "--timeout",
+        "2",
+        "--format",
+        "json",
+    ]);
+    assert!(out.status.success(), "{}", show(&out));
+    let steps: Vec<String> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["step"]
+                .as_str()
+                .unwrap()
+                .to_owned()
+        })
+        .collect();
+    assert_eq!(steps, ["received", "accepted", "initiated"]);
+    let out = team.ok(&["plan", "cancel", "slow", "--on", "t/r2/loco"]);
+    assert_eq!(out, "plan slow cancelled on t/r2/loco\n");
+    let j = team.json(&["plan", "ls"]);
+    let slow = j["plans"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["name"] == "slow")
+        .unwrap();
+    assert_eq!(slow["state"], "cancelled");
+    let again = team.slate(&["plan", "cancel", "slow"]);
+    assert_eq!(again.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&again.stderr).contains("already cancelled"));
+    team.stop();
+}

@@ -1,0 +1,200 @@
+//! A module: one board with its own ICI, plan engine and plan circuits, as a separate
+//! board on the network would be. What each kind of module models (its interest) and
+//! lets out of the robot (its export policy) is decided here.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_ici::{ClassSet, Ici, IciConfig, LinkKind, PlanCircuits, module_class};
+use slate_model::{Address, Board, Context};
+use slate_plans::Engine;
+
+use crate::error::DemoError;
+use crate::files::{self, SlateFile};
+use crate::net::Network;
+
+/// What a module does on its robot (or at the base).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Role {
+    /// Navigation sensor: the pose, with an accuracy that grows between fixes.
+    Nav,
+    /// Proximity sensor: range and bearing to nearby obstacles and contacts.
+    Prox,
+    /// Vision sensor: identifies targets, more confidently as the robot approaches.
+    Vision,
+    /// Locomotion effector: drives towards the goal, around obstacles.
+    Loco,
+    /// Execution controller: runs the mission plans, decomposes them into sub-plans.
+    Exec,
+    /// The operator console at the base.
+    Console,
+}
+
+impl Role {
+    /// The modules of one robot, in start order.
+    pub const ROBOT: [Role; 5] = [Role::Exec, Role::Nav, Role::Prox, Role::Vision, Role::Loco];
+
+    /// The last segment of its address.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Nav => "nav",
+            Role::Prox => "prox",
+            Role::Vision => "vision",
+            Role::Loco => "loco",
+            Role::Exec => "exec",
+            Role::Console => "console",
+        }
+    }
+
+    /// The classes this board models (and so receives). Vision writes the targets it
+    /// identifies but needs nobody else's; only the execution controller and the console
+    /// model the whole team's targets.
+    fn interest(self) -> ClassSet {
+        let own_robot = |s: ClassSet| s.class_in("Robot", &[Context::Self_]);
+        match self {
+            Role::Nav => own_robot(ClassSet::none().class("Pose").class("Sensor")),
+            Role::Prox => own_robot(classes(&["Pose", "Sensor", "Obstacle", "Contact"])),
+            Role::Vision => own_robot(classes(&["Pose", "Sensor", "Contact"])),
+            Role::Loco => own_robot(classes(&["Pose", "Sensor", "Obstacle"])),
+            Role::Exec => classes(&["Pose", "Sensor", "Robot", "Target", "Waypoint", "Mission"]),
+            Role::Console => classes(&["Robot", "Target", "Waypoint", "Mission"]),
+        }
+    }
+
+    /// What may leave the robot on the team link: the robot's export policy, at the
+    /// highest abstraction. Sensor data (Pose, Obstacle, Contact, Sighting) never does.
+    fn export(self) -> ClassSet {
+        match self {
+            Role::Exec => ClassSet::none()
+                .class_in("Robot", &[Context::Self_])
+                .class("Target")
+                .class("Waypoint"),
+            Role::Vision => ClassSet::none().class("Target"),
+            Role::Console => ClassSet::none().class("Mission").class("Waypoint"),
+            Role::Nav | Role::Prox | Role::Loco => ClassSet::none(),
+        }
+    }
+
+    /// The ICI settings: interest, export policy, and a slower team heartbeat for the
+    /// modules that have nothing for the team (saves team-link bytes).
+    pub fn ici_config(self) -> IciConfig {
+        let mut config = IciConfig::default()
+            .interest(self.interest())
+            .export(self.export());
+        // A catch-up answer can wait behind others on a 9600 bit/s radio: asking again
+        // after the default 3 s would only queue more answers.
+        config.catch_up_retry = Duration::from_secs(10);
+        if self.export().is_empty() {
+            config.liveliness(
+                LinkKind::Team,
+                Duration::from_secs(2),
+                Duration::from_secs(5),
+            )
+        } else {
+            config
+        }
+    }
+
+    /// The files this module loads after the classes: (file, robot it is for).
+    fn files(self) -> &'static [SlateFile] {
+        match self {
+            Role::Exec => &[files::ROBOT_OBJECTS, files::EXEC],
+            Role::Console => &[files::CONSOLE],
+            _ => &[files::ROBOT_OBJECTS],
+        }
+    }
+}
+
+fn classes(names: &[&str]) -> ClassSet {
+    names.iter().fold(ClassSet::none(), |s, c| s.class(c))
+}
+
+/// One module: its board, ICI, plan engine and plan circuits.
+pub struct Module {
+    /// Its address, `team/ROBOT/ROLE`.
+    pub address: Address,
+    /// What it does.
+    pub role: Role,
+    /// Its robot's name (`base` for the console).
+    pub robot: String,
+    /// Its board (the paper's blackboard; drivers use it through the SBIPs).
+    pub board: Arc<Board>,
+    /// Its ICI.
+    pub ici: Ici,
+    /// Its plan engine.
+    pub engine: Engine,
+    /// Its plan circuits (plans sent and received, with their acknowledgements).
+    pub circuits: PlanCircuits,
+}
+
+impl Module {
+    /// Starts a module on `net`: board, ICI, plan engine and circuits, then its files
+    /// (the classes first, then its role's files for its robot; the console also loads
+    /// the mission of each robot in `team`).
+    pub(crate) fn start(
+        net: &Network,
+        robot: &str,
+        role: Role,
+        team: &[String],
+    ) -> Result<Module, DemoError> {
+        let address = Address::new(&format!("team/{robot}/{}", role.name()))
+            .map_err(|e| DemoError::Config(e.to_string()))?;
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(address.clone())
+                .build(),
+        );
+        board
+            .define(module_class())
+            .map_err(|e| DemoError::Config(e.to_string()))?;
+        let engine = Engine::new(&board);
+        let ici = Ici::new(board.clone(), net.join(&address)?, role.ici_config())?;
+        let circuits = PlanCircuits::attach(&ici, &engine);
+        let module = Module {
+            address,
+            role,
+            robot: robot.to_owned(),
+            board,
+            ici,
+            engine,
+            circuits,
+        };
+        module.load(files::CLASSES, robot)?;
+        for file in role.files() {
+            module.load(*file, robot)?;
+        }
+        if role == Role::Console {
+            for r in team {
+                module.load_terse(files::MISSION, r)?;
+            }
+        }
+        Ok(module)
+    }
+
+    fn load(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {
+        self.engine
+            .load(&file.label(robot), &file.for_robot(robot))
+            .map(|_| ())
+            .map_err(|e| DemoError::Load {
+                board: self.address.to_string(),
+                file: file.label(robot),
+                rendered: e.rendered,
+            })
+    }
+
+    /// Loads a file whose plans are sent: terse, so they travel in few bytes (if it
+    /// fails, the file as written is loaded for readable diagnostics).
+    fn load_terse(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {
+        let text = files::terse(&file.for_robot(robot));
+        match self.engine.load(&file.label(robot), &text) {
+            Ok(_) => Ok(()),
+            Err(_) => self.load(file, robot),
+        }
+    }
+
+    /// The name of this module's object on other boards (`team_r1_exec`).
+    pub fn object_name(&self) -> String {
+        slate_ici::module_object_name(&self.address)
+    }
+}

@@ -1,0 +1,207 @@
+//! The network the modules join: the deterministic simulator (virtual time, a team link
+//! with a bandwidth cap and loss) or Zenoh on 127.0.0.1 (real time, one session per
+//! module, all in this process).
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_ici::{LinkConfig, SimConfig, SimNet, SimStats, Transport};
+use slate_model::{Address, Clock};
+
+use crate::config::TeamLink;
+use crate::error::DemoError;
+
+/// Which network carries the team.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum NetworkKind {
+    /// The deterministic in-process simulator (the default).
+    #[default]
+    Sim,
+    /// Zenoh sessions on 127.0.0.1, one per module, in this process.
+    Zenoh,
+}
+
+impl NetworkKind {
+    /// `sim` or `zenoh`.
+    pub fn name(self) -> &'static str {
+        match self {
+            NetworkKind::Sim => "sim",
+            NetworkKind::Zenoh => "zenoh",
+        }
+    }
+}
+
+/// A running network.
+pub(crate) enum Network {
+    Sim(SimNet),
+    #[cfg(feature = "zenoh")]
+    Zenoh(zenoh_net::ZenohNet),
+}
+
+impl Network {
+    /// The simulator with the team link shaped as `team` (the robot link is clean, 100 µs).
+    pub fn sim(seed: u64, team: &TeamLink) -> Network {
+        let config = SimConfig {
+            team: LinkConfig::clean()
+                .delay(team.delay)
+                .jitter(team.jitter)
+                .loss(team.loss)
+                .bandwidth(team.budget_bps),
+            ..SimConfig::default()
+        };
+        Network::Sim(SimNet::with_config(seed, config))
+    }
+
+    /// Zenoh on loopback.
+    #[cfg(feature = "zenoh")]
+    pub fn zenoh() -> Network {
+        Network::Zenoh(zenoh_net::ZenohNet::new())
+    }
+
+    /// The clock every board on this network uses.
+    pub fn clock(&self) -> Clock {
+        match self {
+            Network::Sim(net) => net.clock(),
+            #[cfg(feature = "zenoh")]
+            Network::Zenoh(_) => Clock::system(),
+        }
+    }
+
+    /// Is time virtual (it only moves when [`advance`](Self::advance) is called)?
+    pub fn is_virtual(&self) -> bool {
+        matches!(self, Network::Sim(_))
+    }
+
+    /// A new endpoint.
+    pub fn join(&self, address: &Address) -> Result<Arc<dyn Transport>, DemoError> {
+        match self {
+            Network::Sim(net) => Ok(net.join(address)),
+            #[cfg(feature = "zenoh")]
+            Network::Zenoh(z) => z.join(address),
+        }
+    }
+
+    /// The module dies: it neither sends nor receives any more.
+    pub fn kill(&self, address: &Address) {
+        match self {
+            Network::Sim(net) => net.kill(address),
+            #[cfg(feature = "zenoh")]
+            Network::Zenoh(z) => z.kill(address),
+        }
+    }
+
+    /// Lets `d` pass: the simulator runs its events for `d` of virtual time; on Zenoh
+    /// this waits until `d` after the previous call (real time).
+    pub fn advance(&self, d: Duration) {
+        match self {
+            Network::Sim(net) => net.run_for(d),
+            #[cfg(feature = "zenoh")]
+            Network::Zenoh(z) => z.advance(d),
+        }
+    }
+
+    /// The simulator's counters (per directed link and message kind), if simulated.
+    pub fn sim_stats(&self) -> Option<SimStats> {
+        match self {
+            Network::Sim(net) => Some(net.stats()),
+            #[cfg(feature = "zenoh")]
+            Network::Zenoh(_) => None,
+        }
+    }
+}
+
+#[cfg(feature = "zenoh")]
+mod zenoh_net {
+    use std::net::TcpListener;
+    use std::sync::Arc;
+    use std::time::{Duration, Instant};
+
+    use parking_lot::Mutex;
+    use slate_ici::Transport;
+    use slate_model::Address;
+    use slate_zenoh::{ZenohConfig, ZenohTransport};
+
+    use crate::error::DemoError;
+
+    /// Zenoh sessions on loopback: each listens on its own port and connects to the ones
+    /// opened before it.
+    pub struct ZenohNet {
+        endpoints: Mutex<Vec<String>>,
+        transports: Mutex<Vec<Arc<ZenohTransport>>>,
+        next_wake: Mutex<Option<Instant>>,
+    }
+
+    impl ZenohNet {
+        pub fn new() -> Self {
+            ZenohNet {
+                endpoints: Mutex::new(Vec::new()),
+                transports: Mutex::new(Vec::new()),
+                next_wake: Mutex::new(None),
+            }
+        }
+
+        pub fn join(&self, address: &Address) -> Result<Arc<dyn Transport>, DemoError> {
+            let port = TcpListener::bind("127.0.0.1:0")
+                .and_then(|l| l.local_addr())
+                .map(|a| a.port())
+                .map_err(|e| DemoError::Network(format!("no free port on 127.0.0.1: {e}")))?;
+            let endpoint = format!("tcp/127.0.0.1:{port}");
+            let config = ZenohConfig {
+                listen: vec![endpoint.clone()],
+                connect: self.endpoints.lock().clone(),
+                ..ZenohConfig::default()
+            };
+            let t = ZenohTransport::open(address.clone(), &config)
+                .map_err(|e| DemoError::Network(format!("{address}: {e}")))?;
+            self.endpoints.lock().push(endpoint);
+            self.transports.lock().push(t.clone());
+            Ok(t)
+        }
+
+        pub fn kill(&self, address: &Address) {
+            for t in self.transports.lock().iter() {
+                if t.address() == address {
+                    t.close();
+                }
+            }
+        }
+
+        pub fn advance(&self, d: Duration) {
+            let mut next = self.next_wake.lock();
+            let wake = next.unwrap_or_else(Instant::now) + d;
+            *next = Some(wake);
+            drop(next);
+            let now = Instant::now();
+            if wake > now {
+                std::thread::sleep(wake - now);
+            }
+        }
+    }
+}
+
+/// Paces a virtual-time loop to real time (for people watching the dashboard).
+#[derive(Debug)]
+pub(crate) struct Pacer {
+    start: Option<std::time::Instant>,
+    speed: f64,
+}
+
+impl Pacer {
+    /// `speed` virtual seconds per real second; `None` runs as fast as it can.
+    pub fn new(speed: Option<f64>) -> Pacer {
+        Pacer {
+            start: speed.map(|_| std::time::Instant::now()),
+            speed: speed.unwrap_or(0.0),
+        }
+    }
+
+    /// Waits until real time catches up with virtual time `t`.
+    pub fn wait(&self, t: f64) {
+        let Some(start) = self.start else { return };
+        let due = Duration::from_secs_f64((t / self.speed).max(0.0));
+        let elapsed = start.elapsed();
+        if due > elapsed {
+            std::thread::sleep(due - elapsed);
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! The demo's main loop: the world moves, drivers measure and act, the network runs,
+//! the observer watches; then the boards settle and the summary is made.
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use parking_lot::Mutex;
+use serde_json::Value;
+use slate_ici::LinkKind;
+use slate_wire::PlanStep;
+
+use crate::config::DemoConfig;
+use crate::consistency::{Propagation, disagreement};
+use crate::error::DemoError;
+use crate::module::Role;
+use crate::net::{Network, NetworkKind, Pacer};
+use crate::observe::{Event, Observer, text};
+use crate::summary::{Summary, TargetOutcome};
+use crate::team::Team;
+use crate::traffic::{Traffic, by_kind};
+use crate::world::{Layout, World};
+
+/// World step, seconds.
+pub const DT: f64 = 0.1;
+/// Longest wait for the boards to agree at the end, seconds.
+const SETTLE_LIMIT: f64 = 30.0;
+
+/// What a run reports while it goes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Progress {
+    /// The run started: what it is.
+    Started(String),
+    /// Something happened.
+    Event(Event),
+    /// A periodic status line.
+    Status(String),
+    /// The dashboard is being served here.
+    Dashboard(String),
+}
+
+/// A running demo.
+pub struct Demo {
+    /// What it was asked to do.
+    pub config: DemoConfig,
+    pub(crate) net: Network,
+    /// The terrain and routes.
+    pub layout: Layout,
+    /// The physical world.
+    pub world: World,
+    /// The modules and drivers.
+    pub team: Team,
+    /// What the observer saw.
+    pub observer: Observer,
+    /// What the links carried.
+    pub traffic: Traffic,
+    /// How long changes took to reach every board of the team view.
+    pub propagation: Propagation,
+    step: u64,
+    fault_done: bool,
+    started: Instant,
+}
+
+impl Demo {
+    /// Sets up the world, the network and every module; nothing has moved yet.
+    pub fn start(config: DemoConfig) -> Result<Demo, DemoError> {
+        config.validate()?;
+        let net = match config.network {
+            NetworkKind::Sim => Network::sim(config.seed, &config.team_link),
+            #[cfg(feature = "zenoh")]
+            NetworkKind::Zenoh => Network::zenoh(),
+            #[cfg(not(feature = "zenoh"))]
+            NetworkKind::Zenoh => unreachable!("validate refuses zenoh without the feature"),
+        };
+        let layout = Layout::generate(config.seed, config.robots);
+        let world = World::new(&layout, config.seed);
+        let mut team = Team::start(&net, &layout, config.seed)?;
+        let return_after = config.duration.as_secs_f64() * 0.8;
+        team.operator
+            .plan(&layout, layout.targets.len(), return_after);
+        Ok(Demo {
+            traffic: Traffic::new(config.team_link.budget_bps),
+            config,
+            net,
+            layout,
+            world,
+            team,
+            observer: Observer::default(),
+            propagation: Propagation::default(),
+            step: 0,
+            fault_done: false,
+            started: Instant::now(),
+        })
+    }
+
+    /// World time, seconds.
+    pub fn time(&self) -> f64 {
+        self.world.time
+    }
+
+    /// One step of [`DT`]: the world moves, drivers run, the fault strikes when due, the
+    /// network runs for `DT`, the observer looks.
+    pub fn step(&mut self) {
+        self.world.step(DT);
+        self.team.tick(&mut self.world, self.step, DT);
+        self.step += 1;
+        self.maybe_fault();
+        self.advance();
+        self.observer.observe(&self.team, &self.world);
+        if self.step.is_multiple_of(2) {
+            self.propagation.observe(&self.team, self.world.time);
+        }
+        if self.step.is_multiple_of(10) {
+            self.traffic.sample(&self.net, &self.team, self.world.time);
+        }
+    }
+
+    /// Lets the network run for [`DT`]. On the system clock (Zenoh) the ICIs' and
+    /// engines' timers are run by hand (on the simulator the clock runs them).
+    fn advance(&self) {
+        self.net.advance(Duration::from_secs_f64(DT));
+        if !self.net.is_virtual() {
+            for m in self.team.alive_modules() {
+                m.ici.tick();
+                m.engine.tick();
+            }
+        }
+    }
+
+    fn maybe_fault(&mut self) {
+        let Some(at) = self.config.fault_at else {
+            return;
+        };
+        if self.fault_done || self.world.time < at || self.team.robots.len() < 2 {
+            return;
+        }
+        self.fault_done = true;
+        let last = self.team.robots.len() - 1;
+        self.team.kill(last, &self.net, &mut self.world);
+        let name = self.team.robots[last].clone();
+        self.observer.killed(&name, self.world.time);
+    }
+
+    /// The console's mission phase.
+    pub fn mission_phase(&self) -> String {
+        text(&self.team.console().board, "mission", "phase")
+    }
+
+    /// Is the mission over (complete, or out of time)?
+    pub fn done(&self) -> bool {
+        self.mission_phase() == "complete" || self.world.time >= self.config.duration.as_secs_f64()
+    }
+
+    /// The simulator's counters, if simulated.
+    pub fn net_stats(&self) -> Option<slate_ici::SimStats> {
+        self.net.sim_stats()
+    }
+
+    /// Ends the run: the drivers stop (nothing changes any more), the network runs until
+    /// the team's boards agree, and the summary is made.
+    pub fn finish(&mut self) -> Summary {
+        let mission_seconds = self.world.time;
+        self.traffic.sample(&self.net, &self.team, self.world.time);
+        let (lag, left) = self.settle();
+        self.summary(mission_seconds, lag, left)
+    }
+
+    /// Runs the network alone until the boards agree: seconds it took, or the
+    /// disagreement left at the limit.
+    fn settle(&mut self) -> (Option<f64>, Option<String>) {
+        let mut waited = 0.0;
+        loop {
+            let left = disagreement(&self.team);
+            if left.is_none() {
+                return (Some(waited), None);
+            }
+            if waited >= SETTLE_LIMIT {
+                return (None, left);
+            }
+            self.advance();
+            waited += DT;
+        }
+    }
+
+    fn summary(&self, mission_seconds: f64, lag: Option<f64>, left: Option<String>) -> Summary {
+        let console = &self.team.console().board;
+        let targets: Vec<TargetOutcome> = self
+            .world
+            .targets
+            .iter()
+            .map(|t| TargetOutcome {
+                name: t.id.clone(),
+                found_by: text(console, &t.id, "found_by"),
+                found_at: self.observer.found.get(&t.id).map(|f| f.1),
+                investigators: self
+                    .observer
+                    .investigations
+                    .iter()
+                    .filter(|i| i.target == t.id)
+                    .map(|i| i.robot.clone())
+                    .collect(),
+            })
+            .collect();
+        let found = targets.iter().filter(|t| !t.found_by.is_empty()).count();
+        let fault = self.observer.fault.as_ref();
+        let (sent, accepted, rejected) = self.plan_counts();
+        let kinds = |link| {
+            by_kind(&self.team, link)
+                .into_iter()
+                .map(|(k, b)| (k.name().to_owned(), b))
+                .collect()
+        };
+        let team_bytes = self.traffic.bytes(LinkKind::Team);
+        Summary {
+            seed: self.config.seed,
+            robots: self.config.robots,
+            network: self.config.network.name().to_owned(),
+            mission_seconds,
+            wall_seconds: self.started.elapsed().as_secs_f64(),
+            mission_complete: self.mission_phase() == "complete" && found == targets.len(),
+            mission_phase: self.mission_phase(),
+            targets_total: targets.len(),
+            targets_found: found,
+            targets,
+            duplicate_investigations: self.observer.duplicates().len(),
+            robot_failures: self.team.dead.iter().filter(|d| **d).count(),
+            fault: fault.map(|f| (f.robot.clone(), f.at)),
+            detection_seconds: fault.and_then(|f| f.detected.map(|d| d - f.at)),
+            recovery_seconds: fault.and_then(|f| f.recovered.map(|r| r - f.at)),
+            taken_over: fault.map(|f| f.taken_over.clone()).unwrap_or_default(),
+            team_link_bytes: team_bytes,
+            intra_robot_bytes: self.traffic.bytes(LinkKind::Robot),
+            team_link_budget_bps: self.config.team_link.budget_bps,
+            team_link_peak_bps: self.traffic.peak_radio_bps.0,
+            team_link_peak_radio: self.traffic.peak_radio_bps.1.clone(),
+            team_channel_peak_bps: self.traffic.peak_channel_bps,
+            team_link_offered_peak_bps: self.traffic.peak_offered_bps,
+            team_link_max_backlog_seconds: self.traffic.max_backlog_s,
+            team_link_mean_bps: team_bytes as f64 * 8.0 / mission_seconds.max(1e-9),
+            team_bytes_by_kind: kinds(LinkKind::Team),
+            intra_bytes_by_kind: kinds(LinkKind::Robot),
+            consistency_lag_seconds: lag,
+            propagation_changes: self.propagation.delays.len(),
+            propagation_median_seconds: self.propagation.quantile(0.5),
+            propagation_p95_seconds: self.propagation.quantile(0.95),
+            propagation_max_seconds: self.propagation.quantile(1.0),
+            disagreement: left,
+            plans_sent: sent,
+            plans_accepted: accepted,
+            plans_rejected: rejected,
+            events: self.observer.events.len(),
+        }
+    }
+
+    fn plan_counts(&self) -> (usize, usize, usize) {
+        let circuits: Vec<_> = self
+            .team
+            .modules
+            .iter()
+            .flat_map(|m| m.circuits.sent())
+            .collect();
+        let has = |f: &dyn Fn(&PlanStep) -> bool| {
+            circuits.iter().filter(|c| c.steps.iter().any(f)).count()
+        };
+        (
+            circuits.len(),
+            has(&|s| *s == PlanStep::Accepted),
+            has(&|s| matches!(s, PlanStep::Rejected { .. })),
+        )
+    }
+
+    /// A one-line status.
+    pub fn status_line(&self) -> String {
+        let console = &self.team.console().board;
+        let found = self.observer.found.len();
+        let alive = self.team.dead.iter().filter(|d| !**d).count();
+        let team: f64 = self
+            .traffic
+            .rate
+            .iter()
+            .filter(|((_, l), _)| *l == LinkKind::Team)
+            .map(|(_, r)| r * 8.0)
+            .sum();
+        format!(
+            "mission {} · targets {found}/{} found · robots {alive}/{} alive · team link {:.1} kbit/s (radio peak {:.1} of {:.1}) · {:.1} s wall",
+            text(console, "mission", "phase"),
+            self.world.targets.len(),
+            self.team.robots.len(),
+            team / 1000.0,
+            self.traffic.peak_radio_bps.0 / 1000.0,
+            self.config.team_link.budget_bps as f64 / 1000.0,
+            self.started.elapsed().as_secs_f64()
+        )
+    }
+
+    fn describe(&self) -> String {
+        let c = &self.config;
+        format!(
+            "slate demo: seed {}, {} robots ({} boards each: {}) + the operator console, {} network, team link {} bit/s per radio{}",
+            c.seed,
+            c.robots,
+            Role::ROBOT.len(),
+            Role::ROBOT.map(|r| r.name()).join(", "),
+            c.network.name(),
+            c.team_link.budget_bps,
+            match c.network {
+                NetworkKind::Sim => format!(", {:.0} % loss", c.team_link.loss * 100.0),
+                NetworkKind::Zenoh => " (measured, not enforced)".into(),
+            }
+        )
+    }
+}
+
+/// Runs a whole demo: starts it, serves the dashboard if asked, runs the mission until
+/// it completes or runs out of time, and returns the summary. `progress` hears what
+/// happens as it happens.
+pub fn run(config: DemoConfig, progress: &mut dyn FnMut(Progress)) -> Result<Summary, DemoError> {
+    let mut demo = Demo::start(config)?;
+    progress(Progress::Started(demo.describe()));
+    let shared = Arc::new(Mutex::new(Value::Null));
+    let dashboard = match demo.config.dashboard {
+        Some(addr) => {
+            let source = shared.clone();
+            let d = slate_dashboard::serve(addr, Arc::new(move || source.lock().clone()))?;
+            progress(Progress::Dashboard(d.url()));
+            Some(d)
+        }
+        None => None,
+    };
+    let pacer = Pacer::new(if demo.net.is_virtual() {
+        demo.config.pace
+    } else {
+        None
+    });
+    let mut told = 0;
+    while !demo.done() {
+        demo.step();
+        for e in &demo.observer.events[told..] {
+            if e.level > crate::observe::Level::Detail {
+                progress(Progress::Event(e.clone()));
+            }
+        }
+        told = demo.observer.events.len();
+        if demo.step.is_multiple_of(150) {
+            progress(Progress::Status(demo.status_line()));
+        }
+        if dashboard.is_some() && demo.step.is_multiple_of(2) {
+            *shared.lock() = crate::snapshot::snapshot(&demo, "running");
+        }
+        pacer.wait(demo.time());
+    }
+    let summary = demo.finish();
+    *shared.lock() = crate::snapshot::snapshot(&demo, "finished");
+    if let Some(d) = dashboard {
+        if !demo.config.linger.is_zero() {
+            progress(Progress::Status(format!(
+                "finished; the dashboard stays up {:.0} s more",
+                demo.config.linger.as_secs_f64()
+            )));
+            std::thread::sleep(demo.config.linger);
+        }
+        d.stop();
+    }
+    Ok(summary)
+}

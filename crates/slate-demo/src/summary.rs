@@ -1,0 +1,308 @@
+//! The summary of a run: what was found and by whom, the fault and its recovery, what the
+//! links carried against their budget, how consistent the boards stayed. As text for
+//! people, as one JSON object for scripts.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde_json::{Value, json};
+
+/// One target at the end of the run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetOutcome {
+    /// Its name.
+    pub name: String,
+    /// Who found it (empty: nobody).
+    pub found_by: String,
+    /// When, seconds into the run.
+    pub found_at: Option<f64>,
+    /// Who investigated it (came within inspection range while holding its claim).
+    pub investigators: Vec<String>,
+}
+
+/// Everything a run measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// The seed.
+    pub seed: u64,
+    /// Robots in the team.
+    pub robots: usize,
+    /// `sim` or `zenoh`.
+    pub network: String,
+    /// World time the mission ran, seconds.
+    pub mission_seconds: f64,
+    /// Wall-clock time the whole run took, seconds.
+    pub wall_seconds: f64,
+    /// Did the console declare the mission complete with every target found?
+    pub mission_complete: bool,
+    /// The console's last mission phase.
+    pub mission_phase: String,
+    /// Targets in the world.
+    pub targets_total: usize,
+    /// Targets found (on the console's board).
+    pub targets_found: usize,
+    /// Per target.
+    pub targets: Vec<TargetOutcome>,
+    /// Targets investigated by two robots while both were alive.
+    pub duplicate_investigations: usize,
+    /// Robots that died.
+    pub robot_failures: usize,
+    /// Which robot died, when.
+    pub fault: Option<(String, f64)>,
+    /// Seconds from the death to every survivor holding it dead.
+    pub detection_seconds: Option<f64>,
+    /// Seconds from the death to none of its unfinished work being left with it.
+    pub recovery_seconds: Option<f64>,
+    /// What was taken over.
+    pub taken_over: Vec<String>,
+    /// Bytes on the team link (all radios).
+    pub team_link_bytes: u64,
+    /// Bytes on the robots' own links.
+    pub intra_robot_bytes: u64,
+    /// Declared capacity of one radio, bit/s.
+    pub team_link_budget_bps: u64,
+    /// Highest one-second air rate of one radio (a robot's modules share one; the
+    /// console has its own): at most the budget.
+    pub team_link_peak_bps: f64,
+    /// Highest one-second bit rate offered to one radio (bursts queue).
+    pub team_link_offered_peak_bps: f64,
+    /// Longest a message waited for a radio, seconds.
+    pub team_link_max_backlog_seconds: f64,
+    /// Whose radio that was.
+    pub team_link_peak_radio: String,
+    /// Highest one-second air rate of all radios together.
+    pub team_channel_peak_bps: f64,
+    /// Mean bit rate of the team link (all radios together).
+    pub team_link_mean_bps: f64,
+    /// Team-link bytes per message kind (as the ICIs sent them).
+    pub team_bytes_by_kind: BTreeMap<String, u64>,
+    /// Robot-link bytes per message kind.
+    pub intra_bytes_by_kind: BTreeMap<String, u64>,
+    /// Seconds the team-view boards took to agree after the last change (`None`: they
+    /// did not within the limit).
+    pub consistency_lag_seconds: Option<f64>,
+    /// Changes (differences between the team-view boards) seen during the run.
+    pub propagation_changes: usize,
+    /// Median seconds a change took to reach every team-view board.
+    pub propagation_median_seconds: Option<f64>,
+    /// 95th percentile of the same.
+    pub propagation_p95_seconds: Option<f64>,
+    /// Longest.
+    pub propagation_max_seconds: Option<f64>,
+    /// The disagreement left, if they did not agree.
+    pub disagreement: Option<String>,
+    /// Plans sent on circuits, accepted, rejected.
+    pub plans_sent: usize,
+    /// Accepted.
+    pub plans_accepted: usize,
+    /// Rejected.
+    pub plans_rejected: usize,
+    /// Events logged.
+    pub events: usize,
+}
+
+impl Summary {
+    /// Team-link bytes as a fraction of intra-robot bytes.
+    pub fn team_fraction(&self) -> f64 {
+        if self.intra_robot_bytes == 0 {
+            0.0
+        } else {
+            self.team_link_bytes as f64 / self.intra_robot_bytes as f64
+        }
+    }
+
+    /// Team-link report bytes (the world model itself, without the protocol's overhead)
+    /// as a fraction of intra-robot report bytes.
+    pub fn team_report_fraction(&self) -> f64 {
+        let team = self.team_bytes_by_kind.get("report").copied().unwrap_or(0);
+        let intra = self.intra_bytes_by_kind.get("report").copied().unwrap_or(0);
+        if intra == 0 {
+            0.0
+        } else {
+            team as f64 / intra as f64
+        }
+    }
+
+    /// The summary as one JSON object.
+    pub fn to_json(&self) -> Value {
+        let targets: Vec<Value> = self
+            .targets
+            .iter()
+            .map(|t| json!({"name": t.name, "found_by": t.found_by, "found_at": t.found_at, "investigators": t.investigators}))
+            .collect();
+        json!({
+            "seed": self.seed,
+            "robots": self.robots,
+            "network": self.network,
+            "mission_complete": self.mission_complete,
+            "mission_phase": self.mission_phase,
+            "mission_seconds": round(self.mission_seconds),
+            "wall_seconds": round(self.wall_seconds),
+            "targets_total": self.targets_total,
+            "targets_found": self.targets_found,
+            "targets": targets,
+            "duplicate_investigations": self.duplicate_investigations,
+            "robot_failures": self.robot_failures,
+            "fault": self.fault.as_ref().map(|(r, t)| json!({"robot": r, "at": round(*t)})),
+            "detection_seconds": self.detection_seconds.map(round),
+            "recovery_seconds": self.recovery_seconds.map(round),
+            "taken_over": self.taken_over,
+            "team_link_bytes": self.team_link_bytes,
+            "intra_robot_bytes": self.intra_robot_bytes,
+            "team_fraction_of_intra": (self.team_fraction() * 10_000.0).round() / 10_000.0,
+            "team_report_fraction_of_intra": (self.team_report_fraction() * 10_000.0).round() / 10_000.0,
+            "team_link_budget_bps": self.team_link_budget_bps,
+            "team_link_peak_bps": round(self.team_link_peak_bps),
+            "team_link_peak_radio": self.team_link_peak_radio,
+            "team_channel_peak_bps": round(self.team_channel_peak_bps),
+            "team_link_offered_peak_bps": round(self.team_link_offered_peak_bps),
+            "team_link_max_backlog_seconds": round(self.team_link_max_backlog_seconds),
+            "team_link_mean_bps": round(self.team_link_mean_bps),
+            "team_bytes_by_kind": self.team_bytes_by_kind,
+            "intra_bytes_by_kind": self.intra_bytes_by_kind,
+            "consistency_lag_seconds": self.consistency_lag_seconds.map(round),
+            "disagreement": self.disagreement,
+            "propagation_changes": self.propagation_changes,
+            "propagation_median_seconds": self.propagation_median_seconds.map(round),
+            "propagation_p95_seconds": self.propagation_p95_seconds.map(round),
+            "propagation_max_seconds": self.propagation_max_seconds.map(round),
+            "plans_sent": self.plans_sent,
+            "plans_accepted": self.plans_accepted,
+            "plans_rejected": self.plans_rejected,
+            "events": self.events,
+        })
+    }
+
+    /// The summary as text.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let verdict = if self.mission_complete {
+            "mission complete"
+        } else {
+            "mission NOT complete"
+        };
+        let _ = writeln!(
+            s,
+            "slate demo, seed {}, {} robots, {} network: {verdict} ({}) after {:.1} s of world time, {:.1} s wall\n",
+            self.seed,
+            self.robots,
+            self.network,
+            self.mission_phase,
+            self.mission_seconds,
+            self.wall_seconds
+        );
+        self.targets_text(&mut s);
+        self.fault_text(&mut s);
+        self.links_text(&mut s);
+        let lag = self.consistency_lag_seconds.map_or_else(
+            || {
+                format!(
+                    "did NOT agree: {}",
+                    self.disagreement.as_deref().unwrap_or("?")
+                )
+            },
+            |l| format!("agreed {l:.1} s after the last change"),
+        );
+        let _ = writeln!(
+            s,
+            "consistency  the team's boards (console + execution controllers) {lag}"
+        );
+        let secs = |x: Option<f64>| x.map_or("-".into(), |v| format!("{v:.1} s"));
+        let _ = writeln!(
+            s,
+            "  during the run {} changes reached every board in {} (median), {} (95 %), {} (max)",
+            self.propagation_changes,
+            secs(self.propagation_median_seconds),
+            secs(self.propagation_p95_seconds),
+            secs(self.propagation_max_seconds)
+        );
+        let _ = writeln!(
+            s,
+            "plans        {} sent on circuits, {} accepted, {} rejected",
+            self.plans_sent, self.plans_accepted, self.plans_rejected
+        );
+        s
+    }
+
+    fn targets_text(&self, s: &mut String) {
+        let _ = writeln!(
+            s,
+            "targets      {}/{} found, {} duplicated investigations",
+            self.targets_found, self.targets_total, self.duplicate_investigations
+        );
+        for t in &self.targets {
+            let found = match (&t.found_by[..], t.found_at) {
+                ("", _) => "not found".to_owned(),
+                (by, Some(at)) => format!("found by {by} at {at:.1} s"),
+                (by, None) => format!("found by {by}"),
+            };
+            let inv = if t.investigators.is_empty() {
+                String::new()
+            } else {
+                format!("  (investigated by {})", t.investigators.join(", "))
+            };
+            let _ = writeln!(s, "  {:<4} {found}{inv}", t.name);
+        }
+    }
+
+    fn fault_text(&self, s: &mut String) {
+        let Some((robot, at)) = &self.fault else {
+            let _ = writeln!(s, "fault        none");
+            return;
+        };
+        let seconds = |x: Option<f64>| x.map_or("never".into(), |v| format!("{v:.1} s"));
+        let _ = writeln!(
+            s,
+            "fault        {robot} died at {at:.1} s; every survivor held it dead after {}; recovery after {}",
+            seconds(self.detection_seconds),
+            seconds(self.recovery_seconds)
+        );
+        if !self.taken_over.is_empty() {
+            let _ = writeln!(s, "  taken over: {}", self.taken_over.join(", "));
+        }
+    }
+
+    fn links_text(&self, s: &mut String) {
+        let _ = writeln!(
+            s,
+            "team link    {} bytes, {:.2} % of the {} bytes inside the robots; budget {} bit/s per radio",
+            self.team_link_bytes,
+            100.0 * self.team_fraction(),
+            self.intra_robot_bytes,
+            self.team_link_budget_bps
+        );
+        let _ = writeln!(
+            s,
+            "  radio peak {:.0} bit/s ({}, {:.0} % of budget; bursts up to {:.0} bit/s queued at most {:.1} s)",
+            self.team_link_peak_bps,
+            self.team_link_peak_radio,
+            100.0 * self.team_link_peak_bps / self.team_link_budget_bps as f64,
+            self.team_link_offered_peak_bps,
+            self.team_link_max_backlog_seconds,
+        );
+        let _ = writeln!(
+            s,
+            "  all radios together: mean {:.0} bit/s, peak {:.0} bit/s",
+            self.team_link_mean_bps, self.team_channel_peak_bps
+        );
+        let kinds = |m: &BTreeMap<String, u64>| {
+            let mut v: Vec<_> = m.iter().collect();
+            v.sort_by(|a, b| b.1.cmp(a.1));
+            v.iter()
+                .map(|(k, b)| format!("{k} {b}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            s,
+            "  reports alone (the world model, no protocol overhead): {:.1} % of the robots' own",
+            100.0 * self.team_report_fraction()
+        );
+        let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));
+        let _ = writeln!(s, "  robot by kind: {}", kinds(&self.intra_bytes_by_kind));
+    }
+}
+
+fn round(x: f64) -> f64 {
+    (x * 100.0).round() / 100.0
+}

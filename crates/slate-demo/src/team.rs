@@ -1,0 +1,107 @@
+//! The team: the operator console and the robots, each robot five modules (five boards,
+//! five ICIs) and the drivers of its sensors and effector.
+
+use crate::drivers::{Loco, Nav, Operator, Prox, RobotDrivers, Vision};
+use crate::error::DemoError;
+use crate::module::{Module, Role};
+use crate::net::Network;
+use crate::world::{Layout, World};
+
+/// The console's robot name (its address is `team/base/console`).
+pub const BASE: &str = "base";
+
+/// Every module, the drivers, the operator.
+pub struct Team {
+    /// Robot names, in order.
+    pub robots: Vec<String>,
+    /// The console first, then each robot's modules in [`Role::ROBOT`] order.
+    pub modules: Vec<Module>,
+    /// The drivers, one set per robot.
+    pub drivers: Vec<RobotDrivers>,
+    /// The operator at the console.
+    pub operator: Operator,
+    /// Robots that died.
+    pub dead: Vec<bool>,
+}
+
+impl Team {
+    /// Starts every module on `net` and the drivers (the console first).
+    pub(crate) fn start(net: &Network, layout: &Layout, seed: u64) -> Result<Team, DemoError> {
+        let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
+        let mut modules = vec![Module::start(net, BASE, Role::Console, &robots)?];
+        for robot in &robots {
+            for role in Role::ROBOT {
+                modules.push(Module::start(net, robot, role, &robots)?);
+            }
+        }
+        let operator = Operator::new(modules[0].board.clone());
+        let mut team = Team {
+            dead: vec![false; robots.len()],
+            robots,
+            modules,
+            drivers: Vec::new(),
+            operator,
+        };
+        team.drivers = (0..team.robots.len())
+            .map(|i| team.robot_drivers(i, seed))
+            .collect();
+        Ok(team)
+    }
+
+    fn robot_drivers(&self, i: usize, seed: u64) -> RobotDrivers {
+        let name = &self.robots[i];
+        let board = |role| self.module(i, role).board.clone();
+        RobotDrivers {
+            nav: Nav::new(i, name, board(Role::Nav), seed),
+            prox: Prox::new(i, name, board(Role::Prox), seed),
+            vision: Vision::new(i, name, board(Role::Vision), seed),
+            loco: Loco::new(i, name, board(Role::Loco)),
+        }
+    }
+
+    /// The console.
+    pub fn console(&self) -> &Module {
+        &self.modules[0]
+    }
+
+    /// Robot `i`'s module in `role`.
+    pub fn module(&self, i: usize, role: Role) -> &Module {
+        let k = Role::ROBOT.iter().position(|r| *r == role).unwrap_or(0);
+        &self.modules[1 + i * Role::ROBOT.len() + k]
+    }
+
+    /// Robot `i`'s modules.
+    pub fn robot_modules(&self, i: usize) -> &[Module] {
+        let n = Role::ROBOT.len();
+        &self.modules[1 + i * n..1 + (i + 1) * n]
+    }
+
+    /// The modules still running.
+    pub fn alive_modules(&self) -> impl Iterator<Item = &Module> {
+        self.modules.iter().filter(|m| {
+            self.robots
+                .iter()
+                .position(|r| *r == m.robot)
+                .is_none_or(|i| !self.dead[i])
+        })
+    }
+
+    /// Runs the drivers of the robots still alive.
+    pub(crate) fn tick(&mut self, world: &mut World, step: u64, dt: f64) {
+        self.operator.tick(world.time);
+        for (i, d) in self.drivers.iter_mut().enumerate() {
+            if !self.dead[i] {
+                d.tick(world, step, dt);
+            }
+        }
+    }
+
+    /// Robot `i` dies: every module of it leaves the network, its body stops.
+    pub(crate) fn kill(&mut self, i: usize, net: &Network, world: &mut World) {
+        self.dead[i] = true;
+        world.power_off(i);
+        for m in self.robot_modules(i) {
+            net.kill(&m.address);
+        }
+    }
+}

@@ -1,0 +1,129 @@
+//! What the links carried: bytes per robot radio (the team link) and per robot LAN (the
+//! robot link), sampled every second for rates and peaks, and bytes per message kind.
+//!
+//! On the simulator the bytes are what each transmitter was given to send (retransmissions
+//! included); on Zenoh, what each ICI sent. A robot's radio carries all its modules'
+//! team-link messages (on a real robot they share one radio): the radio is modelled as
+//! a queue emptied at the link's budget, so its air rate never exceeds the budget and a
+//! burst shows as a backlog (how long a message would wait to go out).
+
+use std::collections::BTreeMap;
+
+use slate_ici::{LinkKind, MsgKind};
+
+use crate::net::Network;
+use crate::team::Team;
+
+/// Bytes per (robot or `base`, link kind), cumulative.
+pub(crate) type Counts = BTreeMap<(String, LinkKind), u64>;
+
+/// Rates and peaks so far.
+#[derive(Clone, Debug, Default)]
+pub struct Traffic {
+    last: Counts,
+    last_t: f64,
+    budget_bps: f64,
+    backlog_bits: BTreeMap<String, f64>,
+    /// Bytes per second over the last sample, per (robot, link kind): on the air for the
+    /// team link, offered for the robot link.
+    pub rate: BTreeMap<(String, LinkKind), f64>,
+    /// Highest one-second air rate of any one radio on the team link, and whose.
+    pub peak_radio_bps: (f64, String),
+    /// Highest one-second bit rate offered to any one radio (before queueing).
+    pub peak_offered_bps: f64,
+    /// Longest backlog of any radio, seconds of transmission.
+    pub max_backlog_s: f64,
+    /// Highest one-second air rate of all team-link radios together.
+    pub peak_channel_bps: f64,
+    /// Cumulative bytes at the last sample.
+    pub total: Counts,
+}
+
+impl Traffic {
+    /// Accounting for radios of `budget_bps` bit/s.
+    pub fn new(budget_bps: u64) -> Traffic {
+        Traffic {
+            budget_bps: budget_bps.max(1) as f64,
+            ..Traffic::default()
+        }
+    }
+
+    /// Samples the counters at world time `t` (call about once a second).
+    pub(crate) fn sample(&mut self, net: &Network, team: &Team, t: f64) {
+        let now = counts(net, team);
+        let dt = t - self.last_t;
+        if dt <= 0.0 {
+            return;
+        }
+        let mut channel = 0.0;
+        for (key, bytes) in &now {
+            let before = self.last.get(key).copied().unwrap_or(0);
+            let offered = bytes.saturating_sub(before) as f64 / dt;
+            if key.1 == LinkKind::Robot {
+                self.rate.insert(key.clone(), offered);
+                continue;
+            }
+            let air_bps = self.radio(&key.0, offered * 8.0, dt);
+            self.rate.insert(key.clone(), air_bps / 8.0);
+            channel += air_bps;
+            self.peak_offered_bps = self.peak_offered_bps.max(offered * 8.0);
+            if air_bps > self.peak_radio_bps.0 {
+                self.peak_radio_bps = (air_bps, key.0.clone());
+            }
+        }
+        self.peak_channel_bps = self.peak_channel_bps.max(channel);
+        self.total = now.clone();
+        self.last = now;
+        self.last_t = t;
+    }
+
+    /// One radio's queue: `offered_bps` more for `dt` seconds; returns the air rate.
+    fn radio(&mut self, robot: &str, offered_bps: f64, dt: f64) -> f64 {
+        let backlog = self.backlog_bits.entry(robot.to_owned()).or_default();
+        *backlog += offered_bps * dt;
+        let sent = backlog.min(self.budget_bps * dt);
+        *backlog -= sent;
+        self.max_backlog_s = self.max_backlog_s.max(*backlog / self.budget_bps);
+        sent / dt
+    }
+
+    /// Total bytes on one kind of link.
+    pub fn bytes(&self, link: LinkKind) -> u64 {
+        self.total
+            .iter()
+            .filter(|((_, l), _)| *l == link)
+            .map(|(_, b)| b)
+            .sum()
+    }
+}
+
+/// Cumulative bytes per (robot, link kind).
+fn counts(net: &Network, team: &Team) -> Counts {
+    let mut out = Counts::new();
+    if let Some(stats) = net.sim_stats() {
+        for ((addr, link), radio) in &stats.radios {
+            *out.entry((addr.robot().to_owned(), *link)).or_default() += radio.bytes;
+        }
+    } else {
+        for m in &team.modules {
+            for link in LinkKind::ALL {
+                let sent = m.ici.stats().link(link).sent_bytes;
+                *out.entry((m.robot.clone(), link)).or_default() += sent;
+            }
+        }
+    }
+    out
+}
+
+/// Bytes sent per message kind on one kind of link, by every module's ICI.
+pub(crate) fn by_kind(team: &Team, link: LinkKind) -> BTreeMap<MsgKind, u64> {
+    let mut out = BTreeMap::new();
+    for m in &team.modules {
+        for ((l, kind), t) in m.ici.stats().traffic {
+            if l == link && t.sent_bytes > 0 {
+                *out.entry(kind).or_default() += t.sent_bytes;
+            }
+        }
+    }
+    out
+}

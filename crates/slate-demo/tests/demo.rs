@@ -1,0 +1,9 @@
+//! Integration tests of the demo, one module per area (in `demo/`).
+
+mod demo {
+    pub mod browser;
+    pub mod cdp;
+    pub mod files;
+    pub mod mission;
+    pub mod support;
+}

@@ -1,0 +1,465 @@
+//! Plan circuits (DESIGN.md 2.4): a plan sent to another module travels on a virtual
+//! circuit, and its origin hears every step of its progression — received, accepted or
+//! rejected with the reason, initiated, each trigger with success or failure,
+//! terminated, cancelled, destination lost.
+//!
+//! [`PlanCircuits`] joins a plan [`Engine`] to an [`Ici`] in both roles:
+//!
+//! * **destination** ([`destination`]): a `Plan` message is acknowledged `Received`,
+//!   loaded into the engine, `Accepted` or `Rejected` (the rendered diagnostics); then
+//!   the engine's progress events for that plan become acks. A `PlanCancel` cancels it.
+//!   Steps are numbered per circuit and kept, so they can be sent again.
+//! * **origin** ([`origin`]): acks are put in order and deduplicated by their number,
+//!   and delivered once each on the circuit's [`PlanHandle`]; a destination that dies
+//!   while the circuit is open becomes a local `DestinationLost` step.
+//!
+//! The engine's `send` actions open circuits of their own (plans decompose into
+//! sub-plans, like the paper's welding cell), and its `report` actions go out through
+//! [`Ici::report`]. The protocol is described in `docs/ici.md` ("Plan circuits").
+
+mod destination;
+mod origin;
+
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Weak};
+use std::time::Duration;
+
+use crossbeam_channel::{Receiver, Select};
+use parking_lot::Mutex;
+use slate_model::{Address, Board, ChangeHook, ClockListener, Touched};
+use slate_plans::{Diagnostic, Diagnostics, Engine, Item, Outgoing, PlanEvent, Span, Stage};
+use slate_wire::{Message, PlanStep};
+
+use crate::{Ici, PlanHandler, SendRawError};
+use destination::Destination;
+use origin::Origin;
+
+/// How long a gap in a circuit's acknowledgements may stay open (later steps arrived,
+/// an earlier one did not) before the origin asks the destination for its steps again.
+pub const ACK_GAP_GRACE: Duration = Duration::from_secs(1);
+
+/// The plan circuits of one module: plans it sends (with their acknowledgements) and
+/// plans it runs for others. Cloning gives another handle to the same circuits;
+/// dropping the last one stops them (keep one for as long as the module runs).
+///
+/// ```
+/// use std::sync::Arc;
+/// use std::time::Duration;
+/// use slate_ici::{Ici, IciConfig, PlanCircuits, SimNet};
+/// use slate_model::{Address, Board};
+/// use slate_plans::Engine;
+/// use slate_wire::PlanStep;
+///
+/// let net = SimNet::new(7);
+/// let start = |text: &str| -> Result<(Engine, PlanCircuits), Box<dyn std::error::Error>> {
+///     let address = Address::new(text)?;
+///     let board = Arc::new(Board::builder().clock(net.clock()).address(address.clone()).build());
+///     let engine = Engine::new(&board);
+///     engine.load("world.slate", "class Cell { t: real = 0.0; } object cell : Cell;")?;
+///     let ici = Ici::new(board, net.join(&address), IciConfig::default())?;
+///     Ok((engine.clone(), PlanCircuits::attach(&ici, &engine)))
+/// };
+/// let (_, planner) = start("team/r1/planner")?;
+/// let (cell_engine, _cell) = start("team/r2/cell")?;
+/// net.run_for(Duration::from_millis(200)); // they meet
+///
+/// let to = Address::new("team/r2/cell")?;
+/// let handle = planner.send(&to, "plan hot { trigger: cell.t > 50.0; action { set cell.t = 50.0; } }")?;
+/// net.run_for(Duration::from_millis(200));
+/// let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
+/// assert_eq!(steps, [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]);
+/// assert_eq!(cell_engine.status("hot").map(|s| s.fired), Some(0));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone)]
+pub struct PlanCircuits {
+    inner: Arc<Inner>,
+}
+
+/// A plan this module sent: its circuit, and the acknowledgements as they arrive.
+#[derive(Debug)]
+pub struct PlanHandle {
+    /// The circuit's number (unique among the circuits this module opened).
+    pub circuit: u64,
+    /// The plan's name.
+    pub name: String,
+    /// The module running it.
+    pub to: Address,
+    acks: Receiver<PlanStep>,
+}
+
+impl PlanHandle {
+    /// The acknowledgements, in order, deduplicated (a crossbeam Receiver). A local
+    /// [`PlanStep::DestinationLost`] appears where the destination died.
+    pub fn acks(&self) -> &Receiver<PlanStep> {
+        &self.acks
+    }
+}
+
+/// One circuit as this module sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CircuitStatus {
+    /// The circuit's number (chosen by its origin).
+    pub circuit: u64,
+    /// The plan's name.
+    pub name: String,
+    /// The other end: the destination of a plan sent, the origin of a plan received.
+    pub peer: Address,
+    /// Every step heard (origin) or sent (destination) so far, in order.
+    pub steps: Vec<PlanStep>,
+}
+
+/// Why a plan could not be sent or cancelled.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum SendPlanError {
+    /// The text is not exactly one `plan NAME { ... }`: it does not parse, or it holds
+    /// something else or more. `rendered` shows every problem with its line and column.
+    #[error("not one plan:\n{rendered}")]
+    NotOnePlan {
+        /// The diagnostics, rendered under the source lines.
+        rendered: String,
+    },
+    /// The ICI refused the message.
+    #[error("cannot send: {0}")]
+    Send(#[from] SendRawError),
+    /// This module opened no circuit of that number.
+    #[error("no circuit {0} was opened by this module")]
+    UnknownCircuit(u64),
+    /// The circuit is closed: its plan terminated, was cancelled or was rejected.
+    #[error("circuit {0} is closed (its plan terminated, was cancelled or was rejected)")]
+    Closed(u64),
+}
+
+/// The name of the one plan `text` holds, or every reason it is not one plan.
+pub(crate) fn one_plan(file_name: &str, text: &str) -> Result<String, String> {
+    let file = slate_plans::parse(text).map_err(|d| d.render(file_name, text))?;
+    let shape = |span: Span, message: &str| {
+        Diagnostics(vec![Diagnostic::error(Stage::Parse, span, message)]).render(file_name, text)
+    };
+    match file.items.as_slice() {
+        [Item::Plan(plan)] => Ok(plan.name.name.clone()),
+        [] => Err(shape(
+            Span::new(0, 0, 1, 1),
+            "expected one `plan NAME { ... }`, found nothing",
+        )),
+        [Item::Plan(_), second, ..] => Err(shape(
+            item_span(second),
+            "expected one plan and nothing else after it",
+        )),
+        [first, ..] => Err(shape(
+            item_span(first),
+            "expected `plan NAME { ... }`: a circuit carries one plan, not classes, objects or rules",
+        )),
+    }
+}
+
+fn item_span(item: &Item) -> Span {
+    match item {
+        Item::Class(c) => c.span,
+        Item::Object(o) => o.span,
+        Item::ActiveFn(f) => f.span,
+        Item::Plan(p) => p.span,
+    }
+}
+
+/// Terminal steps: nothing follows them on a circuit.
+pub(crate) fn closes(step: &PlanStep) -> bool {
+    matches!(
+        step,
+        PlanStep::Terminated | PlanStep::Cancelled | PlanStep::Rejected { .. }
+    )
+}
+
+pub(crate) struct Inner {
+    ici: Ici,
+    engine: Engine,
+    me: Address,
+    next_circuit: AtomicU64,
+    origin: Mutex<Origin>,
+    destination: Mutex<Destination>,
+    outgoing: Receiver<Outgoing>,
+    events: Receiver<PlanEvent>,
+    /// Held by the one thread draining the engine's channels.
+    draining: Mutex<()>,
+    /// The manual clock's listener (the clock holds it weakly).
+    listener: Mutex<Option<Arc<dyn ClockListener>>>,
+}
+
+impl PlanCircuits {
+    /// Connects the plan engine to the ICI: plans received are loaded into `engine` and
+    /// acknowledged step by step; the engine's `send` actions go out as plans on new
+    /// circuits; its `report` actions go out as reports.
+    ///
+    /// It replaces the ICI's plan handler. On a manual clock (the simulator) everything
+    /// runs in the threads that move the clock, write the board or deliver messages; on
+    /// the system clock a small thread also takes the engine's timer-driven events.
+    pub fn attach(ici: &Ici, engine: &slate_plans::Engine) -> PlanCircuits {
+        let inner = Arc::new(Inner {
+            ici: ici.clone(),
+            engine: engine.clone(),
+            me: ici.address().clone(),
+            next_circuit: AtomicU64::new(1),
+            origin: Mutex::new(Origin::default()),
+            destination: Mutex::new(Destination::default()),
+            outgoing: engine.outgoing(),
+            events: engine.events(),
+            draining: Mutex::new(()),
+            listener: Mutex::new(None),
+        });
+        let weak = Arc::downgrade(&inner);
+        ici.set_plan_handler(Arc::new(Handler(weak.clone())));
+        let board = ici.board();
+        board.add_hook(Arc::new(Hook(weak.clone())));
+        if board.clock().is_manual() {
+            let listener: Arc<dyn ClockListener> = Arc::new(Hook(weak.clone()));
+            board.clock().subscribe(Arc::downgrade(&listener));
+            *inner.listener.lock() = Some(listener);
+        } else {
+            spawn_pump(weak, inner.outgoing.clone(), inner.events.clone());
+        }
+        PlanCircuits { inner }
+    }
+
+    /// Sends a plan (slate source text of ONE `plan NAME { ... }`) to a module;
+    /// acknowledgements arrive on the handle.
+    ///
+    /// The text is parsed here (a syntax error never travels); names and types are
+    /// checked by the destination, against its board. A plan sent to a module that is
+    /// not up yet is delivered when it comes up.
+    pub fn send(&self, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
+        self.inner.send(to, text)
+    }
+
+    /// Cancels a plan this module sent.
+    pub fn cancel(&self, circuit: u64) -> Result<(), SendPlanError> {
+        self.inner.cancel(circuit)
+    }
+
+    /// Circuits this module opened (plans it sent), with every step heard so far.
+    pub fn sent(&self) -> Vec<CircuitStatus> {
+        self.inner.origin.lock().status()
+    }
+
+    /// Circuits others opened to this module (plans it runs for them).
+    pub fn received(&self) -> Vec<CircuitStatus> {
+        self.inner.destination.lock().status()
+    }
+}
+
+impl Inner {
+    fn send(self: &Arc<Self>, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
+        let name = one_plan("plan.slate", text)
+            .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
+        let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
+        let (acks, msg) = self.origin.lock().open(circuit, &name, text, to, &self.me);
+        if let Err(e) = self.transmit(to, msg) {
+            self.origin.lock().forget(circuit);
+            return Err(e.into());
+        }
+        Ok(PlanHandle {
+            circuit,
+            name,
+            to: to.clone(),
+            acks,
+        })
+    }
+
+    fn cancel(self: &Arc<Self>, circuit: u64) -> Result<(), SendPlanError> {
+        let to = self.origin.lock().request_cancel(circuit)?;
+        self.transmit(&to, Message::PlanCancel { circuit })?;
+        Ok(())
+    }
+
+    /// Sends a plan message; one addressed to this module is handled here at once.
+    fn transmit(self: &Arc<Self>, to: &Address, msg: Message) -> Result<(), SendRawError> {
+        if *to == self.me {
+            self.on_message(to, msg);
+            return Ok(());
+        }
+        self.ici.send_raw(to, &msg)
+    }
+
+    /// Sends, logging a refusal (acks and re-sends are retried by the protocol).
+    fn transmit_logged(self: &Arc<Self>, to: &Address, msg: Message) {
+        if let Err(e) = self.transmit(to, msg) {
+            tracing::debug!(to = %to, error = %e, "plan message not sent");
+        }
+    }
+
+    fn now(&self) -> Duration {
+        self.ici.board().clock().physical()
+    }
+
+    fn on_message(self: &Arc<Self>, from: &Address, msg: Message) {
+        match msg {
+            Message::Plan(plan) => self.on_plan(from, plan),
+            Message::PlanAck(ack) => {
+                let now = self.now();
+                self.origin.lock().ack(from, ack, now);
+            }
+            Message::PlanCancel { circuit } => self.on_cancel(from, circuit),
+            other => tracing::debug!(from = %from, ?other, "not a plan message"),
+        }
+    }
+
+    /// A module came up (re-send the plans of open circuits: the destination answers
+    /// with their steps) or died (open circuits to it lose their destination).
+    fn on_peer(self: &Arc<Self>, peer: &Address, alive: bool) {
+        if !alive {
+            self.origin.lock().lost(peer);
+            return;
+        }
+        let resend = self.origin.lock().resume(peer, &self.me);
+        for msg in resend {
+            self.transmit_logged(peer, msg);
+        }
+    }
+
+    /// Timers: circuits whose acks have a gap ask for them again.
+    fn tick(self: &Arc<Self>) {
+        let now = self.now();
+        let due = self.origin.lock().gaps_due(now, &self.me);
+        for (to, msg) in due {
+            self.transmit_logged(&to, msg);
+        }
+    }
+
+    /// Takes what the engine produced (progress events, reports and plans to send),
+    /// unless another thread is at it: that thread takes it before it lets go.
+    fn drain(self: &Arc<Self>) -> bool {
+        loop {
+            let Some(guard) = self.draining.try_lock() else {
+                return false;
+            };
+            while let Some(work) = self.next_work() {
+                match work {
+                    Work::Event(e) => self.on_event(e),
+                    Work::Out(o) => self.on_outgoing(o),
+                }
+            }
+            drop(guard);
+            if self.events.is_empty() && self.outgoing.is_empty() {
+                return true;
+            }
+        }
+    }
+
+    fn next_work(&self) -> Option<Work> {
+        if let Ok(e) = self.events.try_recv() {
+            return Some(Work::Event(e));
+        }
+        self.outgoing.try_recv().ok().map(Work::Out)
+    }
+
+    fn on_outgoing(self: &Arc<Self>, out: Outgoing) {
+        match out {
+            Outgoing::Plan(p) => match self.send(&p.to, &p.text) {
+                Ok(h) => {
+                    tracing::debug!(plan = %p.origin, sub = %h.name, to = %h.to, circuit = h.circuit, "sub-plan sent");
+                }
+                Err(e) => {
+                    tracing::warn!(plan = %p.origin, sub = %p.name, to = %p.to, error = %e, "sub-plan not sent")
+                }
+            },
+            Outgoing::Report(r) => {
+                let packets = r
+                    .items
+                    .into_iter()
+                    .map(|i| (i.object, i.attr, i.packet))
+                    .collect();
+                let sent = self.ici.report(r.to.as_ref(), packets);
+                tracing::trace!(plan = %r.origin, sent, "explicit report");
+            }
+        }
+    }
+}
+
+enum Work {
+    Event(PlanEvent),
+    Out(Outgoing),
+}
+
+/// The ICI's plan handler.
+struct Handler(Weak<Inner>);
+
+impl PlanHandler for Handler {
+    fn message(&self, from: &Address, msg: Message) {
+        if let Some(inner) = self.0.upgrade() {
+            inner.on_message(from, msg);
+        }
+    }
+
+    fn peer(&self, peer: &Address, alive: bool) {
+        if let Some(inner) = self.0.upgrade() {
+            inner.on_peer(peer, alive);
+        }
+    }
+}
+
+/// Runs after the engine's own hook and clock listener (registered later): takes the
+/// events and messages the engine produced in this thread.
+struct Hook(Weak<Inner>);
+
+impl ChangeHook for Hook {
+    fn changed(&self, _: &Board, _: u64, _: &[Touched]) {
+        if let Some(inner) = self.0.upgrade() {
+            inner.drain();
+        }
+    }
+}
+
+impl ClockListener for Hook {
+    fn advanced(&self, _: Duration) {
+        if let Some(inner) = self.0.upgrade() {
+            inner.drain();
+            inner.tick();
+        }
+    }
+}
+
+/// On the system clock, the engine's timer thread produces events with nobody of ours
+/// in its call stack: this thread takes them (and runs the gap timers).
+fn spawn_pump(weak: Weak<Inner>, outgoing: Receiver<Outgoing>, events: Receiver<PlanEvent>) {
+    let pump = move || {
+        loop {
+            let mut select = Select::new();
+            select.recv(&outgoing);
+            select.recv(&events);
+            let ready = select.ready_timeout(Duration::from_millis(100)).is_ok();
+            let Some(inner) = weak.upgrade() else { return };
+            if ready && !inner.drain() {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            inner.tick();
+        }
+    };
+    if let Err(e) = std::thread::Builder::new()
+        .name("slate-plan-circuits".into())
+        .spawn(pump)
+    {
+        tracing::error!(error = %e, "cannot start the plan circuits thread");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_plan_names_the_plan_and_refuses_anything_else() {
+        let ok = one_plan("p.slate", "plan go { action { } }");
+        assert_eq!(ok.as_deref(), Ok("go"));
+        let two = one_plan("p.slate", "plan a { action { } }\nplan b { action { } }").unwrap_err();
+        assert!(two.contains("p.slate:2:1"), "{two}");
+        let class = one_plan("p.slate", "class C { x: real; }").unwrap_err();
+        assert!(
+            class.contains("p.slate:1:1") && class.contains("one plan"),
+            "{class}"
+        );
+        let empty = one_plan("p.slate", "").unwrap_err();
+        assert!(empty.contains("found nothing"), "{empty}");
+        let syntax = one_plan("p.slate", "plan go {\n  trigger: x >;\n action { } }").unwrap_err();
+        assert!(syntax.contains("p.slate:2:"), "{syntax}");
+    }
+}

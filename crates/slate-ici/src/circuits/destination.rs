@@ -1,0 +1,414 @@
+//! The destination's side of plan circuits: plans received are acknowledged, loaded
+//! into the engine, and followed; every step is numbered and kept so that the origin
+//! can have them again.
+
+use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::sync::Arc;
+
+use slate_model::Address;
+use slate_plans::PlanEvent;
+use slate_wire::{Message, Plan, PlanAck, PlanStep};
+
+use super::{CircuitStatus, Inner, closes, one_plan};
+
+/// Closed circuits remembered (to answer an origin that missed their last steps).
+const MAX_CLOSED: usize = 1024;
+
+/// Steps kept per circuit (the oldest are forgotten past it; an origin that missed
+/// them skips them).
+const MAX_KEPT_STEPS: usize = 4096;
+
+/// A circuit is named by its origin and the number the origin gave it.
+type Key = (Address, u64);
+
+/// The circuits other modules opened to this one.
+#[derive(Default)]
+pub(crate) struct Destination {
+    circuits: BTreeMap<Key, Circuit>,
+    /// Plan name → circuit, while the plan may still make progress.
+    by_name: HashMap<String, Key>,
+    closed: VecDeque<Key>,
+}
+
+struct Circuit {
+    name: String,
+    text: String,
+    /// Kept steps; the first is number `first`.
+    steps: VecDeque<PlanStep>,
+    first: u64,
+    phase: Phase,
+    /// Progress events heard while the plan was being loaded (sent after `Accepted`).
+    pending: Vec<PlanStep>,
+    /// A cancellation arrived while the plan was being loaded.
+    cancel: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Loading,
+    Open,
+    Closed,
+}
+
+impl Circuit {
+    /// Appends a step; returns its ack.
+    fn push(&mut self, circuit: u64, step: PlanStep) -> PlanAck {
+        if closes(&step) {
+            self.phase = Phase::Closed;
+        }
+        self.steps.push_back(step.clone());
+        if self.steps.len() > MAX_KEPT_STEPS {
+            self.steps.pop_front();
+            self.first += 1;
+        }
+        PlanAck {
+            circuit,
+            seq: self.first + self.steps.len() as u64 - 1,
+            step,
+        }
+    }
+
+    fn acks(&self, circuit: u64) -> Vec<PlanAck> {
+        (self.first..)
+            .zip(&self.steps)
+            .map(|(seq, step)| PlanAck {
+                circuit,
+                seq,
+                step: step.clone(),
+            })
+            .collect()
+    }
+}
+
+impl Destination {
+    /// The acks of a circuit already known under the same plan: an origin sending it
+    /// again asks for them. `None` for a new circuit (a known number with another plan
+    /// is an origin that restarted: the old record goes).
+    fn resend(&mut self, key: &Key, plan: &Plan) -> Option<Vec<PlanAck>> {
+        let c = self.circuits.get(key)?;
+        if c.name == plan.name && c.text == plan.source_text {
+            return Some(c.acks(key.1));
+        }
+        let old = self.circuits.remove(key)?;
+        if self.by_name.get(&old.name) == Some(key) {
+            self.by_name.remove(&old.name);
+        }
+        None
+    }
+
+    /// Opens a circuit: its first step is `Received`.
+    fn begin(&mut self, key: &Key, plan: &Plan) -> PlanAck {
+        let mut c = Circuit {
+            name: plan.name.clone(),
+            text: plan.source_text.clone(),
+            steps: VecDeque::new(),
+            first: 1,
+            phase: Phase::Loading,
+            pending: Vec::new(),
+            cancel: false,
+        };
+        let ack = c.push(key.1, PlanStep::Received);
+        self.circuits.insert(key.clone(), c);
+        ack
+    }
+
+    /// Reserves the plan's name for this circuit, unless another circuit has it.
+    fn claim(&mut self, key: &Key, name: &str) -> Result<(), String> {
+        match self.by_name.get(name) {
+            Some(other) if other != key => Err(format!(
+                "a plan named {name} is being loaded for {} (circuit {}); plan names are unique on a board",
+                other.0, other.1
+            )),
+            _ => {
+                self.by_name.insert(name.to_owned(), key.clone());
+                Ok(())
+            }
+        }
+    }
+
+    fn reject(&mut self, key: &Key, reason: String) -> Option<PlanAck> {
+        let c = self.circuits.get_mut(key)?;
+        let ack = c.push(key.1, PlanStep::Rejected { reason });
+        if self.by_name.get(&c.name) == Some(key) {
+            self.by_name.remove(&c.name);
+        }
+        self.retire(key);
+        Some(ack)
+    }
+
+    /// The plan loaded: `Accepted`, then what happened meanwhile. Also says whether a
+    /// cancellation is waiting.
+    fn accept(&mut self, key: &Key) -> (Vec<PlanAck>, bool) {
+        let Some(c) = self.circuits.get_mut(key) else {
+            return (Vec::new(), false);
+        };
+        c.phase = Phase::Open;
+        let mut acks = vec![c.push(key.1, PlanStep::Accepted)];
+        for step in std::mem::take(&mut c.pending) {
+            if c.phase != Phase::Closed {
+                acks.push(c.push(key.1, step));
+            }
+        }
+        let cancel = c.cancel;
+        if c.phase == Phase::Closed {
+            self.retire(key);
+        }
+        (acks, cancel)
+    }
+
+    /// A progress event of a plan: the ack to send, to whom.
+    fn event(&mut self, name: &str, step: PlanStep) -> Option<(Address, PlanAck)> {
+        let key = self.by_name.get(name)?.clone();
+        let c = self.circuits.get_mut(&key)?;
+        match c.phase {
+            Phase::Loading => {
+                c.pending.push(step);
+                None
+            }
+            Phase::Open => {
+                let ack = c.push(key.1, step);
+                if c.phase == Phase::Closed {
+                    self.retire(&key);
+                }
+                Some((key.0, ack))
+            }
+            Phase::Closed => None,
+        }
+    }
+
+    /// The plan to cancel for a `PlanCancel`, if it is running (one being loaded is
+    /// cancelled once loaded).
+    fn cancel_target(&mut self, key: &Key) -> Option<String> {
+        let c = self.circuits.get_mut(key)?;
+        match c.phase {
+            Phase::Open => Some(c.name.clone()),
+            Phase::Loading => {
+                c.cancel = true;
+                None
+            }
+            Phase::Closed => None,
+        }
+    }
+
+    /// A closed circuit no longer maps its plan's events; the oldest closed are
+    /// forgotten past [`MAX_CLOSED`].
+    fn retire(&mut self, key: &Key) {
+        if let Some(c) = self.circuits.get(key)
+            && self.by_name.get(&c.name) == Some(key)
+        {
+            self.by_name.remove(&c.name);
+        }
+        self.closed.push_back(key.clone());
+        while self.closed.len() > MAX_CLOSED {
+            if let Some(old) = self.closed.pop_front() {
+                self.circuits.remove(&old);
+            }
+        }
+    }
+
+    /// Every circuit, by origin and number.
+    pub fn status(&self) -> Vec<CircuitStatus> {
+        self.circuits
+            .iter()
+            .map(|((origin, circuit), c)| CircuitStatus {
+                circuit: *circuit,
+                name: c.name.clone(),
+                peer: origin.clone(),
+                steps: c.steps.iter().cloned().collect(),
+            })
+            .collect()
+    }
+}
+
+/// The ack step of an engine event, with the plan's name. `Installed` is acked as
+/// `Accepted` once the load returns; `Failed` (a condition that did not evaluate) is
+/// not a step of the circuit: it shows on the plan object's `last_error`.
+fn step_of(event: PlanEvent) -> Option<(String, PlanStep)> {
+    let (plan, step) = match event {
+        PlanEvent::Initiated { plan } => (plan, PlanStep::Initiated),
+        PlanEvent::Triggered {
+            plan,
+            fired,
+            error: None,
+        } => (
+            plan,
+            PlanStep::Triggered {
+                ok: true,
+                detail: format!("fired {fired}"),
+            },
+        ),
+        PlanEvent::Triggered {
+            plan,
+            error: Some(detail),
+            ..
+        } => (plan, PlanStep::Triggered { ok: false, detail }),
+        PlanEvent::Terminated { plan } => (plan, PlanStep::Terminated),
+        PlanEvent::Cancelled { plan } => (plan, PlanStep::Cancelled),
+        PlanEvent::Installed { .. } | PlanEvent::Failed { .. } => return None,
+    };
+    Some((plan, step))
+}
+
+impl Inner {
+    /// A plan arrived: a known circuit gets its steps again; a new one is received,
+    /// checked, loaded, and accepted or rejected.
+    pub(super) fn on_plan(self: &Arc<Self>, from: &Address, plan: Plan) {
+        let key = (from.clone(), plan.circuit);
+        let again = self.destination.lock().resend(&key, &plan);
+        if let Some(acks) = again {
+            for ack in acks {
+                self.transmit_logged(from, Message::PlanAck(ack));
+            }
+            return;
+        }
+        let received = self.destination.lock().begin(&key, &plan);
+        self.transmit_logged(from, Message::PlanAck(received));
+        let checked = self
+            .check(&plan)
+            .and_then(|()| self.destination.lock().claim(&key, &plan.name));
+        let outcome = checked.and_then(|()| {
+            let file = format!("{from}/{}.slate", plan.name);
+            let loaded = self.engine.load(&file, &plan.source_text);
+            loaded.map(|_| ()).map_err(|e| e.rendered)
+        });
+        match outcome {
+            Ok(()) => self.accepted(&key, &plan.name),
+            Err(reason) => {
+                tracing::debug!(from = %from, plan = %plan.name, %reason, "plan rejected");
+                let ack = self.destination.lock().reject(&key, reason);
+                if let Some(ack) = ack {
+                    self.transmit_logged(from, Message::PlanAck(ack));
+                }
+            }
+        }
+        self.drain();
+    }
+
+    fn accepted(self: &Arc<Self>, key: &Key, name: &str) {
+        let board = self.ici.board();
+        if let Err(e) = board.write(name, "origin", key.0.as_str()) {
+            tracing::debug!(plan = %name, error = %e, "plan origin not written");
+        }
+        let (acks, cancel) = self.destination.lock().accept(key);
+        for ack in acks {
+            self.transmit_logged(&key.0, Message::PlanAck(ack));
+        }
+        if cancel {
+            self.engine.cancel(name);
+        }
+    }
+
+    /// Why a plan cannot be loaded here, before the engine is asked: the address, the
+    /// shape of the text, and its name (plan names are unique on a board: a plan whose
+    /// name is taken is rejected, never renamed, so the origin's name stays the one
+    /// every board shows).
+    fn check(&self, plan: &Plan) -> Result<(), String> {
+        if plan.to != self.me {
+            return Err(format!(
+                "the plan is addressed to {}, not {}",
+                plan.to, self.me
+            ));
+        }
+        let file = format!("{}/{}.slate", plan.origin, plan.name);
+        let name = one_plan(&file, &plan.source_text)?;
+        if name != plan.name {
+            return Err(format!(
+                "the circuit says plan {} but the text holds plan {name}",
+                plan.name
+            ));
+        }
+        if let Some(status) = self.engine.status(&name) {
+            return Err(format!(
+                "a plan named {name} already exists on {} ({}); plan names are unique on a board: send it under another name",
+                self.me,
+                status.state.name()
+            ));
+        }
+        if self.ici.board().info(&name).is_some() {
+            return Err(format!(
+                "{name} already names an object or class on {}; plan names must be unique object names",
+                self.me
+            ));
+        }
+        Ok(())
+    }
+
+    /// The origin cancels the plan of a circuit.
+    pub(super) fn on_cancel(self: &Arc<Self>, from: &Address, circuit: u64) {
+        let name = self
+            .destination
+            .lock()
+            .cancel_target(&(from.clone(), circuit));
+        if let Some(name) = name {
+            self.engine.cancel(&name);
+            self.drain();
+        }
+    }
+
+    /// A progress event from the engine: an ack for the circuit of that plan, if any.
+    pub(super) fn on_event(self: &Arc<Self>, event: PlanEvent) {
+        let Some((name, step)) = step_of(event) else {
+            return;
+        };
+        let ack = self.destination.lock().event(&name, step);
+        if let Some((origin, ack)) = ack {
+            self.transmit_logged(&origin, Message::PlanAck(ack));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(circuit: u64, name: &str) -> Plan {
+        Plan {
+            circuit,
+            name: name.into(),
+            source_text: format!("plan {name} {{ action {{ }} }}"),
+            to: Address::new("t/r2/d").unwrap(),
+            origin: Address::new("t/r1/o").unwrap(),
+        }
+    }
+
+    #[test]
+    fn steps_are_numbered_kept_and_sent_again_for_the_same_plan() {
+        let mut d = Destination::default();
+        let key = (Address::new("t/r1/o").unwrap(), 5);
+        assert!(d.resend(&key, &plan(5, "p")).is_none());
+        assert_eq!(d.begin(&key, &plan(5, "p")).seq, 1);
+        d.claim(&key, "p").unwrap();
+        assert!(
+            d.event("p", PlanStep::Initiated).is_none(),
+            "held while loading"
+        );
+        let (acks, cancel) = d.accept(&key);
+        let seqs: Vec<(u64, PlanStep)> = acks.into_iter().map(|a| (a.seq, a.step)).collect();
+        assert_eq!(seqs, [(2, PlanStep::Accepted), (3, PlanStep::Initiated)]);
+        assert!(!cancel);
+        let (_, ack) = d.event("p", PlanStep::Terminated).unwrap();
+        assert_eq!(ack.seq, 4);
+        assert!(d.event("p", PlanStep::Cancelled).is_none(), "closed");
+        assert_eq!(d.resend(&key, &plan(5, "p")).map(|a| a.len()), Some(4));
+        assert!(
+            d.resend(&key, &plan(5, "q")).is_none(),
+            "a restarted origin's new plan"
+        );
+    }
+
+    #[test]
+    fn a_name_is_claimed_by_one_circuit_at_a_time() {
+        let mut d = Destination::default();
+        let (a, b) = (
+            (Address::new("t/r1/o").unwrap(), 1),
+            (Address::new("t/r3/o").unwrap(), 1),
+        );
+        d.begin(&a, &plan(1, "p"));
+        d.begin(&b, &plan(1, "p"));
+        d.claim(&a, "p").unwrap();
+        let err = d.claim(&b, "p").unwrap_err();
+        assert!(err.contains("t/r1/o"), "{err}");
+        d.reject(&a, "no".into());
+        d.claim(&b, "p").unwrap();
+    }
+}

@@ -1,0 +1,206 @@
+//! Packets as every receiver will decode them: values quantised to their resolution,
+//! accuracy on its log scale, confidence to 1/255 (the rules of `docs/wire.md`,
+//! "Quantisation"). The writer stores its own packets that way (and fuses its own
+//! estimate that way), so every board holds the same packet.
+//!
+//! This is the codec's arithmetic without the bits (an encode and a decode per packet
+//! cost more than the rest of the send path); a property test checks it against a
+//! slate-wire round trip, so the two cannot drift apart unnoticed.
+
+use slate_model::{AttrDecl, Packet, Value, ValueType};
+
+/// Codes of a quantised real: `min + code · res`, capped at `max`.
+#[derive(Clone, Copy)]
+struct Quant {
+    min: f64,
+    max: f64,
+    res: f64,
+    steps: u64,
+}
+
+/// Past this many steps a real is sent exactly.
+const MAX_STEPS: f64 = (1u64 << 52) as f64;
+
+impl Quant {
+    fn new(decl: &AttrDecl) -> Option<Quant> {
+        let (min, max) = decl.bounds?;
+        let res = decl.resolution?;
+        let usable = min.is_finite() && max.is_finite() && min <= max;
+        if !(usable && res.is_finite() && res > 0.0) {
+            return None;
+        }
+        let steps = ((max - min) / res).round();
+        if steps.is_nan() || steps >= MAX_STEPS {
+            return None;
+        }
+        Some(Quant {
+            min,
+            max,
+            res,
+            steps: steps as u64,
+        })
+    }
+
+    fn apply(&self, v: f64) -> f64 {
+        let q = ((v - self.min) / self.res).round();
+        let code = (q.max(0.0) as u64).min(self.steps);
+        (self.min + code as f64 * self.res).min(self.max)
+    }
+}
+
+/// Accuracy codes: `scale · 2^((code − 17) / 4)`, 0 for code 0, exact past code 62.
+const ACCURACY_ONE: i64 = 17;
+const ACCURACY_ESCAPE: i64 = 63;
+
+fn accuracy_of(code: i64, scale: f64) -> f64 {
+    scale * ((code - ACCURACY_ONE) as f64 / 4.0).exp2()
+}
+
+fn accuracy(a: f64, scale: f64) -> f64 {
+    let smallest = accuracy_of(1, scale);
+    if a < smallest / 2.0 {
+        return 0.0;
+    }
+    if a <= smallest {
+        return smallest;
+    }
+    let code = (4.0 * (a / scale).log2()).round() as i64 + ACCURACY_ONE;
+    if code < ACCURACY_ESCAPE {
+        accuracy_of(code, scale)
+    } else {
+        a
+    }
+}
+
+fn confidence(c: f64) -> f64 {
+    (c * 255.0).round().clamp(0.0, 255.0) / 255.0
+}
+
+/// The packet as a receiver decodes it, given the attribute's declaration.
+pub(crate) fn quantised(decl: &AttrDecl, packet: &Packet) -> Packet {
+    let mut out = packet.clone();
+    if let Some(q) = Quant::new(decl) {
+        match (&decl.ty, &packet.value) {
+            (ValueType::Real, Value::Real(x)) => out.value = Value::Real(q.apply(*x)),
+            (ValueType::Vector(_), Value::Vector(v)) => {
+                out.value = Value::Vector(v.iter().map(|x| q.apply(*x)).collect());
+            }
+            _ => {}
+        }
+    }
+    let default = decl.default.as_ref();
+    if packet.accuracy != default.map_or(0.0, |d| d.accuracy) {
+        let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
+        out.accuracy = accuracy(packet.accuracy, scale.unwrap_or(1.0));
+    }
+    if packet.confidence != default.map_or(1.0, |d| d.confidence) {
+        out.confidence = confidence(packet.confidence);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+    use slate_model::{Address, ClassDef, MANUAL_EPOCH, Timestamp};
+    use slate_wire::{Assertion, Decoder, Encoder, Message, ObjectEntry, Report, Schema};
+
+    /// What a receiver decodes, through slate-wire.
+    fn decoded(decl: &AttrDecl, packet: &Packet) -> Packet {
+        let me = Address::new("t/r1/a").unwrap();
+        let schema = Schema::new(&[ClassDef::new("T").attr(decl.clone())]);
+        let msg = Message::Report(Report {
+            seq: 1,
+            items: vec![Assertion {
+                object: ObjectEntry::new("t", "T").owner(me.clone()),
+                attr: decl.name.as_str().into(),
+                packet: packet.clone(),
+            }],
+        });
+        let bytes = Encoder::new(me.clone()).encode(&msg, &schema).unwrap();
+        match Decoder::new().decode(&me, &bytes, &schema).unwrap() {
+            Message::Report(mut r) => r.items.pop().unwrap().packet,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn packet(value: Value, accuracy: f64, confidence: f64) -> Packet {
+        Packet {
+            value,
+            accuracy,
+            confidence,
+            timestamp: Timestamp::from_duration(MANUAL_EPOCH),
+            source: Address::new("t/r1/a").unwrap(),
+        }
+    }
+
+    #[test]
+    fn a_bounded_real_snaps_to_its_resolution_and_qualities_to_their_scales() {
+        let decl = AttrDecl::new("v", ValueType::Real)
+            .bounds(0.0, 100.0)
+            .resolution(0.5);
+        let p = packet(Value::Real(10.2), 0.3, 0.333);
+        let q = quantised(&decl, &p);
+        assert_eq!(q.value.as_f64(), Some(10.0));
+        assert_eq!(q, decoded(&decl, &p));
+    }
+
+    fn decl_strategy() -> impl Strategy<Value = AttrDecl> {
+        let bounds = prop_oneof![
+            Just(None),
+            (-1e4f64..1e4, 0.0f64..1e4).prop_map(|(lo, span)| Some((lo, lo + span))),
+        ];
+        let res = prop_oneof![Just(None), (1e-4f64..10.0).prop_map(Some)];
+        let default = prop_oneof![Just(None), (0.0f64..5.0, 0.0f64..=1.0).prop_map(Some),];
+        (bounds, res, default, any::<bool>()).prop_map(|(b, r, d, vector)| {
+            let ty = if vector {
+                ValueType::Vector(2)
+            } else {
+                ValueType::Real
+            };
+            let mut decl = AttrDecl::new("v", ty);
+            if let Some((lo, hi)) = b {
+                decl = decl.bounds(lo, hi);
+            }
+            if let Some(r) = r {
+                decl = decl.resolution(r);
+            }
+            if let Some((acc, conf)) = d {
+                let zero = if vector {
+                    Value::Vector(vec![0.0, 0.0].into())
+                } else {
+                    Value::Real(0.0)
+                };
+                decl.default = Some(slate_model::DefaultPacket {
+                    value: zero,
+                    accuracy: acc,
+                    confidence: conf,
+                });
+            }
+            decl
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+
+        #[test]
+        fn the_arithmetic_is_the_codec(
+            decl in decl_strategy(),
+            x in 0.0f64..=1.0,
+            y in 0.0f64..=1.0,
+            accuracy in prop_oneof![Just(0.0), 0.0f64..1e-3, 0.0f64..1e5],
+            confidence in prop_oneof![Just(1.0), Just(0.0), 0.0f64..=1.0],
+        ) {
+            let (lo, hi) = decl.bounds.unwrap_or((-1e6, 1e6));
+            let at = |t: f64| lo + t * (hi - lo);
+            let value = match decl.ty {
+                ValueType::Vector(_) => Value::Vector(vec![at(x), at(y)].into()),
+                _ => Value::Real(at(x)),
+            };
+            let p = packet(value, accuracy, confidence);
+            prop_assert_eq!(quantised(&decl, &p), decoded(&decl, &p));
+        }
+    }
+}

@@ -1,0 +1,630 @@
+//! Plan circuits: a plan sent to another module and every step of its progression,
+//! under loss, duplication and reordering, across a partition, decomposed into
+//! sub-plans; and the explicit reports of plans' `report` actions.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use parking_lot::Mutex;
+use slate_ici::{
+    ClassSet, Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MsgKind, PlanCircuits,
+    PlanHandle, Rng, SendError, SendPlanError, SimConfig, SimNet, Transport,
+};
+use slate_model::{Address, Board};
+use slate_plans::{Engine, PlanState};
+use slate_wire::{Message, Plan, PlanAck, PlanStep};
+
+use crate::common::{addr, secs};
+
+/// A part on a welding cell: the destination's world.
+const CELL: &str = "
+class Part { temp: real = 0.0; level: real in 0 .. 500 = 0.0; done: bool = false; ready: bool = false; }
+class Torch { armed: bool = false; on: bool = false; }
+class Seam { found: bool = false; tracking: bool = false; }
+object part : Part;
+object torch : Torch;
+object seam : Seam;
+";
+
+/// Triggers once hot (sets the level), fails once too hot (the level's bounds), ends
+/// when the part is done.
+const WELD: &str = "plan weld {
+    trigger: part.temp > 100.0;
+    termination: part.done == true;
+    action { set part.level = part.temp; }
+}";
+
+/// One module: board, plan engine, ICI and circuits.
+struct Module {
+    board: Arc<Board>,
+    engine: Engine,
+    ici: Ici,
+    circuits: PlanCircuits,
+}
+
+fn module(net: &SimNet, address: &str, world: &str) -> Module {
+    let transport = net.join(&addr(address));
+    module_on(net, transport, world, config())
+}
+
+fn module_on(
+    net: &SimNet,
+    transport: Arc<dyn Transport>,
+    world: &str,
+    config: IciConfig,
+) -> Module {
+    let board = Arc::new(
+        Board::builder()
+            .clock(net.clock())
+            .address(transport.address().clone())
+            .build(),
+    );
+    let engine = Engine::new(&board);
+    engine.load("world.slate", world).unwrap();
+    let ici = Ici::new(board.clone(), transport, config).unwrap();
+    let circuits = PlanCircuits::attach(&ici, &engine);
+    Module {
+        board,
+        engine,
+        ici,
+        circuits,
+    }
+}
+
+/// Everything exported; the team link's liveliness slow enough that 30% loss never
+/// makes a module look dead.
+fn config() -> IciConfig {
+    IciConfig::default()
+        .export(ClassSet::all())
+        .liveliness(LinkKind::Team, secs(0.5), secs(30.0))
+}
+
+/// Runs until the handle has `n` steps (collected into `got`), at most `max` seconds.
+fn wait_steps(net: &SimNet, h: &PlanHandle, got: &mut Vec<PlanStep>, n: usize, max: f64) {
+    net.run_until(
+        || {
+            got.extend(h.acks().try_iter());
+            got.len() >= n
+        },
+        secs(max),
+    );
+    assert!(got.len() >= n, "only {got:?} after {max} s");
+}
+
+fn triggered(ok: bool) -> impl Fn(&PlanStep) -> bool {
+    move |s| matches!(s, PlanStep::Triggered { ok: o, .. } if *o == ok)
+}
+
+/// A transport that duplicates and reorders the acks it sends (reliable sends never do
+/// either on the simulator): a held ack goes after the next ack, or with the 16th
+/// publish (heartbeats) if no ack follows.
+struct Chaos {
+    inner: Arc<dyn Transport>,
+    rng: Mutex<Rng>,
+    held: Mutex<Vec<(Address, Vec<u8>)>>,
+    publishes: std::sync::atomic::AtomicU64,
+}
+
+impl Chaos {
+    fn flush(&self) {
+        let held = std::mem::take(&mut *self.held.lock());
+        for (to, bytes) in held {
+            let _ = self.inner.send(&to, MsgKind::PlanAck, &bytes);
+        }
+    }
+}
+
+impl Transport for Chaos {
+    fn address(&self) -> &Address {
+        self.inner.address()
+    }
+
+    fn set_handler(&self, handler: Arc<dyn Handler>) {
+        self.inner.set_handler(handler);
+    }
+
+    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        let n = self
+            .publishes
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        if n % 16 == 15 {
+            self.flush();
+        }
+        self.inner.publish(link, kind, payload)
+    }
+
+    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        if kind != MsgKind::PlanAck {
+            return self.inner.send(to, kind, payload);
+        }
+        let roll = self.rng.lock().below(10);
+        if roll < 3 {
+            self.held.lock().push((to.clone(), payload.to_vec()));
+            return Ok(());
+        }
+        self.inner.send(to, kind, payload)?;
+        if roll < 6 {
+            self.inner.send(to, kind, payload)?;
+        }
+        self.flush();
+        Ok(())
+    }
+
+    fn peers(&self) -> Vec<Address> {
+        self.inner.peers()
+    }
+
+    fn stats(&self) -> LinkStats {
+        self.inner.stats()
+    }
+
+    fn close(&self) {
+        self.inner.close();
+    }
+}
+
+/// The weld plan over a link with 30% loss, duplication and jitter, acks duplicated
+/// and reordered: returns the steps the origin heard and those the destination kept.
+fn weld_under_faults(seed: u64) -> (Vec<PlanStep>, Vec<PlanStep>) {
+    let lossy = LinkConfig::clean()
+        .delay(secs(0.02))
+        .jitter(secs(0.03))
+        .loss(0.3)
+        .duplicate(0.3);
+    let net = SimNet::with_config(
+        seed,
+        SimConfig {
+            team: lossy,
+            ..SimConfig::default()
+        },
+    );
+    let origin = module(&net, "t/r1/planner", "");
+    let chaos = Arc::new(Chaos {
+        inner: net.join(&addr("t/r2/cell")),
+        rng: Mutex::new(Rng::new(seed)),
+        held: Mutex::new(Vec::new()),
+        publishes: Default::default(),
+    });
+    let cell = module_on(&net, chaos, CELL, config());
+    net.run_for(secs(1.0));
+
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    assert_eq!((h.name.as_str(), h.to.as_str()), ("weld", "t/r2/cell"));
+    let mut got = Vec::new();
+    wait_steps(&net, &h, &mut got, 3, 20.0);
+    for temp in [150.0, 50.0, 160.0, 50.0, 600.0, 50.0, 170.0, 50.0, 700.0] {
+        cell.board.write("part", "temp", temp).unwrap();
+        net.run_for(secs(0.2));
+    }
+    cell.board.write("part", "done", true).unwrap();
+    wait_steps(&net, &h, &mut got, 9, 30.0);
+    net.run_for(secs(10.0));
+    got.extend(h.acks().try_iter());
+    assert_eq!(origin.circuits.sent()[0].steps, got);
+    assert_eq!(
+        cell.board.read("part", "level").unwrap().value.as_f64(),
+        Some(170.0)
+    );
+    let acks = net.stats().kind(LinkKind::Team, MsgKind::PlanAck);
+    assert!(
+        acks.retransmits > 0,
+        "acks were lost and retransmitted: {acks:?}"
+    );
+    assert!(
+        acks.delivered_msgs > 9,
+        "duplicates reached the origin: {acks:?}"
+    );
+    let received = cell.circuits.received();
+    assert_eq!(received[0].peer, addr("t/r1/planner"));
+    (got, received[0].steps.clone())
+}
+
+#[test]
+fn every_step_arrives_once_in_order_under_loss_duplication_and_reordering() {
+    let ok = |n: u64| PlanStep::Triggered {
+        ok: true,
+        detail: format!("fired {n}"),
+    };
+    for seed in 60..65 {
+        let (got, kept) = weld_under_faults(seed);
+        assert_eq!(
+            got.len(),
+            9,
+            "seed {seed}: nothing twice, nothing after the end: {got:?}"
+        );
+        assert_eq!(
+            got[..3],
+            [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+        );
+        assert_eq!(
+            [&got[3], &got[4], &got[6]],
+            [&ok(1), &ok(2), &ok(4)],
+            "seed {seed}"
+        );
+        for failed in [&got[5], &got[7]] {
+            let PlanStep::Triggered { ok: false, detail } = failed else {
+                panic!("seed {seed}: {got:?}")
+            };
+            assert!(detail.contains("level"), "the failure says why: {detail}");
+        }
+        assert_eq!(got[8], PlanStep::Terminated);
+        assert_eq!(
+            kept, got,
+            "seed {seed}: the destination kept the same steps"
+        );
+    }
+}
+
+#[test]
+fn a_rejected_plan_says_why_with_line_and_column() {
+    let net = SimNet::new(61);
+    let origin = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    let to = addr("t/r2/cell");
+
+    // Names are checked by the destination, against its board.
+    let h = origin
+        .circuits
+        .send(
+            &to,
+            "plan bad {\n    trigger: part.tmp > 1.0;\n    action { }\n}",
+        )
+        .unwrap();
+    let mut got = Vec::new();
+    wait_steps(&net, &h, &mut got, 2, 5.0);
+    let PlanStep::Rejected { reason } = &got[1] else {
+        panic!("{got:?}")
+    };
+    assert_eq!(got[0], PlanStep::Received);
+    assert!(
+        reason.contains("t/r1/planner/bad.slate:2:19: error: class Part has no attribute tmp"),
+        "{reason}"
+    );
+
+    // A syntax error never leaves the origin...
+    let err = origin
+        .circuits
+        .send(
+            &to,
+            "plan oops {\n  trigger: part.temp > ;\n  action { }\n}",
+        )
+        .unwrap_err();
+    let SendPlanError::NotOnePlan { rendered } = &err else {
+        panic!("{err}")
+    };
+    assert!(rendered.contains("plan.slate:2:"), "{rendered}");
+    assert!(matches!(
+        origin.circuits.send(&to, "class C { x: real; }"),
+        Err(SendPlanError::NotOnePlan { .. })
+    ));
+
+    // ... but a destination checks what any origin sends it.
+    let (tx, rx) = crossbeam_channel::unbounded();
+    let raw = module(&net, "t/r3/raw", "");
+    raw.ici.set_plan_handler(Arc::new(tx));
+    net.run_for(secs(0.5));
+    let plan = Plan {
+        circuit: 1,
+        name: "oops".into(),
+        source_text: "plan oops {\n  trigger: part.temp > ;\n  action { }\n}".into(),
+        to: to.clone(),
+        origin: addr("t/r3/raw"),
+    };
+    raw.ici.send_raw(&to, &Message::Plan(plan)).unwrap();
+    net.run_for(secs(0.5));
+    let acks: Vec<PlanAck> = rx
+        .try_iter()
+        .filter_map(|(_, m)| match m {
+            Message::PlanAck(a) => Some(a),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(acks.len(), 2, "{acks:?}");
+    assert_eq!((acks[0].seq, &acks[0].step), (1, &PlanStep::Received));
+    let PlanStep::Rejected { reason } = &acks[1].step else {
+        panic!("{acks:?}")
+    };
+    assert!(reason.contains("t/r3/raw/oops.slate:2:"), "{reason}");
+    assert!(
+        reason.contains('^'),
+        "a caret under the source line: {reason}"
+    );
+    assert!(cell.engine.status("oops").is_none());
+}
+
+#[test]
+fn a_plan_whose_name_is_taken_is_rejected_not_renamed() {
+    let net = SimNet::new(62);
+    let origin = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    let to = addr("t/r2/cell");
+    let first = origin.circuits.send(&to, WELD).unwrap();
+    let second = origin.circuits.send(&to, WELD).unwrap();
+    assert_ne!(first.circuit, second.circuit);
+    let mut got = Vec::new();
+    wait_steps(&net, &second, &mut got, 2, 5.0);
+    let PlanStep::Rejected { reason } = &got[1] else {
+        panic!("{got:?}")
+    };
+    assert!(
+        reason.contains("a plan named weld already exists on t/r2/cell (active)"),
+        "{reason}"
+    );
+    assert_eq!(first.acks().try_iter().count(), 3, "the first runs on");
+    assert_eq!(cell.engine.plans().len(), 1);
+}
+
+#[test]
+fn the_origin_cancels_a_plan_it_sent() {
+    let net = SimNet::new(63);
+    let origin = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let mut got = Vec::new();
+    wait_steps(&net, &h, &mut got, 3, 5.0);
+    origin.circuits.cancel(h.circuit).unwrap();
+    wait_steps(&net, &h, &mut got, 4, 5.0);
+    assert_eq!(got[3], PlanStep::Cancelled);
+    assert_eq!(
+        cell.engine.status("weld").unwrap().state,
+        PlanState::Cancelled
+    );
+    cell.board.write("part", "temp", 150.0).unwrap();
+    net.run_for(secs(1.0));
+    assert_eq!(
+        h.acks().try_iter().count(),
+        0,
+        "a cancelled plan never acts"
+    );
+    assert!(matches!(
+        origin.circuits.cancel(h.circuit),
+        Err(SendPlanError::Closed(_))
+    ));
+    assert!(matches!(
+        origin.circuits.cancel(99),
+        Err(SendPlanError::UnknownCircuit(99))
+    ));
+    let plan_origin = cell.board.read("weld", "origin").unwrap().value;
+    assert_eq!(plan_origin.to_string(), "\"t/r1/planner\"");
+}
+
+#[test]
+fn a_partitioned_destination_is_lost_and_its_acks_resume_after_the_heal() {
+    let net = SimNet::new(64);
+    let origin = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let mut got = Vec::new();
+    wait_steps(&net, &h, &mut got, 3, 5.0);
+
+    net.partition(&[addr("t/r1/planner")], &[addr("t/r2/cell")]);
+    wait_steps(&net, &h, &mut got, 4, 10.0);
+    assert_eq!(got[3], PlanStep::DestinationLost);
+    cell.board.write("part", "temp", 150.0).unwrap(); // its ack is cut
+    net.run_for(secs(5.0));
+    assert_eq!(got.len(), 4);
+    got.extend(h.acks().try_iter());
+    assert_eq!(got.len(), 4, "nothing crosses the partition: {got:?}");
+
+    net.heal();
+    wait_steps(&net, &h, &mut got, 5, 10.0);
+    assert!(triggered(true)(&got[4]), "{got:?}");
+    cell.board.write("part", "done", true).unwrap();
+    wait_steps(&net, &h, &mut got, 6, 10.0);
+    assert_eq!(got[5], PlanStep::Terminated);
+    net.run_for(secs(3.0));
+    assert_eq!(h.acks().try_iter().count(), 0, "no step twice");
+    assert_eq!(
+        cell.circuits.received()[0].steps.len(),
+        5,
+        "the destination's steps: no DestinationLost there"
+    );
+}
+
+#[test]
+fn a_plan_decomposes_into_sub_plans_on_their_own_circuits() {
+    // The paper's welding cell: the planner sends the welding plan to the execution
+    // controller, which decomposes it into sub-plans for the torch and the seam sensor.
+    let net = SimNet::new(65);
+    let planner = module(&net, "t/base/planner", "");
+    let exec = module(&net, "t/cell/exec", CELL);
+    let torch = module(&net, "t/cell/torch", CELL);
+    let sensor = module(&net, "t/cell/seam", CELL);
+    net.run_for(secs(0.5));
+    let weld = r#"plan weld_part {
+        trigger: part.ready == true;
+        action {
+            send plan weld_seam { trigger: torch.armed == true; action { set torch.on = true; } } to "t/cell/torch";
+            send plan track_seam { trigger: seam.found == true; action { set seam.tracking = true; } } to "t/cell/seam";
+        }
+    }"#;
+    let h = planner.circuits.send(&addr("t/cell/exec"), weld).unwrap();
+    let mut got = Vec::new();
+    wait_steps(&net, &h, &mut got, 3, 5.0);
+    exec.board.write("part", "ready", true).unwrap();
+    wait_steps(&net, &h, &mut got, 4, 5.0);
+    assert!(triggered(true)(&got[3]), "{got:?}");
+    net.run_for(secs(0.5));
+    torch.board.write("torch", "armed", true).unwrap();
+    sensor.board.write("seam", "found", true).unwrap();
+    net.run_for(secs(1.0));
+
+    let subs = exec.circuits.sent();
+    assert_eq!(subs.len(), 2, "{subs:?}");
+    let fired = PlanStep::Triggered {
+        ok: true,
+        detail: "fired 1".into(),
+    };
+    for (sub, to) in subs.iter().zip(["t/cell/torch", "t/cell/seam"]) {
+        assert_eq!(sub.peer, addr(to));
+        assert_eq!(
+            sub.steps,
+            [
+                PlanStep::Received,
+                PlanStep::Accepted,
+                PlanStep::Initiated,
+                fired.clone()
+            ],
+            "{}",
+            sub.name
+        );
+    }
+    assert_eq!(exec.circuits.received()[0].name, "weld_part");
+    assert_eq!(
+        torch.board.read("torch", "on").unwrap().value.to_string(),
+        "true"
+    );
+    assert_eq!(
+        sensor
+            .board
+            .read("seam", "tracking")
+            .unwrap()
+            .value
+            .to_string(),
+        "true"
+    );
+    assert_eq!(torch.circuits.received()[0].peer, addr("t/cell/exec"));
+    assert!(planner.circuits.received().is_empty());
+}
+
+#[test]
+fn plans_report_to_one_module_or_to_all_even_what_others_wrote() {
+    // The relay sees the sensor (same robot); b and c are cut off from the sensor but
+    // not from the relay, whose plans report the sensor's rock to them.
+    let net = SimNet::new(66);
+    let world = "class Rock { x: real = 0.0; }";
+    let relay = module(&net, "t/r1/relay", world);
+    let sensor = module(&net, "t/r1/sensor", world);
+    let b = module(&net, "t/r2/b", world);
+    let c = module(&net, "t/r3/c", world);
+    net.partition(&[addr("t/r1/sensor")], &[addr("t/r2/b"), addr("t/r3/c")]);
+    net.run_for(secs(0.5));
+    sensor.board.create("Rock", "rock").unwrap();
+    sensor.board.write("rock", "x", 5.0).unwrap();
+    net.run_for(secs(0.5));
+    assert!(relay.board.info("rock").is_some());
+    relay
+        .engine
+        .load(
+            "relay.slate",
+            r#"plan tell_b { trigger: rock.x > 10.0; action { report rock.x to "t/r2/b"; } }
+               plan tell_all { trigger: rock.x > 20.0; action { report rock; } }"#,
+        )
+        .unwrap();
+
+    sensor.board.write("rock", "x", 15.0).unwrap();
+    net.run_for(secs(0.5));
+    let x = b.board.read("rock", "x").unwrap();
+    assert_eq!(x.value.as_f64(), Some(15.0));
+    assert_eq!(
+        x.source,
+        addr("t/r1/sensor"),
+        "the writer's packet, relayed"
+    );
+    assert!(c.board.info("rock").is_none(), "reported to b only");
+
+    sensor.board.write("rock", "x", 25.0).unwrap();
+    net.run_for(secs(0.5));
+    for m in [&b, &c] {
+        assert_eq!(
+            m.board.read("rock", "x").unwrap().value.as_f64(),
+            Some(25.0)
+        );
+    }
+    assert_eq!(relay.ici.stats().reports.explicit, 1 + 2);
+    net.heal();
+    net.run_for(secs(5.0));
+    for m in [&relay, &b, &c] {
+        assert_eq!(
+            m.board.read("rock", "x").unwrap().value.as_f64(),
+            Some(25.0)
+        );
+    }
+}
+
+#[test]
+fn an_explicit_report_skips_the_report_filter() {
+    let net = SimNet::new(67);
+    let world = "class Gauge { level: real = 0.0 report deadband 100.0; } object g : Gauge;";
+    let quiet = config().quiet(Duration::from_secs(3600));
+    let a = module_on(&net, net.join(&addr("t/r1/a")), world, quiet);
+    let b = module(
+        &net,
+        "t/r2/b",
+        "class Gauge { level: real = 0.0 report deadband 100.0; }",
+    );
+    net.run_for(secs(0.5));
+    a.board.write("g", "level", 1.0).unwrap();
+    net.run_for(secs(0.5));
+    a.board.write("g", "level", 2.0).unwrap();
+    net.run_for(secs(0.5));
+    assert_eq!(
+        b.board.read("g", "level").unwrap().value.as_f64(),
+        Some(1.0),
+        "held"
+    );
+    let packet = a.board.read("g", "level").unwrap();
+    let sent = a
+        .ici
+        .report(None, vec![("g".into(), "level".into(), packet)]);
+    assert_eq!(sent, 1);
+    net.run_for(secs(0.5));
+    assert_eq!(
+        b.board.read("g", "level").unwrap().value.as_f64(),
+        Some(2.0)
+    );
+    let inherited = a.board.read("Gauge", "level").unwrap();
+    assert_eq!(
+        a.ici.report(
+            Some(&addr("t/r2/b")),
+            vec![("g".into(), "nope".into(), inherited)]
+        ),
+        0,
+        "only what an object holds itself"
+    );
+}
+
+#[test]
+fn on_the_system_clock_timer_driven_steps_reach_the_origin() {
+    // The engine's timer thread initiates the plan and fires it; nothing of the ICI is
+    // in its call stack, and no board write follows the `Triggered` event: the
+    // circuits' own thread takes it.
+    let net = SimNet::new(68);
+    let start = |address: &str, world: &str| {
+        let transport = net.join(&addr(address));
+        let board = Arc::new(
+            Board::builder()
+                .address(transport.address().clone())
+                .build(),
+        );
+        let engine = Engine::new(&board);
+        engine.load("world.slate", world).unwrap();
+        let timers = engine.run_timers();
+        let ici = Ici::new(board, transport, config()).unwrap();
+        let circuits = PlanCircuits::attach(&ici, &engine);
+        (engine, circuits, timers)
+    };
+    let (_e1, origin, _t1) = start("t/r1/planner", "");
+    let world = "class Counter { n: int = 0; } object c : Counter { n = 1; }";
+    let (cell_engine, _cell, _t2) = start("t/r2/cell", world);
+    net.run_for(secs(0.5));
+    let plan = "plan later { initiation: age(c.n) > 0.2s; action { report c; } }";
+    let h = origin.send(&addr("t/r2/cell"), plan).unwrap();
+    let mut got = Vec::new();
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while got.len() < 4 && std::time::Instant::now() < deadline {
+        net.run_for(secs(0.01));
+        std::thread::sleep(Duration::from_millis(5));
+        got.extend(h.acks().try_iter());
+    }
+    assert_eq!(
+        got[..3],
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    assert!(got.get(3).is_some_and(triggered(true)), "{got:?}");
+    assert_eq!(cell_engine.status("later").unwrap().fired, 1);
+}

@@ -1,0 +1,445 @@
+//! A node's configuration: the TOML file `slate node --config` reads (every key is in
+//! `docs/config.md`), as a struct Rust and Python code can also build directly.
+
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use slate_ici::{ClassSet, IciConfig, LinkKind};
+use slate_model::{Address, Context};
+use slate_zenoh::{Mode, ZenohConfig};
+
+use crate::error::ConfigError;
+use crate::fields::Fields;
+
+/// Everything a node needs to start.
+///
+/// ```
+/// use slate_node::NodeConfig;
+/// let config = NodeConfig::parse(
+///     "nav.toml",
+///     r#"
+///     address = "team/r1/nav"
+///     interest = ["Vehicle", "Obstacle:surroundings"]
+///     export = ["Vehicle:self"]
+///     [zenoh]
+///     listen = ["tcp/127.0.0.1:7447"]
+///     "#,
+///     std::path::Path::new("."),
+/// )?;
+/// assert_eq!(config.address.as_str(), "team/r1/nav");
+/// assert_eq!(config.zenoh.listen, ["tcp/127.0.0.1:7447"]);
+///
+/// let err = NodeConfig::parse("nav.toml", "address = \"team/r1/nav\"\nlisten = []", std::path::Path::new("."))
+///     .unwrap_err();
+/// assert!(err.to_string().starts_with("nav.toml: unknown key `listen`"));
+/// # Ok::<(), slate_node::ConfigError>(())
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeConfig {
+    /// The module's address, `team/robot/module`.
+    pub address: Address,
+    /// How to join the Zenoh network (peer mode, explicit endpoints, no multicast
+    /// scouting by default).
+    pub zenoh: ZenohConfig,
+    /// `.slate` files loaded in order at start (relative paths are resolved against the
+    /// config file's folder).
+    pub files: Vec<PathBuf>,
+    /// The ICI's settings: interest, export policy, liveliness and timing.
+    pub ici: IciConfig,
+    /// Where to serve the dashboard, if anywhere.
+    pub dashboard: Option<SocketAddr>,
+}
+
+/// Keys of the top table.
+const TOP: &[&str] = &[
+    "address",
+    "files",
+    "interest",
+    "export",
+    "dashboard",
+    "zenoh",
+    "ici",
+];
+/// Keys of `[zenoh]`.
+const ZENOH: &[&str] = &["mode", "listen", "connect", "multicast_scouting"];
+/// Keys of `[ici]`.
+const ICI: &[&str] = &[
+    "robot_heartbeat",
+    "robot_timeout",
+    "team_heartbeat",
+    "team_timeout",
+    "quiet",
+    "gap_grace",
+    "catch_up_retry",
+    "max_report_items",
+    "max_tombstones",
+];
+
+const CLASSES: &str =
+    "a list of class names, each optionally with contexts (\"Obstacle:surroundings,system\")";
+
+impl NodeConfig {
+    /// A config with defaults: peer mode, no endpoints, no files, interest in everything,
+    /// nothing exported, no dashboard.
+    pub fn new(address: Address) -> Self {
+        NodeConfig {
+            address,
+            zenoh: ZenohConfig::default(),
+            files: Vec::new(),
+            ici: IciConfig::default(),
+            dashboard: None,
+        }
+    }
+
+    /// Reads a config file.
+    pub fn read(path: &Path) -> Result<Self, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
+            file: file.clone(),
+            error,
+        })?;
+        let base = path.parent().unwrap_or_else(|| Path::new("."));
+        NodeConfig::parse(&file, &text, base)
+    }
+
+    /// Parses config text; `file` names it in errors, `base` resolves relative paths.
+    pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, ConfigError> {
+        let table: toml::Table = text.parse().map_err(|e| syntax(file, text, &e))?;
+        let mut top = Fields::new(file, table, TOP);
+        let address = top.required_str("address", "a module address \"team/robot/module\"")?;
+        let address = Address::new(&address).map_err(|e| {
+            top.invalid(
+                "address",
+                "a module address \"team/robot/module\"",
+                &e.to_string(),
+            )
+        })?;
+        let mut config = NodeConfig::new(address);
+        let files = top.strings("files", "a list of .slate file paths")?;
+        config.files = files
+            .unwrap_or_default()
+            .into_iter()
+            .map(|f| base.join(f))
+            .collect();
+        if let Some(list) = top.strings("interest", CLASSES)? {
+            config.ici.interest = read_class_set(&top, "interest", &list)?;
+        }
+        if let Some(list) = top.strings("export", CLASSES)? {
+            config.ici.export = read_class_set(&top, "export", &list)?;
+        }
+        config.dashboard = dashboard(&mut top)?;
+        if let Some(zenoh) = top.table("zenoh", ZENOH)? {
+            config.zenoh = zenoh_section(zenoh)?;
+        }
+        if let Some(ici) = top.table("ici", ICI)? {
+            ici_section(ici, &mut config.ici)?;
+        }
+        top.finish()?;
+        Ok(config)
+    }
+}
+
+/// A TOML syntax error as one line with its position.
+fn syntax(file: &str, text: &str, e: &toml::de::Error) -> ConfigError {
+    let offset = e.span().map_or(0, |s| s.start).min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    ConfigError::Syntax {
+        file: file.to_owned(),
+        line,
+        column,
+        message: e.message().trim().replace('\n', " "),
+    }
+}
+
+fn dashboard(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
+    const EXPECTED: &str = "an address to serve the dashboard on, like \"127.0.0.1:8080\"";
+    let Some(text) = top.str("dashboard", EXPECTED)? else {
+        return Ok(None);
+    };
+    text.parse()
+        .map(Some)
+        .map_err(|_| top.invalid("dashboard", EXPECTED, &format!("{text:?}")))
+}
+
+fn zenoh_section(mut t: Fields) -> Result<ZenohConfig, ConfigError> {
+    const ENDPOINTS: &str = "a list of Zenoh endpoints like \"tcp/127.0.0.1:7447\"";
+    let mut z = ZenohConfig::default();
+    if let Some(mode) = t.str("mode", "\"peer\", \"router\" or \"client\"")? {
+        z.mode = match mode.as_str() {
+            "peer" => Mode::Peer,
+            "router" => Mode::Router,
+            "client" => Mode::Client,
+            _ => {
+                let found = format!("{mode:?}");
+                return Err(t.invalid("mode", "\"peer\", \"router\" or \"client\"", &found));
+            }
+        };
+    }
+    for key in ["listen", "connect"] {
+        let list = t.strings(key, ENDPOINTS)?.unwrap_or_default();
+        if let Some(bad) = list.iter().find(|e| !is_endpoint(e)) {
+            return Err(t.invalid(key, ENDPOINTS, &format!("{bad:?}")));
+        }
+        match key {
+            "listen" => z.listen = list,
+            _ => z.connect = list,
+        }
+    }
+    z.multicast_scouting = t.bool("multicast_scouting")?.unwrap_or(false);
+    t.finish()?;
+    Ok(z)
+}
+
+/// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
+fn is_endpoint(text: &str) -> bool {
+    text.split_once('/')
+        .is_some_and(|(proto, rest)| !proto.is_empty() && !rest.is_empty())
+}
+
+fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
+    for (link, beat, timeout) in [
+        (LinkKind::Robot, "robot_heartbeat", "robot_timeout"),
+        (LinkKind::Team, "team_heartbeat", "team_timeout"),
+    ] {
+        let current = ici.link(link);
+        let heartbeat = t.duration(beat)?.unwrap_or(current.heartbeat);
+        let dead_after = t.duration(timeout)?.unwrap_or(current.timeout);
+        if dead_after <= heartbeat {
+            let found = format!("{dead_after:?}, not longer than {beat} {heartbeat:?}");
+            return Err(t.invalid(timeout, &format!("a duration longer than {beat}"), &found));
+        }
+        *ici = ici.clone().liveliness(link, heartbeat, dead_after);
+    }
+    if let Some(d) = t.duration("quiet")? {
+        ici.quiet = d;
+    }
+    if let Some(d) = t.duration("gap_grace")? {
+        ici.gap_grace = d;
+    }
+    if let Some(d) = t.duration("catch_up_retry")? {
+        ici.catch_up_retry = d;
+    }
+    if let Some(n) = t.count("max_report_items")? {
+        ici.max_report_items = n;
+    }
+    if let Some(n) = t.count("max_tombstones")? {
+        ici.max_tombstones = n;
+    }
+    t.finish()
+}
+
+/// A class set from `["Vehicle", "Obstacle:surroundings,system"]`.
+fn read_class_set(t: &Fields, key: &str, list: &[String]) -> Result<ClassSet, ConfigError> {
+    let mut set = ClassSet::none();
+    for entry in list {
+        set = add_class(set, entry)
+            .map_err(|why| t.invalid(key, CLASSES, &format!("{entry:?} ({why})")))?;
+    }
+    Ok(set)
+}
+
+/// A class set from entries like `"Vehicle"` or `"Obstacle:surroundings,system"` (the
+/// form of the config's `interest` and `export` keys).
+///
+/// ```
+/// let set = slate_node::class_set(["Vehicle", "Obstacle:surroundings"])?;
+/// assert!(!set.is_empty());
+/// assert!(slate_node::class_set(["Obstacle:nearby"]).is_err());
+/// # Ok::<(), String>(())
+/// ```
+pub fn class_set<S: AsRef<str>>(entries: impl IntoIterator<Item = S>) -> Result<ClassSet, String> {
+    entries
+        .into_iter()
+        .try_fold(ClassSet::none(), |set, e| add_class(set, e.as_ref()))
+}
+
+/// Adds one `Class` or `Class:context,context` entry to a set.
+fn add_class(set: ClassSet, entry: &str) -> Result<ClassSet, String> {
+    let (class, contexts) = match entry.split_once(':') {
+        Some((c, ctx)) => (c.trim(), Some(ctx)),
+        None => (entry.trim(), None),
+    };
+    let ident = class
+        .chars()
+        .next()
+        .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+        && class.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    if !ident {
+        return Err(format!("{class:?} is not a class name"));
+    }
+    let Some(contexts) = contexts else {
+        return Ok(set.class(class));
+    };
+    let contexts = contexts
+        .split(',')
+        .map(|c| {
+            Context::from_str(c.trim())
+                .map_err(|_| format!("{:?} is not self, surroundings or system", c.trim()))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(set.class_in(class, &contexts))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use super::*;
+
+    fn parse(text: &str) -> Result<NodeConfig, ConfigError> {
+        NodeConfig::parse("m.toml", text, Path::new("/etc/slate"))
+    }
+
+    #[test]
+    fn every_key_is_read() {
+        let c = parse(
+            r#"
+            address = "t/r1/nav"
+            files = ["world.slate", "/abs/plans.slate"]
+            interest = ["Vehicle", "Obstacle:surroundings,system"]
+            export = ["Vehicle:self"]
+            dashboard = "127.0.0.1:8080"
+            [zenoh]
+            mode = "router"
+            listen = ["tcp/127.0.0.1:7447"]
+            connect = ["tcp/127.0.0.1:7448"]
+            multicast_scouting = true
+            [ici]
+            robot_heartbeat = "100ms"
+            robot_timeout = "500ms"
+            team_heartbeat = "2s"
+            team_timeout = "10s"
+            quiet = "250ms"
+            gap_grace = "50ms"
+            catch_up_retry = "1s"
+            max_report_items = 64
+            max_tombstones = 100
+            "#,
+        )
+        .unwrap();
+        assert_eq!(
+            c.files,
+            [
+                PathBuf::from("/etc/slate/world.slate"),
+                PathBuf::from("/abs/plans.slate")
+            ]
+        );
+        assert_eq!(
+            c.ici.interest,
+            ClassSet::none()
+                .class("Vehicle")
+                .class_in("Obstacle", &[Context::Surroundings, Context::System])
+        );
+        assert_eq!(
+            c.ici.export,
+            ClassSet::none().class_in("Vehicle", &[Context::Self_])
+        );
+        assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
+        assert_eq!(c.zenoh.mode, Mode::Router);
+        assert!(c.zenoh.multicast_scouting);
+        assert_eq!(c.zenoh.connect, ["tcp/127.0.0.1:7448"]);
+        assert_eq!(c.ici.robot.timeout, Duration::from_millis(500));
+        assert_eq!(c.ici.team.heartbeat, Duration::from_secs(2));
+        assert_eq!(c.ici.quiet, Duration::from_millis(250));
+        assert_eq!(c.ici.gap_grace, Duration::from_millis(50));
+        assert_eq!(c.ici.catch_up_retry, Duration::from_secs(1));
+        assert_eq!((c.ici.max_report_items, c.ici.max_tombstones), (64, 100));
+    }
+
+    #[test]
+    fn defaults_are_peer_mode_everything_in_nothing_out() {
+        let c = parse("address = \"t/r1/nav\"").unwrap();
+        assert_eq!(c, NodeConfig::new(Address::new("t/r1/nav").unwrap()));
+        assert!(!c.zenoh.multicast_scouting);
+        assert!(c.ici.interest.is_all());
+        assert!(c.ici.export.is_empty());
+    }
+
+    #[test]
+    fn errors_name_the_file_the_key_and_what_is_expected() {
+        let cases = [
+            (
+                "",
+                "m.toml: missing key `address`: expected a module address",
+            ),
+            (
+                "address = 3",
+                "m.toml: key `address`: expected a module address \"team/robot/module\", found integer 3",
+            ),
+            (
+                "address = \"nav\"",
+                "m.toml: key `address`: expected a module address",
+            ),
+            (
+                "address = \"t/r/m\"\nlisen = 1",
+                "m.toml: unknown key `lisen` (known keys: address, files",
+            ),
+            (
+                "address = \"t/r/m\"\n[zenoh]\nmode = \"mesh\"",
+                "m.toml: key `zenoh.mode`: expected \"peer\", \"router\" or \"client\", found \"mesh\"",
+            ),
+            (
+                "address = \"t/r/m\"\n[zenoh]\nlisten = [\"7447\"]",
+                "m.toml: key `zenoh.listen`: expected a list of Zenoh endpoints",
+            ),
+            (
+                "address = \"t/r/m\"\n[zenoh]\nport = 1",
+                "m.toml: unknown key `zenoh.port` (known keys: zenoh.mode, zenoh.listen",
+            ),
+            (
+                "address = \"t/r/m\"\nzenoh = 1",
+                "m.toml: key `zenoh`: expected a table, found integer 1",
+            ),
+            (
+                "address = \"t/r/m\"\ninterest = [\"Obstacle:nearby\"]",
+                "m.toml: key `interest`: expected a list of class names",
+            ),
+            (
+                "address = \"t/r/m\"\nexport = \"Vehicle\"",
+                "m.toml: key `export`: expected a list of class names",
+            ),
+            (
+                "address = \"t/r/m\"\ndashboard = \"localhost\"",
+                "m.toml: key `dashboard`: expected an address to serve the dashboard on",
+            ),
+            (
+                "address = \"t/r/m\"\n[ici]\nquiet = 5",
+                "m.toml: key `ici.quiet`: expected a duration like \"250ms\"",
+            ),
+            (
+                "address = \"t/r/m\"\n[ici]\nrobot_timeout = \"100ms\"",
+                "m.toml: key `ici.robot_timeout`: expected a duration longer than robot_heartbeat",
+            ),
+            (
+                "address = \"t/r/m\"\n[ici]\nmax_report_items = 0",
+                "m.toml: key `ici.max_report_items`: expected a positive integer, found integer 0",
+            ),
+            (
+                "address = \"t/r/m\"\nfiles = [1]",
+                "m.toml: key `files`: expected a list of .slate file paths, found integer 1",
+            ),
+            ("address = \"t/r/m\"\n\nfiles = [", "m.toml:3:"),
+        ];
+        for (text, expected) in cases {
+            let err = parse(text).unwrap_err().to_string();
+            assert!(
+                err.starts_with(expected),
+                "{text:?}\n  gave {err}\n  want {expected}"
+            );
+            assert!(!err.contains('\n'), "one line: {err}");
+        }
+    }
+
+    #[test]
+    fn a_missing_file_is_named() {
+        let err = NodeConfig::read(Path::new("/nonexistent/m.toml")).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("/nonexistent/m.toml: cannot read"),
+            "{err}"
+        );
+    }
+}

@@ -1,0 +1,61 @@
+//! A slate node: one module of a robot, ready to run. A [`Node`] is a
+//! [`Board`](slate_model::Board), its plan [`Engine`](slate_plans::Engine), its
+//! [`Ici`](slate_ici::Ici) over a transport (Zenoh, or the simulator), and its
+//! [`PlanCircuits`](slate_ici::PlanCircuits), with the threads that run their timers on
+//! the system clock, an event log, and an optional live dashboard.
+//!
+//! `slate node --config module.toml` runs one from a [`NodeConfig`] (the keys are in
+//! `docs/config.md`); Rust code builds one with [`Node::builder`], Python with
+//! `slate.Node`. Two nodes on the simulator:
+//!
+//! ```
+//! use std::time::Duration;
+//! use slate_ici::{ClassSet, IciConfig, SimNet};
+//! use slate_model::Address;
+//! use slate_node::Node;
+//!
+//! const WORLD: &str = "class Vehicle { speed: real = 0.0; }";
+//! let net = SimNet::new(1);
+//! let start = |address: &str| -> Result<Node, Box<dyn std::error::Error>> {
+//!     let address = Address::new(address)?;
+//!     Ok(Node::builder(address.clone())
+//!         .transport(net.join(&address))
+//!         .clock(net.clock())
+//!         .ici(IciConfig::default().export(ClassSet::all()))
+//!         .source("world.slate", WORLD)
+//!         .start()?)
+//! };
+//! let nav = start("team/r1/nav")?;
+//! let base = start("team/base/console")?;
+//! net.run_for(Duration::from_millis(500));
+//!
+//! nav.board().create("Vehicle", "gsr")?;
+//! nav.board().write("gsr", "speed", 2.5)?;
+//! net.run_for(Duration::from_millis(500));
+//! assert_eq!(base.board().read("gsr", "speed")?.value.as_f64(), Some(2.5));
+//! nav.close();
+//! base.close();
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! [`observe`] joins a live Zenoh team as a short-lived observer (the CLI's `get`, `put`,
+//! `watch`, `tree`, `ls` and `plan` verbs).
+#![warn(missing_docs)]
+
+mod config;
+mod error;
+mod fields;
+pub mod inspect;
+mod monitor;
+mod node;
+mod observer;
+mod timers;
+mod view;
+
+pub use config::{NodeConfig, class_set};
+pub use error::{ConfigError, ObserveError, StartError};
+pub use monitor::{Level, NodeEvent};
+pub use node::{Node, NodeBuilder, TransportChoice};
+pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
+pub use timers::TICK;
+pub use view::{STALE_AFTER_S, is_final, step_text, value_text};

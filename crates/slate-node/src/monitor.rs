@@ -1,0 +1,291 @@
+//! What a node tells its operator: peers coming up and going down, plan progress, failed
+//! active functions. Each is logged through `tracing` and kept in a short event log (the
+//! dashboard's `events`).
+
+use std::collections::{HashMap, VecDeque};
+use std::sync::Arc;
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::{Receiver, Sender};
+use parking_lot::Mutex;
+use slate_ici::{ClassSet, Ici, MODULE_CLASS};
+use slate_model::{Board, BoardEvent, ChangeItem, Filter, Value, Watch};
+use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
+
+use crate::observer::OBSERVER_PREFIX;
+
+/// Events kept (the dashboard shows at most 300).
+const KEEP: usize = 300;
+
+/// A peer that came up is greeted again this long after: the first messages to a module
+/// that has just appeared can be lost while the network's routes to it settle (then its
+/// interest stays unknown, and nothing is sent to it live).
+const REGREET: Duration = Duration::from_secs(1);
+
+/// How often the monitor looks at the board's events and the engine's.
+const POLL: Duration = Duration::from_millis(50);
+
+/// How much an event matters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    /// Normal operation.
+    Info,
+    /// Something went wrong, and the node carries on.
+    Warn,
+    /// Something failed.
+    Error,
+}
+
+impl Level {
+    /// `info`, `warn` or `error`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Level::Info => "info",
+            Level::Warn => "warn",
+            Level::Error => "error",
+        }
+    }
+}
+
+/// One entry of a node's event log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NodeEvent {
+    /// Seconds since the Unix epoch, on the board's clock.
+    pub time: f64,
+    /// How much it matters.
+    pub level: Level,
+    /// What happened, in a sentence.
+    pub text: String,
+}
+
+/// The last [`KEEP`] events.
+#[derive(Default)]
+pub(crate) struct EventLog(Mutex<VecDeque<NodeEvent>>);
+
+impl EventLog {
+    pub fn push(&self, board: &Board, level: Level, text: String) {
+        match level {
+            Level::Info => tracing::info!("{text}"),
+            Level::Warn => tracing::warn!("{text}"),
+            Level::Error => tracing::error!("{text}"),
+        }
+        let time = board.clock().physical().as_secs_f64();
+        let mut log = self.0.lock();
+        if log.len() == KEEP {
+            log.pop_front();
+        }
+        log.push_back(NodeEvent { time, level, text });
+    }
+
+    pub fn events(&self) -> Vec<NodeEvent> {
+        self.0.lock().iter().cloned().collect()
+    }
+}
+
+/// The thread that turns board changes and events into log entries.
+pub(crate) struct Monitor {
+    stop: Sender<()>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Monitor {
+    pub fn start(
+        board: &Arc<Board>,
+        engine: &Engine,
+        ici: (&Ici, ClassSet),
+        log: Arc<EventLog>,
+    ) -> Monitor {
+        let (stop, stopped) = crossbeam_channel::bounded(1);
+        let sources = Sources {
+            ici: ici.0.clone(),
+            interest: ici.1,
+            regreet: Mutex::new(None),
+            modules: board.watch(Filter::class(MODULE_CLASS).attr("alive")).ok(),
+            plans: board.watch(Filter::class(PLAN_CLASS).attr("state")).ok(),
+            engine: engine.clone(),
+            alive: Mutex::new(HashMap::new()),
+            board_events: board.events(),
+            plan_events: engine.events(),
+            board: Arc::downgrade(board),
+        };
+        let thread = std::thread::Builder::new()
+            .name("slate-node-monitor".into())
+            .spawn(move || sources.run(&stopped, &log))
+            .ok();
+        Monitor { stop, thread }
+    }
+
+    /// Stops the thread, after it has logged what is waiting.
+    pub fn stop(&mut self) {
+        let _ = self.stop.try_send(());
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+impl Drop for Monitor {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}
+
+struct Sources {
+    ici: Ici,
+    /// The ICI's interest (said again in each hello).
+    interest: ClassSet,
+    /// When to greet every peer again (see [`REGREET`]).
+    regreet: Mutex<Option<Instant>>,
+    modules: Option<Watch>,
+    /// Plan states, for cancellations written by other modules.
+    plans: Option<Watch>,
+    engine: Engine,
+    /// The last `alive` of each Module object (the ICI rewrites it with `last_seen`).
+    alive: Mutex<HashMap<String, Value>>,
+    board_events: Receiver<BoardEvent>,
+    plan_events: Receiver<PlanEvent>,
+    board: std::sync::Weak<Board>,
+}
+
+impl Sources {
+    fn run(self, stopped: &Receiver<()>, log: &EventLog) {
+        loop {
+            let stop = stopped.recv_timeout(POLL).is_ok();
+            let Some(board) = self.board.upgrade() else {
+                return;
+            };
+            self.drain(&board, log);
+            if stop {
+                return;
+            }
+            let due = self.regreet.lock().is_some_and(|t| Instant::now() >= t);
+            if due {
+                *self.regreet.lock() = None;
+                // Says hello (with the interest, unchanged) and asks for a catch-up again.
+                self.ici.set_interest(self.interest.clone());
+            }
+        }
+    }
+
+    fn drain(&self, board: &Board, log: &EventLog) {
+        while let Some(change) = self.modules.as_ref().and_then(Watch::try_recv) {
+            for item in change.items {
+                if let ChangeItem::Write {
+                    object,
+                    attr,
+                    packet,
+                } = item
+                    && &*attr == "alive"
+                    && self
+                        .alive
+                        .lock()
+                        .insert(object.to_string(), packet.value.clone())
+                        != Some(packet.value.clone())
+                {
+                    let peer = match board.read(&object, "address").map(|p| p.value) {
+                        Ok(Value::Str(s)) => s.to_string(),
+                        _ => object.to_string(),
+                    };
+                    let up = packet.value == Value::Bool(true);
+                    if up {
+                        self.regreet
+                            .lock()
+                            .get_or_insert_with(|| Instant::now() + REGREET);
+                    }
+                    let state = if up { "up" } else { "down" };
+                    if peer.contains(&format!("/{OBSERVER_PREFIX}")) {
+                        // Short-lived observers (`slate get`, `slate put`...) are not news.
+                        tracing::debug!("observer {peer} {state}");
+                    } else {
+                        let level = if up { Level::Info } else { Level::Warn };
+                        log.push(board, level, format!("peer {peer} {state}"));
+                    }
+                }
+            }
+        }
+        self.cancellations(board, log);
+        for e in self.board_events.try_iter() {
+            log.push(board, Level::Warn, board_event(&e));
+        }
+        for e in self.plan_events.try_iter() {
+            let (level, text) = plan_event(&e);
+            log.push(board, level, text);
+        }
+    }
+}
+
+impl Sources {
+    /// Another module wrote `cancelled` to the state of a plan running here (`slate plan
+    /// cancel`): the engine cancels it, which acks `Cancelled` to its origin.
+    fn cancellations(&self, board: &Board, log: &EventLog) {
+        while let Some(change) = self.plans.as_ref().and_then(Watch::try_recv) {
+            for item in change.items {
+                let ChangeItem::Write { object, packet, .. } = item else {
+                    continue;
+                };
+                let remote = packet.source != *board.address();
+                let cancel = matches!(&packet.value, Value::Str(s) if &**s == "cancelled");
+                let Some(status) = self.engine.status(&object) else {
+                    continue;
+                };
+                if !remote {
+                    continue;
+                }
+                let over = matches!(status.state, PlanState::Terminated | PlanState::Cancelled);
+                if cancel && !over {
+                    let by = &packet.source;
+                    log.push(
+                        board,
+                        Level::Warn,
+                        format!("plan {object} cancelled by {by}"),
+                    );
+                    self.engine.cancel(&object);
+                } else if let Err(e) = board.write(&object, "state", status.state.name()) {
+                    // Only the engine says what state a plan is in: put it back.
+                    tracing::debug!(plan = %object, error = %e, "plan state not restored");
+                }
+            }
+        }
+    }
+}
+
+fn board_event(e: &BoardEvent) -> String {
+    match e {
+        BoardEvent::FunctionFailed {
+            function,
+            object,
+            attr,
+            error,
+            ..
+        } => format!("active function {function} failed on {object}.{attr}: {error}"),
+        BoardEvent::ChainCut(c) => format!("chain of active functions cut: {c}"),
+        other => format!("{other:?}"),
+    }
+}
+
+fn plan_event(e: &PlanEvent) -> (Level, String) {
+    match e {
+        PlanEvent::Installed { plan } => (Level::Info, format!("plan {plan} installed")),
+        PlanEvent::Initiated { plan } => (Level::Info, format!("plan {plan} initiated")),
+        PlanEvent::Triggered {
+            plan,
+            fired,
+            error: None,
+        } => (Level::Info, format!("plan {plan} fired ({fired})")),
+        PlanEvent::Triggered {
+            plan,
+            fired,
+            error: Some(err),
+        } => (
+            Level::Warn,
+            format!("plan {plan} fired ({fired}) and failed: {err}"),
+        ),
+        PlanEvent::Terminated { plan } => (Level::Info, format!("plan {plan} terminated")),
+        PlanEvent::Cancelled { plan } => (Level::Warn, format!("plan {plan} cancelled")),
+        PlanEvent::Failed { plan, error } => (
+            Level::Warn,
+            format!("plan {plan}: condition failed: {error}"),
+        ),
+    }
+}

@@ -1,0 +1,419 @@
+//! [`Node`]: one module's board, plan engine, ICI, plan circuits and transport, with the
+//! threads that run them on the system clock, an event log and an optional dashboard.
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use parking_lot::Mutex;
+use slate_dashboard::Dashboard;
+use slate_ici::{Ici, IciConfig, PlanCircuits, PlanHandle, SendPlanError, Transport};
+use slate_model::{Address, Board, Clock};
+use slate_plans::{Engine, LoadError, Loaded};
+use slate_zenoh::{ZenohConfig, ZenohTransport};
+
+use crate::config::NodeConfig;
+use crate::error::StartError;
+use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
+use crate::timers::Timers;
+use crate::view::View;
+
+/// What carries a node's messages.
+#[derive(Clone)]
+pub enum TransportChoice {
+    /// A Zenoh session opened with this config.
+    Zenoh(ZenohConfig),
+    /// Any transport at the node's address: a simulator endpoint (`SimNet::join`), or one
+    /// opened by the caller.
+    Custom(Arc<dyn Transport>),
+}
+
+/// A `.slate` source to load at start.
+#[derive(Clone, Debug)]
+enum Source {
+    File(PathBuf),
+    Text { name: String, text: String },
+}
+
+/// Builds a [`Node`]: the address, a transport, and optionally a board, an engine, the
+/// ICI's settings, sources to load and a dashboard.
+///
+/// ```
+/// use slate_ici::SimNet;
+/// use slate_model::Address;
+/// use slate_node::Node;
+///
+/// let net = SimNet::new(7);
+/// let address = Address::new("team/r1/nav")?;
+/// let node = Node::builder(address.clone())
+///     .transport(net.join(&address))
+///     .clock(net.clock())
+///     .source("world.slate", "class Vehicle { speed: real = 0.0; } object gsr : Vehicle;")
+///     .start()?;
+/// node.board().write("gsr", "speed", 2.5)?;
+/// node.close();
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct NodeBuilder {
+    address: Address,
+    transport: TransportChoice,
+    board: Option<Arc<Board>>,
+    engine: Option<Engine>,
+    clock: Option<Clock>,
+    ici: IciConfig,
+    sources: Vec<Source>,
+    dashboard: Option<SocketAddr>,
+}
+
+impl NodeBuilder {
+    /// A node at `address`, on Zenoh with the default config, until told otherwise.
+    pub fn new(address: Address) -> Self {
+        NodeBuilder {
+            address,
+            transport: TransportChoice::Zenoh(ZenohConfig::default()),
+            board: None,
+            engine: None,
+            clock: None,
+            ici: IciConfig::default(),
+            sources: Vec::new(),
+            dashboard: None,
+        }
+    }
+
+    /// Joins a Zenoh network.
+    pub fn zenoh(mut self, config: ZenohConfig) -> Self {
+        self.transport = TransportChoice::Zenoh(config);
+        self
+    }
+
+    /// Uses this transport (its address must be the node's).
+    pub fn transport(mut self, transport: Arc<dyn Transport>) -> Self {
+        self.transport = TransportChoice::Custom(transport);
+        self
+    }
+
+    /// Uses an existing board (at the node's address) instead of a new one.
+    pub fn board(mut self, board: Arc<Board>) -> Self {
+        self.board = Some(board);
+        self
+    }
+
+    /// Uses the board's existing plan engine (whoever made it runs its deadline timers on
+    /// the system clock: [`Engine::run_timers`]).
+    pub fn engine(mut self, engine: Engine) -> Self {
+        self.engine = Some(engine);
+        self
+    }
+
+    /// The clock of a new board (default: the system clock; a simulator's for `SimNet`).
+    pub fn clock(mut self, clock: Clock) -> Self {
+        self.clock = Some(clock);
+        self
+    }
+
+    /// The ICI's settings (interest, export policy, timing).
+    pub fn ici(mut self, config: IciConfig) -> Self {
+        self.ici = config;
+        self
+    }
+
+    /// Loads a `.slate` file at start (files and sources in the order given).
+    pub fn file(mut self, path: impl Into<PathBuf>) -> Self {
+        self.sources.push(Source::File(path.into()));
+        self
+    }
+
+    /// Loads `.slate` source text at start; `name` names it in diagnostics.
+    pub fn source(mut self, name: &str, text: &str) -> Self {
+        self.sources.push(Source::Text {
+            name: name.to_owned(),
+            text: text.to_owned(),
+        });
+        self
+    }
+
+    /// Serves the dashboard on `addr` (port 0: any free port, see [`Node::dashboard_url`]).
+    pub fn dashboard(mut self, addr: SocketAddr) -> Self {
+        self.dashboard = Some(addr);
+        self
+    }
+
+    /// Starts the node: loads the sources, joins the network, starts the ICI, the plan
+    /// circuits, the timers (on the system clock) and the dashboard.
+    pub fn start(self) -> Result<Node, StartError> {
+        let board = match self.board {
+            Some(b) if b.address() != &self.address => {
+                return Err(StartError::BoardAddress {
+                    board: b.address().clone(),
+                    node: self.address,
+                });
+            }
+            Some(b) => b,
+            None => Arc::new(
+                Board::builder()
+                    .address(self.address.clone())
+                    .clock(self.clock.unwrap_or_default())
+                    .build(),
+            ),
+        };
+        let system_clock = !board.clock().is_manual();
+        let engine = match self.engine {
+            Some(e) => e,
+            None => {
+                let e = Engine::new(&board);
+                if system_clock {
+                    drop(e.run_timers());
+                }
+                e
+            }
+        };
+        for source in &self.sources {
+            load(&engine, source)?;
+        }
+        let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
+            TransportChoice::Zenoh(config) => {
+                let t = ZenohTransport::open(self.address.clone(), &config)?;
+                (t, config.listen.clone())
+            }
+            TransportChoice::Custom(t) => (t, Vec::new()),
+        };
+        let interest = self.ici.interest.clone();
+        let ici = match Ici::new(board.clone(), transport.clone(), self.ici) {
+            Ok(ici) => ici,
+            Err(e) => {
+                transport.close();
+                return Err(e.into());
+            }
+        };
+        let circuits = Arc::new(PlanCircuits::attach(&ici, &engine));
+        let log = Arc::new(EventLog::default());
+        let monitor = Monitor::start(&board, &engine, (&ici, interest), log.clone());
+        let timers = system_clock.then(|| Timers::start(ici.clone()));
+        let view = Arc::new(View::new(
+            board.clone(),
+            engine.clone(),
+            ici.clone(),
+            transport.clone(),
+            circuits.clone(),
+            log.clone(),
+            listen.clone(),
+        ));
+        let node = Node {
+            board,
+            engine,
+            ici,
+            transport,
+            circuits,
+            log,
+            view,
+            listen,
+            threads: Mutex::new(Threads {
+                monitor: Some(monitor),
+                timers,
+                dashboard: None,
+            }),
+            closed: AtomicBool::new(false),
+        };
+        node.started();
+        if let Some(addr) = self.dashboard {
+            let dashboard = slate_dashboard::serve(addr, node.view.clone());
+            match dashboard {
+                Ok(d) => node.threads.lock().dashboard = Some(d),
+                Err(e) => {
+                    node.close();
+                    return Err(e.into());
+                }
+            }
+        }
+        Ok(node)
+    }
+}
+
+fn load(engine: &Engine, source: &Source) -> Result<Loaded, StartError> {
+    match source {
+        Source::File(path) => {
+            let text = std::fs::read_to_string(path).map_err(|error| StartError::ReadSource {
+                path: path.clone(),
+                error,
+            })?;
+            Ok(engine.load(&path.display().to_string(), &text)?)
+        }
+        Source::Text { name, text } => Ok(engine.load(name, text)?),
+    }
+}
+
+impl slate_dashboard::DashboardSource for View {
+    fn snapshot(&self) -> serde_json::Value {
+        View::snapshot(self)
+    }
+}
+
+struct Threads {
+    monitor: Option<Monitor>,
+    timers: Option<Timers>,
+    dashboard: Option<Dashboard>,
+}
+
+/// One module of a robot: a [`Board`], its plan [`Engine`], its [`Ici`] over a
+/// [`Transport`] (Zenoh, or the simulator), and its [`PlanCircuits`] (plans sent to and
+/// received from other modules, with their acknowledgements).
+///
+/// On the system clock a timer thread runs the ICI's timers and the engine's deadlines.
+/// [`close`](Node::close) (or drop) flushes what is in flight and leaves the network;
+/// peers see the module go down.
+///
+/// ```no_run
+/// use slate_node::{Node, NodeConfig};
+/// let node = Node::start(&NodeConfig::read("module.toml".as_ref())?)?;
+/// println!("{} sees {:?}", node.address(), node.peers());
+/// node.close();
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+pub struct Node {
+    board: Arc<Board>,
+    engine: Engine,
+    ici: Ici,
+    transport: Arc<dyn Transport>,
+    circuits: Arc<PlanCircuits>,
+    log: Arc<EventLog>,
+    view: Arc<View>,
+    listen: Vec<String>,
+    threads: Mutex<Threads>,
+    closed: AtomicBool,
+}
+
+impl Node {
+    /// A builder for a node at `address`.
+    pub fn builder(address: Address) -> NodeBuilder {
+        NodeBuilder::new(address)
+    }
+
+    /// Starts a node from its config (Zenoh, the files, interest, export, dashboard).
+    pub fn start(config: &NodeConfig) -> Result<Node, StartError> {
+        let mut b = NodeBuilder::new(config.address.clone())
+            .zenoh(config.zenoh.clone())
+            .ici(config.ici.clone());
+        for f in &config.files {
+            b = b.file(f);
+        }
+        if let Some(d) = config.dashboard {
+            b = b.dashboard(d);
+        }
+        b.start()
+    }
+
+    fn started(&self) {
+        let me = self.address();
+        if self.listen.is_empty() {
+            self.log(Level::Info, format!("{me} started"));
+        } else {
+            let on = self.listen.join(", ");
+            self.log(Level::Info, format!("{me} started, listening on {on}"));
+        }
+    }
+
+    fn log(&self, level: Level, text: String) {
+        self.log.push(&self.board, level, text);
+    }
+
+    /// The module's address.
+    pub fn address(&self) -> &Address {
+        self.board.address()
+    }
+
+    /// The board.
+    pub fn board(&self) -> &Arc<Board> {
+        &self.board
+    }
+
+    /// The plan engine.
+    pub fn engine(&self) -> &Engine {
+        &self.engine
+    }
+
+    /// The ICI.
+    pub fn ici(&self) -> &Ici {
+        &self.ici
+    }
+
+    /// The plan circuits.
+    pub fn circuits(&self) -> &PlanCircuits {
+        &self.circuits
+    }
+
+    /// The transport.
+    pub fn transport(&self) -> &Arc<dyn Transport> {
+        &self.transport
+    }
+
+    /// Loads `.slate` source text into the board (classes, objects, rules, plans).
+    pub fn load(&self, name: &str, text: &str) -> Result<Loaded, LoadError> {
+        self.engine.load(name, text)
+    }
+
+    /// Sends a plan (`plan NAME { ... }` source text) to another module on a virtual
+    /// circuit; the handle's `acks()` yields its acknowledgements as they arrive.
+    pub fn send_plan(&self, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
+        self.circuits.send(to, text)
+    }
+
+    /// The modules this node holds alive.
+    pub fn peers(&self) -> Vec<Address> {
+        self.ici.alive_peers()
+    }
+
+    /// The Zenoh endpoints it listens on (empty on another transport).
+    pub fn listening(&self) -> &[String] {
+        &self.listen
+    }
+
+    /// The dashboard's URL, if it serves one.
+    pub fn dashboard_url(&self) -> Option<String> {
+        self.threads.lock().dashboard.as_ref().map(Dashboard::url)
+    }
+
+    /// The last events: peers up and down, plan progress, failed active functions.
+    pub fn events(&self) -> Vec<NodeEvent> {
+        self.log.events()
+    }
+
+    /// The dashboard's view of this node, as JSON (`docs/dashboard.md`).
+    pub fn snapshot(&self) -> serde_json::Value {
+        self.view.snapshot()
+    }
+
+    /// Has it been closed?
+    pub fn is_closed(&self) -> bool {
+        self.closed.load(Ordering::Acquire)
+    }
+
+    /// Stops: the dashboard and the timers first, then what the board committed is sent
+    /// (the ICI drains its changes), then the transport closes (Zenoh sends what it has
+    /// queued before the session ends) and peers see the module go down. Idempotent.
+    pub fn close(&self) {
+        if self.closed.swap(true, Ordering::AcqRel) {
+            return;
+        }
+        let mut threads = self.threads.lock();
+        if let Some(d) = threads.dashboard.take() {
+            d.stop();
+        }
+        if let Some(mut t) = threads.timers.take() {
+            t.stop();
+        }
+        self.ici.tick();
+        tracing::debug!(stats = ?self.ici.stats(), "ICI counters at close");
+        self.transport.close();
+        self.log(Level::Info, format!("{} stopped", self.address()));
+        if let Some(mut m) = threads.monitor.take() {
+            m.stop();
+        }
+    }
+}
+
+impl Drop for Node {
+    fn drop(&mut self) {
+        self.close();
+    }
+}

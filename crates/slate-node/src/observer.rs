@@ -1,0 +1,227 @@
+//! Short-lived observers: how the CLI's live verbs join a team over Zenoh, catch up with
+//! every module's current state, and leave.
+//!
+//! An observer is a node like any other, at `TEAM/ROBOT/cli-PID`, and a Zenoh client of
+//! the node it connects to: it models everything,
+//! owns no object and writes only what it is told to (`slate put`), so it leaves no
+//! object on anyone's board. The other modules keep a `Module` object for it, which goes
+//! `alive = false` once it has left, like any module that stopped.
+
+use std::collections::BTreeSet;
+use std::time::{Duration, Instant};
+
+use slate_ici::{ClassSet, IciConfig, Transport};
+use slate_model::Address;
+use slate_zenoh::{Mode, ZenohConfig, ZenohTransport, keys};
+use zenoh::Wait;
+
+use crate::error::{ObserveError, StartError};
+use crate::node::Node;
+
+/// The module segment of observers' addresses starts with this.
+pub const OBSERVER_PREFIX: &str = "cli-";
+
+/// How an observer joins.
+#[derive(Clone, Debug)]
+pub struct ObserverOptions {
+    /// Zenoh endpoints to connect to (a node's listen endpoint).
+    pub connect: Vec<String>,
+    /// The observer's address; by default `TEAM/ROBOT/cli-PID` on the robot of the first
+    /// module found (by address). An observer on another robot than a module sees only
+    /// what that module exports.
+    pub address: Option<Address>,
+    /// How long to wait for modules to answer and for their catch-up answers.
+    pub wait: Duration,
+}
+
+impl Default for ObserverOptions {
+    fn default() -> Self {
+        ObserverOptions {
+            connect: vec!["tcp/127.0.0.1:7447".to_owned()],
+            address: None,
+            wait: Duration::from_secs(5),
+        }
+    }
+}
+
+/// The Zenoh config of an observer: a Zenoh *client* of the nodes it connects to (the
+/// first that answers). Every message to and from it goes through that node, which routes
+/// for its clients: the observer's subscriptions and liveliness token reach the other
+/// modules along the same path, in order, so a module that sees it come up can reach it
+/// at once (a peer would be reached over links of its own, opened a little later, and
+/// the first messages to it could be lost).
+fn zenoh_config(connect: &[String]) -> ZenohConfig {
+    ZenohConfig {
+        mode: Mode::Client,
+        listen: Vec::new(),
+        connect: connect.to_vec(),
+        multicast_scouting: false,
+    }
+}
+
+/// Joins the team reachable through `options.connect` as an observer, and returns once
+/// it has caught up with every module it found (or `options.wait` has passed).
+pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
+    let deadline = Instant::now() + options.wait;
+    let (address, modules) = match &options.address {
+        Some(a) => (a.clone(), BTreeSet::new()),
+        None => {
+            let modules = discover(&options.connect, options.wait)?;
+            (observer_address(&modules)?, modules)
+        }
+    };
+    let ici = IciConfig::default()
+        .interest(ClassSet::all())
+        .export(ClassSet::all());
+    let node = Node::builder(address)
+        .zenoh(zenoh_config(&options.connect))
+        .ici(ici)
+        .start()
+        .map_err(|e| match e {
+            StartError::Open(_) => ObserveError::NoModules {
+                endpoints: options.connect.join(", "),
+                seconds: options.wait.as_secs_f64(),
+            },
+            other => ObserveError::Start(other),
+        })?;
+    // Other observers too, so that a `put` reaches a live `watch` (an observer killed
+    // without closing keeps its token until Zenoh's lease ends: joining then waits the
+    // whole `wait`).
+    wait_for_peers(&node, &modules, deadline);
+    if node.transport().peers().is_empty() {
+        node.close();
+        return Err(ObserveError::NoModules {
+            endpoints: options.connect.join(", "),
+            seconds: options.wait.as_secs_f64(),
+        });
+    }
+    wait_caught_up(&node, deadline);
+    Ok(node)
+}
+
+/// `TEAM/ROBOT/cli-PID` on the robot of the first module (not an observer) found.
+fn observer_address(modules: &BTreeSet<Address>) -> Result<Address, ObserveError> {
+    let teams: BTreeSet<&str> = modules.iter().map(Address::team).collect();
+    if teams.len() > 1 {
+        let teams: Vec<&str> = teams.into_iter().collect();
+        return Err(ObserveError::SeveralTeams {
+            teams: teams.join(", "),
+        });
+    }
+    let first = modules
+        .iter()
+        .find(|a| !is_observer(a))
+        .or_else(|| modules.iter().next());
+    let Some(first) = first else {
+        return Err(ObserveError::NoModules {
+            endpoints: String::new(),
+            seconds: 0.0,
+        });
+    };
+    let text = format!(
+        "{}/{}/{OBSERVER_PREFIX}{}",
+        first.team(),
+        first.robot(),
+        std::process::id()
+    );
+    Ok(Address::new(&text).unwrap_or_else(|_| first.clone()))
+}
+
+/// Is this an observer's address?
+pub fn is_observer(address: &Address) -> bool {
+    address.module().starts_with(OBSERVER_PREFIX)
+}
+
+/// The slate modules alive on the Zenoh network reachable through `connect`, of every
+/// team, found by their liveliness tokens within `wait`.
+pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>, ObserveError> {
+    let deadline = Instant::now() + wait;
+    let probe_address = Address::new(&format!("slate-probe/cli/p{}", std::process::id()))
+        .unwrap_or_else(|_| Address::unknown());
+    let unreachable = || ObserveError::NoModules {
+        endpoints: connect.join(", "),
+        seconds: wait.as_secs_f64(),
+    };
+    // A client that reaches no node fails to open.
+    let probe = ZenohTransport::open(probe_address.clone(), &zenoh_config(connect))
+        .map_err(|_| unreachable())?;
+    let mut found = BTreeSet::new();
+    while found.is_empty() && Instant::now() < deadline {
+        let left = deadline.saturating_duration_since(Instant::now());
+        found = query_alive(&probe, left.min(Duration::from_millis(500)));
+        found.remove(&probe_address);
+        if found.is_empty() {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    probe.close();
+    if found.is_empty() {
+        return Err(unreachable());
+    }
+    Ok(found)
+}
+
+/// One liveliness query for every slate module of every team.
+fn query_alive(probe: &ZenohTransport, timeout: Duration) -> BTreeSet<Address> {
+    let every_team = keys::alive_in("*");
+    let Ok(replies) = probe
+        .session()
+        .liveliness()
+        .get(every_team)
+        .timeout(timeout)
+        .wait()
+    else {
+        return BTreeSet::new();
+    };
+    let mut found = BTreeSet::new();
+    while let Ok(reply) = replies.recv() {
+        if let Ok(sample) = reply.result()
+            && let Some(a) = keys::source(sample.key_expr().as_str())
+        {
+            found.insert(a);
+        }
+    }
+    found
+}
+
+/// Waits until the transport sees every expected module (or at least one if none is
+/// expected), or the deadline.
+fn wait_for_peers(node: &Node, expected: &BTreeSet<Address>, deadline: Instant) {
+    while Instant::now() < deadline {
+        let peers: BTreeSet<Address> = node.transport().peers().into_iter().collect();
+        let done = if expected.is_empty() {
+            !peers.is_empty()
+        } else {
+            expected
+                .iter()
+                .all(|a| peers.contains(a) || a == node.address())
+        };
+        if done {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Waits until the observer and every peer have met both ways, and the board has been
+/// quiet for a moment (answers that asked for class definitions are re-sent), or the
+/// deadline: a catch-up has completed for every peer (the observer has their state),
+/// and every peer has asked the observer for its own (a peer sends its hello, with its
+/// interest, just before: until then the observer's writes would not be sent to it).
+fn wait_caught_up(node: &Node, deadline: Instant) {
+    const QUIET: Duration = Duration::from_millis(150);
+    let mut last = (node.board().revision(), Instant::now());
+    while Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+        let peers = node.transport().peers().len() as u64;
+        let catch_up = node.ici().stats().catch_up;
+        let revision = node.board().revision();
+        if revision != last.0 {
+            last = (revision, Instant::now());
+        }
+        let met = catch_up.completed >= peers && catch_up.answered >= peers;
+        if met && last.1.elapsed() >= QUIET {
+            return;
+        }
+    }
+}

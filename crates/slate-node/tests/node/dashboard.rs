@@ -1,0 +1,102 @@
+//! The dashboard a node serves: its snapshot follows docs/dashboard.md.
+
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::time::Duration;
+
+use slate_ici::SimNet;
+
+use super::common::{WORLD, addr, eventually};
+use slate_node::Node;
+
+fn get(url: &str, path: &str) -> String {
+    let host = url.trim_start_matches("http://").trim_end_matches('/');
+    let mut s = TcpStream::connect(host).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut out = String::new();
+    s.read_to_string(&mut out).unwrap();
+    out.split_once("\r\n\r\n")
+        .map(|(_, b)| b.to_owned())
+        .unwrap_or_default()
+}
+
+#[test]
+fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
+    let net = SimNet::new(9);
+    let a = addr("t/r1/nav");
+    let nav = Node::builder(a.clone())
+        .transport(net.join(&a))
+        .clock(net.clock())
+        .source("w.slate", WORLD)
+        .source("o.slate", "object gsr : Vehicle context self { position = [3.0, 4.0] accuracy 0.5; }\nobject rock : Obstacle { position = [5.0, 6.0]; }\nplan p { trigger: gsr.speed > 1.0; action { set gsr.mode = \"go\"; } }")
+        .dashboard("127.0.0.1:0".parse().unwrap())
+        .start()
+        .unwrap();
+    let b = addr("t/r1/loco");
+    let _loco = Node::builder(b.clone())
+        .transport(net.join(&b))
+        .clock(net.clock())
+        .source("w.slate", WORLD)
+        .start()
+        .unwrap();
+    net.run_for(Duration::from_millis(500));
+    assert!(eventually(|| nav
+        .events()
+        .iter()
+        .any(|e| e.text == "peer t/r1/loco up")));
+    let url = nav.dashboard_url().expect("serves a dashboard");
+    let j: serde_json::Value = serde_json::from_str(&get(&url, "/api/snapshot")).unwrap();
+    assert_eq!(j["title"], "slate node t/r1/nav");
+    let items = j["map"]["items"].as_array().unwrap();
+    let gsr = items.iter().find(|i| i["id"] == "gsr").unwrap();
+    assert_eq!(
+        (gsr["kind"].as_str(), gsr["x"].as_f64(), gsr["y"].as_f64()),
+        (Some("robot"), Some(3.0), Some(4.0))
+    );
+    assert_eq!(gsr["accuracy"], 0.5);
+    assert!(
+        items
+            .iter()
+            .any(|i| i["id"] == "rock" && i["kind"] == "obstacle")
+    );
+    let classes: Vec<&str> = j["classes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|c| c["name"].as_str())
+        .collect();
+    assert!(
+        classes.contains(&"Vehicle") && classes.contains(&"Module"),
+        "{classes:?}"
+    );
+    let objects = j["objects"].as_array().unwrap();
+    let o = objects.iter().find(|o| o["name"] == "gsr").unwrap();
+    assert_eq!(o["owner"], "t/r1/nav");
+    assert!(
+        o["attrs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|a| a["name"] == "position" && a["value"] == "[3.0, 4.0]")
+    );
+    assert_eq!(j["plans"][0]["name"], "p");
+    assert_eq!(j["plans"][0]["state"], "active");
+    let links = j["links"].as_array().unwrap();
+    assert_eq!(links.len(), 2);
+    assert!(links[0]["total_bytes"].as_u64().unwrap() > 0, "{links:?}");
+    assert!(
+        j["events"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e["text"] == "peer t/r1/loco up")
+    );
+    assert_eq!(get(&url, "/healthz"), "ok");
+    nav.close();
+    assert!(nav.dashboard_url().is_none(), "stopped with the node");
+}

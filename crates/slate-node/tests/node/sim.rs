@@ -1,0 +1,223 @@
+//! Nodes on the deterministic simulator: reports, late joiners, plans with acks,
+//! cancellation by another module, shutdown.
+
+use std::time::Duration;
+
+use slate_ici::SimNet;
+use slate_model::Value;
+use slate_node::{Level, Node};
+use slate_wire::PlanStep;
+
+use super::common::{addr, eventually, run_until, start};
+
+fn speed(node: &Node) -> Option<f64> {
+    node.board().read("gsr", "speed").ok()?.value.as_f64()
+}
+
+#[test]
+fn a_write_on_one_node_reaches_the_others() {
+    let net = SimNet::new(1);
+    let nav = start(&net, "t/r1/nav", "object gsr : Vehicle context self;");
+    let loco = start(&net, "t/r1/loco", "");
+    let base = start(&net, "t/base/console", "");
+    assert!(run_until(&net, 2.0, || loco.board().info("gsr").is_some()
+        && base.board().info("gsr").is_some()));
+    nav.board().write("gsr", "speed", 2.5).unwrap();
+    assert!(run_until(&net, 2.0, || speed(&loco) == Some(2.5)
+        && speed(&base) == Some(2.5)));
+    let mut peers = nav.peers();
+    peers.sort();
+    assert_eq!(peers, [addr("t/base/console"), addr("t/r1/loco")]);
+}
+
+#[test]
+fn a_late_joiner_catches_up_with_the_current_state() {
+    let net = SimNet::new(2);
+    let nav = start(&net, "t/r1/nav", "object gsr : Vehicle context self;");
+    net.run_for(Duration::from_millis(300));
+    for s in [1.0, 2.0, 3.0] {
+        nav.board().write("gsr", "speed", s).unwrap();
+        net.run_for(Duration::from_millis(100));
+    }
+    let late = start(&net, "t/r2/late", "");
+    assert!(run_until(&net, 3.0, || speed(&late) == Some(3.0)));
+}
+
+#[test]
+fn a_plan_sent_from_a_node_is_acknowledged_step_by_step() {
+    let net = SimNet::new(3);
+    let planner = start(&net, "t/r1/planner", "");
+    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    net.run_for(Duration::from_millis(500));
+    let handle = planner
+        .send_plan(
+            &addr("t/r2/loco"),
+            "plan slow { trigger: gsr.speed > 5.0; termination: gsr.mode == \"slow\"; action { set gsr.mode = \"slow\"; } }",
+        )
+        .unwrap();
+    net.run_for(Duration::from_millis(300));
+    loco.board().write("gsr", "speed", 6.0).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
+    assert_eq!(
+        steps[..3],
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    assert!(
+        matches!(steps[3], PlanStep::Triggered { ok: true, .. }),
+        "{steps:?}"
+    );
+    assert_eq!(steps.last(), Some(&PlanStep::Terminated), "{steps:?}");
+    let sent = planner.circuits().sent();
+    assert_eq!(sent.len(), 1);
+    assert_eq!(sent[0].peer, addr("t/r2/loco"));
+    assert_eq!(loco.circuits().received()[0].peer, addr("t/r1/planner"));
+}
+
+#[test]
+fn writing_cancelled_to_a_plans_state_from_another_module_cancels_it() {
+    let net = SimNet::new(4);
+    let loco = start(&net, "t/r1/loco", "object gsr : Vehicle context self;");
+    let console = start(&net, "t/r1/console", "");
+    let planner = start(&net, "t/r1/planner", "");
+    net.run_for(Duration::from_millis(500));
+    let handle = planner
+        .send_plan(
+            &addr("t/r1/loco"),
+            "plan p { trigger: gsr.speed > 5.0; action { set gsr.mode = \"fast\"; } }",
+        )
+        .unwrap();
+    assert!(run_until(&net, 2.0, || console.board().info("p").is_some()));
+    console.board().write("p", "state", "cancelled").unwrap();
+    // The monitor thread (real time) sees the write and cancels; the ack travels.
+    assert!(eventually(|| {
+        net.run_for(Duration::from_millis(20));
+        loco.engine()
+            .status("p")
+            .is_some_and(|s| s.state.name() == "cancelled")
+    }));
+    assert!(eventually(|| {
+        net.run_for(Duration::from_millis(20));
+        handle.acks().try_iter().any(|s| s == PlanStep::Cancelled)
+    }));
+    let on_loco = loco.board().read("p", "state").unwrap();
+    assert_eq!(
+        on_loco.source,
+        addr("t/r1/loco"),
+        "the engine confirms it itself"
+    );
+    assert!(
+        loco.events()
+            .iter()
+            .any(|e| e.text == "plan p cancelled by t/r1/console")
+    );
+}
+
+#[test]
+fn a_remote_write_to_a_finished_plans_state_is_put_back() {
+    let net = SimNet::new(5);
+    let loco = start(
+        &net,
+        "t/r1/loco",
+        "object gsr : Vehicle context self;\nplan once { termination: gsr.speed > 1.0; action { } }",
+    );
+    let console = start(&net, "t/r1/console", "");
+    net.run_for(Duration::from_millis(500));
+    loco.board().write("gsr", "speed", 2.0).unwrap();
+    assert!(run_until(&net, 2.0, || console
+        .board()
+        .read("once", "state")
+        .is_ok_and(|p| p.value == Value::from("terminated"))));
+    console.board().write("once", "state", "cancelled").unwrap();
+    assert!(eventually(|| {
+        net.run_for(Duration::from_millis(20));
+        loco.board()
+            .read("once", "state")
+            .is_ok_and(|p| p.value == Value::from("terminated"))
+    }));
+    assert_eq!(
+        loco.engine().status("once").unwrap().state.name(),
+        "terminated"
+    );
+}
+
+#[test]
+fn closing_a_node_makes_it_dead_on_the_others_and_logs_it() {
+    let net = SimNet::new(6);
+    let nav = start(&net, "t/r1/nav", "");
+    let loco = start(&net, "t/r1/loco", "");
+    net.run_for(Duration::from_millis(500));
+    assert!(eventually(|| loco
+        .events()
+        .iter()
+        .any(|e| e.text == "peer t/r1/nav up")));
+    nav.close();
+    assert!(nav.is_closed());
+    nav.close(); // idempotent
+    assert!(run_until(&net, 5.0, || loco
+        .board()
+        .read("t_r1_nav", "alive")
+        .is_ok_and(|p| p.value == Value::Bool(false))));
+    assert!(eventually(|| loco.events().iter().any(|e| e.text
+        == "peer t/r1/nav down"
+        && e.level == Level::Warn)));
+    let ups = loco
+        .events()
+        .iter()
+        .filter(|e| e.text == "peer t/r1/nav up")
+        .count();
+    assert_eq!(ups, 1, "one line per change, not per last_seen refresh");
+}
+
+#[test]
+fn a_write_just_before_close_is_not_lost() {
+    let net = SimNet::new(7);
+    let nav = start(&net, "t/r1/nav", "object gsr : Vehicle context self;");
+    let loco = start(&net, "t/r1/loco", "");
+    net.run_for(Duration::from_millis(500));
+    let mut batch = nav.board().batch();
+    batch
+        .write("gsr", "speed", 4.0)
+        .write("gsr", "mode", "manual");
+    batch.commit().unwrap();
+    nav.close();
+    assert!(run_until(&net, 2.0, || speed(&loco) == Some(4.0)));
+    assert_eq!(
+        loco.board().read("gsr", "mode").unwrap().value,
+        Value::from("manual")
+    );
+}
+
+#[test]
+fn a_node_can_adopt_an_existing_board_and_engine() {
+    let net = SimNet::new(8);
+    let a = addr("t/r1/nav");
+    let board = std::sync::Arc::new(
+        slate_model::Board::builder()
+            .address(a.clone())
+            .clock(net.clock())
+            .build(),
+    );
+    let engine = slate_plans::Engine::new(&board);
+    engine.load("w.slate", super::common::WORLD).unwrap();
+    let node = Node::builder(a.clone())
+        .transport(net.join(&a))
+        .board(board.clone())
+        .engine(engine)
+        .start()
+        .unwrap();
+    assert!(std::sync::Arc::ptr_eq(node.board(), &board));
+    let other = slate_model::Board::builder()
+        .address(addr("t/r1/other"))
+        .build();
+    let err = Node::builder(a.clone())
+        .transport(net.join(&addr("t/r1/x")))
+        .board(std::sync::Arc::new(other))
+        .start()
+        .err()
+        .unwrap();
+    assert_eq!(
+        err.to_string(),
+        "the board is t/r1/other but the node is t/r1/nav"
+    );
+}

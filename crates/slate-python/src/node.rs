@@ -1,0 +1,388 @@
+//! `Node`: a board on the network (its ICI over Zenoh, its plan circuits), `PlanHandle`
+//! (a plan sent, and its acknowledgements as they arrive) and `Ack`.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use crossbeam_channel::Receiver;
+use pyo3::prelude::*;
+use pyo3::types::PyString;
+use slate_ici::IciConfig;
+use slate_node::{Node, is_final};
+use slate_wire::PlanStep;
+use slate_zenoh::{Mode, ZenohConfig};
+
+use crate::board::PyBoard;
+use crate::errors::{self, Kind};
+use crate::packet::{quote, to_address};
+use crate::stream;
+
+/// One module on the network: a board, its plan engine, its ICI over Zenoh and its plan
+/// circuits. `Node("team/r1/nav", connect=["tcp/127.0.0.1:7447"])`; a `with` block closes
+/// it. Without `board=`, it makes a board at its address on the system clock.
+#[pyclass(module = "slate", name = "Node", frozen)]
+pub(crate) struct PyNode {
+    node: Arc<Node>,
+    board: Py<PyBoard>,
+}
+
+/// The Zenoh settings from the keyword arguments.
+fn zenoh(
+    py: Python<'_>,
+    mode: &str,
+    listen: Vec<String>,
+    connect: Vec<String>,
+) -> PyResult<ZenohConfig> {
+    let mode = match mode {
+        "peer" => Mode::Peer,
+        "router" => Mode::Router,
+        "client" => Mode::Client,
+        other => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "mode {} is not \"peer\", \"router\" or \"client\"",
+                quote(other)
+            )));
+        }
+    };
+    let _ = py;
+    Ok(ZenohConfig {
+        mode,
+        listen,
+        connect,
+        multicast_scouting: false,
+    })
+}
+
+/// A class set from `["Vehicle", "Obstacle:surroundings"]`.
+fn classes(
+    which: &str,
+    entries: Option<Vec<String>>,
+    default: slate_ici::ClassSet,
+) -> PyResult<slate_ici::ClassSet> {
+    match entries {
+        None => Ok(default),
+        Some(e) => slate_node::class_set(&e)
+            .map_err(|why| pyo3::exceptions::PyValueError::new_err(format!("{which}: {why}"))),
+    }
+}
+
+#[pymethods]
+impl PyNode {
+    #[new]
+    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        address: &str,
+        board: Option<Py<PyBoard>>,
+        connect: Option<Vec<String>>,
+        listen: Option<Vec<String>>,
+        mode: &str,
+        interest: Option<Vec<String>>,
+        export: Option<Vec<String>>,
+        dashboard: Option<&str>,
+    ) -> PyResult<Self> {
+        let addr = to_address(py, address)?;
+        let board = match board {
+            Some(b) => b,
+            None => Py::new(py, PyBoard::for_node(addr.clone()))?,
+        };
+        let zenoh = zenoh(
+            py,
+            mode,
+            listen.unwrap_or_default(),
+            connect.unwrap_or_default(),
+        )?;
+        let ici = IciConfig::default()
+            .interest(classes("interest", interest, slate_ici::ClassSet::all())?)
+            .export(classes("export", export, slate_ici::ClassSet::none())?);
+        let dashboard: Option<SocketAddr> = dashboard
+            .map(|d| {
+                d.parse().map_err(|_| {
+                    pyo3::exceptions::PyValueError::new_err(format!(
+                        "dashboard {} is not an address like \"127.0.0.1:8080\"",
+                        quote(d)
+                    ))
+                })
+            })
+            .transpose()?;
+        let b = board.get();
+        let engine = b.engine(py).clone();
+        let mut builder = Node::builder(addr)
+            .zenoh(zenoh)
+            .ici(ici)
+            .board(b.inner().clone())
+            .engine(engine);
+        if let Some(d) = dashboard {
+            builder = builder.dashboard(d);
+        }
+        let node = py
+            .detach(|| builder.start())
+            .map_err(|e| errors::new(py, Kind::Node, e.to_string()))?;
+        Ok(PyNode {
+            node: Arc::new(node),
+            board,
+        })
+    }
+
+    /// The module's address.
+    #[getter]
+    fn address(&self) -> String {
+        self.node.address().to_string()
+    }
+
+    /// The node's board.
+    #[getter]
+    fn board(&self, py: Python<'_>) -> Py<PyBoard> {
+        self.board.clone_ref(py)
+    }
+
+    /// The Zenoh endpoints it listens on.
+    #[getter]
+    fn listening(&self) -> Vec<String> {
+        self.node.listening().to_vec()
+    }
+
+    /// The dashboard's URL, if it serves one.
+    #[getter]
+    fn dashboard_url(&self) -> Option<String> {
+        self.node.dashboard_url()
+    }
+
+    /// Has it been closed?
+    #[getter]
+    fn closed(&self) -> bool {
+        self.node.is_closed()
+    }
+
+    /// The modules it holds alive, sorted.
+    fn peers(&self, py: Python<'_>) -> Vec<String> {
+        let mut peers: Vec<String> = py
+            .detach(|| self.node.peers())
+            .iter()
+            .map(ToString::to_string)
+            .collect();
+        peers.sort();
+        peers
+    }
+
+    /// Sends a plan (source text of one `plan NAME { ... }`) to the module `to`, on a
+    /// virtual circuit. The handle's `acks` yields its acknowledgements as they arrive.
+    #[pyo3(signature = (source, *, to))]
+    fn send_plan(&self, py: Python<'_>, source: &str, to: &str) -> PyResult<PlanHandle> {
+        let to = to_address(py, to)?;
+        if self.node.is_closed() {
+            return Err(errors::new(py, Kind::Plan, "the node is closed"));
+        }
+        let handle = py
+            .detach(|| self.node.send_plan(&to, source))
+            .map_err(|e| errors::new(py, Kind::Plan, e.to_string()))?;
+        Ok(PlanHandle {
+            node: self.node.clone(),
+            circuit: handle.circuit,
+            name: handle.name.clone(),
+            to: handle.to.to_string(),
+            acks: handle.acks().clone(),
+            done: Arc::new(AtomicBool::new(false)),
+        })
+    }
+
+    /// The dashboard's view of the node as a dict (map items, classes, objects, plans,
+    /// links, events; see docs/dashboard.md).
+    fn snapshot(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let text = py.detach(|| self.node.snapshot().to_string());
+        let json = py.import("json")?;
+        Ok(json
+            .call_method1("loads", (PyString::new(py, &text),))?
+            .unbind())
+    }
+
+    /// Leaves the network: what the board committed is sent first, then peers see the
+    /// module go down. Idempotent; the board stays usable.
+    fn close(&self, py: Python<'_>) {
+        py.detach(|| self.node.close());
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
+    fn __exit__(
+        &self,
+        py: Python<'_>,
+        exc_type: Option<&Bound<'_, PyAny>>,
+        exc_value: Option<&Bound<'_, PyAny>>,
+        traceback: Option<&Bound<'_, PyAny>>,
+    ) -> bool {
+        let _ = (exc_type, exc_value, traceback);
+        self.close(py);
+        false
+    }
+
+    fn __repr__(&self) -> String {
+        let state = if self.node.is_closed() {
+            ", closed"
+        } else {
+            ""
+        };
+        format!("Node({}{state})", quote(self.node.address().as_str()))
+    }
+}
+
+/// A plan sent to another module: its circuit, and its acknowledgements.
+#[pyclass(module = "slate", name = "PlanHandle", frozen)]
+pub(crate) struct PlanHandle {
+    node: Arc<Node>,
+    /// The circuit's number.
+    #[pyo3(get)]
+    circuit: u64,
+    /// The plan's name.
+    #[pyo3(get)]
+    name: String,
+    /// The module running it.
+    #[pyo3(get)]
+    to: String,
+    acks: Receiver<PlanStep>,
+    /// A final step (terminated, rejected, cancelled, destination lost) was taken.
+    done: Arc<AtomicBool>,
+}
+
+impl PlanHandle {
+    fn next_ack(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Ack>> {
+        if self.done.load(Ordering::Acquire) {
+            return Ok(None);
+        }
+        let node = self.node.clone();
+        let alive = move || !node.is_closed();
+        let step = stream::next_from(py, &self.acks, timeout, &alive)?;
+        Ok(step.map(|s| {
+            if is_final(&s) {
+                self.done.store(true, Ordering::Release);
+            }
+            Ack::from(&s)
+        }))
+    }
+}
+
+#[pymethods]
+impl PlanHandle {
+    /// The acknowledgements as they arrive: iterating waits for each (with the GIL
+    /// released) and ends after the last one (terminated, rejected, cancelled,
+    /// destination lost) or when the node closes.
+    #[getter]
+    fn acks(slf: Py<Self>) -> Acks {
+        Acks { handle: slf }
+    }
+
+    /// The next acknowledgement, or `None` after `timeout` seconds (`None`: no limit),
+    /// after the last one, or once the node is closed.
+    #[pyo3(signature = (timeout=None))]
+    fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<Ack>> {
+        self.next_ack(py, stream::timeout(timeout)?)
+    }
+
+    /// Has the plan taken its last step?
+    #[getter]
+    fn done(&self) -> bool {
+        self.done.load(Ordering::Acquire)
+    }
+
+    /// Asks the destination to cancel the plan (it acknowledges `cancelled`).
+    fn cancel(&self, py: Python<'_>) -> PyResult<()> {
+        py.detach(|| self.node.circuits().cancel(self.circuit))
+            .map_err(|e| errors::new(py, Kind::Plan, e.to_string()))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "PlanHandle(circuit={}, name={}, to={})",
+            self.circuit,
+            quote(&self.name),
+            quote(&self.to)
+        )
+    }
+}
+
+/// Iterator over a plan's acknowledgements.
+#[pyclass(module = "slate", name = "Acks", frozen)]
+pub(crate) struct Acks {
+    handle: Py<PlanHandle>,
+}
+
+#[pymethods]
+impl Acks {
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&self, py: Python<'_>) -> PyResult<Option<Ack>> {
+        self.handle.get().next_ack(py, None)
+    }
+}
+
+/// One step of a plan's progression, as its destination acknowledged it.
+#[pyclass(module = "slate", name = "Ack", frozen, get_all)]
+#[derive(Clone)]
+pub(crate) struct Ack {
+    /// `received`, `accepted`, `rejected`, `initiated`, `triggered`, `terminated`,
+    /// `cancelled` or `destination_lost`.
+    step: String,
+    /// False for `rejected`, a failed `triggered` and `destination_lost`.
+    ok: bool,
+    /// What the action did (`fired 2`), why it failed, or why the plan was rejected.
+    detail: String,
+    /// Is it the last step of the circuit?
+    last: bool,
+}
+
+impl From<&PlanStep> for Ack {
+    fn from(s: &PlanStep) -> Self {
+        let (step, ok, detail) = match s {
+            PlanStep::Received => ("received", true, String::new()),
+            PlanStep::Accepted => ("accepted", true, String::new()),
+            PlanStep::Rejected { reason } => ("rejected", false, reason.clone()),
+            PlanStep::Initiated => ("initiated", true, String::new()),
+            PlanStep::Triggered { ok, detail } => ("triggered", *ok, detail.clone()),
+            PlanStep::Terminated => ("terminated", true, String::new()),
+            PlanStep::Cancelled => ("cancelled", true, String::new()),
+            PlanStep::DestinationLost => ("destination_lost", false, String::new()),
+        };
+        Ack {
+            step: step.to_owned(),
+            ok,
+            detail,
+            last: is_final(s),
+        }
+    }
+}
+
+#[pymethods]
+impl Ack {
+    fn __repr__(&self) -> String {
+        let mut text = format!("Ack({}", quote(&self.step));
+        if !self.ok {
+            text.push_str(", ok=False");
+        }
+        if !self.detail.is_empty() {
+            text.push_str(&format!(", detail={}", quote(&self.detail)));
+        }
+        text + ")"
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other.cast::<Ack>().is_ok_and(|o| {
+            let o = o.get();
+            (&o.step, o.ok, &o.detail) == (&self.step, self.ok, &self.detail)
+        })
+    }
+
+    fn __hash__(&self) -> u64 {
+        use std::hash::{Hash, Hasher};
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        (&self.step, self.ok, &self.detail).hash(&mut h);
+        h.finish()
+    }
+}

@@ -1,0 +1,174 @@
+"""Nodes over Zenoh on 127.0.0.1: two modules in one process, reports, plans and their
+acknowledgements, errors, closing."""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+
+import slate
+
+from .conftest import run_with_timeout
+
+WORLD = """
+class Vehicle {
+    speed: real [m/s] in 0 .. 10 = 0.0;
+    mode: string = "auto";
+}
+"""
+
+
+def free_endpoint() -> str:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
+
+
+def eventually(condition: Callable[[], bool], seconds: float = 10.0) -> bool:
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.02)
+    return condition()
+
+
+@pytest.fixture
+def pair() -> Iterator[tuple[slate.Node, slate.Node]]:
+    """t/r1/nav (owns gsr, listens) and t/r2/loco (connects), both exporting everything."""
+    endpoint = free_endpoint()
+    nav_board = slate.Board(address="t/r1/nav")
+    nav_board.load(WORLD + "object gsr : Vehicle context self;")
+    loco_board = slate.Board(address="t/r2/loco")
+    loco_board.load(WORLD)
+    nav = slate.Node("t/r1/nav", nav_board, listen=[endpoint], export=["Thing"])
+    loco = slate.Node("t/r2/loco", loco_board, connect=[endpoint], export=["Thing"])
+    try:
+        assert eventually(lambda: nav.peers() == ["t/r2/loco"] and loco.peers() == ["t/r1/nav"])
+        yield nav, loco
+    finally:
+        loco.close()
+        nav.close()
+
+
+def test_a_write_on_one_node_is_visible_on_the_other(pair: tuple[slate.Node, slate.Node]) -> None:
+    nav, loco = pair
+
+    def check() -> None:
+        assert eventually(lambda: "gsr" in loco.board)
+        nav.board.write("gsr", "speed", 2.5, accuracy=0.1, confidence=0.9)
+        assert eventually(lambda: loco.board.read("gsr", "speed").value == 2.5)
+        p = loco.board.read("gsr", "speed")
+        assert p.source == "t/r1/nav"
+        assert p.confidence == pytest.approx(0.9, abs=0.01)
+        # And the other way: loco writes, nav sees it.
+        loco.board.write("gsr", "mode", "manual")
+        assert eventually(lambda: nav.board.read("gsr", "mode").value == "manual")
+
+    run_with_timeout(check)
+
+
+def test_send_plan_yields_every_acknowledgement_as_it_arrives(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    nav, loco = pair
+    plan = """plan slow {
+        trigger: gsr.speed > 5.0;
+        termination: gsr.mode == "slow";
+        action { set gsr.mode = "slow"; }
+    }"""
+
+    def check() -> None:
+        assert eventually(lambda: "gsr" in loco.board)
+        handle = loco.send_plan(plan, to="t/r1/nav")
+        assert (handle.name, handle.to, handle.circuit) == ("slow", "t/r1/nav", 1)
+        assert repr(handle) == "PlanHandle(circuit=1, name='slow', to='t/r1/nav')"
+        steps = []
+        for ack in handle.acks:
+            steps.append(ack.step)
+            if ack.step == "initiated":
+                nav.board.write("gsr", "speed", 6.0)
+        assert steps == ["received", "accepted", "initiated", "triggered", "terminated"]
+        assert handle.done
+        assert handle.get(timeout=0.1) is None
+        assert nav.board.plan("slow").state == "terminated"
+        snap = nav.snapshot()
+        assert [p["acks"] for p in snap["plans"] if p["name"] == "slow"] == [
+            ["received", "accepted", "initiated", "triggered ok: fired 1", "terminated"]
+        ]
+
+    run_with_timeout(check)
+
+
+def test_a_plan_the_destination_cannot_load_is_rejected_with_the_reason(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    nav, loco = pair
+
+    def check() -> None:
+        handle = loco.send_plan("plan bad { trigger: gsr.sped > 1.0; action { } }", to="t/r1/nav")
+        first = handle.get(timeout=10)
+        assert first is not None and first.step == "received"
+        rejected = handle.get(timeout=10)
+        assert rejected is not None
+        assert (rejected.step, rejected.ok, rejected.last) == ("rejected", False, True)
+        assert "no attribute sped" in rejected.detail
+        assert handle.get(timeout=0.1) is None
+
+    run_with_timeout(check)
+
+
+def test_cancel_a_plan_from_its_handle(pair: tuple[slate.Node, slate.Node]) -> None:
+    nav, loco = pair
+
+    def check() -> None:
+        handle = loco.send_plan("plan idle { trigger: gsr.speed > 9.0; action { } }", to="t/r1/nav")
+        assert [handle.get(timeout=10).step for _ in range(3)] == [  # type: ignore[union-attr]
+            "received",
+            "accepted",
+            "initiated",
+        ]
+        handle.cancel()
+        last = handle.get(timeout=10)
+        assert last is not None and last.step == "cancelled"
+        assert nav.board.plan("idle").state == "cancelled"
+
+    run_with_timeout(check)
+
+
+def test_bad_arguments_raise_what_is_wrong() -> None:
+    with pytest.raises(slate.AddressError):
+        slate.Node("nav")
+    with pytest.raises(slate.NodeError, match="the board is t/r1/other but the node is t/r1/nav"):
+        slate.Node("t/r1/nav", slate.Board(address="t/r1/other"))
+    with pytest.raises(ValueError, match="mode 'mesh'"):
+        slate.Node("t/r1/nav", mode="mesh")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="interest"):
+        slate.Node("t/r1/nav", interest=["Obstacle:nearby"])
+    with pytest.raises(ValueError, match="dashboard"):
+        slate.Node("t/r1/nav", dashboard="localhost")
+    with slate.Node("t/r1/alone", listen=[free_endpoint()]) as n:
+        with pytest.raises(slate.PlanError, match="not one plan"):
+            n.send_plan("class C { x: real; }", to="t/r1/other")
+        with pytest.raises(slate.AddressError):
+            n.send_plan("plan p { action { } }", to="nowhere")
+
+
+def test_a_node_closes_once_and_says_so() -> None:
+    with slate.Node("t/r1/solo", listen=[free_endpoint()], dashboard="127.0.0.1:0") as n:
+        assert repr(n) == "Node('t/r1/solo')"
+        assert n.address == "t/r1/solo"
+        assert n.board.address == "t/r1/solo"
+        assert n.listening[0].startswith("tcp/127.0.0.1:")
+        assert n.dashboard_url is not None and n.dashboard_url.startswith("http://127.0.0.1:")
+        assert n.peers() == []
+        assert n.snapshot()["title"] == "slate node t/r1/solo"
+    assert n.closed
+    assert n.dashboard_url is None
+    n.close()
+    assert repr(n) == "Node('t/r1/solo', closed)"
+    with pytest.raises(slate.PlanError, match="closed"):
+        n.send_plan("plan p { action { } }", to="t/r1/x")
