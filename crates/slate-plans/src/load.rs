@@ -681,7 +681,15 @@ fn plan_deps(node: &Node, l: &Locals, scope: &Scope, derived: &DerivedDeps, out:
                 }
                 Obj::This => return,
             };
-            expand_derived(&dep, class.as_deref(), attr, scope, derived, out, 0);
+            expand_derived(
+                &dep,
+                class.as_deref(),
+                attr,
+                scope,
+                derived,
+                out,
+                &mut HashSet::new(),
+            );
             out.push(dep);
         }
         Node::Quant(q) => {
@@ -705,11 +713,8 @@ fn expand_derived(
     scope: &Scope,
     derived: &DerivedDeps,
     out: &mut Vec<Dep>,
-    depth: usize,
+    seen: &mut HashSet<Dep>,
 ) {
-    if depth > 8 {
-        return;
-    }
     let declaring: Vec<String> = match class {
         Some(c) => scope
             .attr(c, attr)
@@ -734,9 +739,14 @@ fn expand_derived(
                 (Dep::Object(o, x), Dep::Attr(_)) if &**o == SELF => Dep::Attr(x.clone()),
                 (other, _) => other.clone(),
             };
+            // Each dependency is expanded once: derived attributes that read one another
+            // (even the same name through references) stay linear, not exponential.
+            if !seen.insert(concrete.clone()) {
+                continue;
+            }
             if let Dep::Object(_, x) | Dep::Class(_, x) | Dep::Attr(x) = &concrete {
                 let x = x.clone();
-                expand_derived(&concrete, class, &x, scope, derived, out, depth + 1);
+                expand_derived(&concrete, class, &x, scope, derived, out, seen);
             }
             out.push(concrete);
         }

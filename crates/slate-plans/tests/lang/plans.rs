@@ -272,6 +272,36 @@ fn an_age_condition_fires_exactly_when_its_deadline_passes() {
 }
 
 #[test]
+fn a_derived_attribute_reading_its_own_name_through_a_reference_loads_and_tracks() {
+    // Regression: `position` derived from `observer.position` made the dependency
+    // expansion exponential (about 110 s to load one plan).
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    let src = r#"
+        class Body { position: vec<2>; heading: real = 0.0; }
+        class Seen {
+            observer: ref; range: real = 1.0; bearing: real = 0.0;
+            position: vec<2> derived = self.observer.position + polar(self.range, self.observer.heading + self.bearing);
+        }
+        class Log { n: int = 0; }
+        object me : Body { position = [0.0, 0.0]; }
+        object s1 : Seen { observer = me; range = 10.0; }
+        object log : Log;
+        plan close { trigger: any s: Seen where distance(s.position, me.position) < 5.0; action { set log.n = log.n + 1; } }
+    "#;
+    engine
+        .load("d.slate", src)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(engine.status("close").unwrap().fired, 0);
+    board.write("s1", "range", 2.0).unwrap();
+    let fired = engine.status("close").unwrap().fired;
+    assert_eq!(
+        fired, 1,
+        "a write read through the derived attribute re-evaluates the plan"
+    );
+}
+
+#[test]
 fn an_age_condition_fires_after_the_clock_stopped_exactly_on_its_deadline() {
     let (b, e) = vehicles(
         r#"plan position_lost {
