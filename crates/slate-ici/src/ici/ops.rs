@@ -14,8 +14,18 @@ use super::module::{MODULE_CLASS, module_object_name};
 use super::state::State;
 use crate::LinkKind;
 
-/// An own packet to replace: key, the exact packet written, its quantised form.
-pub(crate) type Normalised = (Key, Packet, Packet);
+/// An own packet to replace by its quantised form.
+#[derive(Debug)]
+pub(crate) struct Normalised {
+    pub key: Key,
+    /// The packet written.
+    pub exact: Packet,
+    /// What receivers decode.
+    pub quantised: Packet,
+    /// An older packet of this module's on the board is a normalisation that overtook
+    /// this write (not a `confident` packet merged back): replace it too.
+    pub repair: bool,
+}
 
 /// One board change.
 #[derive(Debug)]
@@ -144,7 +154,13 @@ fn normalise(board: &Board, state: &Mutex<State>, list: Vec<Normalised>) {
     let (mut written, mut dropped) = (Vec::new(), Vec::new());
     {
         let snap = board.snapshot();
-        for (key, exact, quantised) in list {
+        for Normalised {
+            key,
+            exact,
+            quantised,
+            repair,
+        } in list
+        {
             let current = snap.id_of(&key.0).and_then(|id| {
                 snap.own_values(id)
                     .into_iter()
@@ -152,13 +168,15 @@ fn normalise(board: &Board, state: &Mutex<State>, list: Vec<Normalised>) {
                     .map(|(_, p, _)| p)
             });
             let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
-            // The board holds the exact packet, or an older one: another thread's
-            // normalisation, checked before this packet was written and committed after,
-            // replaced it. Either way the quantised packet goes (it is the latest).
-            // A newer packet stays: its own normalisation follows.
-            let replace = current
-                .as_ref()
-                .is_some_and(|c| *c == exact || c.timestamp < exact.timestamp);
+            // The board holds the exact packet, or an older one of this module's:
+            // another normalisation, checked (on another thread) before this packet was
+            // written and committed after, replaced it. Either way the quantised packet
+            // goes: it is the latest. A newer packet stays (its own normalisation
+            // follows), and so does another module's, or, under `confident`, a better
+            // packet merged back.
+            let replace = current.as_ref().is_some_and(|c| {
+                *c == exact || (repair && c.source == exact.source && c.timestamp < exact.timestamp)
+            });
             if replace {
                 batch.write_shared(key.0, key.1, Update::from(quantised));
                 written.push(marker);

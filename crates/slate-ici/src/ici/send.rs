@@ -124,7 +124,12 @@ impl State {
             // replaces the exact one (silently: it is not reported again).
             let marker = (key.0.clone(), key.1.clone(), a.packet.timestamp);
             self.normalising.insert(marker);
-            normalise.push((key.clone(), exact, a.packet.clone()));
+            normalise.push(Normalised {
+                key: key.clone(),
+                exact,
+                quantised: a.packet.clone(),
+                repair: merge != MergePolicy::Confident,
+            });
         }
         if merge == MergePolicy::Confident {
             self.keep_best(&key, &a.packet);

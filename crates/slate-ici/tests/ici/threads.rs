@@ -62,3 +62,61 @@ fn writers_on_other_threads_while_the_network_runs() {
         }
     }
 }
+
+#[test]
+fn the_last_own_write_survives_normalisation_on_another_thread() {
+    // The normalisation of a write (its packet replaced by the quantised one) may be
+    // applied by another thread while the writer writes again: after each burst, the
+    // last write must stand, quantised, whatever the interleaving.
+    use slate_ici::IciConfig;
+    use slate_model::{AttrDecl, ClassDef, Update, ValueType};
+    let net = SimNet::new(51);
+    let address = crate::common::addr("t/r1/a");
+    let board = Arc::new(Board::builder().address(address.clone()).build());
+    let decl = AttrDecl::new("v", ValueType::Real)
+        .bounds(0.0, 1000.0)
+        .resolution(0.01);
+    board.define(ClassDef::new("Gauge").attr(decl)).unwrap();
+    board.create("Gauge", "g").unwrap();
+    let ici = Ici::new(board.clone(), net.join(&address), IciConfig::default()).unwrap();
+    /// Stops the other thread even if an assertion fails (the scope waits for it).
+    struct Stop<'a>(&'a AtomicBool);
+    impl Drop for Stop<'_> {
+        fn drop(&mut self) {
+            self.0.store(true, Ordering::SeqCst);
+        }
+    }
+    let stop = AtomicBool::new(false);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            while !stop.load(Ordering::SeqCst) {
+                ici.tick();
+            }
+        });
+        let _stop = Stop(&stop);
+        for round in 0..300u32 {
+            let mut last = 0.0;
+            for k in 0..40u32 {
+                last = f64::from((round * 40 + k) % 1000) + 0.123_456;
+                board
+                    .write("g", "v", Update::new(last).confidence(0.5))
+                    .unwrap();
+            }
+            // The other thread may still be applying: the board settles on the last
+            // write, quantised (a stale packet never would).
+            let want = (last * 100.0).round() / 100.0;
+            let settled = |p: &slate_model::Packet| {
+                p.value.as_f64().is_some_and(|v| (v - want).abs() < 1e-9)
+                    && p.confidence == (0.5f64 * 255.0).round() / 255.0
+            };
+            let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+            let mut p = board.read("g", "v").unwrap();
+            while !settled(&p) && std::time::Instant::now() < deadline {
+                ici.tick();
+                std::thread::sleep(std::time::Duration::from_millis(1));
+                p = board.read("g", "v").unwrap();
+            }
+            assert!(settled(&p), "round {round}: {p:?} after writing {last}");
+        }
+    });
+}
