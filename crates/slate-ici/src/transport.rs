@@ -31,7 +31,7 @@ impl LinkKind {
 
     /// The kind of the link between two modules.
     pub fn between(a: &Address, b: &Address) -> LinkKind {
-        if a.team() == b.team() && a.robot() == b.robot() {
+        if a.same_robot(b) {
             LinkKind::Robot
         } else {
             LinkKind::Team

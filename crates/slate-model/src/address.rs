@@ -47,6 +47,21 @@ impl Address {
         &self.0
     }
 
+    /// `team/robot`: the robot this module is part of.
+    pub fn robot_path(&self) -> &str {
+        let s = &*self.0;
+        let mut slashes = s.bytes().enumerate().filter(|(_, b)| *b == b'/');
+        match slashes.nth(1) {
+            Some((i, _)) => &s[..i],
+            None => s,
+        }
+    }
+
+    /// Are both modules part of the same robot (of the same team)?
+    pub fn same_robot(&self, other: &Address) -> bool {
+        Arc::ptr_eq(&self.0, &other.0) || self.robot_path() == other.robot_path()
+    }
+
     /// The `team` segment.
     pub fn team(&self) -> &str {
         self.0.split('/').next().unwrap_or("")
@@ -156,6 +171,17 @@ mod tests {
             Address::new("t/r 1/nav"),
             Err(AddressError::Segment(..))
         ));
+    }
+
+    #[test]
+    fn modules_share_a_robot_by_team_and_robot() {
+        let a = |s| Address::new(s).unwrap();
+        assert_eq!(a("team/r1/nav").robot_path(), "team/r1");
+        assert!(a("team/r1/nav").same_robot(&a("team/r1/cam")));
+        assert!(!a("team/r1/nav").same_robot(&a("team/r2/nav")));
+        assert!(!a("team/r1/nav").same_robot(&a("other/r1/nav")));
+        assert!(!a("t/r1x/nav").same_robot(&a("t/r1/nav")));
+        assert!(Address::unknown().same_robot(&Address::unknown()));
     }
 
     #[test]

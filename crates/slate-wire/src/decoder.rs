@@ -1,6 +1,6 @@
 //! The receiver's side: one `Decoder` for every source a module hears.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 use slate_model::Address;
 
@@ -23,7 +23,7 @@ use crate::{
 /// for that source means the source restarted: its old dictionary is dropped.
 #[derive(Debug, Default)]
 pub struct Decoder {
-    sources: HashMap<Address, SourceDict>,
+    sources: FxHashMap<Address, SourceDict>,
     stats: DecodeStats,
 }
 

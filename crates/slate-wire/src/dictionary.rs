@@ -3,7 +3,7 @@
 //! Every change is logged so that a failed encode rolls back completely: an entry is
 //! only "announced" once the message announcing it has been produced.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::hash::Hash;
 use std::sync::Arc;
 
@@ -16,7 +16,7 @@ use crate::{EncodeError, MAX_IDS, ObjectEntry, Schema};
 /// One table: key → id, with the payload last announced for it.
 #[derive(Debug)]
 struct Table<K, V> {
-    slots: HashMap<K, Slot<V>>,
+    slots: FxHashMap<K, Slot<V>>,
     next: u32,
     /// Previous slots of the keys changed since the last commit.
     undo: Vec<(K, Option<Slot<V>>)>,
@@ -32,7 +32,7 @@ struct Slot<V> {
 impl<K, V> Default for Table<K, V> {
     fn default() -> Self {
         Table {
-            slots: HashMap::new(),
+            slots: FxHashMap::default(),
             next: 0,
             undo: Vec::new(),
             committed_next: 0,
@@ -65,6 +65,12 @@ impl<K: Hash + Eq + Clone, V: Clone + PartialEq> Table<K, V> {
         let announced = Some(payload);
         self.slots.insert(key.clone(), Slot { id, announced });
         Ok((id, true))
+    }
+
+    /// The id of `key` if `payload` is what was last announced for it.
+    fn known(&self, key: &K, payload: &V) -> Option<u32> {
+        let slot = self.slots.get(key)?;
+        (slot.announced.as_ref() == Some(payload)).then_some(slot.id)
     }
 
     fn commit(&mut self) {
@@ -110,6 +116,9 @@ impl Dictionary {
         force: bool,
         ann: &mut Announce,
     ) -> Result<u32, EncodeError> {
+        if let Some(id) = self.known_object(entry, schema).filter(|_| !force) {
+            return Ok(id);
+        }
         check_name(&entry.name)?;
         check_name(&entry.class)?;
         let fingerprint =
@@ -133,6 +142,16 @@ impl Dictionary {
         Ok(id)
     }
 
+    /// The id of an object announced as it is now, with its class (as the schema
+    /// defines it now) and owner: the common case, which needs no checks.
+    fn known_object(&self, entry: &ObjectEntry, schema: &Schema) -> Option<u32> {
+        let id = self.objects.known(&entry.name, entry)?;
+        let fingerprint = schema.fingerprint(&entry.class)?;
+        self.classes.known(&entry.class, &fingerprint)?;
+        self.addrs.known(&entry.owner, &())?;
+        Some(id)
+    }
+
     fn class(
         &mut self,
         name: &Arc<str>,
@@ -153,6 +172,9 @@ impl Dictionary {
         force: bool,
         ann: &mut Announce,
     ) -> Result<u32, EncodeError> {
+        if let Some(id) = self.attrs.known(name, &()).filter(|_| !force) {
+            return Ok(id);
+        }
         check_name(name)?;
         let (id, new) = self.attrs.intern("attribute ids", name, (), force)?;
         if new {

@@ -1,6 +1,6 @@
 //! The sender's side: one `Encoder` per sending module.
 
-use std::collections::HashSet;
+use rustc_hash::FxHashSet;
 use std::sync::Arc;
 
 use slate_model::{Address, Timestamp};
@@ -122,6 +122,6 @@ impl Encoder {
 
 /// The items with distinct keys, first occurrence kept, in order.
 fn distinct<T>(items: &[T], key: impl Fn(&T) -> Arc<str>) -> Vec<&T> {
-    let mut seen = HashSet::new();
+    let mut seen = FxHashSet::default();
     items.iter().filter(|i| seen.insert(key(i))).collect()
 }

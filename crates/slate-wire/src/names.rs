@@ -1,7 +1,7 @@
 //! The names section (dictionary entries, inline in a report or alone in a `Names`
 //! message) and the receiver's per-source dictionaries.
 
-use std::collections::{HashMap, HashSet};
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::sync::Arc;
 
 use slate_model::{Address, Context};
@@ -117,12 +117,12 @@ fn context_of(n: u64) -> Result<Context, DecodeError> {
 pub(crate) struct SourceDict {
     /// Epoch in whole seconds.
     epoch: Option<u64>,
-    addrs: HashMap<u32, Address>,
+    addrs: FxHashMap<u32, Address>,
     /// `id → (name, fingerprint)`.
-    classes: HashMap<u32, (Arc<str>, u32)>,
-    attrs: HashMap<u32, Arc<str>>,
+    classes: FxHashMap<u32, (Arc<str>, u32)>,
+    attrs: FxHashMap<u32, Arc<str>>,
     /// `id → (entry, class id)`.
-    objects: HashMap<u32, (ObjectEntry, u32)>,
+    objects: FxHashMap<u32, (ObjectEntry, u32)>,
 }
 
 /// A decoded names section, not yet applied.
@@ -266,7 +266,7 @@ impl Section {
     }
 
     fn read_attrs(&mut self, r: &mut BitReader, n: usize) -> Result<(), DecodeError> {
-        let mut names = HashSet::new();
+        let mut names = FxHashSet::default();
         for _ in 0..n {
             let id = read_id(r)?;
             let name: Arc<str> = read_name(r)?.into();
@@ -283,7 +283,7 @@ impl Section {
         n: usize,
         base: Option<&SourceDict>,
     ) -> Result<(), DecodeError> {
-        let mut names = HashSet::new();
+        let mut names = FxHashSet::default();
         for _ in 0..n {
             let (id, object) = read_object(r, View::new(base, Some(self)))?;
             unique(&mut names, &object.0.name)?;
@@ -303,7 +303,7 @@ fn once<T>(previous: Option<T>) -> Result<(), DecodeError> {
 }
 
 /// A name may be announced once per section.
-fn unique(seen: &mut HashSet<Arc<str>>, name: &Arc<str>) -> Result<(), DecodeError> {
+fn unique(seen: &mut FxHashSet<Arc<str>>, name: &Arc<str>) -> Result<(), DecodeError> {
     if !seen.insert(name.clone()) {
         return Err(DecodeError::BadValue("name announced twice in one message"));
     }

@@ -1,6 +1,6 @@
 //! The schema: class definitions flattened for encoding, with their fingerprints.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 use std::sync::Arc;
 
 use slate_model::{AttrDecl, ClassDef, THING};
@@ -34,13 +34,13 @@ use crate::value::ValueCodec;
 /// ```
 #[derive(Clone, Debug, Default)]
 pub struct Schema {
-    classes: HashMap<Arc<str>, ClassSchema>,
+    classes: FxHashMap<Arc<str>, ClassSchema>,
 }
 
 /// One class, flattened.
 #[derive(Clone, Debug)]
 pub(crate) struct ClassSchema {
-    attrs: HashMap<Arc<str>, Arc<AttrSchema>>,
+    attrs: FxHashMap<Arc<str>, Arc<AttrSchema>>,
     /// Hash of the flattened declarations.
     pub fingerprint: u32,
 }
@@ -85,8 +85,9 @@ impl Schema {
     /// declarations found; an attribute redeclared below an ancestor keeps the
     /// ancestor's declaration (a board refuses both).
     pub fn new(classes: &[ClassDef]) -> Schema {
-        let defs: HashMap<&str, &ClassDef> = classes.iter().map(|d| (d.name.as_str(), d)).collect();
-        let own: HashMap<&str, Vec<Arc<AttrSchema>>> = defs
+        let defs: FxHashMap<&str, &ClassDef> =
+            classes.iter().map(|d| (d.name.as_str(), d)).collect();
+        let own: FxHashMap<&str, Vec<Arc<AttrSchema>>> = defs
             .iter()
             .map(|(name, d)| {
                 (
@@ -139,7 +140,7 @@ impl Schema {
 }
 
 /// The class and its ancestors, root first, stopping at a missing parent or a cycle.
-fn lineage<'a>(name: &'a str, defs: &HashMap<&'a str, &'a ClassDef>) -> Vec<&'a str> {
+fn lineage<'a>(name: &'a str, defs: &FxHashMap<&'a str, &'a ClassDef>) -> Vec<&'a str> {
     let mut chain = vec![name];
     let mut current = name;
     while let Some(def) = defs.get(current) {
@@ -155,8 +156,8 @@ fn lineage<'a>(name: &'a str, defs: &HashMap<&'a str, &'a ClassDef>) -> Vec<&'a 
 }
 
 /// Merges the declarations along a lineage and fingerprints them.
-fn flatten(chain: &[&str], own: &HashMap<&str, Vec<Arc<AttrSchema>>>) -> ClassSchema {
-    let mut attrs = HashMap::new();
+fn flatten(chain: &[&str], own: &FxHashMap<&str, Vec<Arc<AttrSchema>>>) -> ClassSchema {
+    let mut attrs = FxHashMap::default();
     let mut canonical = BitWriter::new();
     for class in chain {
         for a in own.get(class).into_iter().flatten() {

@@ -1,6 +1,6 @@
 //! [`ZenohTransport`]: a Zenoh session per module.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeSet, HashMap};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -9,7 +9,7 @@ use slate_ici::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 use slate_model::Address;
 use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
-use zenoh::pubsub::Subscriber;
+use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
 use zenoh::sample::{Sample, SampleKind};
 
@@ -110,6 +110,9 @@ struct Inner {
     peers: Mutex<BTreeSet<Address>>,
     stats: Mutex<LinkStats>,
     subscribers: Mutex<Vec<Subscriber<()>>>,
+    /// A declared publisher per key put to (Zenoh resolves its routes once, not on
+    /// every put): the few publication keys and one inbox key per peer and kind.
+    publishers: Mutex<HashMap<String, Arc<Publisher<'static>>>>,
     token: Mutex<Option<LivelinessToken>>,
     closed: AtomicBool,
 }
@@ -131,6 +134,7 @@ impl ZenohTransport {
             peers: Mutex::new(BTreeSet::new()),
             stats: Mutex::new(LinkStats::default()),
             subscribers: Mutex::new(Vec::new()),
+            publishers: Mutex::new(HashMap::new()),
             token: Mutex::new(None),
             closed: AtomicBool::new(false),
         });
@@ -257,18 +261,37 @@ impl Inner {
                 max: slate_wire::MAX_MESSAGE_BYTES,
             });
         }
+        let publisher = self.publisher(key, reliable)?;
+        publisher
+            .put(payload.to_vec())
+            .wait()
+            .map_err(|e| SendError::Failed(e.to_string()))?;
+        self.stats.lock().sent(link, kind, payload.len());
+        Ok(())
+    }
+}
+
+impl Inner {
+    /// The publisher of `key`, declared on first use: reliable keys block when the link
+    /// is congested, the others drop (the ICI catches up from the current state).
+    fn publisher(&self, key: String, reliable: bool) -> Result<Arc<Publisher<'static>>, SendError> {
+        if let Some(p) = self.publishers.lock().get(&key) {
+            return Ok(p.clone());
+        }
         let congestion = if reliable {
             CongestionControl::Block
         } else {
             CongestionControl::Drop
         };
-        self.session
-            .put(key, payload.to_vec())
+        let publisher = self
+            .session
+            .declare_publisher(key.clone())
             .congestion_control(congestion)
             .wait()
             .map_err(|e| SendError::Failed(e.to_string()))?;
-        self.stats.lock().sent(link, kind, payload.len());
-        Ok(())
+        let publisher = Arc::new(publisher);
+        self.publishers.lock().insert(key, publisher.clone());
+        Ok(publisher)
     }
 }
 
@@ -314,6 +337,7 @@ impl Transport for ZenohTransport {
         for sub in self.inner.subscribers.lock().drain(..) {
             let _ = sub.undeclare().wait();
         }
+        self.inner.publishers.lock().clear();
         let _ = self.inner.session.close().wait();
     }
 }

@@ -1,7 +1,9 @@
 //! Class sets (what a board models, what may leave a robot) and the catalog of class
 //! definitions the ICI encodes and matches with.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
+
+use rustc_hash::FxHashMap;
 use std::sync::Arc;
 
 use slate_model::{AttrDecl, Board, ClassDef, Context, THING};
@@ -113,7 +115,7 @@ pub(crate) type Lineage = Arc<[Arc<str>]>;
 pub(crate) struct Catalog {
     pub schema: Schema,
     parents: BTreeMap<Arc<str>, Arc<str>>,
-    lineages: HashMap<Arc<str>, Lineage>,
+    lineages: FxHashMap<Arc<str>, Lineage>,
 }
 
 impl Catalog {

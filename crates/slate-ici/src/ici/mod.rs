@@ -143,6 +143,8 @@ impl Ici {
             });
         }
         board.define(module_class())?;
+        board.set_normaliser(Some(Arc::new(quantise::Quantiser)));
+        quantise::settle(&board);
         let watch = board.watch(Filter::all())?;
         let state = State::new(board.clone(), transport.clone(), config, watch);
         let shared = Arc::new_cyclic(|me: &Weak<Shared>| Shared {
@@ -335,7 +337,30 @@ impl Shared {
             };
             let mut tally = ops::Tally::default();
             loop {
-                let op = self.queue.lock().pop_front();
+                // Consecutive merges (a report's packets) are one board change.
+                let mut merges = Vec::new();
+                let op = {
+                    let mut queue = self.queue.lock();
+                    while let Some(BoardOp::Merge { .. }) = queue.front() {
+                        if let Some(BoardOp::Merge {
+                            object,
+                            attr,
+                            packet,
+                        }) = queue.pop_front()
+                        {
+                            merges.push((object, attr, packet));
+                        }
+                    }
+                    if merges.is_empty() {
+                        queue.pop_front()
+                    } else {
+                        None
+                    }
+                };
+                if !merges.is_empty() {
+                    ops::merge_all(&self.board, &mut tally, merges);
+                    continue;
+                }
                 let Some(op) = op else { break };
                 ops::apply(&self.board, &self.state, op, &mut tally);
             }
@@ -360,6 +385,13 @@ impl Shared {
                 PlanEvent::Peer(peer, alive) => handler.peer(&peer, alive),
             }
         }
+    }
+}
+
+impl Drop for Shared {
+    /// The board outlives its ICI: its writes are its own again.
+    fn drop(&mut self) {
+        self.board.set_normaliser(None);
     }
 }
 

@@ -14,19 +14,6 @@ use super::module::{MODULE_CLASS, module_object_name};
 use super::state::State;
 use crate::LinkKind;
 
-/// An own packet to replace by its quantised form.
-#[derive(Debug)]
-pub(crate) struct Normalised {
-    pub key: Key,
-    /// The packet written.
-    pub exact: Packet,
-    /// What receivers decode.
-    pub quantised: Packet,
-    /// An older packet of this module's on the board is a normalisation that overtook
-    /// this write (not a `confident` packet merged back): replace it too.
-    pub repair: bool,
-}
-
 /// One board change.
 #[derive(Debug)]
 pub(crate) enum BoardOp {
@@ -40,8 +27,6 @@ pub(crate) enum BoardOp {
     },
     /// Write the current fusion of a `fused` attribute.
     Fuse(Key),
-    /// Replace own packets by their quantised form, where they are still the board's.
-    Normalise(Vec<Normalised>),
     /// Delete the object if `owner` owns it.
     Delete { object: Arc<str>, owner: Address },
     /// Update a peer's `Module` object.
@@ -62,6 +47,18 @@ pub(crate) struct Tally {
 }
 
 impl Tally {
+    fn count(&mut self, outcome: Result<Merged, WriteError>) {
+        match outcome {
+            Ok(Merged::Applied(_)) => self.applied += 1,
+            Ok(Merged::Kept) => self.kept += 1,
+            Ok(Merged::NotOwner) => self.not_owner += 1,
+            Err(e) => {
+                self.invalid += 1;
+                tracing::debug!(error = %e, "packet refused");
+            }
+        }
+    }
+
     /// Adds the counts to the state's stats (one lock for a whole queue of merges).
     pub fn flush(self, state: &Mutex<State>) {
         if self.applied + self.kept + self.not_owner + self.invalid == 0 {
@@ -86,7 +83,6 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
             packet,
         } => merge(board, tally, &object, &attr, packet),
         BoardOp::Fuse(key) => fuse(board, state, &key),
-        BoardOp::Normalise(list) => normalise(board, state, list),
         BoardOp::Delete { object, owner } => delete(board, state, &object, &owner),
         BoardOp::Module {
             peer,
@@ -112,14 +108,17 @@ fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
 }
 
 fn merge(board: &Board, tally: &mut Tally, object: &str, attr: &str, packet: Packet) {
-    match board.merge(object, attr, packet) {
-        Ok(Merged::Applied(_)) => tally.applied += 1,
-        Ok(Merged::Kept) => tally.kept += 1,
-        Ok(Merged::NotOwner) => tally.not_owner += 1,
-        Err(e) => {
-            tally.invalid += 1;
-            tracing::debug!(%object, %attr, error = %e, "packet refused");
-        }
+    tally.count(board.merge(object, attr, packet));
+}
+
+/// Merges received packets as one board change.
+pub(crate) fn merge_all(
+    board: &Board,
+    tally: &mut Tally,
+    packets: Vec<(Arc<str>, Arc<str>, Packet)>,
+) {
+    for outcome in board.merge_all(packets) {
+        tally.count(outcome);
     }
 }
 
@@ -140,62 +139,6 @@ fn fuse(board: &Board, state: &Mutex<State>, key: &Key) {
     }
     if let Err(e) = board.write(&key.0, &key.1, Update::from(packet)) {
         refused(state, &key.0, &key.1, &e);
-    }
-}
-
-/// Replaces exact packets by their quantised forms in one batch, except where the
-/// attribute was written again since (then the marker that silences the replacement
-/// is dropped).
-///
-/// Lock order: the board's snapshot is released before the state is locked (a thread
-/// holding the state may be waiting to read the board).
-fn normalise(board: &Board, state: &Mutex<State>, list: Vec<Normalised>) {
-    let mut batch = board.batch();
-    let (mut written, mut dropped) = (Vec::new(), Vec::new());
-    {
-        let snap = board.snapshot();
-        for Normalised {
-            key,
-            exact,
-            quantised,
-            repair,
-        } in list
-        {
-            let current = snap.id_of(&key.0).and_then(|id| {
-                snap.own_values(id)
-                    .into_iter()
-                    .find(|(a, _, _)| *a == key.1)
-                    .map(|(_, p, _)| p)
-            });
-            let marker = (key.0.clone(), key.1.clone(), quantised.timestamp);
-            // The board holds the exact packet, or an older one of this module's:
-            // another normalisation, checked (on another thread) before this packet was
-            // written and committed after, replaced it. Either way the quantised packet
-            // goes: it is the latest. A newer packet stays (its own normalisation
-            // follows), and so does another module's, or, under `confident`, a better
-            // packet merged back.
-            let replace = current.as_ref().is_some_and(|c| {
-                *c == exact || (repair && c.source == exact.source && c.timestamp < exact.timestamp)
-            });
-            if replace {
-                batch.write_shared(key.0, key.1, Update::from(quantised));
-                written.push(marker);
-            } else {
-                dropped.push(marker);
-            }
-        }
-    }
-    let failed = !batch.is_empty() && batch.commit().is_err();
-    if failed {
-        tracing::debug!("own packets not normalised");
-        dropped.append(&mut written);
-    }
-    if failed || !dropped.is_empty() {
-        let mut st = state.lock();
-        st.stats.rejects.invalid += u64::from(failed);
-        for marker in dropped {
-            st.normalising.remove(&marker);
-        }
     }
 }
 

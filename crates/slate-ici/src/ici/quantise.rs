@@ -7,7 +7,9 @@
 //! cost more than the rest of the send path); a property test checks it against a
 //! slate-wire round trip, so the two cannot drift apart unnoticed.
 
-use slate_model::{AttrDecl, Packet, Value, ValueType};
+use slate_model::{AttrDecl, Board, Normaliser, Packet, Update, Value, ValueType};
+
+use super::classes::Catalog;
 
 /// Codes of a quantised real: `min + code · res`, capped at `max`.
 #[derive(Clone, Copy)]
@@ -76,14 +78,16 @@ fn confidence(c: f64) -> f64 {
     (c * 255.0).round().clamp(0.0, 255.0) / 255.0
 }
 
-/// The packet as a receiver decodes it, given the attribute's declaration.
-pub(crate) fn quantised(decl: &AttrDecl, packet: &Packet) -> Packet {
-    let mut out = packet.clone();
+/// Makes `packet` what a receiver decodes, given the attribute's declaration.
+pub(crate) fn quantise(decl: &AttrDecl, packet: &mut Packet) {
     if let Some(q) = Quant::new(decl) {
-        match (&decl.ty, &packet.value) {
-            (ValueType::Real, Value::Real(x)) => out.value = Value::Real(q.apply(*x)),
-            (ValueType::Vector(_), Value::Vector(v)) => {
-                out.value = Value::Vector(v.iter().map(|x| q.apply(*x)).collect());
+        match &mut packet.value {
+            Value::Real(x) if decl.ty == ValueType::Real => *x = q.apply(*x),
+            Value::Vector(v)
+                if matches!(decl.ty, ValueType::Vector(_))
+                    && v.iter().any(|x| q.apply(*x) != *x) =>
+            {
+                *v = v.iter().map(|x| q.apply(*x)).collect();
             }
             _ => {}
         }
@@ -91,12 +95,54 @@ pub(crate) fn quantised(decl: &AttrDecl, packet: &Packet) -> Packet {
     let default = decl.default.as_ref();
     if packet.accuracy != default.map_or(0.0, |d| d.accuracy) {
         let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
-        out.accuracy = accuracy(packet.accuracy, scale.unwrap_or(1.0));
+        packet.accuracy = accuracy(packet.accuracy, scale.unwrap_or(1.0));
     }
     if packet.confidence != default.map_or(1.0, |d| d.confidence) {
-        out.confidence = confidence(packet.confidence);
+        packet.confidence = confidence(packet.confidence);
     }
-    out
+}
+
+/// The board's [`Normaliser`] while an ICI runs it: every packet the module writes is
+/// stored quantised, so the writer holds exactly what its receivers decode.
+pub(crate) struct Quantiser;
+
+impl Normaliser for Quantiser {
+    fn normalise(&self, decl: &AttrDecl, packet: &mut Packet) {
+        quantise(decl, packet);
+    }
+}
+
+/// Stores the quantised form of the packets the board wrote itself before its ICI
+/// started (from then on the [`Quantiser`] does it), in one batch.
+pub(crate) fn settle(board: &Board) {
+    let catalog = Catalog::new(board);
+    let mut batch = board.batch();
+    {
+        let snap = board.snapshot();
+        for id in snap.objects() {
+            let Some(info) = snap.info(id) else { continue };
+            let class = if info.is_class {
+                &info.name
+            } else {
+                &info.class
+            };
+            for (attr, packet, _) in snap.own_values(id) {
+                let Some(decl) = catalog.decl(class, &attr) else {
+                    continue;
+                };
+                let mut q = packet.clone();
+                quantise(decl, &mut q);
+                if packet.source == *board.address() && q != packet {
+                    batch.write_shared(info.name.clone(), attr, Update::from(q));
+                }
+            }
+        }
+    }
+    if !batch.is_empty()
+        && let Err(e) = batch.commit()
+    {
+        tracing::warn!(error = %e, "own packets written before the ICI started stay exact");
+    }
 }
 
 #[cfg(test)]
@@ -105,6 +151,12 @@ mod tests {
     use proptest::prelude::*;
     use slate_model::{Address, ClassDef, MANUAL_EPOCH, Timestamp};
     use slate_wire::{Assertion, Decoder, Encoder, Message, ObjectEntry, Report, Schema};
+
+    fn quantised(decl: &AttrDecl, packet: &Packet) -> Packet {
+        let mut q = packet.clone();
+        quantise(decl, &mut q);
+        q
+    }
 
     /// What a receiver decodes, through slate-wire.
     fn decoded(decl: &AttrDecl, packet: &Packet) -> Packet {

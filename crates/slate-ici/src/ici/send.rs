@@ -11,8 +11,7 @@ use super::classes::Lineage;
 use super::filter::Key;
 use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
-use super::ops::{BoardOp, Normalised};
-use super::quantise::quantised;
+use super::ops::BoardOp;
 use super::state::State;
 use crate::{LinkKind, MsgKind};
 
@@ -32,31 +31,21 @@ pub(crate) struct Item {
     pub is_class: bool,
 }
 
-/// A change waiting for its own writes to be quantised.
-enum Pending {
-    /// Ready to go (a creation or a deletion).
-    Ready(Item),
-    /// An own packet: object, attribute, packet.
-    Own(Arc<str>, Arc<str>, Packet),
-}
-
 impl State {
     /// Takes every change committed since the last call and sends what is due.
     pub fn drain_changes(&mut self) {
-        let mut pending = Vec::new();
+        let mut items = Vec::new();
         while let Some(change) = self.watch.try_recv() {
             for item in change.items {
-                self.collect(item, &mut pending);
+                self.collect(item, &mut items);
             }
         }
-        if pending.is_empty() {
-            return;
+        if !items.is_empty() {
+            self.flush(items);
         }
-        let items = self.own_writes(pending);
-        self.flush(items);
     }
 
-    fn collect(&mut self, item: ChangeItem, out: &mut Vec<Pending>) {
+    fn collect(&mut self, item: ChangeItem, out: &mut Vec<Item>) {
         match item {
             // A packet of this module's previous incarnation, handed back by a peer, is
             // not a new write.
@@ -65,71 +54,38 @@ impl State {
                 attr,
                 packet,
             } if packet.source == self.me && packet.timestamp.raw() >= self.incarnation => {
-                let marker = (object, attr, packet.timestamp);
-                if self.normalising.is_empty() || !self.normalising.remove(&marker) {
-                    out.push(Pending::Own(marker.0, marker.1, packet));
-                }
+                let item = self.value_item(&object, &attr, packet);
+                out.extend(item.and_then(|i| self.own_value(i)));
             }
             ChangeItem::Write { .. } => {}
-            ChangeItem::Create { object, .. } => {
-                out.extend(self.own_create(object).map(Pending::Ready))
-            }
-            ChangeItem::Delete { object, .. } => {
-                out.extend(self.deleted(object).map(Pending::Ready))
-            }
+            ChangeItem::Create { object, .. } => out.extend(self.own_create(object)),
+            ChangeItem::Delete { object, .. } => out.extend(self.deleted(object)),
         }
     }
 
-    /// Turns own packets into items, in order with the other changes (quantised, fused,
-    /// normalised, filtered); the normalisations of a drain are one board batch.
-    fn own_writes(&mut self, pending: Vec<Pending>) -> Vec<Item> {
-        let mut normalise = Vec::new();
-        let mut out = Vec::with_capacity(pending.len());
-        for p in pending {
-            match p {
-                Pending::Ready(item) => out.push(item),
-                Pending::Own(o, a, packet) => {
-                    let item = self.value_item(&o, &a, packet);
-                    out.extend(item.and_then(|i| self.own_value(i, &mut normalise)));
-                }
-            }
-        }
-        if !normalise.is_empty() {
-            self.ops.push(BoardOp::Normalise(normalise));
-        }
-        out
-    }
-
-    /// An own packet: quantised as receivers will decode it, fused, normalised, kept
-    /// as the best heard of, and offered to its report filter (the item, if it is to
-    /// go now).
-    fn own_value(&mut self, mut item: Item, normalise: &mut Vec<Normalised>) -> Option<Item> {
-        let What::Value(a) = &mut item.what else {
+    /// An own packet (the board stored it quantised, as receivers decode it): fused,
+    /// kept as the best heard of, and offered to its report filter (the item, if it is
+    /// to go now).
+    fn own_value(&mut self, item: Item) -> Option<Item> {
+        let What::Value(a) = &item.what else {
             return Some(item);
         };
         let key = (a.object.name.clone(), a.attr.clone());
-        if self.catalog.decl(&item.lineage[0], &key.1).is_none() {
-            self.refresh_catalog();
-        }
-        let decl = self.catalog.decl(&item.lineage[0], &key.1)?;
-        let (merge, report) = (decl.merge, decl.report.clone());
-        let q = quantised(decl, &a.packet);
-        let exact = std::mem::replace(&mut a.packet, q);
+        let policies = |st: &State| {
+            let decl = st.catalog.decl(&item.lineage[0], &key.1)?;
+            Some((decl.merge, decl.report.clone()))
+        };
+        let (merge, report) = match policies(self) {
+            Some(found) => found,
+            None => {
+                self.refresh_catalog();
+                policies(self)?
+            }
+        };
         self.stats.reports.written += 1;
         if merge == MergePolicy::Fused {
             self.fusion.update(key.clone(), a.packet.clone());
             self.ops.push(BoardOp::Fuse(key.clone()));
-        } else if a.packet != exact {
-            // The board is to hold what every receiver decodes: the quantised packet
-            // replaces the exact one (silently: it is not reported again).
-            let marker = (key.0.clone(), key.1.clone(), a.packet.timestamp);
-            self.normalising.insert(marker);
-            normalise.push(Normalised {
-                key: key.clone(),
-                exact,
-                quantised: a.packet.clone(),
-                repair: merge != MergePolicy::Confident,
-            });
         }
         if merge == MergePolicy::Confident {
             self.keep_best(&key, &a.packet);
@@ -325,11 +281,11 @@ impl State {
     }
 
     fn emit_values(&mut self, link: LinkKind, values: &mut Vec<Assertion>) {
-        let mut values = std::mem::take(values);
         let max = self.config.max_report_items.max(1);
-        while !values.is_empty() {
-            let rest = values.split_off(values.len().min(max));
-            self.emit_report(link, std::mem::replace(&mut values, rest));
+        let mut values = std::mem::take(values).into_iter().peekable();
+        while values.peek().is_some() {
+            let chunk = values.by_ref().take(max).collect();
+            self.emit_report(link, chunk);
         }
     }
 

@@ -2,7 +2,7 @@
 //! tombstones and counters. Board changes it decides on are queued as [`BoardOp`]s and
 //! applied after the lock is released (board hooks may call back into the ICI).
 
-use std::collections::{BTreeMap, BTreeSet, HashSet, VecDeque};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -119,8 +119,6 @@ pub(crate) struct State {
     pub own_objects: BTreeMap<Arc<str>, (Arc<str>, Context)>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
-    /// Own packets being replaced by their quantised form: `(object, attr, timestamp)`.
-    pub normalising: HashSet<(Arc<str>, Arc<str>, Timestamp)>,
     pub conflicts: BTreeSet<Arc<str>>,
     pub next_heartbeat: BTreeMap<LinkKind, Duration>,
     pub watch: Watch,
@@ -170,7 +168,6 @@ impl State {
             own_objects: BTreeMap::new(),
             tombstones: Tombstones::default(),
             origins: BTreeMap::new(),
-            normalising: HashSet::new(),
             conflicts: BTreeSet::new(),
             next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
             watch,

@@ -236,6 +236,16 @@ pub enum Merged {
     NotOwner,
 }
 
+/// Rewrites every packet a board writes itself (its source is the board's address)
+/// before it is validated again and stored: received packets are left alone.
+///
+/// The ICI installs one that quantises packets exactly as the wire will carry them, so
+/// that the writer holds the very packet every receiver decodes.
+pub trait Normaliser: Send + Sync {
+    /// Rewrites `packet`, an own write of an attribute declared as `decl`.
+    fn normalise(&self, decl: &crate::AttrDecl, packet: &mut Packet);
+}
+
 /// Counters a board keeps about itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BoardStats {
@@ -512,6 +522,57 @@ impl Board {
             txn.commit()
         };
         Ok(Merged::Applied(self.finish(done, &Chain::default())))
+    }
+
+    /// Merges received packets `(object, attribute, packet)` as [`merge`](Board::merge)
+    /// does, as one change: one lock, one revision, one notification to each watcher and
+    /// hook. Each packet is judged on its own, against what the packets before it left,
+    /// so a refused one keeps none of the others out. Returns each packet's outcome, in
+    /// order.
+    pub fn merge_all<O, A>(
+        &self,
+        packets: impl IntoIterator<Item = (O, A, Packet)>,
+    ) -> Vec<Result<Merged, WriteError>>
+    where
+        O: AsRef<str>,
+        A: AsRef<str>,
+    {
+        let mut out = Vec::new();
+        let done = {
+            let mut inner = self.inner.write();
+            let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
+            let mut any = false;
+            for (object, attr, packet) in packets {
+                let one = || -> Result<Merged, WriteError> {
+                    let key = txn.state().key(object.as_ref(), attr.as_ref())?;
+                    let verdict = txn.state().merge_verdict(key, &packet)?;
+                    if verdict == Merged::Applied(0) {
+                        txn.write(key, Update::from(packet))?;
+                    }
+                    Ok(verdict)
+                };
+                let result = one();
+                any |= matches!(result, Ok(Merged::Applied(_)));
+                out.push(result);
+            }
+            // Nothing stored: the transaction is dropped without a revision.
+            any.then(|| txn.commit())
+        };
+        if let Some(done) = done {
+            let revision = self.finish(done, &Chain::default());
+            for r in &mut out {
+                if let Ok(Merged::Applied(rev)) = r {
+                    *rev = revision;
+                }
+            }
+        }
+        out
+    }
+
+    /// Installs the [`Normaliser`] of this board's own writes (`None` removes it). Only
+    /// writes from then on pass through it.
+    pub fn set_normaliser(&self, normaliser: Option<Arc<dyn Normaliser>>) {
+        self.inner.write().state.normaliser = normaliser;
     }
 
     /// Starts an atomic batch of writes, creations and deletions.

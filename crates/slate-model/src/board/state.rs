@@ -145,6 +145,8 @@ pub(crate) struct State {
     attr_names: Vec<Arc<str>>,
     pub revision: u64,
     pub thing: ObjectId,
+    /// Rewrites the packets this board writes itself, before they are stored.
+    pub normaliser: Option<Arc<dyn crate::Normaliser>>,
 }
 
 impl State {
@@ -160,6 +162,7 @@ impl State {
                 index: 0,
                 generation: 0,
             },
+            normaliser: None,
         };
         let root = ClassData {
             def: ClassDef {
@@ -403,7 +406,7 @@ impl State {
         let accuracy = update.accuracy.unwrap_or(acc);
         let confidence = update.confidence.unwrap_or(conf);
         check_quality(accuracy, confidence).map_err(invalid)?;
-        Ok(Packet {
+        let mut packet = Packet {
             value: update.value,
             accuracy,
             confidence,
@@ -415,7 +418,13 @@ impl State {
                 None => stamp.unwrap_or_else(|| clock.now()),
             },
             source: update.source.unwrap_or_else(|| me.clone()),
-        })
+        };
+        if let Some(n) = self.normaliser.as_ref().filter(|_| packet.source == *me) {
+            n.normalise(d, &mut packet);
+            check_value(&packet.value, d.ty, d.bounds).map_err(invalid)?;
+            check_quality(packet.accuracy, packet.confidence).map_err(invalid)?;
+        }
+        Ok(packet)
     }
 
     /// Would a received packet win against the object's own packet under the attribute's

@@ -1,7 +1,9 @@
+use std::sync::Arc;
+
 use proptest::prelude::*;
 use slate_model::{
-    Address, AttrDecl, Board, ClassDef, Clock, MergePolicy, Merged, NewObject, Packet, Timestamp,
-    Value, ValueType,
+    Address, AttrDecl, Board, ClassDef, Clock, Filter, MergePolicy, Merged, NewObject, Normaliser,
+    Packet, Timestamp, Value, ValueType, WriteError,
 };
 
 fn board() -> Board {
@@ -93,6 +95,71 @@ fn merged_packets_are_validated() {
     );
 }
 
+#[test]
+fn merge_all_is_one_revision_and_judges_each_packet_on_its_own() {
+    let b = board();
+    let watch = b.watch(Filter::all()).unwrap();
+    let before = b.stats().revision;
+    let mut bad = packet(9.0, 30, 1.0, "team/r1/a");
+    bad.confidence = 2.0;
+    let out = b.merge_all([
+        ("t", "latest", packet(1.0, 10, 1.0, "team/r1/a")),
+        ("ghost", "latest", packet(1.0, 10, 1.0, "team/r1/a")),
+        ("t", "latest", bad),
+        // Judged against the first packet of this very call.
+        ("t", "latest", packet(2.0, 9, 1.0, "team/r1/a")),
+        ("t", "owned", packet(5.0, 10, 1.0, "team/r2/nav")),
+        ("t", "confident", packet(3.0, 10, 0.5, "team/r1/b")),
+    ]);
+    let revision = before + 1;
+    assert!(matches!(out[0], Ok(Merged::Applied(r)) if r == revision));
+    assert!(matches!(out[1], Err(WriteError::UnknownObject(_))));
+    assert!(matches!(out[2], Err(WriteError::Invalid { .. })));
+    assert!(matches!(out[3], Ok(Merged::Kept)));
+    assert!(matches!(out[4], Ok(Merged::NotOwner)));
+    assert!(matches!(out[5], Ok(Merged::Applied(r)) if r == revision));
+    assert_eq!(b.stats().revision, revision);
+    assert_eq!(b.read("t", "latest").unwrap().value.as_f64(), Some(1.0));
+    assert_eq!(b.read("t", "confident").unwrap().value.as_f64(), Some(3.0));
+    let change = watch.try_recv().expect("one notification");
+    assert_eq!((change.revision, change.items.len()), (revision, 2));
+    assert!(watch.try_recv().is_none(), "one notification only");
+    // Nothing applied: no revision at all.
+    let out = b.merge_all([("t", "latest", packet(0.0, 1, 1.0, "team/r1/a"))]);
+    assert!(matches!(out[0], Ok(Merged::Kept)));
+    assert_eq!(b.stats().revision, revision);
+}
+
+/// Rounds own reals to whole numbers.
+struct Round;
+
+impl Normaliser for Round {
+    fn normalise(&self, _: &AttrDecl, packet: &mut Packet) {
+        if let Value::Real(x) = &mut packet.value {
+            *x = x.round();
+        }
+    }
+}
+
+#[test]
+fn a_normaliser_rewrites_own_writes_only() {
+    let b = board();
+    b.set_normaliser(Some(Arc::new(Round)));
+    b.write("t", "latest", 2.4).unwrap();
+    assert_eq!(b.read("t", "latest").unwrap().value.as_f64(), Some(2.0));
+    let mut batch = b.batch();
+    batch.write("t", "confident", 7.6);
+    batch.commit().unwrap();
+    assert_eq!(b.read("t", "confident").unwrap().value.as_f64(), Some(8.0));
+    // Received packets are stored as they came.
+    let p = packet(1.5, 1 << 40, 1.0, "team/r1/nav");
+    b.merge("t", "owned", p).unwrap();
+    assert_eq!(b.read("t", "owned").unwrap().value.as_f64(), Some(1.5));
+    b.set_normaliser(None);
+    b.write("t", "latest", 2.4).unwrap();
+    assert_eq!(b.read("t", "latest").unwrap().value.as_f64(), Some(2.4));
+}
+
 proptest! {
     /// Any order, with duplicates, gives the same final packets on every board.
     #[test]
@@ -117,11 +184,19 @@ proptest! {
         let mut order: Vec<_> = all.iter().rev().chain(all.iter()).collect();
         let n = order.len();
         order.rotate_left((seed as usize) % n);
-        for (attr, p) in order {
+        for (attr, p) in &order {
             b.merge("t", attr, p.clone()).unwrap();
+        }
+        // A third: the same order in batches of three.
+        let c = board();
+        for chunk in order.chunks(3) {
+            for r in c.merge_all(chunk.iter().map(|(attr, p)| ("t", *attr, p.clone()))) {
+                r.unwrap();
+            }
         }
         for attr in attrs {
             prop_assert_eq!(a.read("t", attr).unwrap(), b.read("t", attr).unwrap(), "{}", attr);
+            prop_assert_eq!(a.read("t", attr).unwrap(), c.read("t", attr).unwrap(), "{}", attr);
         }
     }
 }
