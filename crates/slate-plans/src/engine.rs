@@ -610,6 +610,14 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
         out.effects = Some(effects(&plan.actions, &mut cx).map_err(|e| e.to_string()));
         rt.baseline = cx.seen.clone();
         rt.next_every = plan.every.map(|p| now + p);
+        if plan.changed_sites > 0 {
+            // Acting moves the `changed` baselines to the values just seen, against
+            // which nothing has changed: the edge is taken from the trigger as it reads
+            // now, so the next move by more than the deadband fires again even when no
+            // evaluation saw the trigger false in between.
+            let mut again = Ctx::new(env, plan.slots, &rt.baseline);
+            rt.last_trigger = check(&plan.trigger, true, &mut again, &mut out);
+        }
     }
     let every_due = if trig { rt.next_every } else { None };
     out.wake_at = wake(&cx, every_due);

@@ -150,6 +150,53 @@ fn every_repeats_while_the_trigger_holds_and_stops_at_termination() {
     assert_eq!(fired(&b, &e), 4, "never after termination");
 }
 
+/// A plan whose trigger is `changed(trig.level, 0.5)`, optionally `or` something else,
+/// counting in log.n (and writing nothing its trigger reads).
+fn follower(or: &str) -> (Arc<Board>, Engine) {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    let plan = format!(
+        "{SIGNALS}
+        plan p {{
+            trigger: changed(trig.level, 0.5){or};
+            action {{ set log.n = log.n + 1; }}
+        }}"
+    );
+    engine
+        .load("t.slate", &plan)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (board, engine)
+}
+
+#[test]
+fn changed_fires_on_every_move_beyond_the_deadband() {
+    let (b, e) = follower("");
+    let level = |x: f64| b.write("trig", "level", x).unwrap();
+    assert_eq!(fired(&b, &e), 1, "true as soon as the value exists");
+    level(2.0);
+    assert_eq!(
+        fired(&b, &e),
+        2,
+        "a jump fires although no evaluation read false"
+    );
+    level(5.0);
+    assert_eq!(fired(&b, &e), 3);
+    level(5.3);
+    assert_eq!(fired(&b, &e), 3, "within the deadband of the last firing");
+    level(5.6);
+    assert_eq!(fired(&b, &e), 4, "0.6 from the last firing");
+}
+
+#[test]
+fn changed_keeps_the_edge_of_the_rest_of_the_trigger() {
+    let (b, e) = follower(" or init.on");
+    set(&b, "init", true);
+    let n = fired(&b, &e);
+    b.write("trig", "level", 3.0).unwrap();
+    b.write("trig", "level", 9.0).unwrap();
+    assert_eq!(fired(&b, &e), n, "the trigger never left true: no new edge");
+}
+
 #[test]
 fn cancelled_plans_never_fire() {
     let (b, e) = world("");
