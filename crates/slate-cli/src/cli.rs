@@ -162,6 +162,9 @@ pub enum Suite {
     /// Two nodes over Zenoh on 127.0.0.1: write-to-visible latency and updates per
     /// second, against raw Zenoh puts of the same size.
     Net,
+    /// `slate get` on a live two-node team (`slate node` processes on 127.0.0.1), spawn
+    /// to exit, against starting a process and a raw Zenoh session and query.
+    Cli,
 }
 
 /// Where the live verbs join the team.

@@ -203,24 +203,23 @@ fn wait_for_peers(node: &Node, expected: &BTreeSet<Address>, deadline: Instant) 
     }
 }
 
-/// Waits until the observer and every peer have met both ways, and the board has been
-/// quiet for a moment (answers that asked for class definitions are re-sent), or the
-/// deadline: a catch-up has completed for every peer (the observer has their state),
+/// Waits until the observer and every peer have met both ways, or the deadline: the
+/// observer holds every peer's current state (a catch-up with each has completed and
+/// none is outstanding: an answer that needed class definitions is asked for again),
 /// and every peer has asked the observer for its own (a peer sends its hello, with its
 /// interest, just before: until then the observer's writes would not be sent to it).
+/// Both must hold at two polls in a row: the ICI applies an answer's objects just after
+/// it marks the catch-up complete.
 fn wait_caught_up(node: &Node, deadline: Instant) {
-    const QUIET: Duration = Duration::from_millis(150);
-    let mut last = (node.board().revision(), Instant::now());
+    let mut polls_met = 0;
     while Instant::now() < deadline {
-        std::thread::sleep(Duration::from_millis(20));
-        let peers = node.transport().peers().len() as u64;
-        let catch_up = node.ici().stats().catch_up;
-        let revision = node.board().revision();
-        if revision != last.0 {
-            last = (revision, Instant::now());
-        }
-        let met = catch_up.completed >= peers && catch_up.answered >= peers;
-        if met && last.1.elapsed() >= QUIET {
+        std::thread::sleep(Duration::from_millis(10));
+        let peers = node.transport().peers();
+        let answered = node.ici().stats().catch_up.answered;
+        let met =
+            answered >= peers.len() as u64 && peers.iter().all(|p| node.ici().is_caught_up_with(p));
+        polls_met = if met { polls_met + 1 } else { 0 };
+        if polls_met >= 2 {
             return;
         }
     }

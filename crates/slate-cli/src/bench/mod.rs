@@ -1,6 +1,7 @@
 //! Benchmark programs: a small harness that reports the median time per operation over
 //! several samples, each against a baseline measured in the same run.
 
+pub mod cli;
 pub mod core;
 pub mod net;
 pub mod plans;

@@ -21,6 +21,7 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
         Suite::Plans => bench::plans::run(&cfg, &mut |step| eprintln!("  measuring {step} ...")),
         Suite::Wire => bench::wire::run(&cfg, &mut |step| eprintln!("  measuring {step} ..."))?,
         Suite::Net => bench::net::run(&cfg, &mut |step| eprintln!("  measuring {step} ..."))?,
+        Suite::Cli => bench::cli::run(&cfg, &mut |step| eprintln!("  measuring {step} ..."))?,
     };
     match format {
         Format::Json => println!("{}", serde_json::to_string_pretty(&report.json())?),

@@ -288,6 +288,7 @@ impl State {
             return;
         }
         p.stream.caught_up(list.seq, now);
+        p.caught_up = true;
         self.stats.catch_up.completed += 1;
         for l in &list.objects {
             self.listed(

@@ -198,6 +198,15 @@ impl Ici {
             .collect()
     }
 
+    /// Does this board hold `peer`'s current state: a catch-up with it completed (since
+    /// it last restarted), and none is outstanding?
+    pub fn is_caught_up_with(&self, peer: &Address) -> bool {
+        let st = self.shared.state.lock();
+        st.peers
+            .get(peer)
+            .is_some_and(|p| p.caught_up && p.catch_up.is_none() && !p.failed)
+    }
+
     /// Changes what this board models: tells every peer, and catches up with each.
     pub fn set_interest(&self, interest: ClassSet) {
         self.shared.with_state(|st| {

@@ -159,6 +159,7 @@ impl State {
         if restarted {
             p.stream = Inbound::default();
             p.catch_up = None;
+            p.caught_up = false;
             self.stats.liveliness.restarts += 1;
             self.decoder.forget(from);
             self.forget_origins(from);

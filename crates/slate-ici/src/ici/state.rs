@@ -49,6 +49,8 @@ pub(crate) struct Peer {
     pub catch_up: Option<Request>,
     /// A part of the answer being received was refused: do not count it as complete.
     pub failed: bool,
+    /// A catch-up with it has completed since it (re)started.
+    pub caught_up: bool,
 }
 
 impl Peer {
@@ -64,6 +66,7 @@ impl Peer {
             stream: Inbound::default(),
             catch_up: None,
             failed: false,
+            caught_up: false,
         }
     }
 }
