@@ -9,15 +9,21 @@ use crate::{DecodeError, MAX_ELEMENTS};
 /// Appends bit fields to a byte vector.
 #[derive(Debug, Default)]
 pub(crate) struct BitWriter {
+    /// Whole bytes written.
     bytes: Vec<u8>,
-    /// Bits used in the last byte (0 means the last byte is full, or there is none).
-    used: u32,
+    /// Bits not yet making a whole byte, in the low `pending` bits.
+    acc: u64,
+    /// How many (fewer than 8 between calls).
+    pending: u32,
 }
 
 impl BitWriter {
-    /// An empty writer.
+    /// An empty writer (room for a typical message).
     pub fn new() -> Self {
-        Self::default()
+        BitWriter {
+            bytes: Vec::with_capacity(64),
+            ..Self::default()
+        }
     }
 
     /// Writes the low `n` bits of `value` (`n <= 64`), most significant first.
@@ -26,20 +32,19 @@ impl BitWriter {
             n <= 64 && (n == 64 || value >> n == 0),
             "{value} in {n} bits"
         );
-        let mut left = n;
-        while left > 0 {
-            if self.used == 0 {
-                self.bytes.push(0);
-            }
-            let room = 8 - self.used;
-            let take = room.min(left);
-            let chunk = (value >> (left - take)) & ((1u64 << take) - 1);
-            if let Some(last) = self.bytes.last_mut() {
-                *last |= (chunk as u8) << (room - take);
-            }
-            left -= take;
-            self.used = (self.used + take) % 8;
+        if n > 32 {
+            self.bits(value >> 32, n - 32);
+            self.bits(value & 0xffff_ffff, 32);
+            return;
         }
+        // At most 7 + 32 bits pending: they fit.
+        self.acc = (self.acc << n) | value;
+        self.pending += n;
+        while self.pending >= 8 {
+            self.pending -= 8;
+            self.bytes.push((self.acc >> self.pending) as u8);
+        }
+        self.acc &= (1u64 << self.pending) - 1;
     }
 
     /// Writes one bit.
@@ -53,8 +58,7 @@ impl BitWriter {
         loop {
             let group = v & 0x7f;
             v >>= 7;
-            self.bit(v != 0);
-            self.bits(group, 7);
+            self.bits(u64::from(v != 0) << 7 | group, 8);
             if v == 0 {
                 return;
             }
@@ -68,7 +72,7 @@ impl BitWriter {
 
     /// Writes raw bytes (8 bits each).
     pub fn bytes(&mut self, bytes: &[u8]) {
-        if self.used == 0 {
+        if self.pending == 0 {
             self.bytes.extend_from_slice(bytes);
         } else {
             bytes.iter().for_each(|&b| self.bits(u64::from(b), 8));
@@ -84,21 +88,19 @@ impl BitWriter {
     /// Bits written so far.
     #[cfg(test)]
     pub fn len_bits(&self) -> u64 {
-        let full = self.bytes.len() as u64 * 8;
-        if self.used == 0 {
-            full
-        } else {
-            full - 8 + u64::from(self.used)
-        }
+        self.bytes.len() as u64 * 8 + u64::from(self.pending)
     }
 
     /// Bytes written so far (the last one possibly partial).
     pub fn len_bytes(&self) -> usize {
-        self.bytes.len()
+        self.bytes.len() + usize::from(self.pending > 0)
     }
 
     /// The bytes, last one zero-padded.
-    pub fn finish(self) -> Vec<u8> {
+    pub fn finish(mut self) -> Vec<u8> {
+        if self.pending > 0 {
+            self.bytes.push((self.acc << (8 - self.pending)) as u8);
+        }
         self.bytes
     }
 }
@@ -143,6 +145,18 @@ impl<'a> BitReader<'a> {
         debug_assert!(n <= 64);
         if u64::from(n) > self.remaining() {
             return Err(DecodeError::Truncated);
+        }
+        let at = (self.pos / 8) as usize;
+        let offset = (self.pos % 8) as u32;
+        if n > 0 && n + offset <= 64 {
+            // The field lies in the next eight bytes (zero past the end, which the
+            // length check above keeps out of the field): one load, two shifts.
+            let window = &self.bytes[at..self.bytes.len().min(at + 8)];
+            let mut word = [0u8; 8];
+            word[..window.len()].copy_from_slice(window);
+            let word = u64::from_be_bytes(word) << offset;
+            self.pos += u64::from(n);
+            return Ok(word >> (64 - n));
         }
         let mut value = 0u64;
         let mut left = n;

@@ -87,6 +87,11 @@ impl ZenohConfig {
                 "scouting/multicast/enabled",
                 self.multicast_scouting.to_string(),
             ),
+            // Reports are published with congestion control `Drop`: a burst larger than
+            // the link's queue of batches (2 by default) loses reports, which receivers
+            // then recover by catching up, a slow path. A deeper queue (allocated only
+            // when used) absorbs the bursts of a busy writer and a descheduled sender.
+            ("transport/link/tx/queue/size/data", "8".to_owned()),
             // slate stamps its own packets (hybrid logical clock); Zenoh need not add bytes.
             (
                 "timestamping/enabled",

@@ -3,12 +3,14 @@
 //!
 //! * Latency: a write on node A until node B's board holds it (taken in B's change
 //!   hook, in the thread that applies it), one write at a time; raw: a put of the same
-//!   payload size until B's subscriber callback runs. Percentiles over the probes.
+//!   payload size until B's subscriber callback runs. The two kinds of probe alternate,
+//!   so that both see the same machine. Percentiles over the probes.
 //! * Throughput: A commits updates in batches of 100 (a sensor's scan; the ICI turns
-//!   each into one report) as fast as it can for the sample time, never more than
-//!   20 000 updates ahead of what B applied; the clock stops when B's board holds A's
-//!   final state; raw: one put per update (congestion control
-//!   `Block`, so none is dropped) until B's callback has them all.
+//!   each into one report) as fast as it can, never more than 20 000 updates ahead of
+//!   what B applied; the clock stops when B's board holds A's final state; raw: one put
+//!   per update (congestion control `Block`, so none is dropped) until B's callback has
+//!   them all. Raw and slate rounds alternate ([`ROUNDS`] of each); the medians are
+//!   reported.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -18,12 +20,18 @@ use anyhow::anyhow;
 use crossbeam_channel::{Receiver, Sender};
 use serde_json::json;
 use slate_ici::{LinkKind, MsgKind, Rng};
-use slate_model::{Board, ChangeHook, ObjectId, TouchKind, Touched};
+use slate_model::{Board, ChangeHook, Key, ObjectId, TouchKind, Touched};
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 
 use super::zenoh_pair::{ATTRS, OBJECTS, Pair, free_port, update, wait};
 use super::{Config, Report, Target, Unit};
+
+/// Throughput rounds of each kind.
+const ROUNDS: usize = 3;
+
+/// Time between two latency probes (both sides idle, as a robot's occasional update).
+const PROBE_GAP: Duration = Duration::from_micros(200);
 
 /// Runs the suite; `progress` is told each step.
 pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
@@ -36,23 +44,28 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     pair.create_objects()?;
     let probes = (cfg.samples * 50).max(100);
     progress("latency");
-    let (slate, payload) = slate_latency(&pair, probes)?;
-    let raw = raw_latency(&pair, probes, payload)?;
+    let mut lat = Latency::new(&pair)?;
+    let payload = lat.payload(probes / 10 + 10)?;
+    let (mut slate, mut raw) = (Vec::with_capacity(probes), Vec::with_capacity(probes));
+    for k in 0..probes {
+        slate.push(lat.slate(k)?);
+        std::thread::sleep(PROBE_GAP);
+        raw.push(lat.raw(payload)?);
+        std::thread::sleep(PROBE_GAP);
+    }
     r.add_in("raw_zenoh_latency_p50_us", percentile(&raw, 50.0), Unit::Us);
     r.add_in("raw_zenoh_latency_p99_us", percentile(&raw, 99.0), Unit::Us);
-    let p50 = percentile(&slate, 50.0);
     let within = vec![Target::RatioAtMost(1.2)];
     r.compare_in(
         "latency_p50_us",
-        p50,
+        percentile(&slate, 50.0),
         Unit::Us,
         "raw_zenoh_latency_p50_us",
         within.clone(),
     );
-    let p99 = percentile(&slate, 99.0);
     r.compare_in(
         "latency_p99_us",
-        p99,
+        percentile(&slate, 99.0),
         Unit::Us,
         "raw_zenoh_latency_p99_us",
         within,
@@ -61,18 +74,28 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     r.fact("raw_payload_bytes", json!(payload));
 
     progress("throughput");
-    let budget = Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10);
-    let (raw_rate, raw_count) = raw_throughput(&pair, budget, payload)?;
-    r.add_in("raw_zenoh_updates_per_sec", raw_rate, Unit::PerSec);
-    let (rate, count, delivered) = slate_throughput(&pair, budget)?;
+    let budget = Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / ROUNDS as u64);
+    let mut tp = Throughput::new(&pair)?;
+    let (mut raw_rates, mut rates) = (Vec::new(), Vec::new());
+    let (mut raw_count, mut count, mut delivered) = (0, 0, 0);
+    for _ in 0..ROUNDS {
+        let (rate, n) = tp.raw(budget, payload)?;
+        raw_rates.push(rate);
+        raw_count += n;
+        let (rate, n, applied) = tp.slate(budget)?;
+        rates.push(rate);
+        (count, delivered) = (count + n, delivered + applied);
+    }
+    r.add_in("raw_zenoh_updates_per_sec", median(raw_rates), Unit::PerSec);
     let targets = vec![Target::AtLeast(1_000_000.0), Target::RatioAtLeast(0.8)];
     r.compare_in(
         "updates_per_sec",
-        rate,
+        median(rates),
         Unit::PerSec,
         "raw_zenoh_updates_per_sec",
         targets,
     );
+    r.fact("throughput_rounds", json!(ROUNDS));
     r.fact("throughput_updates", json!(count));
     r.fact("throughput_updates_applied_by_receiver", json!(delivered));
     r.fact("raw_throughput_updates", json!(raw_count));
@@ -86,6 +109,11 @@ fn percentile(samples: &[Duration], p: f64) -> f64 {
     us.sort_by(f64::total_cmp);
     let rank = ((p / 100.0) * (us.len() - 1) as f64).round() as usize;
     us.get(rank).copied().unwrap_or(f64::NAN)
+}
+
+fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// Tells when a write to one object reaches the board (in the applying thread).
@@ -105,35 +133,105 @@ impl ChangeHook for Arrivals {
     }
 }
 
-/// One write at a time on A, until B's hook sees it. Returns the latencies and the
-/// average size of the reports A sent for them (the raw payload size).
-fn slate_latency(pair: &Pair, probes: usize) -> anyhow::Result<(Vec<Duration>, usize)> {
-    let info = pair
-        .b
-        .board
-        .info("t0")
-        .ok_or_else(|| anyhow!("the receiver lacks t0"))?;
-    let (tx, rx) = crossbeam_channel::unbounded();
-    pair.b.board.add_hook(Arc::new(Arrivals {
-        object: info.id,
-        tx,
-    }));
-    let key = pair.a.board.key("t0", "range")?;
-    let sent = || pair.a.ici.stats().get(LinkKind::Robot, MsgKind::Report);
-    let before = sent();
-    let mut out = Vec::with_capacity(probes);
-    for k in 0..probes {
-        rx.try_iter().for_each(drop);
+const RAW_LATENCY_KEY: &str = "bench/raw/netbench/r1/a/latency";
+
+/// The two kinds of latency probe: a write on A until B's hook sees it, and a raw put
+/// on A's session until B's subscriber callback runs.
+struct Latency<'p> {
+    pair: &'p Pair,
+    key: Key,
+    arrived: Receiver<Instant>,
+    raw_arrived: Receiver<Instant>,
+    _raw_sub: zenoh::pubsub::Subscriber<()>,
+}
+
+impl<'p> Latency<'p> {
+    fn new(pair: &'p Pair) -> anyhow::Result<Self> {
+        let info = pair
+            .b
+            .board
+            .info("t0")
+            .ok_or_else(|| anyhow!("the receiver lacks t0"))?;
+        let (tx, arrived) = crossbeam_channel::unbounded();
+        pair.b.board.add_hook(Arc::new(Arrivals {
+            object: info.id,
+            tx,
+        }));
+        let (raw_tx, raw_arrived) = crossbeam_channel::unbounded();
+        let raw_sub = pair
+            .b
+            .transport
+            .session()
+            .declare_subscriber(RAW_LATENCY_KEY)
+            .callback(move |_| {
+                let _ = raw_tx.send(Instant::now());
+            })
+            .wait()
+            .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
+        let lat = Latency {
+            pair,
+            key: pair.a.board.key("t0", "range")?,
+            arrived,
+            raw_arrived,
+            _raw_sub: raw_sub,
+        };
+        let ready = wait(Duration::from_secs(10), || {
+            lat.put(1).is_ok()
+                && lat
+                    .raw_arrived
+                    .recv_timeout(Duration::from_millis(5))
+                    .is_ok()
+        });
+        anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
+        Ok(lat)
+    }
+
+    /// Runs `n` slate probes (not measured) and returns the average size of the
+    /// reports A sent for them: the raw probes' payload.
+    fn payload(&mut self, n: usize) -> anyhow::Result<usize> {
+        let sent = || {
+            self.pair
+                .a
+                .ici
+                .stats()
+                .get(LinkKind::Robot, MsgKind::Report)
+        };
+        let before = sent();
+        for k in 0..n {
+            self.slate(k)?;
+            std::thread::sleep(PROBE_GAP);
+        }
+        let after = sent();
+        let msgs = (after.sent_msgs - before.sent_msgs).max(1);
+        Ok(usize::try_from((after.sent_bytes - before.sent_bytes) / msgs)?.max(1))
+    }
+
+    /// The `k`th write on A, until B's board holds it.
+    fn slate(&self, k: usize) -> anyhow::Result<Duration> {
+        self.arrived.try_iter().for_each(drop);
         let value = (k % 90_000) as f64 / 100.0 + 1.0;
         let start = Instant::now();
-        pair.a.board.write_key(key, value)?;
-        out.push(arrival(&rx, start)?);
-        std::thread::sleep(Duration::from_micros(200));
+        self.pair.a.board.write_key(self.key, value)?;
+        arrival(&self.arrived, start)
     }
-    let after = sent();
-    let msgs = (after.sent_msgs - before.sent_msgs).max(1);
-    let payload = (after.sent_bytes - before.sent_bytes) / msgs;
-    Ok((out, usize::try_from(payload)?.max(1)))
+
+    /// A put of `payload` bytes on A's session, until B's callback runs.
+    fn raw(&self, payload: usize) -> anyhow::Result<Duration> {
+        self.raw_arrived.try_iter().for_each(drop);
+        let start = Instant::now();
+        self.put(payload)?;
+        arrival(&self.raw_arrived, start)
+    }
+
+    fn put(&self, payload: usize) -> anyhow::Result<()> {
+        self.pair
+            .a
+            .transport
+            .session()
+            .put(RAW_LATENCY_KEY, vec![0x11; payload])
+            .wait()
+            .map_err(|e| anyhow!("zenoh put: {e}"))
+    }
 }
 
 fn arrival(rx: &Receiver<Instant>, start: Instant) -> anyhow::Result<Duration> {
@@ -141,43 +239,6 @@ fn arrival(rx: &Receiver<Instant>, start: Instant) -> anyhow::Result<Duration> {
         .recv_timeout(Duration::from_secs(5))
         .map_err(|_| anyhow!("a probe did not arrive within 5 s"))?;
     Ok(at.saturating_duration_since(start))
-}
-
-/// A put of `payload` bytes on A's session at a time, until B's callback runs.
-fn raw_latency(pair: &Pair, probes: usize, payload: usize) -> anyhow::Result<Vec<Duration>> {
-    let (tx, rx) = crossbeam_channel::unbounded();
-    let key = "bench/raw/netbench/r1/a/latency";
-    let _sub = pair
-        .b
-        .transport
-        .session()
-        .declare_subscriber(key)
-        .callback(move |_| {
-            let _ = tx.send(Instant::now());
-        })
-        .wait()
-        .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
-    let session = pair.a.transport.session();
-    let put = || {
-        session
-            .put(key, vec![0x11; payload])
-            .wait()
-            .map_err(|e| anyhow!("zenoh put: {e}"))
-    };
-    let ready = wait(Duration::from_secs(10), || {
-        put().is_ok() && rx.recv_timeout(Duration::from_millis(5)).is_ok()
-    });
-    anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
-    std::thread::sleep(Duration::from_millis(50));
-    let mut out = Vec::with_capacity(probes);
-    for _ in 0..probes {
-        rx.try_iter().for_each(drop);
-        let start = Instant::now();
-        put()?;
-        out.push(arrival(&rx, start)?);
-        std::thread::sleep(Duration::from_micros(200));
-    }
-    Ok(out)
 }
 
 /// Counts arrivals and keeps the time of the last one (ns after `start`).
@@ -201,50 +262,18 @@ impl Counter {
         let ns = u64::try_from(self.start.elapsed().as_nanos()).unwrap_or(u64::MAX);
         self.last_ns.fetch_max(ns, Ordering::SeqCst);
     }
-}
 
-/// One put per update for `budget`; returns updates per second and how many.
-fn raw_throughput(pair: &Pair, budget: Duration, payload: usize) -> anyhow::Result<(f64, u64)> {
-    let counter = Counter::new();
-    let c = counter.clone();
-    let key = "bench/raw/netbench/r1/a/throughput";
-    let _sub = pair
-        .b
-        .transport
-        .session()
-        .declare_subscriber(key)
-        .callback(move |_| c.hit(1))
-        .wait()
-        .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
-    let session = pair.a.transport.session();
-    let put = || {
-        session
-            .put(key, vec![0x11; payload])
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(|e| anyhow!("zenoh put: {e}"))
-    };
-    let ready = wait(Duration::from_secs(10), || {
-        put().is_ok() && counter.count.load(Ordering::SeqCst) > 0
-    });
-    anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
-    std::thread::sleep(Duration::from_millis(100));
-    let base = counter.count.load(Ordering::SeqCst);
-    let start_ns = u64::try_from(counter.start.elapsed().as_nanos())?;
-    let end = Instant::now() + budget;
-    let mut sent = 0u64;
-    while Instant::now() < end {
-        for _ in 0..100 {
-            put()?;
-        }
-        sent += 100;
+    /// How many so far, and now (ns after `start`): where a round begins.
+    fn mark(&self) -> anyhow::Result<(u64, u64)> {
+        let now = u64::try_from(self.start.elapsed().as_nanos())?;
+        Ok((self.count.load(Ordering::SeqCst), now))
     }
-    let all = wait(Duration::from_secs(20), || {
-        counter.count.load(Ordering::SeqCst) >= base + sent
-    });
-    anyhow::ensure!(all, "the raw puts did not all arrive within 20 s");
-    let ns = counter.last_ns.load(Ordering::SeqCst) - start_ns;
-    Ok((sent as f64 / (ns as f64 / 1e9), sent))
+
+    /// Rate of `sent` items over a round that began at `start_ns`, until the last hit.
+    fn rate(&self, sent: u64, start_ns: u64) -> f64 {
+        let ns = self.last_ns.load(Ordering::SeqCst).saturating_sub(start_ns);
+        sent as f64 / (ns.max(1) as f64 / 1e9)
+    }
 }
 
 /// Counts the packets of one class B's board takes.
@@ -286,54 +315,128 @@ fn window(counter: &Counter, base: u64, sent: u64) {
     }
 }
 
-/// Batches of 100 updates as fast as A takes them for `budget` (at most [`WINDOW`]
-/// ahead of B), until B holds A's
-/// final state. Returns updates per second, how many, and how many B applied (fewer
-/// if Zenoh dropped reports and B caught up with the current state instead).
-fn slate_throughput(pair: &Pair, budget: Duration) -> anyhow::Result<(f64, u64, u64)> {
-    let counter = Counter::new();
-    let class = pair
-        .b
-        .board
-        .info("Tracked")
-        .ok_or_else(|| anyhow!("the receiver lacks Tracked"))?
-        .id;
-    pair.b.board.add_hook(Arc::new(Applied {
-        class,
-        counter: counter.clone(),
-    }));
-    let keys = (0..OBJECTS)
-        .map(|i| {
-            let name = format!("t{i}");
-            ATTRS
-                .iter()
-                .map(|a| pair.a.board.key(&name, a))
-                .collect::<Result<Vec<_>, _>>()
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    let mut rng = Rng::new(5);
-    let updates: Vec<_> = (0..4096).map(|_| update(&mut rng)).collect();
-    std::thread::sleep(Duration::from_millis(100));
-    let base = counter.count.load(Ordering::SeqCst);
-    let start_ns = u64::try_from(counter.start.elapsed().as_nanos())?;
-    let end = Instant::now() + budget;
-    let mut sent = 0u64;
-    while Instant::now() < end {
-        let mut batch = pair.a.board.batch();
-        for k in &keys {
-            let i = sent as usize;
-            batch.write_key(k[i % ATTRS.len()], updates[i % updates.len()].clone());
-            sent += 1;
-        }
-        batch.commit()?;
-        window(&counter, base, sent);
+const RAW_THROUGHPUT_KEY: &str = "bench/raw/netbench/r1/a/throughput";
+
+/// Throughput rounds, raw and slate, over the same pair.
+struct Throughput<'p> {
+    pair: &'p Pair,
+    raw: Arc<Counter>,
+    _raw_sub: zenoh::pubsub::Subscriber<()>,
+    applied: Arc<Counter>,
+    keys: Vec<Vec<Key>>,
+    updates: Vec<slate_model::Update>,
+    sent: u64,
+}
+
+impl<'p> Throughput<'p> {
+    fn new(pair: &'p Pair) -> anyhow::Result<Self> {
+        let raw = Counter::new();
+        let c = raw.clone();
+        let raw_sub = pair
+            .b
+            .transport
+            .session()
+            .declare_subscriber(RAW_THROUGHPUT_KEY)
+            .callback(move |_| c.hit(1))
+            .wait()
+            .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
+        let applied = Counter::new();
+        let class = pair
+            .b
+            .board
+            .info("Tracked")
+            .ok_or_else(|| anyhow!("the receiver lacks Tracked"))?
+            .id;
+        pair.b.board.add_hook(Arc::new(Applied {
+            class,
+            counter: applied.clone(),
+        }));
+        let keys = (0..OBJECTS)
+            .map(|i| {
+                let name = format!("t{i}");
+                ATTRS
+                    .iter()
+                    .map(|a| pair.a.board.key(&name, a))
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut rng = Rng::new(5);
+        let updates = (0..4096).map(|_| update(&mut rng)).collect();
+        let tp = Throughput {
+            pair,
+            raw,
+            _raw_sub: raw_sub,
+            applied,
+            keys,
+            updates,
+            sent: 0,
+        };
+        let ready = wait(Duration::from_secs(10), || {
+            tp.put(1).is_ok() && tp.raw.count.load(Ordering::SeqCst) > 0
+        });
+        anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
+        Ok(tp)
     }
-    let done = wait(Duration::from_secs(30), || pair.converged());
-    anyhow::ensure!(done, "the receiver did not converge within 30 s");
-    // The clock stops at the last packet B applied (the final state is complete then).
-    let elapsed = (counter.last_ns.load(Ordering::SeqCst) - start_ns) as f64 / 1e9;
-    let applied = counter.count.load(Ordering::SeqCst) - base;
-    Ok((sent as f64 / elapsed, sent, applied))
+
+    fn put(&self, payload: usize) -> anyhow::Result<()> {
+        self.pair
+            .a
+            .transport
+            .session()
+            .put(RAW_THROUGHPUT_KEY, vec![0x11; payload])
+            .congestion_control(CongestionControl::Block)
+            .wait()
+            .map_err(|e| anyhow!("zenoh put: {e}"))
+    }
+
+    /// One put per update for `budget`; returns updates per second and how many.
+    fn raw(&mut self, budget: Duration, payload: usize) -> anyhow::Result<(f64, u64)> {
+        std::thread::sleep(Duration::from_millis(50));
+        let (base, start_ns) = self.raw.mark()?;
+        let end = Instant::now() + budget;
+        let mut sent = 0u64;
+        while Instant::now() < end {
+            for _ in 0..100 {
+                self.put(payload)?;
+            }
+            sent += 100;
+        }
+        let all = wait(Duration::from_secs(20), || {
+            self.raw.count.load(Ordering::SeqCst) >= base + sent
+        });
+        anyhow::ensure!(all, "the raw puts did not all arrive within 20 s");
+        Ok((self.raw.rate(sent, start_ns), sent))
+    }
+
+    /// Batches of 100 updates as fast as A takes them for `budget` (at most [`WINDOW`]
+    /// ahead of B), until B holds A's final state. Returns updates per second, how
+    /// many, and how many B applied (fewer if Zenoh dropped reports and B caught up
+    /// with the current state instead).
+    fn slate(&mut self, budget: Duration) -> anyhow::Result<(f64, u64, u64)> {
+        std::thread::sleep(Duration::from_millis(50));
+        let (base, start_ns) = self.applied.mark()?;
+        let end = Instant::now() + budget;
+        let mut sent = 0u64;
+        while Instant::now() < end {
+            let mut batch = self.pair.a.board.batch();
+            for k in &self.keys {
+                let i = self.sent as usize;
+                batch.write_key(
+                    k[i % ATTRS.len()],
+                    self.updates[i % self.updates.len()].clone(),
+                );
+                self.sent += 1;
+                sent += 1;
+            }
+            batch.commit()?;
+            window(&self.applied, base, sent);
+        }
+        let done = wait(Duration::from_secs(30), || self.pair.converged());
+        anyhow::ensure!(done, "the receiver did not converge within 30 s");
+        // The clock stops at the last packet B applied (the final state is complete then).
+        let applied = self.applied.count.load(Ordering::SeqCst) - base;
+        Ok((self.applied.rate(sent, start_ns), sent, applied))
+    }
 }
 
 #[cfg(test)]

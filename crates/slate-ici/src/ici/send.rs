@@ -122,19 +122,34 @@ impl State {
         }
     }
 
-    /// An item reporting `packet` of `object.attr`, if the object still exists.
+    /// An item reporting `packet` of `object.attr`, if the object still exists (an own
+    /// object is known without asking the board, whose lock the writer wants).
     pub fn value_item(
         &mut self,
         object: &Arc<str>,
         attr: &Arc<str>,
         packet: Packet,
     ) -> Option<Item> {
-        let info = self.board.info(object)?;
-        let entry = ObjectEntry::from(&info);
+        let (entry, is_class) = match self.own_objects.get(object) {
+            Some((class, context)) => {
+                let entry = ObjectEntry {
+                    name: object.clone(),
+                    class: class.clone(),
+                    context: *context,
+                    owner: self.me.clone(),
+                };
+                (entry, false)
+            }
+            None => {
+                let info = self.board.info(object)?;
+                (ObjectEntry::from(&info), info.is_class)
+            }
+        };
         if &*entry.class == MODULE_CLASS {
             return None;
         }
         let lineage = self.lineage(&entry.class)?;
+        let (context, owner) = (entry.context, entry.owner.clone());
         Some(Item {
             what: What::Value(Assertion {
                 object: entry,
@@ -142,9 +157,9 @@ impl State {
                 packet,
             }),
             lineage,
-            context: info.context,
-            owner: info.owner,
-            is_class: info.is_class,
+            context,
+            owner,
+            is_class,
         })
     }
 

@@ -3,6 +3,8 @@
 //! applied after the lock is released (board hooks may call back into the ICI).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use rustc_hash::FxHashMap;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -119,7 +121,7 @@ pub(crate) struct State {
     /// The best packet heard of, per `confident` attribute.
     pub best: BTreeMap<Key, Packet>,
     /// Objects this board owns: name → (class, context).
-    pub own_objects: BTreeMap<Arc<str>, (Arc<str>, Context)>,
+    pub own_objects: FxHashMap<Arc<str>, (Arc<str>, Context)>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
     pub conflicts: BTreeSet<Arc<str>>,
@@ -168,7 +170,7 @@ impl State {
             filters: Filters::default(),
             fusion: Fusion::default(),
             best: BTreeMap::new(),
-            own_objects: BTreeMap::new(),
+            own_objects: FxHashMap::default(),
             tombstones: Tombstones::default(),
             origins: BTreeMap::new(),
             conflicts: BTreeSet::new(),
