@@ -181,8 +181,9 @@ impl<'a> BitReader<'a> {
     pub fn uvar(&mut self) -> Result<u64, DecodeError> {
         let mut value = 0u64;
         for shift in (0..64).step_by(7) {
-            let more = self.bit()?;
-            let group = self.bits(7)?;
+            // The continuation bit and its group, as written: one 8-bit field.
+            let byte = self.bits(8)?;
+            let (more, group) = (byte >> 7 == 1, byte & 0x7f);
             if shift == 63 && (group > 1 || more) {
                 return Err(DecodeError::BadValue("varint overflows 64 bits"));
             }

@@ -108,6 +108,18 @@ impl ZenohConfig {
     }
 }
 
+/// Key expressions whose source is remembered, at most (a few per peer are used).
+const MAX_SOURCES: usize = 4096;
+
+/// Where a message goes.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+enum Dest {
+    /// Published on a link kind.
+    Publication(LinkKind, MsgKind),
+    /// Sent to one module's inbox.
+    Direct(Address, MsgKind),
+}
+
 struct Inner {
     address: Address,
     session: zenoh::Session,
@@ -115,9 +127,12 @@ struct Inner {
     peers: Mutex<BTreeSet<Address>>,
     stats: Mutex<LinkStats>,
     subscribers: Mutex<Vec<Subscriber<()>>>,
-    /// A declared publisher per key put to (Zenoh resolves its routes once, not on
-    /// every put): the few publication keys and one inbox key per peer and kind.
-    publishers: Mutex<HashMap<String, Arc<Publisher<'static>>>>,
+    /// A declared publisher per destination (Zenoh resolves its routes once, not on
+    /// every put): the few publications and one inbox per peer and kind.
+    publishers: Mutex<HashMap<Dest, Arc<Publisher<'static>>>>,
+    /// The sources of the key expressions heard (parsing one on every message cost
+    /// several allocations); cleared when it grows past [`MAX_SOURCES`].
+    sources: Mutex<HashMap<String, Address>>,
     token: Mutex<Option<LivelinessToken>>,
     closed: AtomicBool,
 }
@@ -140,6 +155,7 @@ impl ZenohTransport {
             stats: Mutex::new(LinkStats::default()),
             subscribers: Mutex::new(Vec::new()),
             publishers: Mutex::new(HashMap::new()),
+            sources: Mutex::new(HashMap::new()),
             token: Mutex::new(None),
             closed: AtomicBool::new(false),
         });
@@ -209,7 +225,7 @@ impl Inner {
         if self.closed.load(Ordering::Acquire) {
             return;
         }
-        let Some(from) = keys::source(s.key_expr().as_str()) else {
+        let Some(from) = self.source(s.key_expr().as_str()) else {
             return;
         };
         if from == self.address {
@@ -227,6 +243,20 @@ impl Inner {
         if let Some(h) = handler {
             h.message(&from, &payload);
         }
+    }
+
+    /// The module that sent on `key`.
+    fn source(&self, key: &str) -> Option<Address> {
+        if let Some(a) = self.sources.lock().get(key) {
+            return Some(a.clone());
+        }
+        let a = keys::source(key)?;
+        let mut sources = self.sources.lock();
+        if sources.len() >= MAX_SOURCES {
+            sources.clear();
+        }
+        sources.insert(key.to_owned(), a.clone());
+        Some(a)
     }
 
     fn liveliness(&self, s: &Sample) {
@@ -248,14 +278,7 @@ impl Inner {
         }
     }
 
-    fn put(
-        &self,
-        key: String,
-        link: LinkKind,
-        kind: MsgKind,
-        payload: &[u8],
-        reliable: bool,
-    ) -> Result<(), SendError> {
+    fn put(&self, dest: Dest, link: LinkKind, payload: &[u8]) -> Result<(), SendError> {
         if self.closed.load(Ordering::Acquire) {
             return Err(SendError::Closed);
         }
@@ -266,7 +289,10 @@ impl Inner {
                 max: slate_wire::MAX_MESSAGE_BYTES,
             });
         }
-        let publisher = self.publisher(key, reliable)?;
+        let kind = match dest {
+            Dest::Publication(_, kind) | Dest::Direct(_, kind) => kind,
+        };
+        let publisher = self.publisher(dest)?;
         publisher
             .put(payload.to_vec())
             .wait()
@@ -274,28 +300,32 @@ impl Inner {
         self.stats.lock().sent(link, kind, payload.len());
         Ok(())
     }
-}
 
-impl Inner {
-    /// The publisher of `key`, declared on first use: reliable keys block when the link
-    /// is congested, the others drop (the ICI catches up from the current state).
-    fn publisher(&self, key: String, reliable: bool) -> Result<Arc<Publisher<'static>>, SendError> {
-        if let Some(p) = self.publishers.lock().get(&key) {
+    /// The publisher of `dest`, declared on first use: direct sends (reliable) block
+    /// when the link is congested, publications drop (the ICI catches up from the
+    /// current state).
+    fn publisher(&self, dest: Dest) -> Result<Arc<Publisher<'static>>, SendError> {
+        if let Some(p) = self.publishers.lock().get(&dest) {
             return Ok(p.clone());
         }
-        let congestion = if reliable {
-            CongestionControl::Block
-        } else {
-            CongestionControl::Drop
+        let (key, congestion) = match &dest {
+            Dest::Publication(link, kind) => (
+                keys::publication(&self.address, *link, *kind),
+                CongestionControl::Drop,
+            ),
+            Dest::Direct(to, kind) => (
+                keys::direct(to, &self.address, *kind),
+                CongestionControl::Block,
+            ),
         };
         let publisher = self
             .session
-            .declare_publisher(key.clone())
+            .declare_publisher(key)
             .congestion_control(congestion)
             .wait()
             .map_err(|e| SendError::Failed(e.to_string()))?;
         let publisher = Arc::new(publisher);
-        self.publishers.lock().insert(key, publisher.clone());
+        self.publishers.lock().insert(dest, publisher.clone());
         Ok(publisher)
     }
 }
@@ -314,14 +344,13 @@ impl Transport for ZenohTransport {
     }
 
     fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        let key = keys::publication(&self.inner.address, link, kind);
-        self.inner.put(key, link, kind, payload, false)
+        self.inner.put(Dest::Publication(link, kind), link, payload)
     }
 
     fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        let key = keys::direct(to, &self.inner.address, kind);
         let link = LinkKind::between(&self.inner.address, to);
-        self.inner.put(key, link, kind, payload, true)
+        self.inner
+            .put(Dest::Direct(to.clone(), kind), link, payload)
     }
 
     fn peers(&self) -> Vec<Address> {

@@ -212,7 +212,18 @@ impl<'p> Latency<'p> {
         let value = (k % 90_000) as f64 / 100.0 + 1.0;
         let start = Instant::now();
         self.pair.a.board.write_key(self.key, value)?;
-        arrival(&self.arrived, start)
+        arrival(&self.arrived, start, "a write on node A (latency probe)").map_err(|e| {
+            let (a, b) = (self.pair.a.ici.stats(), self.pair.b.ici.stats());
+            anyhow!(
+                "{e}: A holds {:?}, B holds {:?}; A's reports {:?}, B's merges {:?}, rejects {:?}, catch-up {:?}",
+                self.pair.a.board.read("t0", "range").ok(),
+                self.pair.b.board.read("t0", "range").ok(),
+                a.reports,
+                b.merges,
+                b.rejects,
+                b.catch_up
+            )
+        })
     }
 
     /// A put of `payload` bytes on A's session, until B's callback runs.
@@ -220,7 +231,7 @@ impl<'p> Latency<'p> {
         self.raw_arrived.try_iter().for_each(drop);
         let start = Instant::now();
         self.put(payload)?;
-        arrival(&self.raw_arrived, start)
+        arrival(&self.raw_arrived, start, "a raw Zenoh put (latency probe)")
     }
 
     fn put(&self, payload: usize) -> anyhow::Result<()> {
@@ -234,10 +245,10 @@ impl<'p> Latency<'p> {
     }
 }
 
-fn arrival(rx: &Receiver<Instant>, start: Instant) -> anyhow::Result<Duration> {
+fn arrival(rx: &Receiver<Instant>, start: Instant, what: &str) -> anyhow::Result<Duration> {
     let at = rx
         .recv_timeout(Duration::from_secs(5))
-        .map_err(|_| anyhow!("a probe did not arrive within 5 s"))?;
+        .map_err(|_| anyhow!("{what} did not arrive within 5 s"))?;
     Ok(at.saturating_duration_since(start))
 }
 

@@ -18,11 +18,14 @@ const OBJECT_LIST: u8 = 3;
 const MAX_ITEMS: u64 = slate_wire::MAX_ITEMS as u64;
 const MAX_NAME: u64 = slate_wire::MAX_NAME_BYTES as u64;
 
-/// A module's hello: which incarnation it is and what it models.
+/// A module's hello: which incarnation it is and what it models; `reply` when it
+/// answers the other's hello (a hello that is not a reply is answered by one, so its
+/// sender knows it was heard).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Hello {
     pub incarnation: u64,
     pub interest: ClassSet,
+    pub reply: bool,
 }
 
 /// An object as a source lists it: name, class (with the fingerprint of its
@@ -121,6 +124,7 @@ impl Frame {
                     w.str(class);
                     w.0.push(*mask);
                 }
+                w.0.push(u8::from(h.reply));
             }
             Frame::Lifecycle(l) => write_lifecycle(&mut w, l),
             Frame::ObjectList(o) => {
@@ -267,9 +271,15 @@ fn read_hello(r: &mut Reader<'_>) -> Result<Hello, FrameError> {
         }
         interest = interest.with(&class, mask);
     }
+    let reply = match r.byte()? {
+        0 => false,
+        1 => true,
+        _ => return Err(FrameError::Bad("reply flag")),
+    };
     Ok(Hello {
         incarnation,
         interest,
+        reply,
     })
 }
 
@@ -331,6 +341,7 @@ mod tests {
                 interest: ClassSet::none()
                     .class("Vehicle")
                     .class_in("Rock", &[Context::Self_]),
+                reply: true,
             }),
             Frame::Lifecycle(Lifecycle {
                 seq: 300,

@@ -145,7 +145,7 @@ impl Ici {
         board.define(module_class())?;
         board.set_normaliser(Some(Arc::new(quantise::Quantiser)));
         quantise::settle(&board);
-        let watch = board.watch(Filter::all())?;
+        let watch = board.watch(Filter::all().own_writes_only())?;
         let state = State::new(board.clone(), transport.clone(), config, watch);
         let shared = Arc::new_cyclic(|me: &Weak<Shared>| Shared {
             board: board.clone(),

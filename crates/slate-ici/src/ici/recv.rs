@@ -139,10 +139,18 @@ impl State {
             self.request_catch_up(from, true, false);
             return;
         }
-        if !self.peer(from).stream.receive(r.seq, now) {
+        let newest = r
+            .items
+            .iter()
+            .filter(|a| a.packet.source == *from)
+            .map(|a| a.packet.timestamp)
+            .max();
+        let p = self.peer(from);
+        if !p.stream.receive(r.seq, now) {
             self.stats.rejects.duplicates += 1;
             return;
         }
+        p.newest = p.newest.max(newest);
         self.apply_items(from, r.items, Some(r.seq));
     }
 
@@ -152,12 +160,35 @@ impl State {
     }
 
     fn on_hello(&mut self, from: &Address, hello: Hello) {
+        if self
+            .peer(from)
+            .incarnation
+            .is_some_and(|i| hello.incarnation < i)
+        {
+            // A late hello of the incarnation before a restart.
+            self.stats.rejects.stale += 1;
+            return;
+        }
+        if hello.reply {
+            // It heard this module's hello; what it says of itself came with its own.
+            self.peer(from).hello_unanswered = None;
+            return;
+        }
+        self.hello(from, true);
         let p = self.peer(from);
-        let restarted = p.incarnation.is_some_and(|i| i != hello.incarnation);
+        // Another incarnation than the one heard before; or the first hello heard from a
+        // source whose stream this board followed before that incarnation began (the
+        // previous incarnation's hellos were lost): its positions and the objects heard
+        // on it must not stand for the new incarnation's.
+        let restarted = match p.incarnation {
+            Some(i) => i != hello.incarnation,
+            None => p.newest.is_some_and(|t| t.raw() < hello.incarnation),
+        };
         p.incarnation = Some(hello.incarnation);
         p.interest = Some(hello.interest);
         if restarted {
             p.stream = Inbound::default();
+            p.newest = None;
             p.catch_up = None;
             p.caught_up = false;
             self.stats.liveliness.restarts += 1;
@@ -202,10 +233,18 @@ impl State {
             self.stats.rejects.stale += 1;
             return;
         }
-        if !self.peer(from).stream.receive(l.seq, now) {
+        let newest = l
+            .created
+            .iter()
+            .map(|(_, t)| *t)
+            .chain(l.deleted.iter().map(|(_, t)| *t))
+            .max();
+        let p = self.peer(from);
+        if !p.stream.receive(l.seq, now) {
             self.stats.rejects.duplicates += 1;
             return;
         }
+        p.newest = p.newest.max(newest);
         for (listed, stamp) in l.created {
             self.listed(
                 from,

@@ -53,6 +53,12 @@ pub(crate) struct Peer {
     pub failed: bool,
     /// A catch-up with it has completed since it (re)started.
     pub caught_up: bool,
+    /// When this module last sent it a hello (not a reply) that it has not answered
+    /// yet; `None` once answered.
+    pub hello_unanswered: Option<Duration>,
+    /// The newest stamp of its own on its stream (packets it wrote, objects it created
+    /// or deleted): older than its incarnation means a previous incarnation's stream.
+    pub newest: Option<Timestamp>,
 }
 
 impl Peer {
@@ -69,6 +75,8 @@ impl Peer {
             catch_up: None,
             failed: false,
             caught_up: false,
+            hello_unanswered: None,
+            newest: None,
         }
     }
 }

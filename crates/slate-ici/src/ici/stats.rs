@@ -145,4 +145,6 @@ pub struct LivelinessStats {
     pub found: u64,
     /// Sources seen restarting (a new incarnation).
     pub restarts: u64,
+    /// Hellos sent again because the peer had not answered.
+    pub hellos_resent: u64,
 }

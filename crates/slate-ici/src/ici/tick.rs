@@ -5,6 +5,7 @@
 use slate_model::Address;
 use slate_wire::{Heartbeat, Message};
 
+use super::classes::ClassSet;
 use super::filter::Due;
 use super::frame::{Frame, Hello};
 use super::ops::own_packet;
@@ -18,6 +19,28 @@ impl State {
         self.heartbeats();
         self.timeouts();
         self.catch_up_timers();
+        self.hello_timers();
+    }
+
+    /// Says hello again to the peers that have not answered: a message sent before the
+    /// peer's subscriptions reached this module's network is lost without a trace.
+    fn hello_timers(&mut self) {
+        let now = self.now;
+        let unanswered: Vec<Address> = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.up)
+            .filter(|(_, p)| {
+                let every = self.config.link(p.link).heartbeat;
+                p.hello_unanswered
+                    .is_some_and(|sent| now.saturating_sub(sent) >= every)
+            })
+            .map(|(a, _)| a.clone())
+            .collect();
+        for peer in unanswered {
+            self.stats.liveliness.hellos_resent += 1;
+            self.send_hello(&peer);
+        }
     }
 
     fn filter_timers(&mut self) {
@@ -162,11 +185,25 @@ impl State {
         self.request_catch_up(peer, false, false);
     }
 
-    /// Tells a peer this module's incarnation and interest.
+    /// Tells a peer this module's incarnation and interest, until it answers.
     pub fn send_hello(&mut self, to: &Address) {
+        let now = self.now;
+        self.peer(to).hello_unanswered = Some(now);
+        self.hello(to, false);
+    }
+
+    /// Sends a hello, or a reply to the peer's (an acknowledgement: without the
+    /// interest, which the peer learns from this module's own hello).
+    pub fn hello(&mut self, to: &Address, reply: bool) {
+        let interest = if reply {
+            ClassSet::none()
+        } else {
+            self.config.interest.clone()
+        };
         let hello = Hello {
             incarnation: self.incarnation,
-            interest: self.config.interest.clone(),
+            interest,
+            reply,
         };
         self.send_to(to, MsgKind::Hello, &Frame::Hello(hello).encode());
     }

@@ -179,3 +179,95 @@ fn a_silent_module_is_declared_dead_by_the_heartbeat_timeout() {
     let now = team.net.clock().physical().as_secs_f64();
     assert!(now - seen >= 5.0, "last seen {seen}, now {now}");
 }
+
+/// A transport that loses the first hellos it is asked to send, as Zenoh loses a
+/// message sent before the peer's subscriptions have reached this module.
+struct LosesHellos {
+    inner: std::sync::Arc<slate_ici::SimTransport>,
+    left: std::sync::atomic::AtomicUsize,
+}
+
+impl slate_ici::Transport for LosesHellos {
+    fn address(&self) -> &slate_model::Address {
+        self.inner.address()
+    }
+
+    fn set_handler(&self, handler: std::sync::Arc<dyn slate_ici::Handler>) {
+        self.inner.set_handler(handler);
+    }
+
+    fn publish(
+        &self,
+        link: LinkKind,
+        kind: slate_ici::MsgKind,
+        payload: &[u8],
+    ) -> Result<(), slate_ici::SendError> {
+        self.inner.publish(link, kind, payload)
+    }
+
+    fn send(
+        &self,
+        to: &slate_model::Address,
+        kind: slate_ici::MsgKind,
+        payload: &[u8],
+    ) -> Result<(), slate_ici::SendError> {
+        use std::sync::atomic::Ordering;
+        let lose = kind == slate_ici::MsgKind::Hello
+            && self
+                .left
+                .fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1))
+                .is_ok();
+        if lose {
+            return Ok(());
+        }
+        self.inner.send(to, kind, payload)
+    }
+
+    fn peers(&self) -> Vec<slate_model::Address> {
+        self.inner.peers()
+    }
+
+    fn stats(&self) -> slate_ici::LinkStats {
+        self.inner.stats()
+    }
+
+    fn close(&self) {
+        self.inner.close();
+    }
+}
+
+#[test]
+fn a_lost_hello_is_said_again_until_answered() {
+    use std::sync::Arc;
+    let team = Team::new(5);
+    let mut nodes = Vec::new();
+    for a in ["t/r1/a", "t/r1/b"] {
+        let address = addr(a);
+        let board = Arc::new(
+            slate_model::Board::builder()
+                .clock(team.net.clock())
+                .address(address.clone())
+                .build(),
+        );
+        for def in crate::common::classes() {
+            board.define(def).unwrap();
+        }
+        let transport = Arc::new(LosesHellos {
+            inner: team.net.join(&address),
+            left: 1.into(),
+        });
+        let ici = slate_ici::Ici::new(board.clone(), transport, open()).unwrap();
+        nodes.push((board, ici));
+    }
+    team.run(1.0);
+    nodes[0].0.create("Tracked", "x1").unwrap();
+    team.run(2.0);
+    nodes[0].0.write("x1", "x", 4.0).unwrap();
+    team.run(0.5);
+    let got = nodes[1].0.read("x1", "x").ok().map(|p| p.value);
+    assert_eq!(got, Some(Value::Real(4.0)), "b hears a's reports");
+    for (_, ici) in &nodes {
+        assert!(ici.stats().liveliness.hellos_resent >= 1);
+        assert_eq!(ici.alive_peers().len(), 1);
+    }
+}

@@ -952,6 +952,7 @@ fn resolve_filter(st: &State, f: &Filter) -> Result<watch::Spec, LookupError> {
         object,
         class,
         attr,
+        own_writes: f.own_writes,
     })
 }
 

@@ -111,7 +111,8 @@ impl<'s> Txn<'s> {
                 attr: attr.clone(),
                 packet: packet.clone(),
             };
-            self.note(key.object, Some(key.attr), item);
+            let foreign = packet.source != *self.me;
+            self.note(key.object, Some(key.attr), foreign, item);
         }
         let stored = if fns.is_empty() {
             None
@@ -147,7 +148,7 @@ impl<'s> Txn<'s> {
         self.touch(id, None, TouchKind::Create);
         let class: Arc<str> = class.into();
         let object: Arc<str> = name.into();
-        self.note(id, None, || ChangeItem::Create {
+        self.note(id, None, false, || ChangeItem::Create {
             object: object.clone(),
             class: class.clone(),
         });
@@ -170,7 +171,7 @@ impl<'s> Txn<'s> {
                 .unwrap_or_else(|| "?".into());
             self.touch(id, None, TouchKind::Delete);
             let object: Arc<str> = name.into();
-            self.note(id, None, || ChangeItem::Delete {
+            self.note(id, None, false, || ChangeItem::Delete {
                 object: object.clone(),
                 class: class.clone(),
             });
@@ -202,13 +203,20 @@ impl<'s> Txn<'s> {
         });
     }
 
-    /// Records a change item for every watcher it matches.
-    fn note(&mut self, id: ObjectId, attr: Option<AttrId>, item: impl Fn() -> ChangeItem) {
+    /// Records a change item for every watcher it matches (`foreign`: a write of a
+    /// packet another module wrote).
+    fn note(
+        &mut self,
+        id: ObjectId,
+        attr: Option<AttrId>,
+        foreign: bool,
+        item: impl Fn() -> ChangeItem,
+    ) {
         let Inner {
             state, watchers, ..
         } = &*self.inner;
         for (i, w) in watchers.iter().enumerate() {
-            if w.spec.matches(state, id, attr) {
+            if !(foreign && w.spec.own_writes) && w.spec.matches(state, id, attr) {
                 if self.notes.len() <= i {
                     self.notes.resize_with(watchers.len(), Vec::new);
                 }

@@ -21,6 +21,7 @@ pub struct Filter {
     pub(crate) object: Option<String>,
     pub(crate) class: Option<String>,
     pub(crate) attr: Option<String>,
+    pub(crate) own_writes: bool,
 }
 
 impl Filter {
@@ -60,6 +61,13 @@ impl Filter {
     /// Also require the attribute.
     pub fn attr(mut self, name: &str) -> Self {
         self.attr = Some(name.to_owned());
+        self
+    }
+
+    /// Only the writes of packets the board wrote itself (its address is their source):
+    /// not the packets it merged from others. Creations and deletions still all match.
+    pub fn own_writes_only(mut self) -> Self {
+        self.own_writes = true;
         self
     }
 }
@@ -220,6 +228,7 @@ pub(crate) struct Spec {
     pub object: Option<ObjectId>,
     pub class: Option<ObjectId>,
     pub attr: Option<AttrId>,
+    pub own_writes: bool,
 }
 
 impl Spec {

@@ -130,6 +130,24 @@ fn merge_all_is_one_revision_and_judges_each_packet_on_its_own() {
     assert_eq!(b.stats().revision, revision);
 }
 
+#[test]
+fn a_watch_of_own_writes_skips_merged_packets() {
+    let b = board();
+    let own = b.watch(Filter::all().own_writes_only()).unwrap();
+    let all = b.watch(Filter::all()).unwrap();
+    b.merge("t", "latest", packet(1.0, 10, 1.0, "team/r1/a"))
+        .unwrap();
+    b.write("t", "latest", 2.0).unwrap();
+    b.create("Track", "u").unwrap();
+    let items = |w: &slate_model::Watch| {
+        std::iter::from_fn(|| w.try_recv())
+            .flat_map(|c| c.items)
+            .count()
+    };
+    assert_eq!(items(&all), 3);
+    assert_eq!(items(&own), 2, "the own write and the creation");
+}
+
 /// Rounds own reals to whole numbers.
 struct Round;
 
