@@ -18,15 +18,20 @@ pub const SIGNALS: &str = r#"
 
 /// A board with the signals and one plan `p` (`every` optional) that counts in log.n.
 pub fn world(every: &str) -> (Arc<Board>, Engine) {
+    world_with(&format!(
+        "initiation: init.on; trigger: trig.on; termination: term.on; {every}"
+    ))
+}
+
+/// A board with the signals and one plan `p` with these conditions, counting in log.n
+/// (and writing nothing its conditions read).
+fn world_with(conditions: &str) -> (Arc<Board>, Engine) {
     let board = Arc::new(Board::builder().clock(Clock::manual()).build());
     let engine = Engine::new(&board);
     let plan = format!(
         "{SIGNALS}
         plan p {{
-            initiation: init.on;
-            trigger: trig.on;
-            termination: term.on;
-            {every}
+            {conditions}
             action {{ set log.n = log.n + 1; }}
         }}"
     );
@@ -150,22 +155,9 @@ fn every_repeats_while_the_trigger_holds_and_stops_at_termination() {
     assert_eq!(fired(&b, &e), 4, "never after termination");
 }
 
-/// A plan whose trigger is `changed(trig.level, 0.5)`, optionally `or` something else,
-/// counting in log.n (and writing nothing its trigger reads).
+/// A plan triggered by `changed(trig.level, 0.5)`, optionally `or` something else.
 fn follower(or: &str) -> (Arc<Board>, Engine) {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
-    let plan = format!(
-        "{SIGNALS}
-        plan p {{
-            trigger: changed(trig.level, 0.5){or};
-            action {{ set log.n = log.n + 1; }}
-        }}"
-    );
-    engine
-        .load("t.slate", &plan)
-        .unwrap_or_else(|e| panic!("{e}"));
-    (board, engine)
+    world_with(&format!("trigger: changed(trig.level, 0.5){or};"))
 }
 
 #[test]
