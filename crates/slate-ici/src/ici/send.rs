@@ -7,13 +7,22 @@ use std::sync::Arc;
 use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, Timestamp};
 use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
-use super::classes::Lineage;
+use super::classes::{ClassSet, Lineage};
 use super::filter::Key;
 use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
 use super::state::State;
 use crate::{LinkKind, MsgKind};
+
+/// Whether an item goes on a link kind.
+enum Wanted {
+    Yes,
+    /// The export policy keeps it on the robot.
+    NotExported,
+    /// No peer up there models it.
+    NoPeer,
+}
 
 /// Something to put on the streams.
 pub(crate) enum What {
@@ -216,18 +225,25 @@ impl State {
         if items.is_empty() {
             return;
         }
+        let mut chosen = Vec::with_capacity(items.len());
         for link in LinkKind::ALL {
-            let peers = self.up_peers(link);
-            let chosen: Vec<&Item> = items
-                .iter()
-                .filter(|i| self.wanted(link, i, &peers))
-                .collect();
+            chosen.clear();
+            let (mut not_exported, mut not_wanted) = (0, 0);
+            for item in &items {
+                match self.wanted(link, item) {
+                    Wanted::Yes => chosen.push(item),
+                    Wanted::NotExported => not_exported += 1,
+                    Wanted::NoPeer => not_wanted += 1,
+                }
+            }
+            self.stats.reports.suppressed_export += not_exported;
+            self.stats.reports.suppressed_interest += not_wanted;
             self.emit(link, &chosen);
         }
     }
 
-    /// Does anyone on `link` want this item (and may it go there)? Counts it if not.
-    fn wanted(&mut self, link: LinkKind, item: &Item, peers: &[Address]) -> bool {
+    /// Does anyone on `link` want this item, and may it go there?
+    fn wanted(&self, link: LinkKind, item: &Item) -> Wanted {
         let export = &self.config.export;
         let exported = link == LinkKind::Robot
             || if item.is_class {
@@ -236,22 +252,34 @@ impl State {
                 export.contains(&item.lineage, item.context)
             };
         if !exported {
-            self.stats.reports.suppressed_export += 1;
+            return Wanted::NotExported;
+        }
+        let wanted = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.up && p.link == link)
+            .any(|(a, p)| self.interest_wants(a, p.interest.as_ref(), item));
+        if wanted { Wanted::Yes } else { Wanted::NoPeer }
+    }
+
+    /// Does a peer with this interest (`None`: not heard yet) want the item?
+    fn interest_wants(&self, p: &Address, interest: Option<&ClassSet>, item: &Item) -> bool {
+        let Some(interest) = interest else {
             return false;
+        };
+        if item.is_class {
+            interest.relates_to_class(&item.lineage, &self.catalog)
+        } else {
+            interest.contains(
+                &item.lineage,
+                State::context_on(item.context, &item.owner, p),
+            )
         }
-        let wanted = peers.iter().any(|p| self.peer_wants_item(p, item));
-        if !wanted {
-            self.stats.reports.suppressed_interest += 1;
-        }
-        wanted
     }
 
     pub(super) fn peer_wants_item(&self, p: &Address, item: &Item) -> bool {
-        if !item.is_class {
-            return self.peer_wants(p, &item.lineage, item.context, &item.owner);
-        }
         let interest = self.peers.get(p).and_then(|p| p.interest.as_ref());
-        interest.is_some_and(|i| i.relates_to_class(&item.lineage, &self.catalog))
+        self.interest_wants(p, interest, item)
     }
 
     /// Groups consecutive items into messages: lifecycle frames (creations, then
@@ -297,6 +325,13 @@ impl State {
 
     fn emit_values(&mut self, link: LinkKind, values: &mut Vec<Assertion>) {
         let max = self.config.max_report_items.max(1);
+        if values.len() <= max {
+            let all = std::mem::take(values);
+            if !all.is_empty() {
+                self.emit_report(link, all);
+            }
+            return;
+        }
         let mut values = std::mem::take(values).into_iter().peekable();
         while values.peek().is_some() {
             let chunk = values.by_ref().take(max).collect();

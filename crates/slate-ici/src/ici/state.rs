@@ -236,21 +236,6 @@ impl State {
         }
     }
 
-    /// Does peer `p` model an object of chain `lineage`, with `context` and `owner` as
-    /// this board has them? A peer whose interest is not known yet models nothing.
-    pub fn peer_wants(
-        &self,
-        p: &Address,
-        lineage: &[Arc<str>],
-        context: Context,
-        owner: &Address,
-    ) -> bool {
-        let Some(interest) = self.peers.get(p).and_then(|p| p.interest.as_ref()) else {
-            return false;
-        };
-        interest.contains(lineage, State::context_on(context, owner, p))
-    }
-
     /// The peers up on one link kind.
     pub fn up_peers(&self, link: LinkKind) -> Vec<Address> {
         self.peers
