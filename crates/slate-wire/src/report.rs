@@ -107,11 +107,10 @@ fn resolve_all<'a>(
     ann: &mut Announce,
 ) -> Result<Vec<Entry<'a>>, EncodeError> {
     check_len("assertions in a report", report.items.len(), MAX_ITEMS)?;
-    let entries = report
-        .items
-        .iter()
-        .map(|a| resolve(a, dict, me, schema, ann))
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut entries = Vec::with_capacity(report.items.len());
+    for a in &report.items {
+        entries.push(resolve(a, dict, me, schema, ann)?);
+    }
     let elements = entries
         .iter()
         .map(|e| e.packet.value.as_vector().map_or(0, <[f64]>::len));
@@ -259,9 +258,11 @@ pub(crate) fn read_report(rr: ReportReader) -> Result<(Report, Option<Section>),
         Vec::new()
     } else {
         let mut er = EntryReader::start(r, view, rr.schema, flags)?;
-        (0..n)
-            .map(|i| er.entry(r, i, rr.from))
-            .collect::<Result<_, _>>()?
+        let mut items = Vec::with_capacity(n);
+        for i in 0..n {
+            items.push(er.entry(r, i, rr.from)?);
+        }
+        items
     };
     Ok((Report { seq, items }, section))
 }

@@ -347,9 +347,9 @@ impl Shared {
             let mut tally = ops::Tally::default();
             loop {
                 // Consecutive merges (a report's packets) are one board change.
-                let mut merges = Vec::new();
-                let op = {
+                let (merges, op) = {
                     let mut queue = self.queue.lock();
+                    let mut merges = Vec::with_capacity(queue.len());
                     while let Some(BoardOp::Merge { .. }) = queue.front() {
                         if let Some(BoardOp::Merge {
                             object,
@@ -360,11 +360,12 @@ impl Shared {
                             merges.push((object, attr, packet));
                         }
                     }
-                    if merges.is_empty() {
+                    let op = if merges.is_empty() {
                         queue.pop_front()
                     } else {
                         None
-                    }
+                    };
+                    (merges, op)
                 };
                 if !merges.is_empty() {
                     ops::merge_all(&self.board, &mut tally, merges);

@@ -286,7 +286,7 @@ impl State {
     /// deletions) and reports, keeping the order of the board's changes.
     pub(super) fn emit(&mut self, link: LinkKind, items: &[&Item]) {
         let mut life = Lifecycle::default();
-        let mut values: Vec<Assertion> = Vec::new();
+        let mut values: Vec<Assertion> = Vec::with_capacity(items.len());
         for item in items {
             match &item.what {
                 What::Value(a) => {

@@ -537,7 +537,8 @@ impl Board {
         O: AsRef<str>,
         A: AsRef<str>,
     {
-        let mut out = Vec::new();
+        let packets = packets.into_iter();
+        let mut out = Vec::with_capacity(packets.size_hint().0);
         let done = {
             let mut inner = self.inner.write();
             let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
