@@ -194,6 +194,9 @@ impl State {
             self.stats.liveliness.restarts += 1;
             self.decoder.forget(from);
             self.forget_origins(from);
+            // The new incarnation knows nothing of this module yet (a restart quick
+            // enough not to show as the peer going down tells no one to say hello).
+            self.send_hello(from);
             self.request_catch_up(from, true, false);
             self.relay_orphans(from);
         }
