@@ -2,7 +2,6 @@
 
 mod demo {
     pub mod browser;
-    pub mod cdp;
     pub mod files;
     pub mod mission;
     pub mod support;

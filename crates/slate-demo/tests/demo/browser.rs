@@ -1,15 +1,22 @@
 //! The dashboard of a running demo, in headless Chromium: the map shows the robots, the
 //! values change as the mission goes on, the plans show their acknowledgements, the page
 //! logs no error; a screenshot lands in `target/demo-dashboard.png`.
+//!
+//! Runs when `slate_cdp::chromium` finds Chromium (`$SLATE_CHROMIUM`, else `/usr/bin/chromium`
+//! or `/usr/bin/chromium-browser`). `SLATE_BROWSER_TESTS=1` makes a missing Chromium a
+//! failure, `SLATE_BROWSER_TESTS=0` skips the test.
 
 use std::net::SocketAddr;
 use std::sync::mpsc;
 use std::time::Duration;
 
+use slate_cdp::{Chromium, Page, chromium};
 use slate_demo::{DemoConfig, Progress, run};
 
-use super::cdp::{Chromium, Page, chromium};
 use super::support::target_dir;
+
+/// How long any one wait in this test may take before it fails.
+const WAIT: Duration = Duration::from_secs(30);
 
 fn seconds(text: &str) -> f64 {
     text.trim().parse().unwrap_or(f64::NAN)
@@ -45,8 +52,8 @@ fn the_dashboard_shows_the_team_at_work_without_console_errors() {
     let url = rx
         .recv_timeout(Duration::from_secs(60))
         .expect("the dashboard is served");
-    let chromium = Chromium::launch(&binary);
-    let mut page = Page::open(&chromium.devtools);
+    let chromium = Chromium::launch(&binary, WAIT);
+    let mut page = chromium.page();
     page.navigate(&url);
     page.wait_text("transport", |t| t == "live");
     let robots = page.wait_text("robot-count", |t| t == "3");
