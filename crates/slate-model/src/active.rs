@@ -178,4 +178,30 @@ impl Call<'_> {
     pub fn exists(&self, name: &str) -> bool {
         self.access.exists(name)
     }
+
+    /// An owned token of this function's place in its chain, for code that cannot hold
+    /// the `Call` (another language's runtime): [`Board::read_as`](crate::Board::read_as)
+    /// and [`Board::write_as`](crate::Board::write_as) with it run inside the chain, as
+    /// [`read`](Call::read) and [`write`](Call::write) do. `None` inside a snapshot,
+    /// where every access must go through the `Call` (the snapshot holds the board).
+    pub fn token(&self) -> Option<CallToken> {
+        match self.access {
+            Access::Live(board) => Some(CallToken {
+                chain: self.chain.clone(),
+                board: std::ptr::from_ref(board) as usize,
+            }),
+            Access::Frozen(_) => None,
+        }
+    }
+}
+
+/// An active function's place in its chain of active functions, owned: see
+/// [`Call::token`]. Use it only while the function runs (afterwards its chain no longer
+/// exists, and accesses with it may be cut as cycles that are not), and only on the board
+/// that ran the function (on another it is no chain at all).
+#[derive(Clone, Debug)]
+pub struct CallToken {
+    pub(crate) chain: Chain,
+    /// The board's address in memory, to tell a token of another board.
+    pub(crate) board: usize,
 }

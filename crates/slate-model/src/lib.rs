@@ -39,7 +39,7 @@ mod id;
 mod packet;
 mod value;
 
-pub use active::{ActiveFn, Call, FnError, FnRef, Trigger};
+pub use active::{ActiveFn, Call, CallToken, FnError, FnRef, Trigger};
 pub use address::{Address, AddressError, Context};
 pub use board::{
     Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeHook, ChangeItem, Cursor,

@@ -3,11 +3,14 @@
 //! The core hands an active function a `&mut Call` that lives only while the function runs;
 //! its `read` and `write` continue the chain of active functions (so cycles and deep chains
 //! are cut) and, inside a snapshot, read through it. Python code cannot hold a borrowed
-//! value, and this crate has no `unsafe`, so the Python `Call` cannot point at it. Instead,
-//! while the callable runs in this thread, a scoped *servant* thread holds the `&Call` and
-//! performs the callable's reads and writes for it: the Python `Call` sends each request
-//! over a channel and waits for the answer with the GIL released. Writes made that way run
-//! their own active functions (Python ones included) in the servant thread.
+//! value, and this crate has no `unsafe`, so the Python `Call` cannot point at it.
+//!
+//! On the live board (the common case) the Python `Call` holds the board and the call's
+//! [`CallToken`] instead, and reads and writes with `Board::read_as` / `write_as` in this
+//! thread, with the GIL released. Inside a snapshot there is no token (the snapshot holds
+//! the board): while the callable runs in this thread, a scoped *servant* thread holds the
+//! `&Call` and performs the callable's reads for it; the Python `Call` sends each request
+//! over a channel and waits for the answer with the GIL released.
 //!
 //! Deadlocks: the callable runs with the GIL, never under the board's lock, except on-read
 //! functions run inside a snapshot (the plan engine's), which hold the board's read lock
@@ -21,9 +24,11 @@ use parking_lot::Mutex;
 use pyo3::gc::PyVisit;
 use pyo3::prelude::*;
 use pyo3::{PyTraverseError, intern};
+use std::sync::Weak;
+
 use slate_model::{
-    ActiveFn, Call, FnError, LookupError, Packet, ReadError, Trigger, Update, Value, ValueType,
-    WriteError,
+    ActiveFn, Board, Call, CallToken, FnError, LookupError, Packet, ReadError, Trigger, Update,
+    Value, ValueType, WriteError,
 };
 
 use crate::errors::{self, Kind};
@@ -37,14 +42,22 @@ pub(crate) struct PyActiveFn {
     callable: Mutex<Option<Py<PyAny>>>,
     /// The attribute's declared type, to make an int returned by an on-read function a real.
     declared: Option<ValueType>,
+    /// The board it is attached to (weak: the board holds the function).
+    board: Weak<Board>,
 }
 
 impl PyActiveFn {
-    pub(crate) fn new(name: String, callable: Py<PyAny>, declared: Option<ValueType>) -> Self {
+    pub(crate) fn new(
+        name: String,
+        callable: Py<PyAny>,
+        declared: Option<ValueType>,
+        board: Weak<Board>,
+    ) -> Self {
         PyActiveFn {
             name,
             callable: Mutex::new(Some(callable)),
             declared,
+            board,
         }
     }
 
@@ -68,7 +81,11 @@ impl ActiveFn for PyActiveFn {
     }
 
     fn call(&self, call: &mut Call<'_>) -> Result<(), FnError> {
-        match self.run_served(call)? {
+        let returned = match (call.token(), self.board.upgrade()) {
+            (Some(token), Some(board)) => self.run_direct(call, board, token)?,
+            _ => self.run_served(call)?,
+        };
+        match returned {
             Some(Returned::Packet(p)) => {
                 let p = self.complete(p, call.packet());
                 call.set_packet(p);
@@ -85,11 +102,26 @@ impl ActiveFn for PyActiveFn {
 const SERVANT_STACK: usize = 8 << 20;
 
 impl PyActiveFn {
+    /// Runs the callable in this thread; its `Call` reads and writes the live board
+    /// inside the chain, with the token.
+    fn run_direct(
+        &self,
+        call: &Call<'_>,
+        board: Arc<Board>,
+        token: CallToken,
+    ) -> Result<Option<Returned>, FnError> {
+        let link = Arc::new(Mutex::new(Some(Route::Direct(board, token))));
+        let view = view(call, &link);
+        let result = Python::attach(|py| self.run(py, view));
+        link.lock().take();
+        result
+    }
+
     /// Runs the callable in this thread while a scoped servant thread performs its
     /// requests through `call`.
     fn run_served(&self, call: &Call<'_>) -> Result<Option<Returned>, FnError> {
         let (tx, rx) = crossbeam_channel::unbounded();
-        let link = Arc::new(Mutex::new(Some(tx)));
+        let link = Arc::new(Mutex::new(Some(Route::Served(tx))));
         let view = view(call, &link);
         std::thread::scope(|s| {
             std::thread::Builder::new()
@@ -184,6 +216,15 @@ fn last_frame(py: Python<'_>, tb: &Bound<'_, pyo3::types::PyTraceback>) -> PyRes
     Ok(format!("{file}:{line} in {function}"))
 }
 
+/// How the Python `Call` reaches the board while its function runs.
+#[derive(Clone)]
+enum Route {
+    /// Directly, inside the chain the token holds.
+    Direct(Arc<Board>, CallToken),
+    /// Through the servant thread that holds the `&Call`.
+    Served(Sender<Request>),
+}
+
 /// A request from the Python `Call` to the servant.
 enum Request {
     Read(String, String, Sender<Result<Packet, ReadError>>),
@@ -215,7 +256,7 @@ fn serve(call: &Call<'_>, rx: &Receiver<Request>) {
 }
 
 /// The call being served, as the Python `Call` sees it.
-fn view(call: &Call<'_>, link: &Arc<Mutex<Option<Sender<Request>>>>) -> PyCall {
+fn view(call: &Call<'_>, link: &Arc<Mutex<Option<Route>>>) -> PyCall {
     PyCall {
         object: call.object().to_owned(),
         attr: call.attr().to_owned(),
@@ -254,30 +295,35 @@ pub(crate) struct PyCall {
     /// On write: the board revision of the write (0 on read).
     #[pyo3(get)]
     revision: u64,
-    link: Arc<Mutex<Option<Sender<Request>>>>,
+    link: Arc<Mutex<Option<Route>>>,
 }
 
 impl PyCall {
-    /// Sends a request built around a fresh reply channel and waits for the answer with
-    /// the GIL released.
-    fn ask<T: Send>(
-        &self,
-        py: Python<'_>,
-        request: impl FnOnce(Sender<T>) -> Request,
-    ) -> PyResult<T> {
-        let ended = || {
-            errors::new(
-                py,
-                Kind::Slate,
-                "this Call is over: use it only while its active function runs",
-            )
-        };
-        let tx = self.link.lock().clone().ok_or_else(ended)?;
-        let (reply, answer) = crossbeam_channel::bounded(1);
-        tx.send(request(reply)).map_err(|_| ended())?;
-        drop(tx);
-        py.detach(|| answer.recv()).map_err(|_| ended())
+    /// The route to the board while the function runs; an error afterwards.
+    fn route(&self, py: Python<'_>) -> PyResult<Route> {
+        self.link.lock().clone().ok_or_else(|| ended(py))
     }
+}
+
+fn ended(py: Python<'_>) -> PyErr {
+    errors::new(
+        py,
+        Kind::Slate,
+        "this Call is over: use it only while its active function runs",
+    )
+}
+
+/// Sends a request built around a fresh reply channel to the servant and waits for the
+/// answer with the GIL released.
+fn ask<T: Send>(
+    py: Python<'_>,
+    tx: Sender<Request>,
+    request: impl FnOnce(Sender<T>) -> Request,
+) -> PyResult<T> {
+    let (reply, answer) = crossbeam_channel::bounded(1);
+    tx.send(request(reply)).map_err(|_| ended(py))?;
+    drop(tx);
+    py.detach(|| answer.recv()).map_err(|_| ended(py))
 }
 
 #[pymethods]
@@ -296,7 +342,10 @@ impl PyCall {
 
     /// Reads an attribute (running its on-read functions, within the chain limits).
     fn read(&self, py: Python<'_>, object: String, attr: String) -> PyResult<PyPacket> {
-        let read = self.ask(py, |reply| Request::Read(object, attr, reply))?;
+        let read = match self.route(py)? {
+            Route::Direct(board, token) => py.detach(|| board.read_as(&token, &object, &attr)),
+            Route::Served(tx) => ask(py, tx, |reply| Request::Read(object, attr, reply))?,
+        };
         read.map(|inner| PyPacket { inner })
             .map_err(|e| errors::read(py, e))
     }
@@ -317,19 +366,36 @@ impl PyCall {
         source: Option<&str>,
     ) -> PyResult<u64> {
         let update = packet::to_update(value, accuracy, confidence, timestamp, source)?;
-        let done = self.ask(py, |reply| Request::Write(object, attr, update, reply))?;
+        let done = match self.route(py)? {
+            Route::Direct(board, token) => py.detach(|| {
+                packet::retry_as_real(update, |u| board.write_as(&token, &object, &attr, u))
+            }),
+            Route::Served(tx) => ask(py, tx, |reply| Request::Write(object, attr, update, reply))?,
+        };
         done.map_err(|e| errors::write(py, e))
     }
 
     /// Names of the instances of a class and its subclasses.
     fn instances(&self, py: Python<'_>, class_name: String) -> PyResult<Vec<String>> {
-        let names = self.ask(py, |reply| Request::Instances(class_name, reply))?;
+        let names = match self.route(py)? {
+            Route::Direct(board, _) => py.detach(|| {
+                board.instances(&class_name).map(|ids| {
+                    ids.into_iter()
+                        .filter_map(|id| board.name_of(id).map(|n| n.to_string()))
+                        .collect()
+                })
+            }),
+            Route::Served(tx) => ask(py, tx, |reply| Request::Instances(class_name, reply))?,
+        };
         names.map_err(|e| errors::lookup(py, e))
     }
 
     /// Does an object or class of that name exist?
     fn exists(&self, py: Python<'_>, name: String) -> PyResult<bool> {
-        self.ask(py, |reply| Request::Exists(name, reply))
+        match self.route(py)? {
+            Route::Direct(board, _) => Ok(py.detach(|| board.info(&name).is_some())),
+            Route::Served(tx) => ask(py, tx, |reply| Request::Exists(name, reply)),
+        }
     }
 
     fn __repr__(&self, py: Python<'_>) -> String {

@@ -103,7 +103,12 @@ impl PyBoard {
             .unwrap_or_else(|_| "python function".to_owned());
         let declared = self.without_gil(py, |b| packet::declared_type(b, target, attr));
         let name = format!("{fn_name} ({target}.{attr} on {trigger})");
-        let active = Arc::new(PyActiveFn::new(name, f.clone().unbind(), declared));
+        let active = Arc::new(PyActiveFn::new(
+            name,
+            f.clone().unbind(),
+            declared,
+            Arc::downgrade(&self.board),
+        ));
         let board = &self.board;
         let attached = active.clone();
         py.detach(|| board.attach(target, attr, trigger, attached))

@@ -457,6 +457,39 @@ impl Board {
         )
     }
 
+    /// Reads as an active function of this board would through its `Call`: inside the
+    /// chain the token was taken in ([`Call::token`](crate::Call::token)).
+    pub fn read_as(
+        &self,
+        token: &crate::CallToken,
+        object: &str,
+        attr: &str,
+    ) -> Result<Packet, ReadError> {
+        self.read_in(Target::Names(object, attr), &self.chain_of(token))
+    }
+
+    /// Writes as an active function of this board would through its `Call`: inside the
+    /// chain the token was taken in ([`Call::token`](crate::Call::token)).
+    pub fn write_as(
+        &self,
+        token: &crate::CallToken,
+        object: &str,
+        attr: &str,
+        update: impl Into<Update>,
+    ) -> Result<u64, WriteError> {
+        let chain = self.chain_of(token);
+        self.write_in(Target::Names(object, attr), update.into(), &chain)
+    }
+
+    /// The token's chain, if it is this board's.
+    fn chain_of(&self, token: &crate::CallToken) -> Chain {
+        if token.board == std::ptr::from_ref(self) as usize {
+            token.chain.clone()
+        } else {
+            Chain::default()
+        }
+    }
+
     /// Writes through a resolved key.
     pub fn write_key(&self, key: Key, update: impl Into<Update>) -> Result<u64, WriteError> {
         self.write_in(Target::Key(key), update.into(), &Chain::default())

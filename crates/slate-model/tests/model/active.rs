@@ -320,3 +320,60 @@ mod parking_lot_free {
         }
     }
 }
+
+#[test]
+fn a_token_carries_the_chain_to_accesses_made_outside_the_call() {
+    let b = Arc::new(board());
+    b.create("Vehicle", "v").unwrap();
+    // Functions that reach the board through an Arc and a token, as a binding does.
+    let weak = Arc::downgrade(&b);
+    b.on_write("Vehicle", "speed", move |call| {
+        let token = call.token().expect("a live write");
+        let board = weak.upgrade().expect("the board");
+        board.write_as(&token, call.object(), "wheels", 4)?;
+        Ok(())
+    })
+    .unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    let weak = Arc::downgrade(&b);
+    b.on_write("Vehicle", "wheels", move |call| {
+        let token = call.token().expect("a live write");
+        let board = weak.upgrade().expect("the board");
+        let speed = board.read_as(&token, call.object(), "speed")?;
+        let again = board.write_as(&token, call.object(), "speed", 1.0);
+        let _ = tx.send((speed.value.as_f64(), again));
+        Ok(())
+    })
+    .unwrap();
+    let events = b.events();
+    b.write("v", "speed", 5.0).unwrap();
+    let (speed, again) = rx.recv().unwrap();
+    assert_eq!(speed, Some(5.0), "read_as reads the board");
+    assert!(
+        matches!(again, Err(WriteError::Chain(ChainError::Cycle { .. }))),
+        "write_as is cut as a cycle: {again:?}"
+    );
+    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(5.0));
+    assert_eq!(b.read("v", "wheels").unwrap().value, Value::Int(4));
+    let path = events.try_iter().find_map(|e| match e {
+        BoardEvent::ChainCut(ChainError::Cycle { path }) => Some(path),
+        _ => None,
+    });
+    assert_eq!(path.unwrap(), ["v.speed", "v.wheels", "v.speed"]);
+}
+
+#[test]
+fn functions_run_inside_a_snapshot_get_no_token() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    b.on_read("Vehicle", "mode", move |call| {
+        let _ = tx.send(call.token().is_some());
+        Ok(())
+    })
+    .unwrap();
+    b.read("v", "mode").unwrap();
+    assert!(rx.recv().unwrap(), "a live read has a token");
+    b.snapshot().read("v", "mode").unwrap();
+    assert!(!rx.recv().unwrap(), "a snapshot's read has none");
+}
