@@ -270,6 +270,10 @@ impl Inner {
         let changed = if up {
             self.peers.lock().insert(peer.clone())
         } else {
+            // Its inbox publishers go with it (short-lived observers come and go).
+            self.publishers
+                .lock()
+                .retain(|dest, _| !matches!(dest, Dest::Direct(to, _) if *to == peer));
             self.peers.lock().remove(&peer)
         };
         let handler = self.handler.read().clone();
@@ -379,5 +383,59 @@ impl Transport for ZenohTransport {
 impl Drop for ZenohTransport {
     fn drop(&mut self) {
         self.close();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::net::TcpListener;
+    use std::time::{Duration, Instant};
+
+    use super::*;
+
+    fn wait(mut done: impl FnMut() -> bool) -> bool {
+        let end = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < end && !done() {
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        done()
+    }
+
+    #[test]
+    fn a_peer_that_leaves_takes_its_inbox_publishers_along() {
+        let port = TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .expect("a free port");
+        let endpoint = format!("tcp/127.0.0.1:{port}");
+        let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
+            let config = ZenohConfig {
+                listen,
+                connect,
+                ..ZenohConfig::default()
+            };
+            ZenohTransport::open(Address::new(name).unwrap(), &config).expect("opens")
+        };
+        let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
+        let b = open("t/r1/b", vec![], vec![endpoint]);
+        let b_address = b.address().clone();
+        assert!(wait(|| a.peers().contains(&b_address)), "a sees b");
+        a.send(&b_address, MsgKind::Hello, &[0x01]).unwrap();
+        a.publish(LinkKind::Robot, MsgKind::Report, &[0x11])
+            .unwrap();
+        let inboxes = |t: &ZenohTransport| {
+            t.inner
+                .publishers
+                .lock()
+                .keys()
+                .filter(|d| matches!(d, Dest::Direct(..)))
+                .count()
+        };
+        assert_eq!(inboxes(&a), 1);
+        b.close();
+        assert!(wait(|| !a.peers().contains(&b_address)), "a sees b leave");
+        assert_eq!(inboxes(&a), 0, "b's inbox publisher is gone");
+        assert_eq!(a.inner.publishers.lock().len(), 1, "the publication stays");
+        a.close();
     }
 }
