@@ -11,7 +11,7 @@ use zenoh::Wait;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
-use zenoh::sample::{Sample, SampleKind};
+use zenoh::sample::{Locality, Sample, SampleKind};
 
 use crate::keys;
 
@@ -326,6 +326,8 @@ impl Inner {
             .session
             .declare_publisher(key)
             .congestion_control(congestion)
+            // This session's own subscriptions drop what it sends: do not route it there.
+            .allowed_destination(Locality::Remote)
             .wait()
             .map_err(|e| SendError::Failed(e.to_string()))?;
         let publisher = Arc::new(publisher);
