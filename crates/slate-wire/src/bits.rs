@@ -151,12 +151,19 @@ impl<'a> BitReader<'a> {
         if n > 0 && n + offset <= 64 {
             // The field lies in the next eight bytes (zero past the end, which the
             // length check above keeps out of the field): one load, two shifts.
-            let window = &self.bytes[at..self.bytes.len().min(at + 8)];
-            let mut word = [0u8; 8];
-            word[..window.len()].copy_from_slice(window);
-            let word = u64::from_be_bytes(word) << offset;
+            let word = match self.bytes.get(at..at + 8) {
+                Some(eight) => {
+                    let mut word = [0u8; 8];
+                    word.copy_from_slice(eight);
+                    u64::from_be_bytes(word)
+                }
+                None => self.bytes[at..]
+                    .iter()
+                    .enumerate()
+                    .fold(0u64, |w, (i, b)| w | u64::from(*b) << (56 - 8 * i)),
+            };
             self.pos += u64::from(n);
-            return Ok(word >> (64 - n));
+            return Ok((word << offset) >> (64 - n));
         }
         let mut value = 0u64;
         let mut left = n;
@@ -174,7 +181,13 @@ impl<'a> BitReader<'a> {
 
     /// Reads one bit.
     pub fn bit(&mut self) -> Result<bool, DecodeError> {
-        Ok(self.bits(1)? == 1)
+        let byte = self
+            .bytes
+            .get((self.pos / 8) as usize)
+            .ok_or(DecodeError::Truncated)?;
+        let bit = byte >> (7 - self.pos % 8) & 1;
+        self.pos += 1;
+        Ok(bit == 1)
     }
 
     /// Reads an unsigned varint written by [`BitWriter::uvar`].
