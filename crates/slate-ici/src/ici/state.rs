@@ -54,8 +54,8 @@ pub(crate) struct Peer {
     /// A catch-up with it has completed since it (re)started.
     pub caught_up: bool,
     /// When this module last sent it a hello (not a reply) that it has not answered
-    /// yet; `None` once answered.
-    pub hello_unanswered: Option<Duration>,
+    /// yet, and how many times it said it again; `None` once answered.
+    pub hello_unanswered: Option<(Duration, u32)>,
     /// The newest stamp of its own on its stream (packets it wrote, objects it created
     /// or deleted): older than its incarnation means a previous incarnation's stream.
     pub newest: Option<Timestamp>,

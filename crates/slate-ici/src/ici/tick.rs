@@ -23,23 +23,26 @@ impl State {
     }
 
     /// Says hello again to the peers that have not answered: a message sent before the
-    /// peer's subscriptions reached this module's network is lost without a trace.
+    /// peer's subscriptions reached this module's network is lost without a trace. The
+    /// wait doubles with every try, from the link kind's heartbeat interval up to eight
+    /// times that (a slow radio's queue must not fill with hellos).
     fn hello_timers(&mut self) {
         let now = self.now;
-        let unanswered: Vec<Address> = self
+        let unanswered: Vec<(Address, u32)> = self
             .peers
             .iter()
             .filter(|(_, p)| p.up)
-            .filter(|(_, p)| {
-                let every = self.config.link(p.link).heartbeat;
-                p.hello_unanswered
-                    .is_some_and(|sent| now.saturating_sub(sent) >= every)
+            .filter_map(|(a, p)| {
+                let (sent, tries) = p.hello_unanswered?;
+                let wait = self.config.link(p.link).heartbeat * (1 << tries.min(3));
+                (now.saturating_sub(sent) >= wait).then(|| (a.clone(), tries))
             })
-            .map(|(a, _)| a.clone())
             .collect();
-        for peer in unanswered {
+        for (peer, tries) in unanswered {
             self.stats.liveliness.hellos_resent += 1;
-            self.send_hello(&peer);
+            self.hello(&peer, false);
+            let now = self.now;
+            self.peer(&peer).hello_unanswered = Some((now, tries + 1));
         }
     }
 
@@ -188,7 +191,7 @@ impl State {
     /// Tells a peer this module's incarnation and interest, until it answers.
     pub fn send_hello(&mut self, to: &Address) {
         let now = self.now;
-        self.peer(to).hello_unanswered = Some(now);
+        self.peer(to).hello_unanswered = Some((now, 0));
         self.hello(to, false);
     }
 
