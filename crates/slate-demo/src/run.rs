@@ -273,13 +273,7 @@ impl Demo {
         let console = &self.team.console().board;
         let found = self.observer.found.len();
         let alive = self.team.dead.iter().filter(|d| !**d).count();
-        let team: f64 = self
-            .traffic
-            .rate
-            .iter()
-            .filter(|((_, l), _)| *l == LinkKind::Team)
-            .map(|(_, r)| r * 8.0)
-            .sum();
+        let team = self.traffic.team_bps();
         format!(
             "mission {} · targets {found}/{} found · robots {alive}/{} alive · team link {:.1} kbit/s (radio peak {:.1} of {:.1}) · {:.1} s wall",
             text(console, "mission", "phase"),

@@ -38,13 +38,7 @@ fn summary(demo: &Demo) -> Value {
         .filter(|t| !text(console, t, "found_by").is_empty())
         .count();
     let alive = demo.team.dead.iter().filter(|d| !**d).count();
-    let team_bps: f64 = demo
-        .traffic
-        .rate
-        .iter()
-        .filter(|((_, l), _)| *l == LinkKind::Team)
-        .map(|(_, r)| r * 8.0)
-        .sum();
+    let team_bps = demo.traffic.team_bps();
     let fault = demo.observer.fault.as_ref();
     json!({
         "mission": text(console, "mission", "phase"),

@@ -48,6 +48,15 @@ impl Traffic {
         }
     }
 
+    /// Bits per second on the air over the last sample, all team-link radios together.
+    pub fn team_bps(&self) -> f64 {
+        self.rate
+            .iter()
+            .filter(|((_, l), _)| *l == LinkKind::Team)
+            .map(|(_, r)| r * 8.0)
+            .sum()
+    }
+
     /// Samples the counters at world time `t` (call about once a second).
     pub(crate) fn sample(&mut self, net: &Network, team: &Team, t: f64) {
         let now = counts(net, team);

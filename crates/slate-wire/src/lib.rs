@@ -84,4 +84,5 @@ pub use message::{
     Assertion, CatchUpRequest, Heartbeat, Message, Names, ObjectEntry, Plan, PlanAck, PlanStep,
     Report,
 };
+pub use quant::quantise;
 pub use schema::Schema;

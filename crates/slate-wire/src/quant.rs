@@ -1,6 +1,8 @@
 //! Quantisation rules: numbers from declared bounds and resolution, accuracy on a log
 //! scale, confidence in 1/255 steps.
 
+use slate_model::{AttrDecl, Packet, Value, ValueType};
+
 use crate::DecodeError;
 use crate::bits::{BitReader, BitWriter, width};
 use crate::value::{read_real, write_real};
@@ -57,7 +59,16 @@ impl Quant {
                 "quantised code beyond the declared bounds",
             ));
         }
-        Ok((self.min + q as f64 * self.res).min(self.max))
+        Ok(self.decoded(q))
+    }
+
+    /// What a receiver reads of `v`.
+    pub fn snap(&self, v: f64) -> f64 {
+        self.decoded(self.code(v))
+    }
+
+    fn decoded(&self, q: u64) -> f64 {
+        (self.min + q as f64 * self.res).min(self.max)
     }
 
     /// Writes `v`.
@@ -181,6 +192,42 @@ pub(crate) fn write_confidence(w: &mut BitWriter, c: f64) {
 /// Reads a confidence written by [`write_confidence`].
 pub(crate) fn read_confidence(r: &mut BitReader) -> Result<f64, DecodeError> {
     Ok(r.bits(CONFIDENCE_BITS)? as f64 / CONFIDENCE_STEPS)
+}
+
+/// Makes `packet` what a receiver decodes from it, given the attribute's declaration:
+/// a bounded real (or vector) on its resolution's grid, an accuracy other than the
+/// default on its log scale, a confidence other than the default in 1/255 steps. The
+/// codec's own arithmetic, without the bits: a writer that stores its packets this way
+/// holds exactly what its receivers decode.
+pub fn quantise(decl: &AttrDecl, packet: &mut Packet) {
+    if let Some(q) = Quant::new(decl.bounds, decl.resolution) {
+        match &mut packet.value {
+            Value::Real(x) if decl.ty == ValueType::Real => *x = q.snap(*x),
+            Value::Vector(v)
+                if matches!(decl.ty, ValueType::Vector(_))
+                    && v.iter().any(|x| q.snap(*x) != *x) =>
+            {
+                *v = v.iter().map(|x| q.snap(*x)).collect();
+            }
+            _ => {}
+        }
+    }
+    let default = decl.default.as_ref();
+    if packet.accuracy != default.map_or(0.0, |d| d.accuracy) {
+        let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
+        let scale = scale.unwrap_or(1.0);
+        packet.accuracy = match accuracy_code(packet.accuracy, scale) {
+            Some(0) => 0.0,
+            Some(k) => accuracy_of(k, scale),
+            None => packet.accuracy,
+        };
+    }
+    if packet.confidence != default.map_or(1.0, |d| d.confidence) {
+        let q = (packet.confidence * CONFIDENCE_STEPS)
+            .round()
+            .clamp(0.0, CONFIDENCE_STEPS);
+        packet.confidence = q / CONFIDENCE_STEPS;
+    }
 }
 
 #[cfg(test)]

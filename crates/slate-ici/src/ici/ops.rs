@@ -81,7 +81,7 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
             object,
             attr,
             packet,
-        } => merge(board, tally, &object, &attr, packet),
+        } => merge_all(board, tally, vec![(object, attr, packet)]),
         BoardOp::Fuse(key) => fuse(board, state, &key),
         BoardOp::Delete { object, owner } => delete(board, state, &object, &owner),
         BoardOp::Module {
@@ -105,10 +105,6 @@ fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
             tracing::debug!(object = %name, error = %e, "object not created");
         }
     }
-}
-
-fn merge(board: &Board, tally: &mut Tally, object: &str, attr: &str, packet: Packet) {
-    tally.count(board.merge(object, attr, packet));
 }
 
 /// Merges received packets as one board change.

@@ -1,106 +1,12 @@
-//! Packets as every receiver will decode them: values quantised to their resolution,
-//! accuracy on its log scale, confidence to 1/255 (the rules of `docs/wire.md`,
-//! "Quantisation"). The writer stores its own packets that way (and fuses its own
-//! estimate that way), so every board holds the same packet.
-//!
-//! This is the codec's arithmetic without the bits (an encode and a decode per packet
-//! cost more than the rest of the send path); a property test checks it against a
-//! slate-wire round trip, so the two cannot drift apart unnoticed.
+//! Packets as every receiver will decode them: the writer stores its own packets that
+//! way (and fuses its own estimate that way), so every board holds the same packet. The
+//! arithmetic is slate-wire's ([`slate_wire::quantise`]); a property test here checks it
+//! against a slate-wire round trip, so the two cannot drift apart unnoticed.
 
-use slate_model::{AttrDecl, Board, Normaliser, Packet, Update, Value, ValueType};
+use slate_model::{AttrDecl, Board, Normaliser, Packet, Update};
+use slate_wire::quantise;
 
 use super::classes::Catalog;
-
-/// Codes of a quantised real: `min + code · res`, capped at `max`.
-#[derive(Clone, Copy)]
-struct Quant {
-    min: f64,
-    max: f64,
-    res: f64,
-    steps: u64,
-}
-
-/// Past this many steps a real is sent exactly.
-const MAX_STEPS: f64 = (1u64 << 52) as f64;
-
-impl Quant {
-    fn new(decl: &AttrDecl) -> Option<Quant> {
-        let (min, max) = decl.bounds?;
-        let res = decl.resolution?;
-        let usable = min.is_finite() && max.is_finite() && min <= max;
-        if !(usable && res.is_finite() && res > 0.0) {
-            return None;
-        }
-        let steps = ((max - min) / res).round();
-        if steps.is_nan() || steps >= MAX_STEPS {
-            return None;
-        }
-        Some(Quant {
-            min,
-            max,
-            res,
-            steps: steps as u64,
-        })
-    }
-
-    fn apply(&self, v: f64) -> f64 {
-        let q = ((v - self.min) / self.res).round();
-        let code = (q.max(0.0) as u64).min(self.steps);
-        (self.min + code as f64 * self.res).min(self.max)
-    }
-}
-
-/// Accuracy codes: `scale · 2^((code − 17) / 4)`, 0 for code 0, exact past code 62.
-const ACCURACY_ONE: i64 = 17;
-const ACCURACY_ESCAPE: i64 = 63;
-
-fn accuracy_of(code: i64, scale: f64) -> f64 {
-    scale * ((code - ACCURACY_ONE) as f64 / 4.0).exp2()
-}
-
-fn accuracy(a: f64, scale: f64) -> f64 {
-    let smallest = accuracy_of(1, scale);
-    if a < smallest / 2.0 {
-        return 0.0;
-    }
-    if a <= smallest {
-        return smallest;
-    }
-    let code = (4.0 * (a / scale).log2()).round() as i64 + ACCURACY_ONE;
-    if code < ACCURACY_ESCAPE {
-        accuracy_of(code, scale)
-    } else {
-        a
-    }
-}
-
-fn confidence(c: f64) -> f64 {
-    (c * 255.0).round().clamp(0.0, 255.0) / 255.0
-}
-
-/// Makes `packet` what a receiver decodes, given the attribute's declaration.
-pub(crate) fn quantise(decl: &AttrDecl, packet: &mut Packet) {
-    if let Some(q) = Quant::new(decl) {
-        match &mut packet.value {
-            Value::Real(x) if decl.ty == ValueType::Real => *x = q.apply(*x),
-            Value::Vector(v)
-                if matches!(decl.ty, ValueType::Vector(_))
-                    && v.iter().any(|x| q.apply(*x) != *x) =>
-            {
-                *v = v.iter().map(|x| q.apply(*x)).collect();
-            }
-            _ => {}
-        }
-    }
-    let default = decl.default.as_ref();
-    if packet.accuracy != default.map_or(0.0, |d| d.accuracy) {
-        let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
-        packet.accuracy = accuracy(packet.accuracy, scale.unwrap_or(1.0));
-    }
-    if packet.confidence != default.map_or(1.0, |d| d.confidence) {
-        packet.confidence = confidence(packet.confidence);
-    }
-}
 
 /// The board's [`Normaliser`] while an ICI runs it: every packet the module writes is
 /// stored quantised, so the writer holds exactly what its receivers decode.
@@ -149,7 +55,7 @@ pub(crate) fn settle(board: &Board) {
 mod tests {
     use super::*;
     use proptest::prelude::*;
-    use slate_model::{Address, ClassDef, MANUAL_EPOCH, Timestamp};
+    use slate_model::{Address, ClassDef, MANUAL_EPOCH, Timestamp, Value, ValueType};
     use slate_wire::{Assertion, Decoder, Encoder, Message, ObjectEntry, Report, Schema};
 
     fn quantised(decl: &AttrDecl, packet: &Packet) -> Packet {

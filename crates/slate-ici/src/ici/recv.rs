@@ -126,7 +126,6 @@ impl State {
     }
 
     fn on_report(&mut self, from: &Address, r: Report) {
-        let now = self.now;
         let old = r
             .items
             .iter()
@@ -145,13 +144,9 @@ impl State {
             .filter(|a| a.packet.source == *from)
             .map(|a| a.packet.timestamp)
             .max();
-        let p = self.peer(from);
-        if !p.stream.receive(r.seq, now) {
-            self.stats.rejects.duplicates += 1;
-            return;
+        if self.take_position(from, r.seq, newest) {
+            self.apply_items(from, r.items, Some(r.seq));
         }
-        p.newest = p.newest.max(newest);
-        self.apply_items(from, r.items, Some(r.seq));
     }
 
     fn on_heartbeat(&mut self, from: &Address, h: Heartbeat) {
@@ -226,28 +221,17 @@ impl State {
     }
 
     fn on_lifecycle(&mut self, from: &Address, l: Lifecycle) {
-        let now = self.now;
-        let stamps = l
-            .created
-            .iter()
-            .map(|(_, t)| *t)
-            .chain(l.deleted.iter().map(|(_, t)| *t));
-        if stamps.into_iter().any(|t| self.before_incarnation(from, t)) {
+        let stamps = || {
+            let created = l.created.iter().map(|(_, t)| *t);
+            created.chain(l.deleted.iter().map(|(_, t)| *t))
+        };
+        if stamps().any(|t| self.before_incarnation(from, t)) {
             self.stats.rejects.stale += 1;
             return;
         }
-        let newest = l
-            .created
-            .iter()
-            .map(|(_, t)| *t)
-            .chain(l.deleted.iter().map(|(_, t)| *t))
-            .max();
-        let p = self.peer(from);
-        if !p.stream.receive(l.seq, now) {
-            self.stats.rejects.duplicates += 1;
+        if !self.take_position(from, l.seq, stamps().max()) {
             return;
         }
-        p.newest = p.newest.max(newest);
         for (listed, stamp) in l.created {
             self.listed(
                 from,
@@ -261,6 +245,19 @@ impl State {
         for (name, stamp) in l.deleted {
             self.remote_delete(from, name, stamp);
         }
+    }
+
+    /// Takes position `seq` of `from`'s stream, whose own newest stamp is `newest`;
+    /// false (counted) for a duplicate.
+    fn take_position(&mut self, from: &Address, seq: u64, newest: Option<Timestamp>) -> bool {
+        let now = self.now;
+        let p = self.peer(from);
+        if !p.stream.receive(seq, now) {
+            self.stats.rejects.duplicates += 1;
+            return false;
+        }
+        p.newest = p.newest.max(newest);
+        true
     }
 
     /// Was something stamped `stamp` by `from` made before its current incarnation

@@ -543,18 +543,8 @@ impl Board {
     /// The same packets merged in any order, any number of times, leave every board with the
     /// same packet: this is what makes copies converge.
     pub fn merge(&self, object: &str, attr: &str, packet: Packet) -> Result<Merged, WriteError> {
-        let done = {
-            let mut inner = self.inner.write();
-            let key = inner.state.key(object, attr)?;
-            let verdict = inner.state.merge_verdict(key, &packet)?;
-            if verdict != Merged::Applied(0) {
-                return Ok(verdict);
-            }
-            let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
-            txn.write(key, Update::from(packet))?;
-            txn.commit()
-        };
-        Ok(Merged::Applied(self.finish(done, &Chain::default())))
+        let mut outcome = self.merge_all([(object, attr, packet)]);
+        outcome.pop().unwrap_or(Ok(Merged::Kept))
     }
 
     /// Merges received packets `(object, attribute, packet)` as [`merge`](Board::merge)
