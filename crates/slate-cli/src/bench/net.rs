@@ -3,14 +3,15 @@
 //!
 //! * Latency: a write on node A until node B's board holds it (taken in B's change
 //!   hook, in the thread that applies it), one write at a time; raw: a put of the same
-//!   payload size until B's subscriber callback runs. The two kinds of probe alternate,
-//!   so that both see the same machine. Percentiles over the probes.
+//!   payload size until B's subscriber callback runs, by `Session::put` (the targets'
+//!   baseline) and by a declared publisher (reported beside it). The three kinds of
+//!   probe alternate, so that all see the same machine. Percentiles over the probes.
 //! * Throughput: A commits updates in batches of 100 (a sensor's scan; the ICI turns
 //!   each into one report) as fast as it can, never more than 20 000 updates ahead of
 //!   what B applied; the clock stops when B's board holds A's final state; raw: one put
 //!   per update (congestion control `Block`, so none is dropped) until B's callback has
-//!   them all. Raw and slate rounds alternate ([`ROUNDS`] of each); the medians are
-//!   reported.
+//!   them all, again by `Session::put` and by a declared publisher. Raw and slate rounds
+//!   alternate ([`ROUNDS`] of each); the medians are reported.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -46,15 +47,29 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     progress("latency");
     let mut lat = Latency::new(&pair)?;
     let payload = lat.payload(probes / 10 + 10)?;
-    let (mut slate, mut raw) = (Vec::with_capacity(probes), Vec::with_capacity(probes));
+    let mut slate = Vec::with_capacity(probes);
+    let (mut raw, mut publisher) = (Vec::with_capacity(probes), Vec::with_capacity(probes));
     for k in 0..probes {
         slate.push(lat.slate(k)?);
         std::thread::sleep(PROBE_GAP);
-        raw.push(lat.raw(payload)?);
+        raw.push(lat.raw(Raw::SessionPut, payload)?);
+        std::thread::sleep(PROBE_GAP);
+        publisher.push(lat.raw(Raw::Publisher, payload)?);
         std::thread::sleep(PROBE_GAP);
     }
     r.add_in("raw_zenoh_latency_p50_us", percentile(&raw, 50.0), Unit::Us);
     r.add_in("raw_zenoh_latency_p99_us", percentile(&raw, 99.0), Unit::Us);
+    let by_publisher = [percentile(&publisher, 50.0), percentile(&publisher, 99.0)];
+    r.add_in(
+        "raw_zenoh_publisher_latency_p50_us",
+        by_publisher[0],
+        Unit::Us,
+    );
+    r.add_in(
+        "raw_zenoh_publisher_latency_p99_us",
+        by_publisher[1],
+        Unit::Us,
+    );
     let within = vec![Target::RatioAtMost(1.2)];
     r.compare_in(
         "latency_p50_us",
@@ -70,30 +85,53 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
         "raw_zenoh_latency_p99_us",
         within,
     );
+    let ratio = |x: f64, base: f64| json!((x / base * 100.0).round() / 100.0);
+    r.fact(
+        "latency_p50_ratio_to_publisher",
+        ratio(percentile(&slate, 50.0), by_publisher[0]),
+    );
+    r.fact(
+        "latency_p99_ratio_to_publisher",
+        ratio(percentile(&slate, 99.0), by_publisher[1]),
+    );
     r.fact("latency_probes", json!(probes));
     r.fact("raw_payload_bytes", json!(payload));
 
     progress("throughput");
     let budget = Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / ROUNDS as u64);
     let mut tp = Throughput::new(&pair)?;
-    let (mut raw_rates, mut rates) = (Vec::new(), Vec::new());
+    let (mut raw_rates, mut publisher_rates, mut rates) = (Vec::new(), Vec::new(), Vec::new());
     let (mut raw_count, mut count, mut delivered) = (0, 0, 0);
     for _ in 0..ROUNDS {
-        let (rate, n) = tp.raw(budget, payload)?;
+        let (rate, n) = tp.raw(Raw::SessionPut, budget, payload)?;
         raw_rates.push(rate);
+        raw_count += n;
+        let (rate, n) = tp.raw(Raw::Publisher, budget, payload)?;
+        publisher_rates.push(rate);
         raw_count += n;
         let (rate, n, applied) = tp.slate(budget)?;
         rates.push(rate);
         (count, delivered) = (count + n, delivered + applied);
     }
+    let rate = median(rates);
     r.add_in("raw_zenoh_updates_per_sec", median(raw_rates), Unit::PerSec);
+    let publisher_rate = median(publisher_rates);
+    r.add_in(
+        "raw_zenoh_publisher_updates_per_sec",
+        publisher_rate,
+        Unit::PerSec,
+    );
     let targets = vec![Target::AtLeast(1_000_000.0), Target::RatioAtLeast(0.8)];
     r.compare_in(
         "updates_per_sec",
-        median(rates),
+        rate,
         Unit::PerSec,
         "raw_zenoh_updates_per_sec",
         targets,
+    );
+    r.fact(
+        "updates_per_sec_ratio_to_publisher",
+        ratio(rate, publisher_rate),
     );
     r.fact("throughput_rounds", json!(ROUNDS));
     r.fact("throughput_updates", json!(count));
@@ -133,6 +171,15 @@ impl ChangeHook for Arrivals {
     }
 }
 
+/// How a raw baseline puts: through `Session::put` (the key resolved on every put: the
+/// baseline of the targets), or through a declared `Publisher` (resolved once: Zenoh at
+/// its fastest, reported beside it).
+#[derive(Clone, Copy)]
+enum Raw {
+    SessionPut,
+    Publisher,
+}
+
 const RAW_LATENCY_KEY: &str = "bench/raw/netbench/r1/a/latency";
 
 /// The two kinds of latency probe: a write on A until B's hook sees it, and a raw put
@@ -143,6 +190,7 @@ struct Latency<'p> {
     arrived: Receiver<Instant>,
     raw_arrived: Receiver<Instant>,
     _raw_sub: zenoh::pubsub::Subscriber<()>,
+    raw_pub: zenoh::pubsub::Publisher<'static>,
 }
 
 impl<'p> Latency<'p> {
@@ -168,15 +216,23 @@ impl<'p> Latency<'p> {
             })
             .wait()
             .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
+        let raw_pub = pair
+            .a
+            .transport
+            .session()
+            .declare_publisher(RAW_LATENCY_KEY)
+            .wait()
+            .map_err(|e| anyhow!("zenoh publisher: {e}"))?;
         let lat = Latency {
             pair,
             key: pair.a.board.key("t0", "range")?,
             arrived,
             raw_arrived,
             _raw_sub: raw_sub,
+            raw_pub,
         };
         let ready = wait(Duration::from_secs(10), || {
-            lat.put(1).is_ok()
+            lat.put(Raw::SessionPut, 1).is_ok()
                 && lat
                     .raw_arrived
                     .recv_timeout(Duration::from_millis(5))
@@ -227,21 +283,26 @@ impl<'p> Latency<'p> {
     }
 
     /// A put of `payload` bytes on A's session, until B's callback runs.
-    fn raw(&self, payload: usize) -> anyhow::Result<Duration> {
+    fn raw(&self, how: Raw, payload: usize) -> anyhow::Result<Duration> {
         self.raw_arrived.try_iter().for_each(drop);
         let start = Instant::now();
-        self.put(payload)?;
+        self.put(how, payload)?;
         arrival(&self.raw_arrived, start, "a raw Zenoh put (latency probe)")
     }
 
-    fn put(&self, payload: usize) -> anyhow::Result<()> {
-        self.pair
-            .a
-            .transport
-            .session()
-            .put(RAW_LATENCY_KEY, vec![0x11; payload])
-            .wait()
-            .map_err(|e| anyhow!("zenoh put: {e}"))
+    fn put(&self, how: Raw, payload: usize) -> anyhow::Result<()> {
+        let bytes = vec![0x11; payload];
+        match how {
+            Raw::SessionPut => self
+                .pair
+                .a
+                .transport
+                .session()
+                .put(RAW_LATENCY_KEY, bytes)
+                .wait(),
+            Raw::Publisher => self.raw_pub.put(bytes).wait(),
+        }
+        .map_err(|e| anyhow!("zenoh put: {e}"))
     }
 }
 
@@ -333,6 +394,7 @@ struct Throughput<'p> {
     pair: &'p Pair,
     raw: Arc<Counter>,
     _raw_sub: zenoh::pubsub::Subscriber<()>,
+    raw_pub: zenoh::pubsub::Publisher<'static>,
     applied: Arc<Counter>,
     keys: Vec<Vec<Key>>,
     updates: Vec<slate_model::Update>,
@@ -373,42 +435,56 @@ impl<'p> Throughput<'p> {
             .collect::<Result<Vec<_>, _>>()?;
         let mut rng = Rng::new(5);
         let updates = (0..4096).map(|_| update(&mut rng)).collect();
+        let raw_pub = pair
+            .a
+            .transport
+            .session()
+            .declare_publisher(RAW_THROUGHPUT_KEY)
+            .congestion_control(CongestionControl::Block)
+            .wait()
+            .map_err(|e| anyhow!("zenoh publisher: {e}"))?;
         let tp = Throughput {
             pair,
             raw,
             _raw_sub: raw_sub,
+            raw_pub,
             applied,
             keys,
             updates,
             sent: 0,
         };
         let ready = wait(Duration::from_secs(10), || {
-            tp.put(1).is_ok() && tp.raw.count.load(Ordering::SeqCst) > 0
+            tp.put(Raw::SessionPut, 1).is_ok() && tp.raw.count.load(Ordering::SeqCst) > 0
         });
         anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
         Ok(tp)
     }
 
-    fn put(&self, payload: usize) -> anyhow::Result<()> {
-        self.pair
-            .a
-            .transport
-            .session()
-            .put(RAW_THROUGHPUT_KEY, vec![0x11; payload])
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(|e| anyhow!("zenoh put: {e}"))
+    fn put(&self, how: Raw, payload: usize) -> anyhow::Result<()> {
+        let bytes = vec![0x11; payload];
+        match how {
+            Raw::SessionPut => self
+                .pair
+                .a
+                .transport
+                .session()
+                .put(RAW_THROUGHPUT_KEY, bytes)
+                .congestion_control(CongestionControl::Block)
+                .wait(),
+            Raw::Publisher => self.raw_pub.put(bytes).wait(),
+        }
+        .map_err(|e| anyhow!("zenoh put: {e}"))
     }
 
     /// One put per update for `budget`; returns updates per second and how many.
-    fn raw(&mut self, budget: Duration, payload: usize) -> anyhow::Result<(f64, u64)> {
+    fn raw(&mut self, how: Raw, budget: Duration, payload: usize) -> anyhow::Result<(f64, u64)> {
         std::thread::sleep(Duration::from_millis(50));
         let (base, start_ns) = self.raw.mark()?;
         let end = Instant::now() + budget;
         let mut sent = 0u64;
         while Instant::now() < end {
             for _ in 0..100 {
-                self.put(payload)?;
+                self.put(how, payload)?;
             }
             sent += 100;
         }
