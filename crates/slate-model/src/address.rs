@@ -8,8 +8,37 @@ use std::sync::{Arc, LazyLock};
 ///
 /// Every packet names the module that wrote it, and every object the module that owns it.
 /// Segments are non-empty and made of letters, digits, `_` and `-`. Cloning is cheap.
-#[derive(Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Clone, Eq)]
 pub struct Address(Arc<str>);
+
+/// Addresses are compared often (every packet names its source) and are mostly clones of
+/// a few: the same allocation is the same address without reading the text.
+impl PartialEq for Address {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0) || self.0 == other.0
+    }
+}
+
+impl std::hash::Hash for Address {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.0.hash(state);
+    }
+}
+
+impl Ord for Address {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        if Arc::ptr_eq(&self.0, &other.0) {
+            return std::cmp::Ordering::Equal;
+        }
+        self.0.cmp(&other.0)
+    }
+}
+
+impl PartialOrd for Address {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
 
 static UNKNOWN: LazyLock<Address> = LazyLock::new(|| Address(Arc::from("")));
 
@@ -171,6 +200,20 @@ mod tests {
             Address::new("t/r 1/nav"),
             Err(AddressError::Segment(..))
         ));
+    }
+
+    #[test]
+    fn addresses_compare_by_text_whatever_their_allocation() {
+        let a = |s| Address::new(s).unwrap();
+        let nav = a("team/r1/nav");
+        assert_eq!(nav, nav.clone());
+        assert_eq!(nav, a("team/r1/nav"), "two allocations, one address");
+        assert_eq!(nav.cmp(&a("team/r1/nav")), std::cmp::Ordering::Equal);
+        assert_ne!(nav, a("team/r1/cam"));
+        assert!(a("team/r1/cam") < nav && nav < a("team/r2/a"));
+        let mut sorted = vec![a("t/b/x"), a("t/a/y"), a("t/a/x")];
+        sorted.sort();
+        assert_eq!(sorted, vec![a("t/a/x"), a("t/a/y"), a("t/b/x")]);
     }
 
     #[test]

@@ -373,6 +373,20 @@ impl Board {
         st.id(name).and_then(|id| object_info(st, id))
     }
 
+    /// Is `name` an object of class `class` itself (not of a subclass)? `None` if the
+    /// board has nothing by that name; `Some(false)` for a class or another class's
+    /// object. Cheaper than [`info`](Board::info) when that is all one needs.
+    pub fn is_instance_of(&self, name: &str, class: &str) -> Option<bool> {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        let e = st.get(st.id(name)?)?;
+        Some(
+            e.instance()
+                .and_then(|i| st.get(i.class))
+                .is_some_and(|c| &*c.name == class),
+        )
+    }
+
     /// The name of an object or class (`None` if the handle is stale).
     pub fn name_of(&self, id: ObjectId) -> Option<Arc<str>> {
         self.inner.read().state.name(id)

@@ -59,7 +59,8 @@ pub(crate) struct Txn<'s> {
     revision: u64,
     stamp: Timestamp,
     undo: Option<Vec<Undo>>,
-    notes: Vec<Vec<ChangeItem>>,
+    /// Per watcher (by index), the items it is to be told.
+    notes: SmallVec<[Vec<ChangeItem>; 4]>,
     fired: Vec<Fired>,
     touched: SmallVec<[Touched; 4]>,
 }
@@ -77,7 +78,7 @@ impl<'s> Txn<'s> {
             revision,
             stamp: clock.now(),
             undo: (ops > 1).then(|| Vec::with_capacity(ops)),
-            notes: Vec::new(),
+            notes: SmallVec::new(),
             fired: Vec::new(),
             touched: SmallVec::new(),
         }
@@ -98,20 +99,26 @@ impl<'s> Txn<'s> {
         } else {
             Vec::new()
         };
-        let names = (!fns.is_empty() || !self.inner.watchers.is_empty()).then(|| {
+        let foreign = packet.source != *self.me;
+        // Received packets are watched by few (the ICI watches own writes only).
+        let noted = self
+            .inner
+            .watchers
+            .iter()
+            .any(|w| !(foreign && w.spec.own_writes));
+        let names = (!fns.is_empty() || noted).then(|| {
             (
                 st.name(key.object).unwrap_or_else(|| "?".into()),
                 st.attr_name(key.attr),
             )
         });
         self.touch(key.object, Some(key.attr), TouchKind::Write);
-        if let Some((object, attr)) = &names {
+        if let Some((object, attr)) = names.as_ref().filter(|_| noted) {
             let item = || ChangeItem::Write {
                 object: object.clone(),
                 attr: attr.clone(),
                 packet: packet.clone(),
             };
-            let foreign = packet.source != *self.me;
             self.note(key.object, Some(key.attr), foreign, item);
         }
         let stored = if fns.is_empty() {

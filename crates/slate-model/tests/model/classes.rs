@@ -188,6 +188,14 @@ fn objects_have_owner_and_context_and_queries_filter_on_context() {
         ("Gsr", Context::System, "team/r2/nav")
     );
     assert_eq!(b.info("me").unwrap().owner, *b.address());
+    assert_eq!(b.is_instance_of("buddy", "Gsr"), Some(true));
+    assert_eq!(
+        b.is_instance_of("buddy", "Vehicle"),
+        Some(false),
+        "a subclass's"
+    );
+    assert_eq!(b.is_instance_of("Gsr", "Vehicle"), Some(false), "a class");
+    assert_eq!(b.is_instance_of("nobody", "Gsr"), None);
     let names = |ids: Vec<slate_model::ObjectId>| {
         let mut n: Vec<String> = ids
             .into_iter()
