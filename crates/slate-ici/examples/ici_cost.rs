@@ -3,7 +3,8 @@
 //! tracked objects and the receiver merging each report, in one thread.
 //!
 //! `cargo run --release -p slate-ici --example ici_cost [BATCHES [SIZE]]` prints the time
-//! per update (SIZE updates a batch, 100 at most); under `valgrind --tool=callgrind` it
+//! per update (SIZE updates a batch, 100 at most; SIZE 1 writes one update at a time,
+//! as a latency probe does); under `valgrind --tool=callgrind` it
 //! shows where the instructions go.
 
 use std::collections::VecDeque;
@@ -119,18 +120,24 @@ fn main() -> Result<(), Error> {
     let start = Instant::now();
     let mut n = 0usize;
     for _ in 0..batches {
-        let mut batch = board_a.batch();
-        for k in &keys[..size] {
+        let update = |n: usize| {
             let v = (n % 100_000) as f64 / 100.0;
-            batch.write_key(
-                k[n % attrs.len()],
-                Update::new(v)
-                    .accuracy(0.013 + (n % 7) as f64)
-                    .confidence(0.9),
-            );
+            Update::new(v)
+                .accuracy(0.013 + (n % 7) as f64)
+                .confidence(0.9)
+        };
+        if size == 1 {
+            // One write at a time: the latency path.
+            board_a.write_key(keys[0][n % attrs.len()], update(n))?;
             n += 1;
+        } else {
+            let mut batch = board_a.batch();
+            for k in &keys[..size] {
+                batch.write_key(k[n % attrs.len()], update(n));
+                n += 1;
+            }
+            batch.commit()?;
         }
-        batch.commit()?;
         deliver();
     }
     let elapsed = start.elapsed();

@@ -234,11 +234,11 @@ impl State {
                 }
             }
         }
-        let items = found
+        let items: Vec<_> = found
             .into_iter()
             .filter_map(|(o, a, p)| self.value_item(&o, &a, p))
             .collect();
-        self.flush(items);
+        self.flush(&items);
     }
 
     /// Ends the answer with the owned objects, cut to fit one message if need be.

@@ -285,31 +285,33 @@ impl Shared {
     /// Runs `f` on the state, then applies the board ops it queued and hands out the
     /// plan events, with the state lock released.
     fn with_state<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
-        let (result, ops, plans) = {
+        let (result, queued, plans) = {
             let mut st = self.state.lock();
             st.now = self.board.clock().physical();
             let result = f(&mut st);
-            (
-                result,
-                std::mem::take(&mut st.ops),
-                std::mem::take(&mut st.plans),
-            )
+            let queued = self.enqueue(&mut st);
+            (result, queued, std::mem::take(&mut st.plans))
         };
-        self.after(ops, plans);
-        result
-    }
-
-    fn after(&self, ops: Vec<BoardOp>, plans: Vec<PlanEvent>) {
-        if !ops.is_empty() {
-            self.queue.lock().extend(ops);
+        if queued {
             self.run_queue();
         }
         self.deliver(plans);
         self.pump();
+        result
+    }
+
+    /// Moves the board ops the state holds to the queue, in the order the state lock
+    /// was taken (the state's buffer keeps its capacity). Were any?
+    fn enqueue(&self, st: &mut State) -> bool {
+        if st.ops.is_empty() {
+            return false;
+        }
+        self.queue.lock().extend(st.ops.drain(..));
+        true
     }
 
     /// The board committed something. While board ops are being applied (received
-    /// packets, mostly), the applier drains the changes once it is done (`after`
+    /// packets, mostly), the applier drains the changes once it is done (`with_state`
     /// pumps after `run_queue`), not once per op.
     fn changed(&self) {
         self.changes.store(true, Ordering::SeqCst);
@@ -329,10 +331,12 @@ impl Shared {
             self.changes.store(false, Ordering::SeqCst);
             st.now = self.board.clock().physical();
             st.drain_changes();
-            let (ops, plans) = (std::mem::take(&mut st.ops), std::mem::take(&mut st.plans));
+            let queued = self.enqueue(&mut st);
+            let plans = std::mem::take(&mut st.plans);
             drop(st);
-            self.queue.lock().extend(ops);
-            self.run_queue();
+            if queued {
+                self.run_queue();
+            }
             self.deliver(plans);
         }
     }
@@ -349,7 +353,7 @@ impl Shared {
                 // Consecutive merges (a report's packets) are one board change.
                 let (merges, op) = {
                     let mut queue = self.queue.lock();
-                    let mut merges = Vec::with_capacity(queue.len());
+                    let mut merges = ops::Merges::new();
                     while let Some(BoardOp::Merge { .. }) = queue.front() {
                         if let Some(BoardOp::Merge {
                             object,

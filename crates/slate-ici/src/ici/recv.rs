@@ -383,8 +383,7 @@ impl State {
         if ensured.contains(&entry.name) {
             return true;
         }
-        if let Some(info) = self.board.info(&entry.name) {
-            let same = !info.is_class && info.class == entry.class;
+        if let Some(same) = self.board.is_instance_of(&entry.name, &entry.class) {
             if !same {
                 self.stats.rejects.object_conflicts += 1;
             }

@@ -4,6 +4,8 @@
 
 use std::sync::Arc;
 
+use smallvec::SmallVec;
+
 use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, Timestamp};
 use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
@@ -43,15 +45,17 @@ pub(crate) struct Item {
 impl State {
     /// Takes every change committed since the last call and sends what is due.
     pub fn drain_changes(&mut self) {
-        let mut items = Vec::new();
+        let mut items = std::mem::take(&mut self.spare_items);
         while let Some(change) = self.watch.try_recv() {
             for item in change.items {
                 self.collect(item, &mut items);
             }
         }
         if !items.is_empty() {
-            self.flush(items);
+            self.flush(&items);
         }
+        items.clear();
+        self.spare_items = items;
     }
 
     fn collect(&mut self, item: ChangeItem, out: &mut Vec<Item>) {
@@ -221,15 +225,15 @@ impl State {
     // ----- destinations -----
 
     /// Sends items on each link kind to the peers there that want them.
-    pub fn flush(&mut self, items: Vec<Item>) {
+    pub fn flush(&mut self, items: &[Item]) {
         if items.is_empty() {
             return;
         }
-        let mut chosen = Vec::with_capacity(items.len());
+        let mut chosen: SmallVec<[&Item; 8]> = SmallVec::with_capacity(items.len());
         for link in LinkKind::ALL {
             chosen.clear();
             let (mut not_exported, mut not_wanted) = (0, 0);
-            for item in &items {
+            for item in items {
                 match self.wanted(link, item) {
                     Wanted::Yes => chosen.push(item),
                     Wanted::NotExported => not_exported += 1,
@@ -286,7 +290,8 @@ impl State {
     /// deletions) and reports, keeping the order of the board's changes.
     pub(super) fn emit(&mut self, link: LinkKind, items: &[&Item]) {
         let mut life = Lifecycle::default();
-        let mut values: Vec<Assertion> = Vec::with_capacity(items.len());
+        let mut values = std::mem::take(&mut self.spare_values);
+        values.reserve(items.len());
         for item in items {
             match &item.what {
                 What::Value(a) => {
@@ -358,6 +363,8 @@ impl State {
                 out.seq += 1;
                 self.stats.reports.items_sent += items.len() as u64;
                 self.publish(link, MsgKind::Report, &bytes);
+                items.clear();
+                self.spare_values = items;
             }
             Err(e) if items.len() > 1 => {
                 let b = items.split_off(items.len() / 2);

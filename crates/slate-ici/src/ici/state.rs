@@ -142,6 +142,9 @@ pub(crate) struct State {
     pub ops: Vec<BoardOp>,
     /// Plan messages received, handed to the plan handler after the lock is released.
     pub plans: Vec<super::PlanEvent>,
+    /// Buffers kept between drains (a single update is the common case: no allocation).
+    pub spare_items: Vec<super::send::Item>,
+    pub spare_values: Vec<slate_wire::Assertion>,
 }
 
 impl State {
@@ -188,6 +191,8 @@ impl State {
             now,
             ops: Vec::new(),
             plans: Vec::new(),
+            spare_items: Vec::new(),
+            spare_values: Vec::new(),
         }
     }
 

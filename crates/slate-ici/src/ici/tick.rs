@@ -68,7 +68,7 @@ impl State {
             };
             items.extend(self.value_item(&key.0, &key.1, packet));
         }
-        self.flush(items);
+        self.flush(&items);
     }
 
     /// Publishes this module's heartbeat on each link kind where it is due and someone
