@@ -6,6 +6,7 @@ use std::sync::{Arc, Weak, mpsc};
 use std::thread::JoinHandle;
 
 use parking_lot::{Mutex, RwLock};
+use rustc_hash::FxHashMap;
 use slate_ici::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 use slate_model::Address;
 use zenoh::Wait;
@@ -142,7 +143,7 @@ struct Inner {
     declarer: Mutex<Option<Declarer>>,
     /// The sources of the key expressions heard (parsing one on every message cost
     /// several allocations); cleared when it grows past [`MAX_SOURCES`].
-    sources: Mutex<HashMap<String, Address>>,
+    sources: Mutex<FxHashMap<String, Address>>,
     token: Mutex<Option<LivelinessToken>>,
     closed: AtomicBool,
 }
@@ -167,7 +168,7 @@ impl ZenohTransport {
             publishers: Mutex::new(HashMap::new()),
             declared: Mutex::new(HashMap::new()),
             declarer: Mutex::new(None),
-            sources: Mutex::new(HashMap::new()),
+            sources: Mutex::new(FxHashMap::default()),
             token: Mutex::new(None),
             closed: AtomicBool::new(false),
         });

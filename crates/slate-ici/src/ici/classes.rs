@@ -114,7 +114,7 @@ pub(crate) type Lineage = Arc<[Arc<str>]>;
 /// class tree. Rebuilt from the board when a class is missing.
 pub(crate) struct Catalog {
     pub schema: Schema,
-    parents: BTreeMap<Arc<str>, Arc<str>>,
+    /// Every class's chain (`Thing`'s too), by class name.
     lineages: FxHashMap<Arc<str>, Lineage>,
 }
 
@@ -139,14 +139,13 @@ impl Catalog {
             .collect();
         Catalog {
             schema: Schema::new(defs),
-            parents,
             lineages,
         }
     }
 
     /// Does the catalog hold this class?
     pub fn knows(&self, class: &str) -> bool {
-        class == THING || self.parents.contains_key(class)
+        self.lineages.contains_key(class)
     }
 
     /// The class and its ancestors, up to `Thing`.

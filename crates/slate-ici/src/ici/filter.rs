@@ -164,7 +164,7 @@ impl Filters {
 }
 
 /// A policy that sends every packet at once and never repeats one.
-fn is_unfiltered(p: &ReportPolicy) -> bool {
+pub(crate) fn is_unfiltered(p: &ReportPolicy) -> bool {
     p.min_interval.is_none() && p.heartbeat.is_none() && p.deadband.is_none() && !p.on_accuracy
 }
 

@@ -10,7 +10,7 @@ use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, Timestamp};
 use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
 use super::classes::{ClassSet, Lineage};
-use super::filter::Key;
+use super::filter::{Key, is_unfiltered};
 use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
@@ -83,9 +83,8 @@ impl State {
         let What::Value(a) = &item.what else {
             return Some(item);
         };
-        let key = (a.object.name.clone(), a.attr.clone());
         let policies = |st: &State| {
-            let decl = st.catalog.decl(&item.lineage[0], &key.1)?;
+            let decl = st.catalog.decl(&item.lineage[0], &a.attr)?;
             Some((decl.merge, decl.report.clone()))
         };
         let (merge, report) = match policies(self) {
@@ -96,6 +95,10 @@ impl State {
             }
         };
         self.stats.reports.written += 1;
+        if merge == MergePolicy::Latest && is_unfiltered(&report) {
+            return Some(item); // the common case: nothing to keep
+        }
+        let key = (a.object.name.clone(), a.attr.clone());
         if merge == MergePolicy::Fused {
             self.fusion.update(key.clone(), a.packet.clone());
             self.ops.push(BoardOp::Fuse(key.clone()));

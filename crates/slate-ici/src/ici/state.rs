@@ -225,9 +225,10 @@ impl State {
 
     /// The class chain of `class`, refreshing the catalog once if it is unknown.
     pub fn lineage(&mut self, class: &str) -> Option<Lineage> {
-        if !self.catalog.knows(class) {
-            self.refresh_catalog();
+        if let Some(lineage) = self.catalog.lineage(class) {
+            return Some(lineage);
         }
+        self.refresh_catalog();
         self.catalog.lineage(class)
     }
 
