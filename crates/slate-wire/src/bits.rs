@@ -112,15 +112,25 @@ pub(crate) struct BitReader<'a> {
     pos: u64,
     /// Vector elements this message may still decode (see [`MAX_ELEMENTS`]).
     elements: usize,
+    /// The last (up to) eight bytes again, then zeros: a field in the last eight bytes
+    /// is read from here with one load, like any other (short messages are all tail).
+    tail: [u8; 16],
+    /// Where `tail` starts in `bytes`.
+    tail_start: usize,
 }
 
 impl<'a> BitReader<'a> {
     /// A reader at the start of `bytes`.
     pub fn new(bytes: &'a [u8]) -> Self {
+        let tail_start = bytes.len().saturating_sub(8);
+        let mut tail = [0u8; 16];
+        tail[..bytes.len() - tail_start].copy_from_slice(&bytes[tail_start..]);
         BitReader {
             bytes,
             pos: 0,
             elements: MAX_ELEMENTS,
+            tail,
+            tail_start,
         }
     }
 
@@ -150,18 +160,16 @@ impl<'a> BitReader<'a> {
         let offset = (self.pos % 8) as u32;
         if n > 0 && n + offset <= 64 {
             // The field lies in the next eight bytes (zero past the end, which the
-            // length check above keeps out of the field): one load, two shifts.
-            let word = match self.bytes.get(at..at + 8) {
-                Some(eight) => {
-                    let mut word = [0u8; 8];
-                    word.copy_from_slice(eight);
-                    u64::from_be_bytes(word)
-                }
-                None => self.bytes[at..]
-                    .iter()
-                    .enumerate()
-                    .fold(0u64, |w, (i, b)| w | u64::from(*b) << (56 - 8 * i)),
+            // length check above keeps out of the field): one load, two shifts. Past
+            // `len - 8`, the eight bytes come from the padded tail (`at` is below the
+            // length, so `at - tail_start` is below 8).
+            let eight = match self.bytes.get(at..at + 8) {
+                Some(eight) => eight,
+                None => &self.tail[at - self.tail_start..at - self.tail_start + 8],
             };
+            let mut word = [0u8; 8];
+            word.copy_from_slice(eight);
+            let word = u64::from_be_bytes(word);
             self.pos += u64::from(n);
             return Ok((word << offset) >> (64 - n));
         }
