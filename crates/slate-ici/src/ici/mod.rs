@@ -349,11 +349,11 @@ impl Shared {
                 return;
             };
             let mut tally = ops::Tally::default();
+            let mut merges = ops::Merges::new();
             loop {
                 // Consecutive merges (a report's packets) are one board change.
-                let (merges, op) = {
+                let op = {
                     let mut queue = self.queue.lock();
-                    let mut merges = ops::Merges::new();
                     while let Some(BoardOp::Merge { .. }) = queue.front() {
                         if let Some(BoardOp::Merge {
                             object,
@@ -364,15 +364,14 @@ impl Shared {
                             merges.push((object, attr, packet));
                         }
                     }
-                    let op = if merges.is_empty() {
+                    if merges.is_empty() {
                         queue.pop_front()
                     } else {
                         None
-                    };
-                    (merges, op)
+                    }
                 };
                 if !merges.is_empty() {
-                    ops::merge_all(&self.board, &mut tally, merges);
+                    ops::merge_all(&self.board, &mut tally, merges.drain(..));
                     continue;
                 }
                 let Some(op) = op else { break };

@@ -81,7 +81,7 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
             object,
             attr,
             packet,
-        } => merge_all(board, tally, smallvec::smallvec![(object, attr, packet)]),
+        } => merge_all(board, tally, [(object, attr, packet)]),
         BoardOp::Fuse(key) => fuse(board, state, &key),
         BoardOp::Delete { object, owner } => delete(board, state, &object, &owner),
         BoardOp::Module {
@@ -111,7 +111,11 @@ fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
 /// Received packets to merge as one board change (a report's, mostly few).
 pub(crate) type Merges = smallvec::SmallVec<[(Arc<str>, Arc<str>, Packet); 4]>;
 
-pub(crate) fn merge_all(board: &Board, tally: &mut Tally, packets: Merges) {
+pub(crate) fn merge_all(
+    board: &Board,
+    tally: &mut Tally,
+    packets: impl IntoIterator<Item = (Arc<str>, Arc<str>, Packet)>,
+) {
     for outcome in board.merge_all(packets) {
         tally.count(outcome);
     }
