@@ -103,14 +103,14 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     let budget = Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / ROUNDS as u64);
     let mut tp = Throughput::new(&pair)?;
     let (mut raw_rates, mut publisher_rates, mut rates) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut raw_count, mut count, mut delivered) = (0, 0, 0);
+    let (mut raw_count, mut publisher_count, mut count, mut delivered) = (0, 0, 0, 0);
     for _ in 0..ROUNDS {
         let (rate, n) = tp.raw(Raw::SessionPut, budget, payload)?;
         raw_rates.push(rate);
         raw_count += n;
         let (rate, n) = tp.raw(Raw::Publisher, budget, payload)?;
         publisher_rates.push(rate);
-        raw_count += n;
+        publisher_count += n;
         let (rate, n, applied) = tp.slate(budget)?;
         rates.push(rate);
         (count, delivered) = (count + n, delivered + applied);
@@ -139,6 +139,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     r.fact("throughput_updates", json!(count));
     r.fact("throughput_updates_applied_by_receiver", json!(delivered));
     r.fact("raw_throughput_updates", json!(raw_count));
+    r.fact("raw_publisher_throughput_updates", json!(publisher_count));
     drop(pair);
     Ok(r)
 }
@@ -548,6 +549,12 @@ mod tests {
             "raw_zenoh_updates_per_sec",
             "latency_p50_ratio",
             "updates_per_sec_ratio",
+            "raw_zenoh_publisher_latency_p50_us",
+            "raw_zenoh_publisher_latency_p99_us",
+            "raw_zenoh_publisher_updates_per_sec",
+            "latency_p50_ratio_to_publisher",
+            "latency_p99_ratio_to_publisher",
+            "updates_per_sec_ratio_to_publisher",
         ] {
             assert!(j[f].as_f64().is_some_and(|x| x > 0.0), "{f}: {}", j[f]);
         }

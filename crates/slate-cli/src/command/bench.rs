@@ -47,6 +47,12 @@ impl Report {
                 m.verdicts()
             ));
         }
+        if !self.facts.is_empty() {
+            out.push('\n');
+        }
+        for (name, value) in &self.facts {
+            out.push_str(&format!("{name:<36} {value}\n"));
+        }
         out
     }
 }
