@@ -183,6 +183,44 @@ enum Raw {
     Publisher,
 }
 
+/// A key raw Zenoh puts go to from A's session, both ways ([`Raw`]).
+struct RawKey {
+    session: zenoh::Session,
+    key: &'static str,
+    congestion: CongestionControl,
+    publisher: zenoh::pubsub::Publisher<'static>,
+}
+
+impl RawKey {
+    fn new(pair: &Pair, key: &'static str, congestion: CongestionControl) -> anyhow::Result<Self> {
+        let session = pair.a.transport.session().clone();
+        let publisher = session
+            .declare_publisher(key)
+            .congestion_control(congestion)
+            .wait()
+            .map_err(|e| anyhow!("zenoh publisher: {e}"))?;
+        Ok(RawKey {
+            session,
+            key,
+            congestion,
+            publisher,
+        })
+    }
+
+    fn put(&self, how: Raw, payload: usize) -> anyhow::Result<()> {
+        let bytes = vec![0x11; payload];
+        match how {
+            Raw::SessionPut => self
+                .session
+                .put(self.key, bytes)
+                .congestion_control(self.congestion)
+                .wait(),
+            Raw::Publisher => self.publisher.put(bytes).wait(),
+        }
+        .map_err(|e| anyhow!("zenoh put: {e}"))
+    }
+}
+
 const RAW_LATENCY_KEY: &str = "bench/raw/netbench/r1/a/latency";
 
 /// The two kinds of latency probe: a write on A until B's hook sees it, and a raw put
@@ -193,7 +231,7 @@ struct Latency<'p> {
     arrived: Receiver<Instant>,
     raw_arrived: Receiver<Instant>,
     _raw_sub: zenoh::pubsub::Subscriber<()>,
-    raw_pub: zenoh::pubsub::Publisher<'static>,
+    raw_key: RawKey,
 }
 
 impl<'p> Latency<'p> {
@@ -219,23 +257,16 @@ impl<'p> Latency<'p> {
             })
             .wait()
             .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
-        let raw_pub = pair
-            .a
-            .transport
-            .session()
-            .declare_publisher(RAW_LATENCY_KEY)
-            .wait()
-            .map_err(|e| anyhow!("zenoh publisher: {e}"))?;
         let lat = Latency {
             pair,
             key: pair.a.board.key("t0", "range")?,
             arrived,
             raw_arrived,
             _raw_sub: raw_sub,
-            raw_pub,
+            raw_key: RawKey::new(pair, RAW_LATENCY_KEY, CongestionControl::Drop)?,
         };
         let ready = wait(Duration::from_secs(10), || {
-            lat.put(Raw::SessionPut, 1).is_ok()
+            lat.raw_key.put(Raw::SessionPut, 1).is_ok()
                 && lat
                     .raw_arrived
                     .recv_timeout(Duration::from_millis(5))
@@ -289,23 +320,8 @@ impl<'p> Latency<'p> {
     fn raw(&self, how: Raw, payload: usize) -> anyhow::Result<Duration> {
         self.raw_arrived.try_iter().for_each(drop);
         let start = Instant::now();
-        self.put(how, payload)?;
+        self.raw_key.put(how, payload)?;
         arrival(&self.raw_arrived, start, "a raw Zenoh put (latency probe)")
-    }
-
-    fn put(&self, how: Raw, payload: usize) -> anyhow::Result<()> {
-        let bytes = vec![0x11; payload];
-        match how {
-            Raw::SessionPut => self
-                .pair
-                .a
-                .transport
-                .session()
-                .put(RAW_LATENCY_KEY, bytes)
-                .wait(),
-            Raw::Publisher => self.raw_pub.put(bytes).wait(),
-        }
-        .map_err(|e| anyhow!("zenoh put: {e}"))
     }
 }
 
@@ -397,7 +413,7 @@ struct Throughput<'p> {
     pair: &'p Pair,
     raw: Arc<Counter>,
     _raw_sub: zenoh::pubsub::Subscriber<()>,
-    raw_pub: zenoh::pubsub::Publisher<'static>,
+    raw_key: RawKey,
     applied: Arc<Counter>,
     keys: Vec<Vec<Key>>,
     updates: Vec<slate_model::Update>,
@@ -438,45 +454,21 @@ impl<'p> Throughput<'p> {
             .collect::<Result<Vec<_>, _>>()?;
         let mut rng = Rng::new(5);
         let updates = (0..4096).map(|_| update(&mut rng)).collect();
-        let raw_pub = pair
-            .a
-            .transport
-            .session()
-            .declare_publisher(RAW_THROUGHPUT_KEY)
-            .congestion_control(CongestionControl::Block)
-            .wait()
-            .map_err(|e| anyhow!("zenoh publisher: {e}"))?;
         let tp = Throughput {
             pair,
             raw,
             _raw_sub: raw_sub,
-            raw_pub,
+            raw_key: RawKey::new(pair, RAW_THROUGHPUT_KEY, CongestionControl::Block)?,
             applied,
             keys,
             updates,
             sent: 0,
         };
         let ready = wait(Duration::from_secs(10), || {
-            tp.put(Raw::SessionPut, 1).is_ok() && tp.raw.count.load(Ordering::SeqCst) > 0
+            tp.raw_key.put(Raw::SessionPut, 1).is_ok() && tp.raw.count.load(Ordering::SeqCst) > 0
         });
         anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
         Ok(tp)
-    }
-
-    fn put(&self, how: Raw, payload: usize) -> anyhow::Result<()> {
-        let bytes = vec![0x11; payload];
-        match how {
-            Raw::SessionPut => self
-                .pair
-                .a
-                .transport
-                .session()
-                .put(RAW_THROUGHPUT_KEY, bytes)
-                .congestion_control(CongestionControl::Block)
-                .wait(),
-            Raw::Publisher => self.raw_pub.put(bytes).wait(),
-        }
-        .map_err(|e| anyhow!("zenoh put: {e}"))
     }
 
     /// One put per update for `budget`; returns updates per second and how many.
@@ -487,7 +479,7 @@ impl<'p> Throughput<'p> {
         let mut sent = 0u64;
         while Instant::now() < end {
             for _ in 0..100 {
-                self.put(how, payload)?;
+                self.raw_key.put(how, payload)?;
             }
             sent += 100;
         }
