@@ -107,10 +107,10 @@ fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
     }
 }
 
-/// Merges received packets as one board change.
 /// Received packets to merge as one board change (a report's, mostly few).
 pub(crate) type Merges = smallvec::SmallVec<[(Arc<str>, Arc<str>, Packet); 4]>;
 
+/// Merges received packets as one board change.
 pub(crate) fn merge_all(
     board: &Board,
     tally: &mut Tally,
