@@ -3,10 +3,10 @@
 //! Every change is logged so that a failed encode rolls back completely: an entry is
 //! only "announced" once the message announcing it has been produced.
 
-use rustc_hash::FxHashMap;
 use std::hash::Hash;
 use std::sync::Arc;
 
+use rustc_hash::FxHashMap;
 use slate_model::{Address, Timestamp};
 
 use crate::names::Announce;

@@ -1,9 +1,9 @@
 //! The names section (dictionary entries, inline in a report or alone in a `Names`
 //! message) and the receiver's per-source dictionaries.
 
-use rustc_hash::{FxHashMap, FxHashSet};
 use std::sync::Arc;
 
+use rustc_hash::{FxHashMap, FxHashSet};
 use slate_model::{Address, Context};
 
 use crate::bits::{BitReader, BitWriter};

@@ -133,9 +133,29 @@ const ACCURACY_ONE: i64 = 17;
 /// Accuracy codes per doubling.
 const ACCURACY_PER_OCTAVE: f64 = 4.0;
 
-/// The accuracy of code `k` in `1..ACCURACY_ESCAPE`: `scale * 2^((k - 17) / 4)`.
+/// The accuracy of code `k` below `ACCURACY_ESCAPE`: 0 for code 0, else
+/// `scale * 2^((k - 17) / 4)`.
 fn accuracy_of(k: u64, scale: f64) -> f64 {
+    if k == 0 {
+        return 0.0;
+    }
     scale * ((k as i64 - ACCURACY_ONE) as f64 / ACCURACY_PER_OCTAVE).exp2()
+}
+
+/// Accuracy a packet of `decl` has unless it says otherwise (the declared default, else 0).
+pub(crate) fn default_accuracy(decl: &AttrDecl) -> f64 {
+    decl.default.as_ref().map_or(0.0, |d| d.accuracy)
+}
+
+/// Confidence a packet of `decl` has unless it says otherwise (the declared default, else 1).
+pub(crate) fn default_confidence(decl: &AttrDecl) -> f64 {
+    decl.default.as_ref().map_or(1.0, |d| d.confidence)
+}
+
+/// The unit of `decl`'s accuracy log scale: its resolution, else 1.
+pub(crate) fn accuracy_scale(decl: &AttrDecl) -> f64 {
+    let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
+    scale.unwrap_or(1.0)
 }
 
 /// The code of accuracy `a`, or `None` if it is beyond the log scale (escape).
@@ -167,7 +187,6 @@ pub(crate) fn write_accuracy(w: &mut BitWriter, a: f64, scale: f64) {
 /// Reads an accuracy written by [`write_accuracy`].
 pub(crate) fn read_accuracy(r: &mut BitReader, scale: f64) -> Result<f64, DecodeError> {
     match r.bits(ACCURACY_BITS)? {
-        0 => Ok(0.0),
         ACCURACY_ESCAPE => {
             let a = read_real(r)?;
             if a < 0.0 || accuracy_code(a, scale).is_some() {
@@ -183,15 +202,23 @@ pub(crate) fn read_accuracy(r: &mut BitReader, scale: f64) -> Result<f64, Decode
 pub(crate) const CONFIDENCE_BITS: u32 = 8;
 const CONFIDENCE_STEPS: f64 = 255.0;
 
+/// The code of a confidence in `[0, 1]`: `round(c * 255)`.
+fn confidence_code(c: f64) -> u64 {
+    (c * CONFIDENCE_STEPS).round().clamp(0.0, CONFIDENCE_STEPS) as u64
+}
+
+fn confidence_of(code: u64) -> f64 {
+    code as f64 / CONFIDENCE_STEPS
+}
+
 /// Writes a confidence in `[0, 1]` as `round(c * 255)` in 8 bits (error at most 1/510).
 pub(crate) fn write_confidence(w: &mut BitWriter, c: f64) {
-    let q = (c * CONFIDENCE_STEPS).round().clamp(0.0, CONFIDENCE_STEPS);
-    w.bits(q as u64, CONFIDENCE_BITS);
+    w.bits(confidence_code(c), CONFIDENCE_BITS);
 }
 
 /// Reads a confidence written by [`write_confidence`].
 pub(crate) fn read_confidence(r: &mut BitReader) -> Result<f64, DecodeError> {
-    Ok(r.bits(CONFIDENCE_BITS)? as f64 / CONFIDENCE_STEPS)
+    Ok(confidence_of(r.bits(CONFIDENCE_BITS)?))
 }
 
 /// Makes `packet` what a receiver decodes from it, given the attribute's declaration:
@@ -212,21 +239,14 @@ pub fn quantise(decl: &AttrDecl, packet: &mut Packet) {
             _ => {}
         }
     }
-    let default = decl.default.as_ref();
-    if packet.accuracy != default.map_or(0.0, |d| d.accuracy) {
-        let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
-        let scale = scale.unwrap_or(1.0);
-        packet.accuracy = match accuracy_code(packet.accuracy, scale) {
-            Some(0) => 0.0,
-            Some(k) => accuracy_of(k, scale),
-            None => packet.accuracy,
-        };
+    if packet.accuracy != default_accuracy(decl) {
+        let scale = accuracy_scale(decl);
+        if let Some(k) = accuracy_code(packet.accuracy, scale) {
+            packet.accuracy = accuracy_of(k, scale);
+        }
     }
-    if packet.confidence != default.map_or(1.0, |d| d.confidence) {
-        let q = (packet.confidence * CONFIDENCE_STEPS)
-            .round()
-            .clamp(0.0, CONFIDENCE_STEPS);
-        packet.confidence = q / CONFIDENCE_STEPS;
+    if packet.confidence != default_confidence(decl) {
+        packet.confidence = confidence_of(confidence_code(packet.confidence));
     }
 }
 

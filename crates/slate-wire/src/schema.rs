@@ -1,12 +1,13 @@
 //! The schema: class definitions flattened for encoding, with their fingerprints.
 
-use rustc_hash::FxHashMap;
 use std::sync::Arc;
 
+use rustc_hash::FxHashMap;
 use slate_model::{AttrDecl, ClassDef, THING};
 
 use crate::bits::BitWriter;
 use crate::classes::write_decl;
+use crate::quant;
 use crate::value::ValueCodec;
 
 /// The class definitions a sender encodes with and a receiver decodes with.
@@ -62,12 +63,11 @@ pub(crate) struct AttrSchema {
 
 impl AttrSchema {
     fn new(decl: &AttrDecl) -> Self {
-        let scale = decl.resolution.filter(|r| r.is_finite() && *r > 0.0);
         AttrSchema {
             codec: ValueCodec::new(decl),
-            default_accuracy: decl.default.as_ref().map_or(0.0, |d| d.accuracy),
-            default_confidence: decl.default.as_ref().map_or(1.0, |d| d.confidence),
-            accuracy_scale: scale.unwrap_or(1.0),
+            default_accuracy: quant::default_accuracy(decl),
+            default_confidence: quant::default_confidence(decl),
+            accuracy_scale: quant::accuracy_scale(decl),
             decl: decl.clone(),
         }
     }

@@ -265,8 +265,9 @@ impl Inner {
         if from == self.address {
             return;
         }
-        let link = link.unwrap_or_else(|| LinkKind::between(&self.address, &from));
-        if link == LinkKind::Team && LinkKind::between(&self.address, &from) == LinkKind::Robot {
+        let between = LinkKind::between(&self.address, &from);
+        let link = link.unwrap_or(between);
+        if link == LinkKind::Team && between == LinkKind::Robot {
             return; // team publications of my own robot's modules are not for me
         }
         let payload = s.payload().to_bytes();

@@ -248,6 +248,25 @@ fn round(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 
+/// The `p`th percentile of durations (nearest rank; 0: the least, 100: the most), in
+/// seconds; NaN without samples.
+pub fn percentile_secs(samples: &[Duration], p: f64) -> f64 {
+    let mut secs: Vec<f64> = samples.iter().map(Duration::as_secs_f64).collect();
+    secs.sort_by(f64::total_cmp);
+    let rank = ((p / 100.0) * secs.len().saturating_sub(1) as f64).round() as usize;
+    secs.get(rank).copied().unwrap_or(f64::NAN)
+}
+
+/// Asserts that a suite's JSON has each field, positive, and says whether its targets
+/// were met.
+#[cfg(test)]
+fn assert_reports(j: &Value, fields: &[&str]) {
+    for f in fields {
+        assert!(j[f].as_f64().is_some_and(|x| x > 0.0), "{f}: {}", j[f]);
+    }
+    assert!(j["targets_met"].is_boolean());
+}
+
 /// Median nanoseconds per call of `op` (each call is one operation).
 pub fn measure(cfg: &Config, mut op: impl FnMut()) -> f64 {
     let target = Duration::from_millis(cfg.sample_ms);

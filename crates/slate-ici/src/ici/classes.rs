@@ -2,9 +2,9 @@
 //! definitions the ICI encodes and matches with.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
-use std::sync::Arc;
 
 use slate_model::{AttrDecl, Board, ClassDef, Context, THING};
 use slate_wire::Schema;

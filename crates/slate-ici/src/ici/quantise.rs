@@ -32,13 +32,14 @@ pub(crate) fn settle(board: &Board) {
             } else {
                 &info.class
             };
-            for (attr, packet, _) in snap.own_values(id) {
+            let own = snap.own_values(id).into_iter();
+            for (attr, packet, _) in own.filter(|(_, p, _)| p.source == *board.address()) {
                 let Some(decl) = catalog.decl(class, &attr) else {
                     continue;
                 };
                 let mut q = packet.clone();
                 quantise(decl, &mut q);
-                if packet.source == *board.address() && q != packet {
+                if q != packet {
                     batch.write_shared(info.name.clone(), attr, Update::from(q));
                 }
             }

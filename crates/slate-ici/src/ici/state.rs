@@ -3,10 +3,10 @@
 //! applied after the lock is released (board hooks may call back into the ICI).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
-
-use rustc_hash::FxHashMap;
 use std::sync::Arc;
 use std::time::Duration;
+
+use rustc_hash::FxHashMap;
 
 use slate_model::{Address, Board, Context, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder};

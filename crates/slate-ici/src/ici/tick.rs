@@ -41,7 +41,6 @@ impl State {
         for (peer, tries) in unanswered {
             self.stats.liveliness.hellos_resent += 1;
             self.hello(&peer, false);
-            let now = self.now;
             self.peer(&peer).hello_unanswered = Some((now, tries + 1));
         }
     }
