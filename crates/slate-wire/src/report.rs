@@ -1,8 +1,6 @@
 //! The report body (also the catch-up answer's): names inline when new, then the
 //! assertions bit-packed against the schema.
 
-use std::sync::Arc;
-
 use slate_model::{Address, Packet, Timestamp, Value};
 
 use crate::bits::{BitReader, BitWriter, width};
@@ -28,7 +26,7 @@ struct Entry<'a> {
     attr: u32,
     /// The packet's source, if it is not the sender.
     source: Option<u32>,
-    schema: Arc<AttrSchema>,
+    schema: &'a AttrSchema,
     packet: &'a Packet,
 }
 
@@ -103,7 +101,7 @@ fn resolve_all<'a>(
     report: &'a Report,
     dict: &mut Dictionary,
     me: &Address,
-    schema: &Schema,
+    schema: &'a Schema,
     ann: &mut Announce,
 ) -> Result<Vec<Entry<'a>>, EncodeError> {
     check_len("assertions in a report", report.items.len(), MAX_ITEMS)?;
@@ -127,7 +125,7 @@ fn resolve<'a>(
     a: &'a Assertion,
     dict: &mut Dictionary,
     me: &Address,
-    schema: &Schema,
+    schema: &'a Schema,
     ann: &mut Announce,
 ) -> Result<Entry<'a>, EncodeError> {
     let object = dict.object(&a.object, schema, false, ann)?;
@@ -146,7 +144,7 @@ fn resolve<'a>(
 }
 
 /// The declaration of the assertion's attribute, once its packet is checked against it.
-fn declared(a: &Assertion, schema: &Schema) -> Result<Arc<AttrSchema>, EncodeError> {
+fn declared<'a>(a: &Assertion, schema: &'a Schema) -> Result<&'a AttrSchema, EncodeError> {
     let class = schema.class(&a.object.class);
     let attr_schema =
         class
@@ -163,7 +161,7 @@ fn declared(a: &Assertion, schema: &Schema) -> Result<Arc<AttrSchema>, EncodeErr
             attr: a.attr.to_string(),
             source,
         })?;
-    Ok(attr_schema.clone())
+    Ok(attr_schema)
 }
 
 /// Writes the id widths, the base timestamp and the entries.
@@ -191,7 +189,7 @@ fn write_entries(w: &mut BitWriter, entries: &[Entry], flags: Flags, base: Times
 
 /// Writes one entry's packet: source, value, accuracy, confidence, timestamp.
 fn write_packet(w: &mut BitWriter, e: &Entry, flags: Flags, base_us: u64) {
-    let (p, s) = (e.packet, &*e.schema);
+    let (p, s) = (e.packet, e.schema);
     if flags.foreign {
         w.bit(e.source.is_some());
         e.source.iter().for_each(|id| w.uvar((*id).into()));
