@@ -150,28 +150,38 @@ impl<'a> BitReader<'a> {
         self.bytes.len() as u64 * 8 - self.pos
     }
 
+    /// The next 64 bits from the current position, most significant first (zero past
+    /// the end), and how many of them are the message's (at least 57 while that many
+    /// remain). One load: past `len - 8`, the eight bytes come from the padded tail
+    /// (`at` is below the length, so `at - tail_start` is below 8).
+    fn peek(&self) -> (u64, u64) {
+        let at = (self.pos / 8) as usize;
+        let offset = (self.pos % 8) as u32;
+        let eight = match self.bytes.get(at..at + 8) {
+            Some(eight) => eight,
+            None if at < self.bytes.len() => {
+                &self.tail[at - self.tail_start..at - self.tail_start + 8]
+            }
+            None => return (0, 0),
+        };
+        let mut word = [0u8; 8];
+        word.copy_from_slice(eight);
+        let valid = self.remaining().min(u64::from(64 - offset));
+        (u64::from_be_bytes(word) << offset, valid)
+    }
+
     /// Reads `n <= 64` bits, most significant first.
     pub fn bits(&mut self, n: u32) -> Result<u64, DecodeError> {
         debug_assert!(n <= 64);
         if u64::from(n) > self.remaining() {
             return Err(DecodeError::Truncated);
         }
-        let at = (self.pos / 8) as usize;
-        let offset = (self.pos % 8) as u32;
-        if n > 0 && n + offset <= 64 {
+        if n > 0 && n + (self.pos % 8) as u32 <= 64 {
             // The field lies in the next eight bytes (zero past the end, which the
-            // length check above keeps out of the field): one load, two shifts. Past
-            // `len - 8`, the eight bytes come from the padded tail (`at` is below the
-            // length, so `at - tail_start` is below 8).
-            let eight = match self.bytes.get(at..at + 8) {
-                Some(eight) => eight,
-                None => &self.tail[at - self.tail_start..at - self.tail_start + 8],
-            };
-            let mut word = [0u8; 8];
-            word.copy_from_slice(eight);
-            let word = u64::from_be_bytes(word);
+            // length check above keeps out of the field): one load, two shifts.
+            let (word, _) = self.peek();
             self.pos += u64::from(n);
-            return Ok((word << offset) >> (64 - n));
+            return Ok(word >> (64 - n));
         }
         let mut value = 0u64;
         let mut left = n;
@@ -200,6 +210,19 @@ impl<'a> BitReader<'a> {
 
     /// Reads an unsigned varint written by [`BitWriter::uvar`].
     pub fn uvar(&mut self) -> Result<u64, DecodeError> {
+        // Seven groups at most lie in the next 64 bits: find the last (the first 8-bit
+        // field whose continuation bit is clear) and gather them in one go.
+        let (word, valid) = self.peek();
+        let last = !word & 0x8080_8080_8080_8080;
+        let groups = last.leading_zeros() / 8 + 1;
+        if last != 0 && groups <= 7 && u64::from(groups) * 8 <= valid {
+            let mut value = 0u64;
+            for k in 0..groups {
+                value |= (word >> (56 - 8 * k) & 0x7f) << (7 * k);
+            }
+            self.pos += u64::from(groups) * 8;
+            return Ok(value);
+        }
         let mut value = 0u64;
         for shift in (0..64).step_by(7) {
             // The continuation bit and its group, as written: one 8-bit field.
@@ -315,11 +338,51 @@ mod tests {
             assert_eq!(r.uvar().unwrap(), v);
             assert_eq!(r.ivar().unwrap(), -(v as i64 / 3));
         }
+        // Nine bytes whose last group overflows: caught at every bit offset too.
         let too_long = [0xff; 11];
         assert!(matches!(
             BitReader::new(&too_long).uvar(),
             Err(DecodeError::BadValue(_))
         ));
+    }
+
+    /// A varint of every length, at every bit offset, followed by something or by
+    /// nothing: read back exactly, and a message cut anywhere inside it is truncated.
+    #[test]
+    fn varints_of_every_length_at_every_offset() {
+        let values = (0..64).flat_map(|b| {
+            let p = 1u64 << b;
+            [p - 1, p, p | 1]
+        });
+        for v in values.chain([u64::MAX]) {
+            for offset in 0..8 {
+                for trailer in [None, Some(0x2a_u64)] {
+                    let mut w = BitWriter::new();
+                    w.bits(0b101_0101 >> (7 - offset), offset);
+                    w.uvar(v);
+                    if let Some(t) = trailer {
+                        w.bits(t, 7);
+                    }
+                    let varint_bits = (w.len_bits() - u64::from(offset)) as usize
+                        - trailer.map_or(0, |_| 7);
+                    let bytes = w.finish();
+                    let mut r = BitReader::new(&bytes);
+                    r.bits(offset).unwrap();
+                    assert_eq!(r.uvar(), Ok(v), "{v} at offset {offset}");
+                    if let Some(t) = trailer {
+                        assert_eq!(r.bits(7), Ok(t));
+                    }
+                    // Cut before the varint's last byte ends: never a value.
+                    let last_byte = (offset as usize + varint_bits).div_ceil(8);
+                    for len in 0..last_byte {
+                        let mut r = BitReader::new(&bytes[..len]);
+                        if r.bits(offset).is_ok() {
+                            assert_eq!(r.uvar(), Err(DecodeError::Truncated), "{v} cut at {len}");
+                        }
+                    }
+                }
+            }
+        }
     }
 
     #[test]
