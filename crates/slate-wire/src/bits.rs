@@ -363,8 +363,8 @@ mod tests {
                     if let Some(t) = trailer {
                         w.bits(t, 7);
                     }
-                    let varint_bits = (w.len_bits() - u64::from(offset)) as usize
-                        - trailer.map_or(0, |_| 7);
+                    let varint_bits =
+                        (w.len_bits() - u64::from(offset)) as usize - trailer.map_or(0, |_| 7);
                     let bytes = w.finish();
                     let mut r = BitReader::new(&bytes);
                     r.bits(offset).unwrap();

@@ -2,6 +2,7 @@
 //! assertions bit-packed against the schema.
 
 use slate_model::{Address, Packet, Timestamp, Value};
+use smallvec::SmallVec;
 
 use crate::bits::{BitReader, BitWriter, width};
 use crate::dictionary::Dictionary;
@@ -97,15 +98,18 @@ pub(crate) fn write_report(
 }
 
 /// Resolves every assertion, within the item and vector-element limits.
+/// A report's entries: an occasional report holds one or two, inline.
+type Entries<'a> = SmallVec<[Entry<'a>; 2]>;
+
 fn resolve_all<'a>(
     report: &'a Report,
     dict: &mut Dictionary,
     me: &Address,
     schema: &'a Schema,
     ann: &mut Announce,
-) -> Result<Vec<Entry<'a>>, EncodeError> {
+) -> Result<Entries<'a>, EncodeError> {
     check_len("assertions in a report", report.items.len(), MAX_ITEMS)?;
-    let mut entries = Vec::with_capacity(report.items.len());
+    let mut entries = Entries::with_capacity(report.items.len());
     for a in &report.items {
         entries.push(resolve(a, dict, me, schema, ann)?);
     }
