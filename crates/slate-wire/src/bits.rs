@@ -338,7 +338,7 @@ mod tests {
             assert_eq!(r.uvar().unwrap(), v);
             assert_eq!(r.ivar().unwrap(), -(v as i64 / 3));
         }
-        // Nine bytes whose last group overflows: caught at every bit offset too.
+        // Eleven groups: more than 64 bits (the one-load path leaves it to the loop).
         let too_long = [0xff; 11];
         assert!(matches!(
             BitReader::new(&too_long).uvar(),

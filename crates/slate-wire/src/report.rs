@@ -97,10 +97,10 @@ pub(crate) fn write_report(
     Ok(())
 }
 
-/// Resolves every assertion, within the item and vector-element limits.
 /// A report's entries: an occasional report holds one or two, inline.
 type Entries<'a> = SmallVec<[Entry<'a>; 2]>;
 
+/// Resolves every assertion, within the item and vector-element limits.
 fn resolve_all<'a>(
     report: &'a Report,
     dict: &mut Dictionary,
