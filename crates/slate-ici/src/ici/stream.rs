@@ -20,14 +20,13 @@ pub(crate) struct Inbound {
 impl Inbound {
     /// A message at `seq` arrived: true if it is new (not a duplicate).
     pub fn receive(&mut self, seq: u64, now: Duration) -> bool {
+        if seq <= self.have {
+            return false;
+        }
         if seq == self.have + 1 && self.above.is_empty() {
             // In order, nothing pending: the common case, without touching the set.
             self.have = seq;
-            self.want = self.want.max(seq);
-            self.advance(now);
-            return true;
-        }
-        if seq <= self.have || !self.above.insert(seq) {
+        } else if !self.above.insert(seq) {
             return false;
         }
         self.want = self.want.max(seq);
