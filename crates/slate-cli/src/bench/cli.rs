@@ -30,8 +30,7 @@ use anyhow::{Context as _, anyhow, bail, ensure};
 use serde_json::{Value, json};
 use zenoh::Wait;
 
-use super::zenoh_pair::free_port;
-use super::{Config, Report, Unit, percentile_secs, round};
+use super::{Config, Report, Unit, free_port, percentile_secs, round};
 
 /// The team's name, the owner of the object and the node the observers connect to.
 const TEAM: &str = "clibench";

@@ -10,8 +10,10 @@ pub mod wire;
 mod zenoh_pair;
 
 use std::hint::black_box;
+use std::net::TcpListener;
 use std::time::{Duration, Instant};
 
+use anyhow::Context as _;
 use serde_json::{Map, Value, json};
 
 /// How long and how often to measure.
@@ -248,6 +250,30 @@ fn round(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 
+/// The median of `xs` (the upper one of an even count); NaN without samples.
+pub fn median(mut xs: Vec<f64>) -> f64 {
+    xs.sort_by(f64::total_cmp);
+    xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// A free TCP port on 127.0.0.1 (the OS picks it; the listener is dropped before use).
+pub fn free_port() -> anyhow::Result<u16> {
+    let l = TcpListener::bind("127.0.0.1:0").context("no free port on 127.0.0.1")?;
+    Ok(l.local_addr()?.port())
+}
+
+/// Polls `done` every millisecond until it holds or `max` passes.
+pub fn wait(max: Duration, mut done: impl FnMut() -> bool) -> bool {
+    let end = Instant::now() + max;
+    while Instant::now() < end {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    done()
+}
+
 /// The `p`th percentile of durations (nearest rank; 0: the least, 100: the most), in
 /// seconds; NaN without samples.
 pub fn percentile_secs(samples: &[Duration], p: f64) -> f64 {
@@ -271,7 +297,7 @@ fn assert_reports(j: &Value, fields: &[&str]) {
 pub fn measure(cfg: &Config, mut op: impl FnMut()) -> f64 {
     let target = Duration::from_millis(cfg.sample_ms);
     let iters = calibrate(target, &mut op);
-    let mut per_op: Vec<f64> = (0..cfg.samples)
+    let per_op: Vec<f64> = (0..cfg.samples)
         .map(|_| {
             let start = Instant::now();
             for _ in 0..iters {
@@ -280,8 +306,7 @@ pub fn measure(cfg: &Config, mut op: impl FnMut()) -> f64 {
             start.elapsed().as_nanos() as f64 / iters as f64
         })
         .collect();
-    per_op.sort_by(f64::total_cmp);
-    black_box(per_op[per_op.len() / 2])
+    black_box(median(per_op))
 }
 
 /// Iterations that make one sample last about `target` (also warms up).

@@ -4,14 +4,17 @@
 //! * Latency: a write on node A until node B's board holds it (taken in B's change
 //!   hook, in the thread that applies it), one write at a time; raw: a put of the same
 //!   payload size until B's subscriber callback runs, by `Session::put` (the targets'
-//!   baseline) and by a declared publisher (reported beside it). The three kinds of
-//!   probe alternate, so that all see the same machine. Percentiles over the probes.
+//!   baseline) and by a declared publisher (reported beside it), both routed to remote
+//!   subscribers only, as slate's own publishers are. The three kinds of
+//!   probe take turns (each going first in turn), after as many unmeasured warm-up
+//!   probes each, so that all see the same machine. Percentiles over the probes.
 //! * Throughput: A commits updates in batches of 100 (a sensor's scan; the ICI turns
 //!   each into one report) as fast as it can, never more than 20 000 updates ahead of
 //!   what B applied; the clock stops when B's board holds A's final state; raw: one put
 //!   per update (congestion control `Block`, so none is dropped) until B's callback has
 //!   them all, again by `Session::put` and by a declared publisher. Raw and slate rounds
-//!   alternate ([`ROUNDS`] of each); the medians are reported.
+//!   alternate ([`ROUNDS`] of each, each kind starting a round in turn); the medians are
+//!   reported.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -24,13 +27,28 @@ use slate_ici::{LinkKind, MsgKind, Rng};
 use slate_model::{Board, ChangeHook, Key, ObjectId, TouchKind, Touched};
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
+use zenoh::sample::Locality;
 
-use super::zenoh_pair::{ATTRS, OBJECTS, Pair, free_port, update, wait};
-use super::{Config, Report, Target, Unit};
+use super::zenoh_pair::{ATTRS, OBJECTS, Pair, update};
+use super::{Config, Report, Target, Unit, free_port, wait};
 
 /// Throughput rounds of each kind (with three, one slow round of the machine's decided
 /// the median often enough to swing the ratio from 0.77 to 1.18 between runs).
 const ROUNDS: usize = 5;
+
+/// What a probe or a throughput round measures: slate, or one of the raw baselines.
+#[derive(Clone, Copy)]
+enum Kind {
+    Slate,
+    Raw(Raw),
+}
+
+/// The kinds, in the order of their figures (every loop takes them in turn).
+const KINDS: [Kind; 3] = [
+    Kind::Slate,
+    Kind::Raw(Raw::SessionPut),
+    Kind::Raw(Raw::Publisher),
+];
 
 /// Time between two latency probes (both sides idle, as a robot's occasional update).
 const PROBE_GAP: Duration = Duration::from_micros(200);
@@ -50,41 +68,43 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     let probes = (cfg.samples * 450).max(300);
     progress("latency");
     let mut lat = Latency::new(&pair)?;
-    let payload = lat.payload(probes / 10 + 10)?;
-    let mut slate = Vec::with_capacity(probes);
-    let (mut raw, mut publisher) = (Vec::with_capacity(probes), Vec::with_capacity(probes));
+    let payload = lat.warm_up(probes / 10 + 10)?;
+    let mut samples: [Vec<Duration>; 3] = Default::default();
     for k in 0..probes {
-        slate.push(lat.slate(k)?);
-        std::thread::sleep(PROBE_GAP);
-        raw.push(lat.raw(Raw::SessionPut, payload)?);
-        std::thread::sleep(PROBE_GAP);
-        publisher.push(lat.raw(Raw::Publisher, payload)?);
-        std::thread::sleep(PROBE_GAP);
+        // The kinds take turns going first, so that none always follows the same one.
+        for j in 0..KINDS.len() {
+            let i = (k + j) % KINDS.len();
+            samples[i].push(lat.probe(KINDS[i], k, payload)?);
+            std::thread::sleep(PROBE_GAP);
+        }
     }
+    let [slate, raw, publisher] = samples;
+    let (slate_p50, slate_p99) = (percentile(&slate, 50.0), percentile(&slate, 99.0));
+    let (publisher_p50, publisher_p99) =
+        (percentile(&publisher, 50.0), percentile(&publisher, 99.0));
     r.add_in("raw_zenoh_latency_p50_us", percentile(&raw, 50.0), Unit::Us);
     r.add_in("raw_zenoh_latency_p99_us", percentile(&raw, 99.0), Unit::Us);
-    let by_publisher = [percentile(&publisher, 50.0), percentile(&publisher, 99.0)];
     r.add_in(
         "raw_zenoh_publisher_latency_p50_us",
-        by_publisher[0],
+        publisher_p50,
         Unit::Us,
     );
     r.add_in(
         "raw_zenoh_publisher_latency_p99_us",
-        by_publisher[1],
+        publisher_p99,
         Unit::Us,
     );
     let within = vec![Target::RatioAtMost(1.2)];
     r.compare_in(
         "latency_p50_us",
-        percentile(&slate, 50.0),
+        slate_p50,
         Unit::Us,
         "raw_zenoh_latency_p50_us",
         within.clone(),
     );
     r.compare_in(
         "latency_p99_us",
-        percentile(&slate, 99.0),
+        slate_p99,
         Unit::Us,
         "raw_zenoh_latency_p99_us",
         within,
@@ -92,35 +112,45 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     let ratio = |x: f64, base: f64| json!(super::round(x / base));
     r.fact(
         "latency_p50_ratio_to_publisher",
-        ratio(percentile(&slate, 50.0), by_publisher[0]),
+        ratio(slate_p50, publisher_p50),
     );
     r.fact(
         "latency_p99_ratio_to_publisher",
-        ratio(percentile(&slate, 99.0), by_publisher[1]),
+        ratio(slate_p99, publisher_p99),
     );
     r.fact("latency_probes", json!(probes));
     r.fact("raw_payload_bytes", json!(payload));
 
     progress("throughput");
-    // A third of a second a round by default.
-    let budget = Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / 3);
     let mut tp = Throughput::new(&pair)?;
-    let (mut raw_rates, mut publisher_rates, mut rates) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut raw_count, mut publisher_count, mut count, mut delivered) = (0, 0, 0, 0);
-    for _ in 0..ROUNDS {
-        let (rate, n) = tp.raw(Raw::SessionPut, budget, payload)?;
-        raw_rates.push(rate);
-        raw_count += n;
-        let (rate, n) = tp.raw(Raw::Publisher, budget, payload)?;
-        publisher_rates.push(rate);
-        publisher_count += n;
-        let (rate, n, applied) = tp.slate(budget)?;
-        rates.push(rate);
-        (count, delivered) = (count + n, delivered + applied);
+    let budget = round_budget(cfg);
+    let mut rates: [Vec<f64>; 3] = Default::default();
+    let (mut counts, mut delivered) = ([0u64; 3], 0);
+    for round in 0..ROUNDS {
+        // Each round starts with another kind, as the latency probes do.
+        for j in 0..KINDS.len() {
+            let i = (round + j) % KINDS.len();
+            let (rate, n) = match KINDS[i] {
+                Kind::Slate => {
+                    let (rate, n, applied) = tp.slate(budget)?;
+                    delivered += applied;
+                    (rate, n)
+                }
+                Kind::Raw(how) => tp.raw(how, budget, payload)?,
+            };
+            rates[i].push(rate);
+            counts[i] += n;
+        }
     }
-    let rate = median(rates);
-    r.add_in("raw_zenoh_updates_per_sec", median(raw_rates), Unit::PerSec);
-    let publisher_rate = median(publisher_rates);
+    let [rates, raw_rates, publisher_rates] = rates;
+    let [count, raw_count, publisher_count] = counts;
+    let rate = super::median(rates);
+    r.add_in(
+        "raw_zenoh_updates_per_sec",
+        super::median(raw_rates),
+        Unit::PerSec,
+    );
+    let publisher_rate = super::median(publisher_rates);
     r.add_in(
         "raw_zenoh_publisher_updates_per_sec",
         publisher_rate,
@@ -152,9 +182,10 @@ fn percentile(samples: &[Duration], p: f64) -> f64 {
     super::percentile_secs(samples, p) * 1e6
 }
 
-fn median(mut xs: Vec<f64>) -> f64 {
-    xs.sort_by(f64::total_cmp);
-    xs.get(xs.len() / 2).copied().unwrap_or(f64::NAN)
+/// How long each throughput round runs: a third of a second by default (21 samples of
+/// 5 ms).
+fn round_budget(cfg: &Config) -> Duration {
+    Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / 3)
 }
 
 /// Tells when a write to one object reaches the board (in the applying thread).
@@ -183,28 +214,55 @@ enum Raw {
     Publisher,
 }
 
-/// A key raw Zenoh puts go to from A's session, both ways ([`Raw`]).
+/// A key raw Zenoh puts go to from A's session, both ways ([`Raw`]), and B's subscriber
+/// on it. Both ways route to remote subscribers only, as slate's publishers do.
 struct RawKey {
     session: zenoh::Session,
+    /// The key as text: `Session::put` parses it on every put, as a naive caller's does.
     key: &'static str,
-    congestion: CongestionControl,
     publisher: zenoh::pubsub::Publisher<'static>,
+    _subscriber: zenoh::pubsub::Subscriber<()>,
 }
 
 impl RawKey {
-    fn new(pair: &Pair, key: &'static str, congestion: CongestionControl) -> anyhow::Result<Self> {
+    /// Declares the key's publisher on A and its subscriber on B (`on_sample` runs in
+    /// B's callback), then puts until `arrived` says B heard one.
+    fn new(
+        pair: &Pair,
+        key: &'static str,
+        congestion: CongestionControl,
+        on_sample: impl Fn() + Send + Sync + 'static,
+        mut arrived: impl FnMut() -> bool,
+    ) -> anyhow::Result<Self> {
+        let subscriber = pair
+            .b
+            .transport
+            .session()
+            .declare_subscriber(key)
+            .callback(move |_| on_sample())
+            .wait()
+            .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
         let session = pair.a.transport.session().clone();
         let publisher = session
             .declare_publisher(key)
             .congestion_control(congestion)
+            .allowed_destination(Locality::Remote)
             .wait()
             .map_err(|e| anyhow!("zenoh publisher: {e}"))?;
-        Ok(RawKey {
+        let raw = RawKey {
             session,
             key,
-            congestion,
             publisher,
-        })
+            _subscriber: subscriber,
+        };
+        let ready = wait(Duration::from_secs(10), || {
+            raw.put(Raw::SessionPut, 1).is_ok() && arrived()
+        });
+        anyhow::ensure!(
+            ready,
+            "the raw subscriber on {key} was not reached within 10 s"
+        );
+        Ok(raw)
     }
 
     fn put(&self, how: Raw, payload: usize) -> anyhow::Result<()> {
@@ -213,7 +271,8 @@ impl RawKey {
             Raw::SessionPut => self
                 .session
                 .put(self.key, bytes)
-                .congestion_control(self.congestion)
+                .congestion_control(self.publisher.congestion_control())
+                .allowed_destination(Locality::Remote)
                 .wait(),
             Raw::Publisher => self.publisher.put(bytes).wait(),
         }
@@ -223,14 +282,13 @@ impl RawKey {
 
 const RAW_LATENCY_KEY: &str = "bench/raw/netbench/r1/a/latency";
 
-/// The two kinds of latency probe: a write on A until B's hook sees it, and a raw put
-/// on A's session until B's subscriber callback runs.
+/// The latency probes: a write on A until B's hook sees it, and a raw put on A's
+/// session (either way) until B's subscriber callback runs.
 struct Latency<'p> {
     pair: &'p Pair,
     key: Key,
     arrived: Receiver<Instant>,
     raw_arrived: Receiver<Instant>,
-    _raw_sub: zenoh::pubsub::Subscriber<()>,
     raw_key: RawKey,
 }
 
@@ -247,38 +305,30 @@ impl<'p> Latency<'p> {
             tx,
         }));
         let (raw_tx, raw_arrived) = crossbeam_channel::unbounded();
-        let raw_sub = pair
-            .b
-            .transport
-            .session()
-            .declare_subscriber(RAW_LATENCY_KEY)
-            .callback(move |_| {
-                let _ = raw_tx.send(Instant::now());
-            })
-            .wait()
-            .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
-        let lat = Latency {
+        let on_sample = move || {
+            let _ = raw_tx.send(Instant::now());
+        };
+        let heard = raw_arrived.clone();
+        let raw_key = RawKey::new(
+            pair,
+            RAW_LATENCY_KEY,
+            CongestionControl::Drop,
+            on_sample,
+            || heard.recv_timeout(Duration::from_millis(5)).is_ok(),
+        )?;
+        Ok(Latency {
             pair,
             key: pair.a.board.key("t0", "range")?,
             arrived,
             raw_arrived,
-            _raw_sub: raw_sub,
-            raw_key: RawKey::new(pair, RAW_LATENCY_KEY, CongestionControl::Drop)?,
-        };
-        let ready = wait(Duration::from_secs(10), || {
-            lat.raw_key.put(Raw::SessionPut, 1).is_ok()
-                && lat
-                    .raw_arrived
-                    .recv_timeout(Duration::from_millis(5))
-                    .is_ok()
-        });
-        anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
-        Ok(lat)
+            raw_key,
+        })
     }
 
-    /// Runs `n` slate probes (not measured) and returns the average size of the
-    /// reports A sent for them: the raw probes' payload.
-    fn payload(&mut self, n: usize) -> anyhow::Result<usize> {
+    /// Runs `n` probes of each kind, not measured (the first ones of a kind pay for
+    /// its caches and routes), and returns the average size of the reports A sent for
+    /// the slate probes: the raw probes' payload.
+    fn warm_up(&mut self, n: usize) -> anyhow::Result<usize> {
         let sent = || {
             self.pair
                 .a
@@ -293,7 +343,22 @@ impl<'p> Latency<'p> {
         }
         let after = sent();
         let msgs = (after.sent_msgs - before.sent_msgs).max(1);
-        Ok(usize::try_from((after.sent_bytes - before.sent_bytes) / msgs)?.max(1))
+        let payload = usize::try_from((after.sent_bytes - before.sent_bytes) / msgs)?.max(1);
+        for _ in 0..n {
+            for how in [Raw::SessionPut, Raw::Publisher] {
+                self.raw(how, payload)?;
+                std::thread::sleep(PROBE_GAP);
+            }
+        }
+        Ok(payload)
+    }
+
+    /// The `k`th probe of `kind`.
+    fn probe(&self, kind: Kind, k: usize, payload: usize) -> anyhow::Result<Duration> {
+        match kind {
+            Kind::Slate => self.slate(k),
+            Kind::Raw(how) => self.raw(how, payload),
+        }
     }
 
     /// The `k`th write on A, until B's board holds it.
@@ -316,7 +381,7 @@ impl<'p> Latency<'p> {
         })
     }
 
-    /// A put of `payload` bytes on A's session, until B's callback runs.
+    /// A put of `payload` bytes on A's session (`how`), until B's callback runs.
     fn raw(&self, how: Raw, payload: usize) -> anyhow::Result<Duration> {
         self.raw_arrived.try_iter().for_each(drop);
         let start = Instant::now();
@@ -412,7 +477,6 @@ const RAW_THROUGHPUT_KEY: &str = "bench/raw/netbench/r1/a/throughput";
 struct Throughput<'p> {
     pair: &'p Pair,
     raw: Arc<Counter>,
-    _raw_sub: zenoh::pubsub::Subscriber<()>,
     raw_key: RawKey,
     applied: Arc<Counter>,
     keys: Vec<Vec<Key>>,
@@ -423,15 +487,14 @@ struct Throughput<'p> {
 impl<'p> Throughput<'p> {
     fn new(pair: &'p Pair) -> anyhow::Result<Self> {
         let raw = Counter::new();
-        let c = raw.clone();
-        let raw_sub = pair
-            .b
-            .transport
-            .session()
-            .declare_subscriber(RAW_THROUGHPUT_KEY)
-            .callback(move |_| c.hit(1))
-            .wait()
-            .map_err(|e| anyhow!("zenoh subscriber: {e}"))?;
+        let (c, heard) = (raw.clone(), raw.clone());
+        let raw_key = RawKey::new(
+            pair,
+            RAW_THROUGHPUT_KEY,
+            CongestionControl::Block,
+            move || c.hit(1),
+            || heard.count.load(Ordering::SeqCst) > 0,
+        )?;
         let applied = Counter::new();
         let class = pair
             .b
@@ -454,21 +517,15 @@ impl<'p> Throughput<'p> {
             .collect::<Result<Vec<_>, _>>()?;
         let mut rng = Rng::new(5);
         let updates = (0..4096).map(|_| update(&mut rng)).collect();
-        let tp = Throughput {
+        Ok(Throughput {
             pair,
             raw,
-            _raw_sub: raw_sub,
-            raw_key: RawKey::new(pair, RAW_THROUGHPUT_KEY, CongestionControl::Block)?,
+            raw_key,
             applied,
             keys,
             updates,
             sent: 0,
-        };
-        let ready = wait(Duration::from_secs(10), || {
-            tp.raw_key.put(Raw::SessionPut, 1).is_ok() && tp.raw.count.load(Ordering::SeqCst) > 0
-        });
-        anyhow::ensure!(ready, "the raw subscriber was not reached within 10 s");
-        Ok(tp)
+        })
     }
 
     /// One put per update for `budget`; returns updates per second and how many.
@@ -542,6 +599,7 @@ mod tests {
                 "updates_per_sec",
                 "raw_zenoh_updates_per_sec",
                 "latency_p50_ratio",
+                "latency_p99_ratio",
                 "updates_per_sec_ratio",
                 "raw_zenoh_publisher_latency_p50_us",
                 "raw_zenoh_publisher_latency_p99_us",

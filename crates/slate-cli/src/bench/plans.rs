@@ -9,7 +9,7 @@ use std::time::Instant;
 use slate_model::{Board, Clock, Key};
 use slate_plans::Engine;
 
-use super::{Config, Report, measure};
+use super::{Config, Report, measure, median};
 
 const WORLD: &str =
     "class Cell { v: real = 0.0; w: real = 0.0; }\nclass Obstacle { range: real = 100.0; }\n";
@@ -51,7 +51,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Report {
 
 fn compile_1000(cfg: &Config) -> f64 {
     let source = format!("{WORLD}{}", unrelated(1000));
-    let mut times: Vec<f64> = (0..cfg.samples.clamp(3, 7))
+    let times: Vec<f64> = (0..cfg.samples.clamp(3, 7))
         .map(|_| {
             let board = Arc::new(Board::builder().clock(Clock::manual()).build());
             let engine = Engine::new(&board);
@@ -62,8 +62,7 @@ fn compile_1000(cfg: &Config) -> f64 {
             start.elapsed().as_secs_f64() * 1e3
         })
         .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+    median(times)
 }
 
 fn write_loop(cfg: &Config, board: &Board, key: Key) -> f64 {

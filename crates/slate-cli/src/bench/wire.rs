@@ -26,8 +26,8 @@ use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 
 use super::proxy::{Counts, Proxy};
-use super::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, free_port, update, wait};
-use super::{Config, Report, Target, Unit};
+use super::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, update};
+use super::{Config, Report, Target, Unit, free_port, wait};
 
 /// One hour after the epoch, at 10 reports a second: a sender in steady state.
 const HOUR_US: u64 = 3_600_000_000;

@@ -1,16 +1,16 @@
 //! Two slate nodes (board + ICI) over Zenoh on 127.0.0.1, in one process: what the
 //! `wire` and `net` suites measure. Everything is closed on drop.
 
-use std::net::TcpListener;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use anyhow::Context as _;
 use slate_ici::{Ici, IciConfig, Rng};
 use slate_model::{Address, AttrDecl, Board, ClassDef, Update, ValueType};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
+
+use super::wait;
 
 /// Objects the sender writes.
 pub const OBJECTS: usize = 100;
@@ -60,12 +60,6 @@ pub fn update(rng: &mut Rng) -> Update {
     Update::new(value)
         .accuracy(0.01 + rng.next_f64())
         .confidence(0.5 + rng.next_f64() / 2.0)
-}
-
-/// A free TCP port on 127.0.0.1 (the OS picks it; the listener is dropped before use).
-pub fn free_port() -> anyhow::Result<u16> {
-    let l = TcpListener::bind("127.0.0.1:0").context("no free port on 127.0.0.1")?;
-    Ok(l.local_addr()?.port())
 }
 
 /// One node: board, Zenoh transport, ICI.
@@ -176,16 +170,4 @@ impl Drop for Pair {
         slate_ici::Transport::close(&*self.a.transport);
         slate_ici::Transport::close(&*self.b.transport);
     }
-}
-
-/// Polls `done` every millisecond until it holds or `max` passes.
-pub fn wait(max: Duration, mut done: impl FnMut() -> bool) -> bool {
-    let end = Instant::now() + max;
-    while Instant::now() < end {
-        if done() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    }
-    done()
 }
