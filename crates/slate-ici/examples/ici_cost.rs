@@ -1,16 +1,16 @@
 //! What the ICI itself costs per update, without a network: two modules of one robot
-//! joined by an in-memory queue, the sender committing batches of 100 updates of 100
-//! tracked objects and the receiver merging each report, in one thread.
+//! joined by an in-memory queue, the sender committing batches of updates of 100 tracked
+//! objects and the receiver merging each report, in one thread.
 //!
-//! `cargo run --release -p slate-ici --example ici_cost [BATCHES [SIZE]]` prints the time
-//! per update (SIZE updates a batch, 100 at most; SIZE 1 writes one update at a time,
-//! as a latency probe does); under `valgrind --tool=callgrind` it
-//! shows where the instructions go.
+//! `cargo run --release -p slate-ici --example ici_cost [BATCHES [SIZE [COLD]]]` prints
+//! the time per update, the sender's and the receiver's apart (SIZE updates a batch, 100
+//! at most; SIZE 1 writes one bare value at a time, as a latency probe does); under
+//! `valgrind --tool=callgrind` it shows where the instructions go.
 //!
-//! A third argument, COLD (MiB), sweeps that much memory between updates, so that every
-//! update finds the caches as a robot's occasional update does after other work ran
-//! (4 covers the L2 here); the sender's and the receiver's times are then printed apart.
-//! Under `valgrind --tool=cachegrind --cache-sim=yes` it shows which functions miss.
+//! COLD (MiB) sweeps that much memory after every batch, so that each finds the caches
+//! as a robot's occasional update does after other work ran (a few MiB cover an L2,
+//! more than the L3 covers everything); under `valgrind --tool=cachegrind
+//! --cache-sim=yes` it shows which functions miss.
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -123,17 +123,16 @@ fn main() -> Result<(), Error> {
                 .collect::<Result<Vec<_>, _>>()
         })
         .collect::<Result<Vec<_>, _>>()?;
-    let start = Instant::now();
-    let (mut sending, mut receiving, mut swept) = (0u128, 0u128, 0u128);
+    let (mut sending, mut receiving) = (0u128, 0u128);
     let mut n = 0usize;
+    let update = |n: usize| {
+        let v = (n % 100_000) as f64 / 100.0;
+        Update::new(v)
+            .accuracy(0.013 + (n % 7) as f64)
+            .confidence(0.9)
+    };
     for _ in 0..batches {
         let t0 = Instant::now();
-        let update = |n: usize| {
-            let v = (n % 100_000) as f64 / 100.0;
-            Update::new(v)
-                .accuracy(0.013 + (n % 7) as f64)
-                .confidence(0.9)
-        };
         if size == 1 {
             // One write at a time: the latency path, as `slate bench net` probes it (a
             // bare value, to one attribute).
@@ -158,10 +157,8 @@ fn main() -> Result<(), Error> {
                 line[0] = line[0].wrapping_add(1);
             }
             std::hint::black_box(&sweep);
-            swept += t2.elapsed().as_nanos();
         }
     }
-    let elapsed = start.elapsed().as_nanos() - swept;
     let attr = if size == 1 { 0 } else { (n - 1) % attrs.len() };
     let name = format!("t{}", size - 1);
     let (sent, got) = (
@@ -173,13 +170,13 @@ fn main() -> Result<(), Error> {
     println!(
         "{n} updates in {batches} batches: {:.0} ns per update (sender and receiver, one thread: \
          sender {:.0}, receiver {:.0}){}",
-        per(elapsed),
+        per(sending + receiving),
         per(sending),
         per(receiving),
         if sweep.is_empty() {
             ""
         } else {
-            ", caches swept between updates"
+            ", caches swept between batches"
         }
     );
     Ok(())
