@@ -491,16 +491,20 @@ impl Board {
         attr: &str,
         update: impl Into<Update>,
     ) -> Result<u64, WriteError> {
-        let chain = self.chain_of(token);
-        self.write_in(Target::Names(object, attr), update.into(), &chain)
+        self.write_in(
+            Target::Names(object, attr),
+            update.into(),
+            &self.chain_of(token),
+        )
     }
 
-    /// The token's chain, if it is this board's.
-    fn chain_of(&self, token: &crate::CallToken) -> Chain {
+    /// The token's chain, if it is this board's (borrowed: a binding reads and writes
+    /// through tokens often).
+    fn chain_of<'t>(&self, token: &'t crate::CallToken) -> std::borrow::Cow<'t, Chain> {
         if token.board == std::ptr::from_ref(self) as usize {
-            token.chain.clone()
+            std::borrow::Cow::Borrowed(&token.chain)
         } else {
-            Chain::default()
+            std::borrow::Cow::Owned(Chain::default())
         }
     }
 
