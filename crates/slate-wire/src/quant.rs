@@ -32,11 +32,14 @@ impl Quant {
         if !(usable && res.is_finite() && res > 0.0) {
             return None;
         }
-        let steps = ((max - min) / res).round();
-        if steps.is_nan() || steps >= MAX_STEPS {
+        let span = (max - min) / res;
+        if span.is_nan() || span >= MAX_STEPS {
             return None;
         }
-        let steps = steps as u64;
+        let steps = round_half_up(span);
+        if steps >= MAX_STEPS as u64 {
+            return None;
+        }
         Some(Quant {
             min,
             max,
@@ -48,8 +51,7 @@ impl Quant {
 
     /// The code of `v` (which lies within the bounds).
     pub fn code(&self, v: f64) -> u64 {
-        let q = ((v - self.min) / self.res).round();
-        (q.max(0.0) as u64).min(self.steps)
+        round_half_up((v - self.min) / self.res).min(self.steps)
     }
 
     /// The value of code `q`.
@@ -80,6 +82,18 @@ impl Quant {
     pub fn read(&self, r: &mut BitReader) -> Result<f64, DecodeError> {
         let q = r.bits(self.bits)?;
         self.value(q)
+    }
+}
+
+/// `x.round()` as an integer, for `x >= 0` (0 for a negative `x` or NaN, `u64::MAX` at
+/// most): without the library call `f64::round` is on baseline x86-64, which a real
+/// takes two or three of on every update.
+fn round_half_up(x: f64) -> u64 {
+    let whole = x as u64;
+    if x - whole as f64 >= 0.5 {
+        whole.saturating_add(1)
+    } else {
+        whole
     }
 }
 
@@ -130,8 +144,84 @@ pub(crate) const ACCURACY_BITS: u32 = 6;
 const ACCURACY_ESCAPE: u64 = (1 << ACCURACY_BITS) - 1;
 /// Accuracy code that means exactly one scale unit (the resolution).
 const ACCURACY_ONE: i64 = 17;
-/// Accuracy codes per doubling.
-const ACCURACY_PER_OCTAVE: f64 = 4.0;
+/// `2^((k - 17) / 4)` for every code `k` below `ACCURACY_ESCAPE` (a test checks each
+/// against `exp2`): a table, because an accuracy is coded and decoded on every update.
+#[allow(clippy::approx_constant, clippy::excessive_precision)]
+const ACCURACY_STEPS: [f64; ACCURACY_ESCAPE as usize] = [
+    0.052556025953357156,
+    0.0625,
+    0.07432544468767006,
+    0.08838834764831845,
+    0.10511205190671431,
+    0.125,
+    0.14865088937534013,
+    0.1767766952966369,
+    0.21022410381342863,
+    0.25,
+    0.29730177875068026,
+    0.3535533905932738,
+    0.42044820762685725,
+    0.5,
+    0.5946035575013605,
+    0.7071067811865476,
+    0.8408964152537145,
+    1.0,
+    1.189207115002721,
+    1.4142135623730951,
+    1.681792830507429,
+    2.0,
+    2.378414230005442,
+    2.8284271247461903,
+    3.363585661014858,
+    4.0,
+    4.756828460010884,
+    5.656854249492381,
+    6.727171322029716,
+    8.0,
+    9.513656920021768,
+    11.313708498984761,
+    13.454342644059432,
+    16.0,
+    19.027313840043536,
+    22.627416997969522,
+    26.908685288118864,
+    32.0,
+    38.05462768008707,
+    45.254833995939045,
+    53.81737057623773,
+    64.0,
+    76.10925536017415,
+    90.50966799187809,
+    107.63474115247546,
+    128.0,
+    152.2185107203483,
+    181.01933598375618,
+    215.2694823049509,
+    256.0,
+    304.4370214406966,
+    362.03867196751236,
+    430.5389646099018,
+    512.0,
+    608.8740428813932,
+    724.0773439350247,
+    861.0779292198037,
+    1024.0,
+    1217.7480857627863,
+    1448.1546878700494,
+    1722.1558584396073,
+    2048.0,
+    2435.4961715255727,
+];
+
+/// Where `4 * log2(m)` rounds up to the next quarter octave, for a mantissa `m` in
+/// `[1, 2)`: `2^(1/8)`, `2^(3/8)`, `2^(5/8)`, `2^(7/8)`.
+#[allow(clippy::excessive_precision)]
+const QUARTER_MIDPOINTS: [f64; 4] = [
+    1.0905077326652577,
+    1.2968395546510096,
+    1.5422108254079407,
+    1.8340080864093424,
+];
 
 /// The accuracy of code `k` below `ACCURACY_ESCAPE`: 0 for code 0, else
 /// `scale * 2^((k - 17) / 4)`.
@@ -139,7 +229,7 @@ fn accuracy_of(k: u64, scale: f64) -> f64 {
     if k == 0 {
         return 0.0;
     }
-    scale * ((k as i64 - ACCURACY_ONE) as f64 / ACCURACY_PER_OCTAVE).exp2()
+    scale * ACCURACY_STEPS[k as usize]
 }
 
 /// Accuracy a packet of `decl` has unless it says otherwise (the declared default, else 0).
@@ -158,7 +248,9 @@ pub(crate) fn accuracy_scale(decl: &AttrDecl) -> f64 {
     scale.unwrap_or(1.0)
 }
 
-/// The code of accuracy `a`, or `None` if it is beyond the log scale (escape).
+/// The code of accuracy `a` (finite, `>= 0`), or `None` if it is beyond the log scale
+/// (escape): `round(4 * log2(a / scale)) + 17`, taken from the binary exponent of
+/// `a / scale` and where its mantissa falls among the quarter octaves (no `log2`).
 fn accuracy_code(a: f64, scale: f64) -> Option<u64> {
     let smallest = accuracy_of(1, scale);
     if a < smallest / 2.0 {
@@ -167,7 +259,11 @@ fn accuracy_code(a: f64, scale: f64) -> Option<u64> {
     if a <= smallest {
         return Some(1);
     }
-    let k = (ACCURACY_PER_OCTAVE * (a / scale).log2()).round() as i64 + ACCURACY_ONE;
+    let bits = (a / scale).to_bits();
+    let exponent = ((bits >> 52) & 0x7ff) as i64 - 1023;
+    let mantissa = f64::from_bits((bits & ((1 << 52) - 1)) | (1023 << 52));
+    let quarter = QUARTER_MIDPOINTS.iter().filter(|m| mantissa >= **m).count() as i64;
+    let k = 4 * exponent + quarter + ACCURACY_ONE;
     (k < ACCURACY_ESCAPE as i64).then_some(k as u64)
 }
 
@@ -189,7 +285,7 @@ pub(crate) fn read_accuracy(r: &mut BitReader, scale: f64) -> Result<f64, Decode
     match r.bits(ACCURACY_BITS)? {
         ACCURACY_ESCAPE => {
             let a = read_real(r)?;
-            if a < 0.0 || accuracy_code(a, scale).is_some() {
+            if !(a.is_finite() && a >= 0.0) || accuracy_code(a, scale).is_some() {
                 return Err(DecodeError::BadValue("escaped accuracy that has a code"));
             }
             Ok(a)
@@ -204,7 +300,7 @@ const CONFIDENCE_STEPS: f64 = 255.0;
 
 /// The code of a confidence in `[0, 1]`: `round(c * 255)`.
 fn confidence_code(c: f64) -> u64 {
-    (c * CONFIDENCE_STEPS).round().clamp(0.0, CONFIDENCE_STEPS) as u64
+    round_half_up(c * CONFIDENCE_STEPS).min(CONFIDENCE_STEPS as u64)
 }
 
 fn confidence_of(code: u64) -> f64 {
@@ -310,6 +406,63 @@ mod tests {
             let back = back.unwrap();
             let tolerance = (a * 0.091).max(0.01 / 32.0);
             assert!((back - a).abs() <= tolerance, "{a} -> {back}");
+        }
+    }
+
+    #[test]
+    fn rounding_half_up_is_round() {
+        let half_below = 0.5 - f64::EPSILON / 4.0;
+        for x in [
+            0.0,
+            0.3,
+            0.5,
+            half_below,
+            1.5,
+            2.4999,
+            2.5,
+            1e15 + 0.5,
+            4503599627370495.5,
+        ] {
+            assert_eq!(round_half_up(x), x.round() as u64, "{x}");
+        }
+        assert_eq!(round_half_up(-0.7), 0);
+        assert_eq!(round_half_up(f64::NAN), 0);
+        assert_eq!(round_half_up(1e300), u64::MAX);
+    }
+
+    #[test]
+    fn the_accuracy_tables_are_the_powers_they_stand_for() {
+        for (k, step) in ACCURACY_STEPS.iter().enumerate() {
+            let exact = ((k as i64 - ACCURACY_ONE) as f64 / 4.0).exp2();
+            assert_eq!(step.to_bits(), exact.to_bits(), "code {k}");
+        }
+        for (i, m) in QUARTER_MIDPOINTS.iter().enumerate() {
+            let exact = ((2 * i + 1) as f64 / 8.0).exp2();
+            assert_eq!(m.to_bits(), exact.to_bits(), "midpoint {i}");
+        }
+    }
+
+    #[test]
+    fn accuracy_codes_round_the_log_to_the_nearest_quarter_octave() {
+        let by_log = |a: f64, scale: f64| {
+            let k = (4.0 * (a / scale).log2()).round() as i64 + ACCURACY_ONE;
+            (k < ACCURACY_ESCAPE as i64).then_some(k as u64)
+        };
+        let mut a: f64 = 1e-4;
+        while a < 1e4 {
+            for scale in [0.01f64, 0.5, 1.0, 3.0] {
+                let x = 4.0 * (a / scale).log2();
+                let near_a_midpoint = (x - x.floor() - 0.5).abs() < 1e-9;
+                if a > accuracy_of(1, scale) && !near_a_midpoint {
+                    assert_eq!(accuracy_code(a, scale), by_log(a, scale), "{a} at {scale}");
+                }
+                // Coding a decoded accuracy gives its code back (a writer stores what
+                // its receivers decode).
+                if let Some(k) = accuracy_code(a, scale) {
+                    assert_eq!(accuracy_code(accuracy_of(k, scale), scale), Some(k));
+                }
+            }
+            a *= 1.0137;
         }
     }
 
