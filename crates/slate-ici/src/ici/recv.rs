@@ -229,6 +229,9 @@ impl State {
             self.stats.rejects.stale += 1;
             return;
         }
+        // A frame that later ones overtook may delete an object its owner has made
+        // again since (in order, the deletion would have come first).
+        let late = self.peer(from).stream.overtaken(l.seq);
         if !self.take_position(from, l.seq, stamps().max()) {
             return;
         }
@@ -242,8 +245,14 @@ impl State {
                 },
             );
         }
+        let deletes = !l.deleted.is_empty();
         for (name, stamp) in l.deleted {
             self.remote_delete(from, name, stamp);
+        }
+        if late && deletes {
+            // Which object it was cannot be told here: delete, and ask the owner what
+            // exists now.
+            self.request_catch_up(from, false, false);
         }
     }
 

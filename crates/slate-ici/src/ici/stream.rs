@@ -55,6 +55,11 @@ impl Inbound {
         self.gap_since.map(|t| now.saturating_sub(t))
     }
 
+    /// Did messages after `seq` arrive already (is `seq` late)?
+    pub fn overtaken(&self, seq: u64) -> bool {
+        seq < self.want
+    }
+
     /// Is anything missing?
     pub fn has_gap(&self) -> bool {
         self.have < self.want

@@ -83,6 +83,58 @@ fn deleting_an_object_deletes_every_copy() {
 }
 
 #[test]
+fn an_object_made_again_under_its_old_name_reports_its_new_class_and_context() {
+    let team = pair();
+    let nav = team.board("t/r1/nav");
+    nav.create("Tracked", "thing").unwrap();
+    nav.write("thing", "x", 1.0).unwrap();
+    team.run(0.5);
+    nav.delete("thing").unwrap();
+    nav.create_with(NewObject::new("Rock", "thing").context(Context::Self_))
+        .unwrap();
+    nav.write("thing", "x", 2.0).unwrap();
+    team.run(0.5);
+    for (n, context) in [
+        ("t/r1/planner", Context::Self_),
+        ("t/r2/nav", Context::System),
+    ] {
+        let b = team.board(n);
+        let info = b.info("thing").expect("made again");
+        assert_eq!((&*info.class, info.context), ("Rock", context), "{n}");
+        assert_eq!(b.read("thing", "x").unwrap().value, Value::Real(2.0), "{n}");
+    }
+}
+
+#[test]
+fn an_object_made_again_in_its_old_class_is_not_lost_with_the_old_one() {
+    for seed in 0..20 {
+        let mut team = Team::new(seed);
+        team.add("t/r1/nav", open());
+        team.add("t/r2/nav", open());
+        team.run(0.5);
+        let nav = team.board("t/r1/nav");
+        nav.create("Tracked", "thing").unwrap();
+        nav.write("thing", "x", 1.0).unwrap();
+        team.run(0.5);
+        nav.delete("thing").unwrap();
+        nav.create("Tracked", "thing").unwrap();
+        nav.write("thing", "y", 2.0).unwrap();
+        team.run(0.5);
+        let there = team.board("t/r2/nav");
+        assert_eq!(
+            there.read("thing", "y").map(|p| p.value),
+            Ok(Value::Real(2.0)),
+            "seed {seed}"
+        );
+        assert_ne!(
+            there.read("thing", "x").map(|p| p.value),
+            Ok(Value::Real(1.0)),
+            "seed {seed}: the old object's value"
+        );
+    }
+}
+
+#[test]
 fn only_the_owner_deletes_other_copies() {
     let team = pair();
     team.board("t/r1/nav").create("Rock", "boulder").unwrap();
