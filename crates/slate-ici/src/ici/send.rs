@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use smallvec::SmallVec;
 
-use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, Timestamp};
+use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, ReportPolicy, Timestamp};
 use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
 use super::classes::{ClassSet, Lineage};
@@ -14,7 +14,7 @@ use super::filter::{Key, is_unfiltered};
 use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
-use super::state::State;
+use super::state::{Ident, State};
 use crate::{LinkKind, MsgKind};
 
 /// Whether an item goes on a link kind.
@@ -32,6 +32,20 @@ pub(crate) enum What {
     Value(Assertion),
     Deleted(Arc<str>, Timestamp),
 }
+
+/// What reporting an attribute of an own object needs from the catalog, resolved on
+/// its first write instead of on every one (where the names were hashed and compared
+/// in four tables); forgotten when the catalog is rebuilt or an object deleted.
+#[derive(Clone)]
+pub(crate) struct OwnAttr {
+    object: ObjectEntry,
+    lineage: Lineage,
+    merge: MergePolicy,
+    report: ReportPolicy,
+}
+
+/// Own attributes remembered at most (beyond, the memo starts afresh).
+const MAX_OWN_ATTRS: usize = 1 << 16;
 
 /// An item with what deciding its destinations needs.
 pub(crate) struct Item {
@@ -67,8 +81,7 @@ impl State {
                 attr,
                 packet,
             } if packet.source == self.me && packet.timestamp.raw() >= self.incarnation => {
-                let item = self.value_item(&object, &attr, packet);
-                out.extend(item.and_then(|i| self.own_value(i)));
+                out.extend(self.own_write(object, attr, packet));
             }
             ChangeItem::Write { .. } => {}
             ChangeItem::Create { object, .. } => out.extend(self.own_create(object)),
@@ -76,26 +89,90 @@ impl State {
         }
     }
 
+    /// A packet this module wrote: the item to send now, if any.
+    fn own_write(&mut self, object: Arc<str>, attr: Arc<str>, packet: Packet) -> Option<Item> {
+        let key = (Ident(object), Ident(attr));
+        let own = match self.own_attrs.get(&key) {
+            Some(own) => own.clone(),
+            None => match self.resolve_own(&key.0.0, &key.1.0) {
+                Some(own) => {
+                    if self.own_attrs.len() >= MAX_OWN_ATTRS {
+                        self.own_attrs.clear();
+                    }
+                    self.own_attrs.insert(key.clone(), own.clone());
+                    own
+                }
+                // Not an own object's (another module's object, or a class): the board says.
+                None => {
+                    let (object, attr) = (key.0.0, key.1.0);
+                    let item = self.value_item(&object, &attr, packet)?;
+                    let What::Value(a) = &item.what else {
+                        return None;
+                    };
+                    let (merge, report) = self.policies(&item.lineage[0], &a.attr)?;
+                    return self.own_value(item, merge, &report);
+                }
+            },
+        };
+        let context = own.object.context;
+        let item = Item {
+            what: What::Value(Assertion {
+                object: own.object,
+                attr: key.1.0,
+                packet,
+            }),
+            lineage: own.lineage,
+            context,
+            owner: self.me.clone(),
+            is_class: false,
+        };
+        self.own_value(item, own.merge, &own.report)
+    }
+
+    /// What an own object's attribute needs, from the catalog (`None` if the object
+    /// is not an own object of a known class).
+    fn resolve_own(&mut self, object: &Arc<str>, attr: &str) -> Option<OwnAttr> {
+        let (class, context) = self.own_objects.get(object)?.clone();
+        let lineage = self.lineage(&class)?;
+        let (merge, report) = self.policies(&class, attr)?;
+        Some(OwnAttr {
+            object: ObjectEntry {
+                name: object.clone(),
+                class,
+                context,
+                owner: self.me.clone(),
+            },
+            lineage,
+            merge,
+            report,
+        })
+    }
+
+    /// The merge and report policies of `class.attr`, refreshing the catalog once if
+    /// it does not know them.
+    fn policies(&mut self, class: &str, attr: &str) -> Option<(MergePolicy, ReportPolicy)> {
+        let found = |st: &State| {
+            let decl = st.catalog.decl(class, attr)?;
+            Some((decl.merge, decl.report.clone()))
+        };
+        match found(self) {
+            Some(found) => Some(found),
+            None => {
+                self.refresh_catalog();
+                found(self)
+            }
+        }
+    }
+
     /// An own packet (the board stored it quantised, as receivers decode it): fused,
     /// kept as the best heard of, and offered to its report filter (the item, if it is
     /// to go now).
-    fn own_value(&mut self, item: Item) -> Option<Item> {
+    fn own_value(&mut self, item: Item, merge: MergePolicy, report: &ReportPolicy) -> Option<Item> {
         let What::Value(a) = &item.what else {
             return Some(item);
         };
-        let policies = |st: &State| {
-            let decl = st.catalog.decl(&item.lineage[0], &a.attr)?;
-            Some((decl.merge, decl.report.clone()))
-        };
-        let (merge, report) = match policies(self) {
-            Some(found) => found,
-            None => {
-                self.refresh_catalog();
-                policies(self)?
-            }
-        };
         self.stats.reports.written += 1;
-        if merge == MergePolicy::Latest && is_unfiltered(&report) {
+        if merge == MergePolicy::Latest && is_unfiltered(report) {
             return Some(item); // the common case: nothing to keep
         }
         let key = (a.object.name.clone(), a.attr.clone());
@@ -109,7 +186,7 @@ impl State {
         let (now, quiet) = (self.now, self.config.quiet);
         match self
             .filters
-            .offer(key, a.packet.clone(), &report, now, quiet)
+            .offer(key, a.packet.clone(), report, now, quiet)
         {
             Some(_) => Some(item),
             None => {
@@ -204,6 +281,7 @@ impl State {
     }
 
     fn deleted(&mut self, object: Arc<str>) -> Option<Item> {
+        self.own_attrs.clear();
         self.filters.forget(&object);
         self.best.retain(|(o, _), _| *o != object);
         self.fusion.forget(&object);

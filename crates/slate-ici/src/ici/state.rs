@@ -21,6 +21,27 @@ use super::stats::IciStats;
 use super::stream::Inbound;
 use crate::{LinkKind, MsgKind, Transport};
 
+/// A name by identity: the board hands out one `Arc` per object and attribute name, so
+/// its address keys a memo without hashing or comparing the text (and holding it keeps
+/// the address from being reused). A name in another allocation is another key: a
+/// miss, never a wrong hit.
+#[derive(Clone, Debug)]
+pub(crate) struct Ident(pub Arc<str>);
+
+impl PartialEq for Ident {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl Eq for Ident {}
+
+impl std::hash::Hash for Ident {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        std::ptr::hash(Arc::as_ptr(&self.0).cast::<u8>(), state);
+    }
+}
+
 /// One of this module's outgoing streams (one per link kind): its position and the
 /// encoder whose dictionary its receivers share.
 pub(crate) struct Outbound {
@@ -130,6 +151,8 @@ pub(crate) struct State {
     pub best: BTreeMap<Key, Packet>,
     /// Objects this board owns: name → (class, context).
     pub own_objects: FxHashMap<Arc<str>, (Arc<str>, Context)>,
+    /// Own objects' attributes written so far, resolved: (object, attribute) → policies.
+    pub own_attrs: FxHashMap<(Ident, Ident), super::send::OwnAttr>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
     pub conflicts: BTreeSet<Arc<str>>,
@@ -182,6 +205,7 @@ impl State {
             fusion: Fusion::default(),
             best: BTreeMap::new(),
             own_objects: FxHashMap::default(),
+            own_attrs: FxHashMap::default(),
             tombstones: Tombstones::default(),
             origins: BTreeMap::new(),
             conflicts: BTreeSet::new(),
@@ -221,6 +245,7 @@ impl State {
     /// Rebuilds the catalog from the board (a class was missing).
     pub fn refresh_catalog(&mut self) {
         self.catalog = Catalog::new(&self.board);
+        self.own_attrs.clear();
     }
 
     /// The class chain of `class`, refreshing the catalog once if it is unknown.
