@@ -1,6 +1,7 @@
 //! Small handles for objects and attribute names.
 
 use std::fmt;
+use std::sync::Arc;
 
 /// A handle to an object or class on one board.
 ///
@@ -58,4 +59,42 @@ pub struct Key {
     pub object: ObjectId,
     /// The attribute.
     pub attr: AttrId,
+}
+
+/// A name compared by identity. A board hands out one `Arc` per object and attribute
+/// name (in change items, infos and snapshots), so the address keys a cache without
+/// hashing or comparing the text; holding the `Arc` keeps the address from being reused.
+/// The same text in another allocation is another `Ident`: a cache miss, never a wrong
+/// hit.
+#[derive(Clone, Debug)]
+pub struct Ident(pub Arc<str>);
+
+impl PartialEq for Ident {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+impl Eq for Ident {}
+
+impl std::hash::Hash for Ident {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        std::ptr::hash(Arc::as_ptr(&self.0).cast::<u8>(), state);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::HashSet;
+
+    #[test]
+    fn idents_are_the_same_allocation_not_the_same_text() {
+        let name: Arc<str> = "gsr".into();
+        let again: Arc<str> = "gsr".into();
+        assert_eq!(Ident(name.clone()), Ident(name.clone()));
+        assert_ne!(Ident(name.clone()), Ident(again.clone()));
+        let set: HashSet<Ident> = [Ident(name.clone()), Ident(name), Ident(again)].into();
+        assert_eq!(set.len(), 2);
+    }
 }

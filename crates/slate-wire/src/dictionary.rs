@@ -7,9 +7,10 @@ use std::hash::Hash;
 use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
-use slate_model::{Address, Timestamp};
+use slate_model::{Address, Ident, Timestamp};
 
 use crate::names::Announce;
+use crate::schema::AttrSchema;
 use crate::text::check_name;
 use crate::{EncodeError, MAX_IDS, ObjectEntry, Schema};
 
@@ -21,6 +22,9 @@ struct Table<K, V> {
     /// Previous slots of the keys changed since the last commit.
     undo: Vec<(K, Option<Slot<V>>)>,
     committed_next: u32,
+    /// Counts the changes to slots that were there (new payloads, rollbacks, resets):
+    /// what was resolved against the table before holds while it stays the same.
+    changes: u64,
 }
 
 #[derive(Clone, Debug)]
@@ -36,6 +40,7 @@ impl<K, V> Default for Table<K, V> {
             next: 0,
             undo: Vec::new(),
             committed_next: 0,
+            changes: 0,
         }
     }
 }
@@ -56,6 +61,7 @@ impl<K: Hash + Eq + Clone, V: Clone + PartialEq> Table<K, V> {
             }
             self.undo.push((key.clone(), Some(slot.clone())));
             slot.announced = Some(payload);
+            self.changes += 1;
             return Ok((slot.id, true));
         }
         crate::error::check_len(what, self.next as usize + 1, MAX_IDS)?;
@@ -79,6 +85,7 @@ impl<K: Hash + Eq + Clone, V: Clone + PartialEq> Table<K, V> {
     }
 
     fn rollback(&mut self) {
+        self.changes += 1;
         while let Some((key, old)) = self.undo.pop() {
             match old {
                 Some(slot) => self.slots.insert(key, slot),
@@ -89,9 +96,31 @@ impl<K: Hash + Eq + Clone, V: Clone + PartialEq> Table<K, V> {
     }
 
     fn reset(&mut self) {
+        self.changes += 1;
         self.slots.values_mut().for_each(|s| s.announced = None);
     }
 }
+
+/// An assertion's names resolved: ids announced, the attribute's declaration.
+#[derive(Debug)]
+pub(crate) struct Resolved {
+    pub object: u32,
+    pub attr: u32,
+    pub schema: Arc<AttrSchema>,
+}
+
+/// What an assertion of `(object, attribute)` resolved to, and against what.
+#[derive(Debug)]
+struct Remembered {
+    entry: ObjectEntry,
+    resolved: Resolved,
+    /// `Schema::id` and `Dictionary::changes` then.
+    schema: u64,
+    changes: u64,
+}
+
+/// Assertions remembered at most (beyond, the memo starts afresh).
+const MAX_REMEMBERED: usize = 1 << 16;
 
 /// The sender's dictionary and epoch.
 #[derive(Debug, Default)]
@@ -100,6 +129,10 @@ pub(crate) struct Dictionary {
     classes: Table<Arc<str>, u32>,
     attrs: Table<Arc<str>, ()>,
     objects: Table<Arc<str>, ObjectEntry>,
+    /// Assertions resolved before, by the identity of their names: a sender reports
+    /// the same attributes of the same objects over and over, and looking each name up
+    /// again (hashing and comparing its text in four tables) was most of the cost.
+    remembered: FxHashMap<(Ident, Ident), Remembered>,
     /// Timestamp epoch, whole seconds since the Unix epoch; chosen once.
     epoch: Option<u64>,
     epoch_announced: bool,
@@ -108,6 +141,47 @@ pub(crate) struct Dictionary {
 }
 
 impl Dictionary {
+    /// Every change to slots that were there, in the tables a resolution reads.
+    fn changes(&self) -> u64 {
+        self.classes.changes + self.attrs.changes + self.objects.changes
+    }
+
+    /// What `(object, attr)` resolved to against `schema`, if nothing it rests on
+    /// changed since (the object's entry, the schema, the announced slots).
+    pub fn recall(
+        &self,
+        object: &ObjectEntry,
+        attr: &Arc<str>,
+        schema: &Schema,
+    ) -> Option<&Resolved> {
+        let key = (Ident(object.name.clone()), Ident(attr.clone()));
+        let r = self.remembered.get(&key)?;
+        let valid = r.schema == schema.id() && r.changes == self.changes() && r.entry == *object;
+        valid.then_some(&r.resolved)
+    }
+
+    /// Remembers what `(object, attr)` resolved to (after [`Dictionary::object`] and
+    /// [`Dictionary::attr`] made its ids).
+    pub fn remember(
+        &mut self,
+        object: &ObjectEntry,
+        attr: &Arc<str>,
+        schema: &Schema,
+        resolved: Resolved,
+    ) {
+        if self.remembered.len() >= MAX_REMEMBERED {
+            self.remembered.clear();
+        }
+        let key = (Ident(object.name.clone()), Ident(attr.clone()));
+        let r = Remembered {
+            entry: object.clone(),
+            resolved,
+            schema: schema.id(),
+            changes: self.changes(),
+        };
+        self.remembered.insert(key, r);
+    }
+
     /// The id of an object; announces it (with its class and owner) if needed.
     pub fn object(
         &mut self,

@@ -1,11 +1,13 @@
 //! The report body (also the catch-up answer's): names inline when new, then the
 //! assertions bit-packed against the schema.
 
+use std::sync::Arc;
+
 use slate_model::{Address, Packet, Timestamp, Value};
 use smallvec::SmallVec;
 
 use crate::bits::{BitReader, BitWriter, width};
-use crate::dictionary::Dictionary;
+use crate::dictionary::{Dictionary, Resolved};
 use crate::error::check_len;
 use crate::names::{Announce, Section, SourceDict, View, read_section, write_section};
 use crate::quant::{read_accuracy, read_confidence, write_accuracy, write_confidence};
@@ -27,7 +29,7 @@ struct Entry<'a> {
     attr: u32,
     /// The packet's source, if it is not the sender.
     source: Option<u32>,
-    schema: &'a AttrSchema,
+    schema: Arc<AttrSchema>,
     packet: &'a Packet,
 }
 
@@ -105,7 +107,7 @@ fn resolve_all<'a>(
     report: &'a Report,
     dict: &mut Dictionary,
     me: &Address,
-    schema: &'a Schema,
+    schema: &Schema,
     ann: &mut Announce,
 ) -> Result<Entries<'a>, EncodeError> {
     check_len("assertions in a report", report.items.len(), MAX_ITEMS)?;
@@ -129,35 +131,25 @@ fn resolve<'a>(
     a: &'a Assertion,
     dict: &mut Dictionary,
     me: &Address,
-    schema: &'a Schema,
+    schema: &Schema,
     ann: &mut Announce,
 ) -> Result<Entry<'a>, EncodeError> {
-    let object = dict.object(&a.object, schema, false, ann)?;
-    let attr_schema = declared(a, schema)?;
     let p = &a.packet;
-    let source = (p.source != *me)
-        .then(|| dict.addr(&p.source, ann))
-        .transpose()?;
-    Ok(Entry {
-        object,
-        attr: dict.attr(&a.attr, false, ann)?,
-        source,
-        schema: attr_schema,
-        packet: p,
-    })
-}
-
-/// The declaration of the assertion's attribute, once its packet is checked against it.
-fn declared<'a>(a: &Assertion, schema: &'a Schema) -> Result<&'a AttrSchema, EncodeError> {
-    let class = schema.class(&a.object.class);
-    let attr_schema =
-        class
-            .and_then(|c| c.attr(&a.attr))
-            .ok_or_else(|| EncodeError::UnknownAttr {
-                object: a.object.name.to_string(),
-                attr: a.attr.to_string(),
-            })?;
-    let p = &a.packet;
+    let (object, attr, attr_schema) = match dict.recall(&a.object, &a.attr, schema) {
+        Some(r) => (r.object, r.attr, r.schema.clone()),
+        None => {
+            let object = dict.object(&a.object, schema, false, ann)?;
+            let attr_schema = declared(a, schema)?.clone();
+            let attr = dict.attr(&a.attr, false, ann)?;
+            let resolved = Resolved {
+                object,
+                attr,
+                schema: attr_schema.clone(),
+            };
+            dict.remember(&a.object, &a.attr, schema, resolved);
+            (object, attr, attr_schema)
+        }
+    };
     check_value(&p.value, &attr_schema.decl)
         .and_then(|()| check_quality(p.accuracy, p.confidence))
         .map_err(|source| EncodeError::Invalid {
@@ -165,7 +157,27 @@ fn declared<'a>(a: &Assertion, schema: &'a Schema) -> Result<&'a AttrSchema, Enc
             attr: a.attr.to_string(),
             source,
         })?;
-    Ok(attr_schema)
+    let source = (p.source != *me)
+        .then(|| dict.addr(&p.source, ann))
+        .transpose()?;
+    Ok(Entry {
+        object,
+        attr,
+        source,
+        schema: attr_schema,
+        packet: p,
+    })
+}
+
+/// The declaration of the assertion's attribute.
+fn declared<'a>(a: &Assertion, schema: &'a Schema) -> Result<&'a Arc<AttrSchema>, EncodeError> {
+    let class = schema.class(&a.object.class);
+    class
+        .and_then(|c| c.attr(&a.attr))
+        .ok_or_else(|| EncodeError::UnknownAttr {
+            object: a.object.name.to_string(),
+            attr: a.attr.to_string(),
+        })
 }
 
 /// Writes the id widths, the base timestamp and the entries.
@@ -193,7 +205,7 @@ fn write_entries(w: &mut BitWriter, entries: &[Entry], flags: Flags, base: Times
 
 /// Writes one entry's packet: source, value, accuracy, confidence, timestamp.
 fn write_packet(w: &mut BitWriter, e: &Entry, flags: Flags, base_us: u64) {
-    let (p, s) = (e.packet, e.schema);
+    let (p, s) = (e.packet, &*e.schema);
     if flags.foreign {
         w.bit(e.source.is_some());
         e.source.iter().for_each(|id| w.uvar((*id).into()));

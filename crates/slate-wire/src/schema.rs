@@ -36,7 +36,13 @@ use crate::value::ValueCodec;
 #[derive(Clone, Debug, Default)]
 pub struct Schema {
     classes: FxHashMap<Arc<str>, ClassSchema>,
+    /// Which schema this is (a clone is the same one): an encoder's memo of what it
+    /// resolved against a schema holds only for that schema.
+    id: u64,
 }
+
+/// Ids of schemas made so far.
+static SCHEMAS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 /// One class, flattened.
 #[derive(Clone, Debug)]
@@ -99,12 +105,20 @@ impl Schema {
                 )
             })
             .collect();
-        let mut schema = Schema::default();
+        let mut schema = Schema {
+            classes: FxHashMap::default(),
+            id: SCHEMAS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+        };
         for name in defs.keys().copied().chain([THING]) {
             let flat = flatten(&lineage(name, &defs), &own);
             schema.classes.insert(name.into(), flat);
         }
         schema
+    }
+
+    /// Which schema this is: two schemas with the same id hold the same classes.
+    pub(crate) fn id(&self) -> u64 {
+        self.id
     }
 
     /// The fingerprint of a class's flattened declarations, if the class is known.

@@ -6,7 +6,9 @@ use std::sync::Arc;
 
 use smallvec::SmallVec;
 
-use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, ReportPolicy, Timestamp};
+use slate_model::{
+    Address, ChangeItem, Context, Ident, MergePolicy, Packet, ReportPolicy, Timestamp,
+};
 use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
 use super::classes::{ClassSet, Lineage};
@@ -14,7 +16,7 @@ use super::filter::{Key, is_unfiltered};
 use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
-use super::state::{Ident, State};
+use super::state::State;
 use crate::{LinkKind, MsgKind};
 
 /// Whether an item goes on a link kind.

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use rustc_hash::FxHashMap;
 
-use slate_model::{Address, Board, Context, Packet, Timestamp, Watch};
+use slate_model::{Address, Board, Context, Ident, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder};
 
 use super::classes::{Catalog, ClassSet, Lineage};
@@ -20,27 +20,6 @@ use super::ops::BoardOp;
 use super::stats::IciStats;
 use super::stream::Inbound;
 use crate::{LinkKind, MsgKind, Transport};
-
-/// A name by identity: the board hands out one `Arc` per object and attribute name, so
-/// its address keys a memo without hashing or comparing the text (and holding it keeps
-/// the address from being reused). A name in another allocation is another key: a
-/// miss, never a wrong hit.
-#[derive(Clone, Debug)]
-pub(crate) struct Ident(pub Arc<str>);
-
-impl PartialEq for Ident {
-    fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.0, &other.0)
-    }
-}
-
-impl Eq for Ident {}
-
-impl std::hash::Hash for Ident {
-    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        std::ptr::hash(Arc::as_ptr(&self.0).cast::<u8>(), state);
-    }
-}
 
 /// One of this module's outgoing streams (one per link kind): its position and the
 /// encoder whose dictionary its receivers share.

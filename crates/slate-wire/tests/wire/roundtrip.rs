@@ -372,3 +372,67 @@ fn unbounded_and_special_values_roundtrip() {
         "all exact here"
     );
 }
+
+// An encoder remembers what it resolved for the same names (the same `Arc`s, as a
+// board hands out); these send one report's names again and again.
+
+#[test]
+fn remembered_names_are_announced_again_after_a_reset() {
+    let (schema, msg) = (schema(), Message::Report(pose(1)));
+    let mut encoder = Encoder::new(nav());
+    let first = encoder.encode(&msg, &schema).unwrap();
+    let second = encoder.encode(&msg, &schema).unwrap();
+    assert!(second.len() + 10 < first.len());
+    encoder.reset_announcements();
+    let third = encoder.encode(&msg, &schema).unwrap();
+    assert_eq!(third.len(), first.len());
+    decode_report(&mut Decoder::new(), &third, &schema);
+}
+
+#[test]
+fn a_remembered_object_with_a_changed_entry_is_announced_again() {
+    let schema = schema();
+    let mut encoder = Encoder::new(nav());
+    let mut decoder = Decoder::new();
+    let mut sent = pose(1);
+    for context in [Context::Surroundings, Context::System] {
+        for a in &mut sent.items {
+            a.object.context = context; // same name, same Arc
+        }
+        let bytes = encoder.encode(&Message::Report(sent.clone()), &schema);
+        let got = decode_report(&mut decoder, &bytes.unwrap(), &schema);
+        assert_eq!(got.items[0].object.context, context);
+    }
+}
+
+#[test]
+fn remembered_names_are_resolved_again_against_another_schema() {
+    let sent = Message::Report(pose(1));
+    let mut changed = classes();
+    changed[0].attrs[3] = AttrDecl::new("speed", ValueType::Real)
+        .bounds(0.0, 30.0)
+        .resolution(0.5);
+    let (old, new) = (schema(), Schema::new(&changed));
+    let mut encoder = Encoder::new(nav());
+    let mut decoder = Decoder::new();
+    decode_report(&mut decoder, &encoder.encode(&sent, &old).unwrap(), &old);
+    let bytes = encoder.encode(&sent, &new).unwrap();
+    let got = decode_report(&mut decoder, &bytes, &new);
+    assert_eq!(
+        got.items[3].packet.value,
+        Value::Real(3.0),
+        "on the new grid"
+    );
+}
+
+#[test]
+fn a_failed_encode_leaves_nothing_remembered_as_announced() {
+    let schema = schema();
+    let mut encoder = Encoder::new(nav());
+    let good = pose(1);
+    let mut bad = good.clone();
+    bad.items[3].packet.value = Value::Real(25.0);
+    assert!(encoder.encode(&Message::Report(bad), &schema).is_err());
+    let bytes = encoder.encode(&Message::Report(good), &schema).unwrap();
+    decode_report(&mut Decoder::new(), &bytes, &schema);
+}
