@@ -61,25 +61,18 @@ pub struct Key {
     pub attr: AttrId,
 }
 
-/// A name compared by identity. A board hands out one `Arc` per object and attribute
-/// name (in change items, infos and snapshots), so the address keys a cache without
-/// hashing or comparing the text; holding the `Arc` keeps the address from being reused.
-/// The same text in another allocation is another `Ident`: a cache miss, never a wrong
-/// hit.
-#[derive(Clone, Debug)]
-pub struct Ident(pub Arc<str>);
+/// A name's identity: the address of the `Arc` a board hands out for it (one per object
+/// and attribute name, in change items, infos and snapshots), to key a cache without
+/// hashing or comparing the text. It stands for the name only while that `Arc` lives: a
+/// cache keyed by it keeps the `Arc` in the entry, so that the address cannot be reused.
+/// The same text in another allocation has another `NameId`: a miss, never a wrong hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct NameId(usize);
 
-impl PartialEq for Ident {
-    fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.0, &other.0)
-    }
-}
-
-impl Eq for Ident {}
-
-impl std::hash::Hash for Ident {
-    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        std::ptr::hash(Arc::as_ptr(&self.0).cast::<u8>(), state);
+impl NameId {
+    /// The identity of `name`.
+    pub fn of(name: &Arc<str>) -> NameId {
+        NameId(Arc::as_ptr(name).cast::<u8>() as usize)
     }
 }
 
@@ -89,12 +82,12 @@ mod tests {
     use std::collections::HashSet;
 
     #[test]
-    fn idents_are_the_same_allocation_not_the_same_text() {
+    fn name_ids_are_the_allocation_not_the_text() {
         let name: Arc<str> = "gsr".into();
         let again: Arc<str> = "gsr".into();
-        assert_eq!(Ident(name.clone()), Ident(name.clone()));
-        assert_ne!(Ident(name.clone()), Ident(again.clone()));
-        let set: HashSet<Ident> = [Ident(name.clone()), Ident(name), Ident(again)].into();
+        assert_eq!(NameId::of(&name), NameId::of(&name.clone()));
+        assert_ne!(NameId::of(&name), NameId::of(&again));
+        let set: HashSet<NameId> = [&name, &name, &again].map(NameId::of).into();
         assert_eq!(set.len(), 2);
     }
 }

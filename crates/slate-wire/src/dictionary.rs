@@ -7,7 +7,7 @@ use std::hash::Hash;
 use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
-use slate_model::{Address, Ident, Timestamp};
+use slate_model::{Address, NameId, Timestamp};
 
 use crate::names::Announce;
 use crate::schema::AttrSchema;
@@ -112,7 +112,10 @@ pub(crate) struct Resolved {
 /// What an assertion of `(object, attribute)` resolved to, and against what.
 #[derive(Debug)]
 struct Remembered {
+    /// The object's entry and the attribute's name (holding their names' `Arc`s, whose
+    /// identities key the memo).
     entry: ObjectEntry,
+    attr: Arc<str>,
     resolved: Resolved,
     /// `Schema::id` and `Dictionary::changes` then.
     schema: u64,
@@ -132,7 +135,7 @@ pub(crate) struct Dictionary {
     /// Assertions resolved before, by the identity of their names: a sender reports
     /// the same attributes of the same objects over and over, and looking each name up
     /// again (hashing and comparing its text in four tables) was most of the cost.
-    remembered: FxHashMap<(Ident, Ident), Remembered>,
+    remembered: FxHashMap<(NameId, NameId), Remembered>,
     /// Timestamp epoch, whole seconds since the Unix epoch; chosen once.
     epoch: Option<u64>,
     epoch_announced: bool,
@@ -154,9 +157,13 @@ impl Dictionary {
         attr: &Arc<str>,
         schema: &Schema,
     ) -> Option<&Resolved> {
-        let key = (Ident(object.name.clone()), Ident(attr.clone()));
-        let r = self.remembered.get(&key)?;
-        let valid = r.schema == schema.id() && r.changes == self.changes() && r.entry == *object;
+        let r = self
+            .remembered
+            .get(&(NameId::of(&object.name), NameId::of(attr)))?;
+        let valid = r.schema == schema.id()
+            && r.changes == self.changes()
+            && r.entry == *object
+            && Arc::ptr_eq(&r.attr, attr);
         valid.then_some(&r.resolved)
     }
 
@@ -172,9 +179,10 @@ impl Dictionary {
         if self.remembered.len() >= MAX_REMEMBERED {
             self.remembered.clear();
         }
-        let key = (Ident(object.name.clone()), Ident(attr.clone()));
+        let key = (NameId::of(&object.name), NameId::of(attr));
         let r = Remembered {
             entry: object.clone(),
+            attr: attr.clone(),
             resolved,
             schema: schema.id(),
             changes: self.changes(),

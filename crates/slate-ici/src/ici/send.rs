@@ -7,7 +7,7 @@ use std::sync::Arc;
 use smallvec::SmallVec;
 
 use slate_model::{
-    Address, ChangeItem, Context, Ident, MergePolicy, Packet, ReportPolicy, Timestamp,
+    Address, ChangeItem, Context, MergePolicy, NameId, Packet, ReportPolicy, Timestamp,
 };
 use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
 
@@ -40,7 +40,10 @@ pub(crate) enum What {
 /// in four tables); forgotten when the catalog is rebuilt or an object deleted.
 #[derive(Clone)]
 pub(crate) struct OwnAttr {
+    /// The object's entry and the attribute's name (holding their names' `Arc`s, whose
+    /// identities key the memo).
     object: ObjectEntry,
+    attr: Arc<str>,
     lineage: Lineage,
     merge: MergePolicy,
     report: ReportPolicy,
@@ -93,25 +96,21 @@ impl State {
 
     /// A packet this module wrote: the item to send now, if any.
     fn own_write(&mut self, object: Arc<str>, attr: Arc<str>, packet: Packet) -> Option<Item> {
-        let key = (Ident(object), Ident(attr));
+        let key = (NameId::of(&object), NameId::of(&attr));
         let own = match self.own_attrs.get(&key) {
             Some(own) => own.clone(),
-            None => match self.resolve_own(&key.0.0, &key.1.0) {
+            None => match self.resolve_own(&object, &attr) {
                 Some(own) => {
                     if self.own_attrs.len() >= MAX_OWN_ATTRS {
                         self.own_attrs.clear();
                     }
-                    self.own_attrs.insert(key.clone(), own.clone());
+                    self.own_attrs.insert(key, own.clone());
                     own
                 }
                 // Not an own object's (another module's object, or a class): the board says.
                 None => {
-                    let (object, attr) = (key.0.0, key.1.0);
                     let item = self.value_item(&object, &attr, packet)?;
-                    let What::Value(a) = &item.what else {
-                        return None;
-                    };
-                    let (merge, report) = self.policies(&item.lineage[0], &a.attr)?;
+                    let (merge, report) = self.policies(&item.lineage[0], &attr)?;
                     return self.own_value(item, merge, &report);
                 }
             },
@@ -120,7 +119,7 @@ impl State {
         let item = Item {
             what: What::Value(Assertion {
                 object: own.object,
-                attr: key.1.0,
+                attr: own.attr,
                 packet,
             }),
             lineage: own.lineage,
@@ -133,7 +132,7 @@ impl State {
 
     /// What an own object's attribute needs, from the catalog (`None` if the object
     /// is not an own object of a known class).
-    fn resolve_own(&mut self, object: &Arc<str>, attr: &str) -> Option<OwnAttr> {
+    fn resolve_own(&mut self, object: &Arc<str>, attr: &Arc<str>) -> Option<OwnAttr> {
         let (class, context) = self.own_objects.get(object)?.clone();
         let lineage = self.lineage(&class)?;
         let (merge, report) = self.policies(&class, attr)?;
@@ -144,6 +143,7 @@ impl State {
                 context,
                 owner: self.me.clone(),
             },
+            attr: attr.clone(),
             lineage,
             merge,
             report,

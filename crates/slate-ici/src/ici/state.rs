@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use rustc_hash::FxHashMap;
 
-use slate_model::{Address, Board, Context, Ident, Packet, Timestamp, Watch};
+use slate_model::{Address, Board, Context, NameId, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder};
 
 use super::classes::{Catalog, ClassSet, Lineage};
@@ -131,7 +131,7 @@ pub(crate) struct State {
     /// Objects this board owns: name → (class, context).
     pub own_objects: FxHashMap<Arc<str>, (Arc<str>, Context)>,
     /// Own objects' attributes written so far, resolved: (object, attribute) → policies.
-    pub own_attrs: FxHashMap<(Ident, Ident), super::send::OwnAttr>,
+    pub own_attrs: FxHashMap<(NameId, NameId), super::send::OwnAttr>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
     pub conflicts: BTreeSet<Arc<str>>,
