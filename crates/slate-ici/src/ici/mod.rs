@@ -211,6 +211,7 @@ impl Ici {
     pub fn set_interest(&self, interest: ClassSet) {
         self.shared.with_state(|st| {
             st.config.interest = interest;
+            st.known.clear();
             for link in LinkKind::ALL {
                 for peer in st.up_peers(link) {
                     st.send_hello(&peer);
@@ -358,10 +359,11 @@ impl Shared {
                         if let Some(BoardOp::Merge {
                             object,
                             attr,
+                            key,
                             packet,
                         }) = queue.pop_front()
                         {
-                            merges.push((object, attr, packet));
+                            merges.push((object, attr, key, packet));
                         }
                     }
                     if merges.is_empty() {

@@ -23,6 +23,8 @@ pub(crate) enum BoardOp {
     Merge {
         object: Arc<str>,
         attr: Arc<str>,
+        /// The board's key of `object.attr`, if known (a stale one is ignored).
+        key: Option<slate_model::Key>,
         packet: Packet,
     },
     /// Write the current fusion of a `fused` attribute.
@@ -80,8 +82,9 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
         BoardOp::Merge {
             object,
             attr,
+            key,
             packet,
-        } => merge_all(board, tally, [(object, attr, packet)]),
+        } => merge_all(board, tally, [(object, attr, key, packet)]),
         BoardOp::Fuse(key) => fuse(board, state, &key),
         BoardOp::Delete { object, owner } => delete(board, state, &object, &owner),
         BoardOp::Module {
@@ -108,15 +111,18 @@ fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
 }
 
 /// Received packets to merge as one board change (a report's, mostly few).
-pub(crate) type Merges = smallvec::SmallVec<[(Arc<str>, Arc<str>, Packet); 4]>;
+pub(crate) type Merges = smallvec::SmallVec<[Merge; 4]>;
+
+/// A received packet to merge: object, attribute, the board's key if known.
+pub(crate) type Merge = (Arc<str>, Arc<str>, Option<slate_model::Key>, Packet);
 
 /// Merges received packets as one board change.
 pub(crate) fn merge_all(
     board: &Board,
     tally: &mut Tally,
-    packets: impl IntoIterator<Item = (Arc<str>, Arc<str>, Packet)>,
+    packets: impl IntoIterator<Item = Merge>,
 ) {
-    for outcome in board.merge_all(packets) {
+    for outcome in board.merge_all_keyed(packets) {
         tally.count(outcome);
     }
 }

@@ -5,14 +5,14 @@ use std::collections::BTreeSet;
 use std::sync::Arc;
 
 use slate_model::{
-    Address, ClassDef, Context, DefineError, MergePolicy, NewObject, Packet, Timestamp,
+    Address, ClassDef, Context, DefineError, MergePolicy, NameId, NewObject, Packet, Timestamp,
 };
 use slate_wire::{Assertion, DecodeError, Heartbeat, Message, ObjectEntry, Report};
 
 use super::frame::{Frame, Hello, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
-use super::state::{Origin, State};
+use super::state::{Known, MAX_KNOWN, Origin, State};
 use super::stream::Inbound;
 use crate::{LinkKind, MsgKind};
 
@@ -316,6 +316,7 @@ impl State {
         self.tombstones
             .bury(name.clone(), owner.clone(), stamp, max);
         self.origins.remove(&name);
+        self.known.clear();
         self.ops.push(BoardOp::Delete {
             object: name,
             owner: owner.clone(),
@@ -340,6 +341,12 @@ impl State {
         seq: Option<u64>,
         ensured: &mut BTreeSet<Arc<str>>,
     ) {
+        let id = (NameId::of(&a.object.name), NameId::of(&a.attr));
+        if let Some(k) = self.known.get(&id).filter(|k| k.entry == a.object) {
+            let (merge, key) = (k.merge, k.key);
+            let attr = k.attr.clone();
+            return self.merge_item(&a.object.name, attr, merge, Some(key), a.packet);
+        }
         let Some(context) = self.interested(from, &a.object) else {
             return;
         };
@@ -352,7 +359,27 @@ impl State {
                 return;
             }
         }
-        self.merge_item(&a.object.name, &a.object.class, a.attr, a.packet);
+        let Some(merge) = self.catalog.decl(&a.object.class, &a.attr).map(|d| d.merge) else {
+            self.stats.rejects.invalid += 1;
+            return;
+        };
+        // An object the board holds (not one whose creation is queued): remembered.
+        let key = (!a.object.is_class())
+            .then(|| self.board.key(&a.object.name, &a.attr).ok())
+            .flatten();
+        if let Some(key) = key {
+            if self.known.len() >= MAX_KNOWN {
+                self.known.clear();
+            }
+            let known = Known {
+                entry: a.object.clone(),
+                attr: a.attr.clone(),
+                merge,
+                key,
+            };
+            self.known.insert(id, known);
+        }
+        self.merge_item(&a.object.name, a.attr, merge, key, a.packet);
     }
 
     /// The context the object takes on this board, if this board models it.
@@ -428,12 +455,15 @@ impl State {
         }
     }
 
-    fn merge_item(&mut self, object: &Arc<str>, class: &str, attr: Arc<str>, packet: Packet) {
-        let Some(decl) = self.catalog.decl(class, &attr) else {
-            self.stats.rejects.invalid += 1;
-            return;
-        };
-        if decl.merge == MergePolicy::Confident {
+    fn merge_item(
+        &mut self,
+        object: &Arc<str>,
+        attr: Arc<str>,
+        merge: MergePolicy,
+        board_key: Option<slate_model::Key>,
+        packet: Packet,
+    ) {
+        if merge == MergePolicy::Confident {
             let key = (object.clone(), attr.clone());
             if self
                 .best
@@ -443,10 +473,11 @@ impl State {
                 self.best.insert(key, packet.clone());
             }
         }
-        if decl.merge != MergePolicy::Fused {
+        if merge != MergePolicy::Fused {
             self.ops.push(BoardOp::Merge {
                 object: object.clone(),
                 attr,
+                key: board_key,
                 packet,
             });
             return;

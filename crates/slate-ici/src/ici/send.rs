@@ -208,6 +208,7 @@ impl State {
                 self.ops.push(BoardOp::Merge {
                     object,
                     attr,
+                    key: None,
                     packet,
                 });
             }
@@ -284,6 +285,7 @@ impl State {
 
     fn deleted(&mut self, object: Arc<str>) -> Option<Item> {
         self.own_attrs.clear();
+        self.known.clear();
         self.filters.forget(&object);
         self.best.retain(|(o, _), _| *o != object);
         self.fusion.forget(&object);

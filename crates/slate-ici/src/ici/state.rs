@@ -21,6 +21,23 @@ use super::stats::IciStats;
 use super::stream::Inbound;
 use crate::{LinkKind, MsgKind, Transport};
 
+/// What merging a received packet of an object's attribute needs, found on its first
+/// packet (this board models the object, holds it in the same class, and has the
+/// attribute's merge policy and key) instead of on every one: until the catalog is
+/// rebuilt, the interest changes or an object is deleted.
+pub(crate) struct Known {
+    /// The object's entry as received and the attribute's name (holding the `Arc`s
+    /// whose identities key the memo): another entry under the same name is looked at
+    /// anew.
+    pub entry: slate_wire::ObjectEntry,
+    pub attr: Arc<str>,
+    pub merge: slate_model::MergePolicy,
+    pub key: slate_model::Key,
+}
+
+/// Received attributes remembered at most (beyond, the memo starts afresh).
+pub(crate) const MAX_KNOWN: usize = 1 << 16;
+
 /// One of this module's outgoing streams (one per link kind): its position and the
 /// encoder whose dictionary its receivers share.
 pub(crate) struct Outbound {
@@ -132,6 +149,9 @@ pub(crate) struct State {
     pub own_objects: FxHashMap<Arc<str>, (Arc<str>, Context)>,
     /// Own objects' attributes written so far, resolved: (object, attribute) → policies.
     pub own_attrs: FxHashMap<(NameId, NameId), super::send::OwnAttr>,
+    /// Attributes of objects received before, resolved: (object, attribute) → what
+    /// merging a packet needs.
+    pub known: FxHashMap<(NameId, NameId), Known>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
     pub conflicts: BTreeSet<Arc<str>>,
@@ -185,6 +205,7 @@ impl State {
             best: BTreeMap::new(),
             own_objects: FxHashMap::default(),
             own_attrs: FxHashMap::default(),
+            known: FxHashMap::default(),
             tombstones: Tombstones::default(),
             origins: BTreeMap::new(),
             conflicts: BTreeSet::new(),
@@ -225,6 +246,7 @@ impl State {
     pub fn refresh_catalog(&mut self) {
         self.catalog = Catalog::new(&self.board);
         self.own_attrs.clear();
+        self.known.clear();
     }
 
     /// The class chain of `class`, refreshing the catalog once if it is unknown.

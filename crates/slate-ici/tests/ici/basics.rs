@@ -135,6 +135,21 @@ fn an_object_made_again_in_its_old_class_is_not_lost_with_the_old_one() {
 }
 
 #[test]
+fn a_copy_deleted_by_its_holder_comes_back_with_the_next_report() {
+    let team = pair();
+    let (nav, planner) = (team.board("t/r1/nav"), team.board("t/r1/planner"));
+    nav.create("Vehicle", "gsr").unwrap();
+    for speed in [1.0, 2.0] {
+        nav.write("gsr", "speed", speed).unwrap();
+        team.run(0.5);
+    }
+    planner.delete("gsr").unwrap();
+    nav.write("gsr", "speed", 3.0).unwrap();
+    team.run(0.5);
+    assert_eq!(planner.read("gsr", "speed").unwrap().value, Value::Real(3.0));
+}
+
+#[test]
 fn only_the_owner_deletes_other_copies() {
     let team = pair();
     team.board("t/r1/nav").create("Rock", "boulder").unwrap();

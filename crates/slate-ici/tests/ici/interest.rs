@@ -134,3 +134,28 @@ fn a_board_that_starts_modelling_a_class_catches_up_with_it() {
         Some(4.0)
     );
 }
+
+#[test]
+fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
+    let mut team = Team::new(8);
+    team.add("t/r1/nav", open());
+    team.add("t/r1/console", open());
+    team.run(0.5);
+    let (nav, console) = (team.board("t/r1/nav"), team.board("t/r1/console"));
+    nav.create("Vehicle", "gsr").unwrap();
+    for speed in [1.0, 2.0] {
+        nav.write("gsr", "speed", speed).unwrap();
+        team.run(0.5);
+    }
+    assert_eq!(console.read("gsr", "speed").unwrap().value.as_f64(), Some(2.0));
+    let uninterested = || team.node("t/r1/console").ici.stats().rejects.uninterested;
+    let before = uninterested();
+    // The console stops modelling vehicles while a report of one is on its way.
+    team.node("t/r1/console")
+        .ici
+        .set_interest(ClassSet::none().class("Rock"));
+    nav.write("gsr", "speed", 3.0).unwrap();
+    team.run(0.5);
+    assert_eq!(console.read("gsr", "speed").unwrap().value.as_f64(), Some(2.0));
+    assert!(uninterested() > before);
+}

@@ -578,15 +578,34 @@ impl Board {
         O: AsRef<str>,
         A: AsRef<str>,
     {
+        self.merge_all_keyed(packets.into_iter().map(|(o, a, p)| (o, a, None, p)))
+    }
+
+    /// As [`merge_all`](Board::merge_all), each packet with the [`Key`] its names
+    /// resolved to before on this board, if known: a key to an object that still exists
+    /// spares looking the names up; one to a deleted object is ignored (the names are).
+    pub fn merge_all_keyed<O, A>(
+        &self,
+        packets: impl IntoIterator<Item = (O, A, Option<Key>, Packet)>,
+    ) -> Vec<Result<Merged, WriteError>>
+    where
+        O: AsRef<str>,
+        A: AsRef<str>,
+    {
         let packets = packets.into_iter();
         let mut out = Vec::with_capacity(packets.size_hint().0);
         let done = {
             let mut inner = self.inner.write();
             let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
             let mut any = false;
-            for (object, attr, packet) in packets {
+            for (object, attr, key, packet) in packets {
                 let one = || -> Result<Merged, WriteError> {
-                    let key = txn.state().key(object.as_ref(), attr.as_ref())?;
+                    // A live object's key names the attribute it was made for: neither
+                    // an object's class nor an attribute's id ever changes.
+                    let key = match key.filter(|k| txn.state().get(k.object).is_some()) {
+                        Some(key) => key,
+                        None => txn.state().key(object.as_ref(), attr.as_ref())?,
+                    };
                     let verdict = txn.state().merge_verdict(key, &packet)?;
                     if verdict == Merged::Applied(0) {
                         txn.write(key, Update::from(packet))?;

@@ -131,6 +131,28 @@ fn merge_all_is_one_revision_and_judges_each_packet_on_its_own() {
 }
 
 #[test]
+fn merge_all_keyed_takes_a_live_key_and_the_names_for_a_stale_one() {
+    let b = board();
+    let key = b.key("t", "latest").unwrap();
+    let p = |v, ts| packet(v, ts, 1.0, "team/r1/a");
+    // A live key is taken as it is (the names are not looked up again).
+    let out = b.merge_all_keyed([("not looked up", "latest", Some(key), p(1.0, 10))]);
+    assert!(matches!(out[0], Ok(Merged::Applied(_))), "{out:?}");
+    assert_eq!(b.read("t", "latest").unwrap().value.as_f64(), Some(1.0));
+    // Made again: the old key is stale, the names find the new object.
+    b.delete("t").unwrap();
+    b.create("Track", "t").unwrap();
+    let out = b.merge_all_keyed([("t", "latest", Some(key), p(2.0, 20))]);
+    assert!(matches!(out[0], Ok(Merged::Applied(_))), "{out:?}");
+    assert_eq!(b.read("t", "latest").unwrap().value.as_f64(), Some(2.0));
+    let out = b.merge_all_keyed([("ghost", "latest", Some(key), p(3.0, 30))]);
+    assert!(
+        matches!(out[0], Err(WriteError::UnknownObject(_))),
+        "{out:?}"
+    );
+}
+
+#[test]
 fn a_watch_of_own_writes_skips_merged_packets() {
     let b = board();
     let own = b.watch(Filter::all().own_writes_only()).unwrap();
