@@ -10,10 +10,12 @@ use crate::classes::{check_classes, write_classes};
 use crate::control::{write_ack, write_catch_up, write_heartbeat, write_plan};
 use crate::dictionary::Dictionary;
 use crate::error::check_len;
+use crate::message::Kind;
 use crate::names::{Announce, write_section};
 use crate::report::write_report;
 use crate::{
-    EncodeError, MAX_ITEMS, MAX_MESSAGE_BYTES, Message, Names, ObjectEntry, Schema, VERSION,
+    Assertion, EncodeError, MAX_ITEMS, MAX_MESSAGE_BYTES, Message, Names, ObjectEntry, Schema,
+    VERSION,
 };
 
 /// Turns messages into bytes for one sending module.
@@ -60,35 +62,72 @@ impl Encoder {
     /// Encodes one message: a 1-byte header (version, kind), then the body. Reports
     /// and catch-up answers are packed against `schema`; other messages ignore it.
     pub fn encode(&mut self, msg: &Message, schema: &Schema) -> Result<Vec<u8>, EncodeError> {
-        let result = self.write(msg, schema);
-        match result {
-            Ok(_) => self.dict.commit(),
-            Err(_) => self.dict.rollback(),
-        }
-        result
+        self.message(msg.kind(), |enc, w| enc.write(w, msg, schema))
     }
 
-    fn write(&mut self, msg: &Message, schema: &Schema) -> Result<Vec<u8>, EncodeError> {
+    /// Encodes a report at position `seq` of these assertions, as
+    /// [`encode`](Encoder::encode) does a `Message::Report`, from references: a sender
+    /// that keeps its assertions elsewhere need not copy them into a
+    /// [`Report`](crate::Report).
+    pub fn encode_report(
+        &mut self,
+        seq: u64,
+        items: &[&Assertion],
+        schema: &Schema,
+    ) -> Result<Vec<u8>, EncodeError> {
+        self.message(Kind::Report, |enc, w| {
+            let items = items.iter().copied();
+            write_report(w, seq, items, &mut enc.dict, &enc.address, schema)
+        })
+    }
+
+    /// A message of `kind` whose body `body` writes; the dictionary keeps what it
+    /// announced only if the whole message encodes.
+    fn message(
+        &mut self,
+        kind: Kind,
+        body: impl FnOnce(&mut Self, &mut BitWriter) -> Result<(), EncodeError>,
+    ) -> Result<Vec<u8>, EncodeError> {
         let mut w = BitWriter::new();
         w.bits(VERSION.into(), 4);
-        w.bits(msg.kind() as u64, 4);
+        w.bits(kind as u64, 4);
+        let result = body(self, &mut w)
+            .and_then(|()| check_len("message bytes", w.len_bytes(), MAX_MESSAGE_BYTES));
+        match result {
+            Ok(()) => {
+                self.dict.commit();
+                Ok(w.finish())
+            }
+            Err(e) => {
+                self.dict.rollback();
+                Err(e)
+            }
+        }
+    }
+
+    fn write(
+        &mut self,
+        w: &mut BitWriter,
+        msg: &Message,
+        schema: &Schema,
+    ) -> Result<(), EncodeError> {
         match msg {
             Message::Report(r) | Message::CatchUpAnswer(r) => {
-                write_report(&mut w, r, &mut self.dict, &self.address, schema)?;
+                let (items, me) = (r.items.iter(), &self.address);
+                write_report(w, r.seq, items, &mut self.dict, me, schema)?;
             }
-            Message::Names(names) => self.write_names(&mut w, names, schema)?,
+            Message::Names(names) => self.write_names(w, names, schema)?,
             Message::Classes(defs) => {
                 check_classes(defs)?;
-                write_classes(&mut w, defs);
+                write_classes(w, defs);
             }
-            Message::Plan(p) => write_plan(&mut w, p)?,
-            Message::PlanAck(a) => write_ack(&mut w, a)?,
+            Message::Plan(p) => write_plan(w, p)?,
+            Message::PlanAck(a) => write_ack(w, a)?,
             Message::PlanCancel { circuit } => w.uvar(*circuit),
-            Message::CatchUpRequest(c) => write_catch_up(&mut w, c),
-            Message::Heartbeat(h) => write_heartbeat(&mut w, h),
+            Message::CatchUpRequest(c) => write_catch_up(w, c),
+            Message::Heartbeat(h) => write_heartbeat(w, h),
         }
-        check_len("message bytes", w.len_bytes(), MAX_MESSAGE_BYTES)?;
-        Ok(w.finish())
+        Ok(())
     }
 
     /// A `Names` message announces every listed entry (again, if need be), with the

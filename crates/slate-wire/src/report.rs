@@ -72,22 +72,23 @@ impl Flags {
     }
 }
 
-/// Writes a report body. Interns (and announces) what it names in `dict`; the caller
-/// commits or rolls back the dictionary.
-pub(crate) fn write_report(
+/// Writes a report body: position `seq`, then `items`. Interns (and announces) what it
+/// names in `dict`; the caller commits or rolls back the dictionary.
+pub(crate) fn write_report<'a>(
     w: &mut BitWriter,
-    report: &Report,
+    seq: u64,
+    items: impl ExactSizeIterator<Item = &'a Assertion>,
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
 ) -> Result<(), EncodeError> {
     let mut ann = Announce::default();
-    let entries = resolve_all(report, dict, me, schema, &mut ann)?;
+    let entries = resolve_all(items, dict, me, schema, &mut ann)?;
     let base = entries.iter().map(|e| e.packet.timestamp).min();
     let epoch = base.map(|b| dict.epoch_for(b, &mut ann));
     check_len("names in a message", ann.max_len(), MAX_ITEMS)?;
     let flags = Flags::of(&entries, base, &ann);
-    w.uvar(report.seq);
+    w.uvar(seq);
     flags.write(w);
     if flags.names {
         write_section(w, &ann);
@@ -104,15 +105,15 @@ type Entries<'a> = SmallVec<[Entry<'a>; 2]>;
 
 /// Resolves every assertion, within the item and vector-element limits.
 fn resolve_all<'a>(
-    report: &'a Report,
+    items: impl ExactSizeIterator<Item = &'a Assertion>,
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
     ann: &mut Announce,
 ) -> Result<Entries<'a>, EncodeError> {
-    check_len("assertions in a report", report.items.len(), MAX_ITEMS)?;
-    let mut entries = Entries::with_capacity(report.items.len());
-    for a in &report.items {
+    check_len("assertions in a report", items.len(), MAX_ITEMS)?;
+    let mut entries = Entries::with_capacity(items.len());
+    for a in items {
         entries.push(resolve(a, dict, me, schema, ann)?);
     }
     let elements = entries

@@ -9,7 +9,7 @@ use smallvec::SmallVec;
 use slate_model::{
     Address, ChangeItem, Context, MergePolicy, NameId, Packet, ReportPolicy, Timestamp,
 };
-use slate_wire::{Assertion, EncodeError, Message, ObjectEntry, Report};
+use slate_wire::{Assertion, EncodeError, ObjectEntry};
 
 use super::classes::{ClassSet, Lineage};
 use super::filter::{Key, is_unfiltered};
@@ -48,6 +48,9 @@ pub(crate) struct OwnAttr {
     merge: MergePolicy,
     report: ReportPolicy,
 }
+
+/// A report's assertions, by reference (an occasional one holds a few: inline).
+type Values<'a> = SmallVec<[&'a Assertion; 8]>;
 
 /// Own attributes remembered at most (beyond, the memo starts afresh).
 const MAX_OWN_ATTRS: usize = 1 << 16;
@@ -375,13 +378,13 @@ impl State {
     /// deletions) and reports, keeping the order of the board's changes.
     pub(super) fn emit(&mut self, link: LinkKind, items: &[&Item]) {
         let mut life = Lifecycle::default();
-        let mut values = std::mem::take(&mut self.spare_values);
-        values.reserve(items.len());
+        // The assertions are encoded where they are (not copied into a `Report`).
+        let mut values: Values = SmallVec::with_capacity(items.len());
         for item in items {
             match &item.what {
                 What::Value(a) => {
                     self.emit_lifecycle(link, &mut life);
-                    values.push(a.clone());
+                    values.push(a);
                 }
                 What::Created(l, ts) => {
                     self.emit_values(link, &mut values);
@@ -413,51 +416,37 @@ impl State {
         self.publish(link, MsgKind::Lifecycle, &bytes);
     }
 
-    fn emit_values(&mut self, link: LinkKind, values: &mut Vec<Assertion>) {
+    /// Reports `values` (at most `max_report_items` a report) and empties it.
+    fn emit_values(&mut self, link: LinkKind, values: &mut Values) {
         let max = self.config.max_report_items.max(1);
-        if values.len() <= max {
-            let all = std::mem::take(values);
-            if !all.is_empty() {
-                self.emit_report(link, all);
-            }
-            return;
-        }
-        let mut values = std::mem::take(values).into_iter().peekable();
-        while values.peek().is_some() {
-            let chunk = values.by_ref().take(max).collect();
+        for chunk in values.chunks(max) {
             self.emit_report(link, chunk);
         }
+        values.clear();
     }
 
     /// Encodes and publishes one report; a batch that does not encode is split until
     /// the faulty packet is isolated and dropped.
-    fn emit_report(&mut self, link: LinkKind, items: Vec<Assertion>) {
+    fn emit_report(&mut self, link: LinkKind, items: &[&Assertion]) {
         let Some(out) = self.out.get_mut(&link) else {
             return;
         };
-        let msg = Message::Report(Report {
-            seq: out.seq + 1,
-            items,
-        });
-        let result = out.encoder.encode(&msg, &self.catalog.schema);
-        let Message::Report(Report { mut items, .. }) = msg else {
-            return;
-        };
+        let result = out
+            .encoder
+            .encode_report(out.seq + 1, items, &self.catalog.schema);
         match result {
             Ok(bytes) => {
                 out.seq += 1;
                 self.stats.reports.items_sent += items.len() as u64;
                 self.publish(link, MsgKind::Report, &bytes);
-                items.clear();
-                self.spare_values = items;
             }
             Err(e) if items.len() > 1 => {
-                let b = items.split_off(items.len() / 2);
+                let (a, b) = items.split_at(items.len() / 2);
                 tracing::trace!(error = %e, "splitting a report");
-                self.emit_report(link, items);
+                self.emit_report(link, a);
                 self.emit_report(link, b);
             }
-            Err(e) => self.encode_failed(&items[0], &e),
+            Err(e) => self.encode_failed(items[0], &e),
         }
     }
 

@@ -166,7 +166,6 @@ pub(crate) struct State {
     pub plans: Vec<super::PlanEvent>,
     /// Buffers kept between drains (a single update is the common case: no allocation).
     pub spare_items: Vec<super::send::Item>,
-    pub spare_values: Vec<slate_wire::Assertion>,
 }
 
 impl State {
@@ -216,7 +215,6 @@ impl State {
             ops: Vec::new(),
             plans: Vec::new(),
             spare_items: Vec::new(),
-            spare_values: Vec::new(),
         }
     }
 

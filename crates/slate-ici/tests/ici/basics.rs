@@ -146,7 +146,10 @@ fn a_copy_deleted_by_its_holder_comes_back_with_the_next_report() {
     planner.delete("gsr").unwrap();
     nav.write("gsr", "speed", 3.0).unwrap();
     team.run(0.5);
-    assert_eq!(planner.read("gsr", "speed").unwrap().value, Value::Real(3.0));
+    assert_eq!(
+        planner.read("gsr", "speed").unwrap().value,
+        Value::Real(3.0)
+    );
 }
 
 #[test]

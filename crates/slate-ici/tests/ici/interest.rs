@@ -147,7 +147,10 @@ fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
         nav.write("gsr", "speed", speed).unwrap();
         team.run(0.5);
     }
-    assert_eq!(console.read("gsr", "speed").unwrap().value.as_f64(), Some(2.0));
+    assert_eq!(
+        console.read("gsr", "speed").unwrap().value.as_f64(),
+        Some(2.0)
+    );
     let uninterested = || team.node("t/r1/console").ici.stats().rejects.uninterested;
     let before = uninterested();
     // The console stops modelling vehicles while a report of one is on its way.
@@ -156,6 +159,9 @@ fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
         .set_interest(ClassSet::none().class("Rock"));
     nav.write("gsr", "speed", 3.0).unwrap();
     team.run(0.5);
-    assert_eq!(console.read("gsr", "speed").unwrap().value.as_f64(), Some(2.0));
+    assert_eq!(
+        console.read("gsr", "speed").unwrap().value.as_f64(),
+        Some(2.0)
+    );
     assert!(uninterested() > before);
 }

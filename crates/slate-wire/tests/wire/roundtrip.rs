@@ -2,8 +2,8 @@
 
 use slate_model::{AttrDecl, ClassDef, Context, Value, ValueType};
 use slate_wire::{
-    CatchUpRequest, DecodeError, Decoder, EncodeError, Encoder, Heartbeat, Message, Names,
-    ObjectEntry, Plan, PlanAck, PlanStep, Report, Schema,
+    Assertion, CatchUpRequest, DecodeError, Decoder, EncodeError, Encoder, Heartbeat, Message,
+    Names, ObjectEntry, Plan, PlanAck, PlanStep, Report, Schema,
 };
 
 use crate::common::*;
@@ -435,4 +435,21 @@ fn a_failed_encode_leaves_nothing_remembered_as_announced() {
     assert!(encoder.encode(&Message::Report(bad), &schema).is_err());
     let bytes = encoder.encode(&Message::Report(good), &schema).unwrap();
     decode_report(&mut Decoder::new(), &bytes, &schema);
+}
+
+#[test]
+fn a_report_from_references_is_the_report_itself() {
+    let schema = schema();
+    let (mut by_value, mut by_ref) = (Encoder::new(nav()), Encoder::new(nav()));
+    for seq in 1..=3 {
+        let sent = pose(seq);
+        let refs: Vec<&Assertion> = sent.items.iter().collect();
+        let bytes = by_ref.encode_report(seq, &refs, &schema).unwrap();
+        let expected = by_value.encode(&Message::Report(sent), &schema).unwrap();
+        assert_eq!(bytes, expected, "report {seq}");
+    }
+    let mut bad = pose(4);
+    bad.items[3].packet.value = Value::Real(25.0);
+    let refs: Vec<&Assertion> = bad.items.iter().collect();
+    assert!(by_ref.encode_report(4, &refs, &schema).is_err());
 }
