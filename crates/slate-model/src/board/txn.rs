@@ -113,10 +113,12 @@ impl<'s> Txn<'s> {
             )
         });
         self.touch(key.object, Some(key.attr), TouchKind::Write);
-        if let Some((object, attr)) = names.as_ref().filter(|_| noted) {
-            let item = || ChangeItem::Write {
-                object: object.clone(),
-                attr: attr.clone(),
+        // The names go to the watchers; the functions to fire need them too (rarely).
+        let fired_names = if fns.is_empty() { None } else { names.clone() };
+        if let Some((object, attr)) = names.filter(|_| noted) {
+            let item = ChangeItem::Write {
+                object,
+                attr,
                 packet: packet.clone(),
             };
             self.note(key.object, Some(key.attr), foreign, item);
@@ -127,7 +129,7 @@ impl<'s> Txn<'s> {
             Some(packet.clone())
         };
         let previous = self.inner.state.store(key, packet, self.revision);
-        if let (Some(packet), Some((object, attr))) = (stored, names) {
+        if let (Some(packet), Some((object, attr))) = (stored, fired_names) {
             let prev = previous.as_ref().map(|s| s.packet.clone());
             self.fired.push(Fired {
                 key,
@@ -154,11 +156,9 @@ impl<'s> Txn<'s> {
         let id = self.inner.state.create(class, name, context, owner)?;
         self.touch(id, None, TouchKind::Create);
         let class: Arc<str> = class.into();
-        let object: Arc<str> = name.into();
-        self.note(id, None, false, || ChangeItem::Create {
-            object: object.clone(),
-            class: class.clone(),
-        });
+        // The board's own allocation of the name, as its writes carry.
+        let object = self.inner.state.name(id).unwrap_or_else(|| name.into());
+        self.note(id, None, false, ChangeItem::Create { object, class });
         if let Some(undo) = &mut self.undo {
             undo.push(Undo::Create(id));
         }
@@ -176,12 +176,9 @@ impl<'s> Txn<'s> {
                 .first()
                 .and_then(|c| st.name(*c))
                 .unwrap_or_else(|| "?".into());
+            let object = st.name(id).unwrap_or_else(|| name.into());
             self.touch(id, None, TouchKind::Delete);
-            let object: Arc<str> = name.into();
-            self.note(id, None, false, || ChangeItem::Delete {
-                object: object.clone(),
-                class: class.clone(),
-            });
+            self.note(id, None, false, ChangeItem::Delete { object, class });
         }
         let (id, entity) = self.inner.state.remove(name)?;
         if let Some(undo) = &mut self.undo {
@@ -212,24 +209,26 @@ impl<'s> Txn<'s> {
 
     /// Records a change item for every watcher it matches (`foreign`: a write of a
     /// packet another module wrote).
-    fn note(
-        &mut self,
-        id: ObjectId,
-        attr: Option<AttrId>,
-        foreign: bool,
-        item: impl Fn() -> ChangeItem,
-    ) {
+    fn note(&mut self, id: ObjectId, attr: Option<AttrId>, foreign: bool, item: ChangeItem) {
         let Inner {
             state, watchers, ..
         } = &*self.inner;
-        for (i, w) in watchers.iter().enumerate() {
-            if !(foreign && w.spec.own_writes) && w.spec.matches(state, id, attr) {
-                if self.notes.len() <= i {
-                    self.notes.resize_with(watchers.len(), Vec::new);
-                }
-                self.notes[i].push(item());
-            }
+        let matching: SmallVec<[usize; 4]> = (0..watchers.len())
+            .filter(|&i| {
+                let spec = &watchers[i].spec;
+                !(foreign && spec.own_writes) && spec.matches(state, id, attr)
+            })
+            .collect();
+        let Some((&last, others)) = matching.split_last() else {
+            return;
+        };
+        if self.notes.len() < watchers.len() {
+            self.notes.resize_with(watchers.len(), Vec::new);
         }
+        for &i in others {
+            self.notes[i].push(item.clone());
+        }
+        self.notes[last].push(item);
     }
 
     /// Makes the changes visible: one revision, one notification per matching watcher.
