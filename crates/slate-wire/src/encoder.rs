@@ -14,7 +14,7 @@ use crate::message::Kind;
 use crate::names::{Announce, write_section};
 use crate::report::write_report;
 use crate::{
-    Assertion, EncodeError, MAX_ITEMS, MAX_MESSAGE_BYTES, Message, Names, ObjectEntry, Schema,
+    AssertionParts, EncodeError, MAX_ITEMS, MAX_MESSAGE_BYTES, Message, Names, ObjectEntry, Schema,
     VERSION,
 };
 
@@ -66,17 +66,17 @@ impl Encoder {
     }
 
     /// Encodes a report at position `seq` of these assertions, as
-    /// [`encode`](Encoder::encode) does a `Message::Report`, from references: a sender
-    /// that keeps its assertions elsewhere need not copy them into a
-    /// [`Report`](crate::Report).
-    pub fn encode_report(
+    /// [`encode`](Encoder::encode) does a `Message::Report`, however the sender keeps
+    /// them (references to [`Assertion`](crate::Assertion)s, or its own [`AssertionParts`]): it need not
+    /// copy them into a [`Report`](crate::Report).
+    pub fn encode_report<A: AssertionParts>(
         &mut self,
         seq: u64,
-        items: &[&Assertion],
+        items: &[A],
         schema: &Schema,
     ) -> Result<Vec<u8>, EncodeError> {
         self.message(Kind::Report, |enc, w| {
-            let items = items.iter().copied();
+            let items = items.iter();
             write_report(w, seq, items, &mut enc.dict, &enc.address, schema)
         })
     }

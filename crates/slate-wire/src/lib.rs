@@ -81,8 +81,8 @@ pub use limits::{
     MAX_TEXT_BYTES, VERSION,
 };
 pub use message::{
-    Assertion, CatchUpRequest, Heartbeat, Message, Names, ObjectEntry, Plan, PlanAck, PlanStep,
-    Report,
+    Assertion, AssertionParts, CatchUpRequest, Heartbeat, Message, Names, ObjectEntry, Plan,
+    PlanAck, PlanStep, Report,
 };
 pub use quant::quantise;
 pub use schema::Schema;

@@ -57,6 +57,48 @@ pub struct Assertion {
     pub packet: Packet,
 }
 
+/// An assertion's parts, wherever a sender keeps them: [`Encoder::encode_report`]
+/// reads them through this. An [`Assertion`] is one; a sender may keep its own kind
+/// (the ICI keeps an object's entry and attribute once for all its packets).
+///
+/// [`Encoder::encode_report`]: crate::Encoder::encode_report
+pub trait AssertionParts {
+    /// The object (or class, for a class-level value).
+    fn object(&self) -> &ObjectEntry;
+    /// The attribute.
+    fn attr(&self) -> &Arc<str>;
+    /// The packet.
+    fn packet(&self) -> &Packet;
+}
+
+impl AssertionParts for Assertion {
+    fn object(&self) -> &ObjectEntry {
+        &self.object
+    }
+
+    fn attr(&self) -> &Arc<str> {
+        &self.attr
+    }
+
+    fn packet(&self) -> &Packet {
+        &self.packet
+    }
+}
+
+impl<T: AssertionParts + ?Sized> AssertionParts for &T {
+    fn object(&self) -> &ObjectEntry {
+        (**self).object()
+    }
+
+    fn attr(&self) -> &Arc<str> {
+        (**self).attr()
+    }
+
+    fn packet(&self) -> &Packet {
+        (**self).packet()
+    }
+}
+
 /// What a receiver needs to know about an object to create its copy: name, class,
 /// context, owner. This is what a sender's dictionary entry announces.
 ///

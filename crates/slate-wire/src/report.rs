@@ -13,7 +13,10 @@ use crate::names::{Announce, Section, SourceDict, View, read_section, write_sect
 use crate::quant::{read_accuracy, read_confidence, write_accuracy, write_confidence};
 use crate::schema::AttrSchema;
 use crate::value::{check_quality, check_value};
-use crate::{Assertion, DecodeError, EncodeError, MAX_ELEMENTS, MAX_ITEMS, Report, Schema};
+use crate::{
+    Assertion, AssertionParts, DecodeError, EncodeError, MAX_ELEMENTS, MAX_ITEMS, ObjectEntry,
+    Report, Schema,
+};
 
 /// Bits of the id-width fields.
 const WIDTH_BITS: u32 = 5;
@@ -74,10 +77,10 @@ impl Flags {
 
 /// Writes a report body: position `seq`, then `items`. Interns (and announces) what it
 /// names in `dict`; the caller commits or rolls back the dictionary.
-pub(crate) fn write_report<'a>(
+pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     w: &mut BitWriter,
     seq: u64,
-    items: impl ExactSizeIterator<Item = &'a Assertion>,
+    items: impl ExactSizeIterator<Item = &'a A>,
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
@@ -104,8 +107,8 @@ pub(crate) fn write_report<'a>(
 type Entries<'a> = SmallVec<[Entry<'a>; 2]>;
 
 /// Resolves every assertion, within the item and vector-element limits.
-fn resolve_all<'a>(
-    items: impl ExactSizeIterator<Item = &'a Assertion>,
+fn resolve_all<'a, A: AssertionParts + 'a>(
+    items: impl ExactSizeIterator<Item = &'a A>,
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
@@ -129,33 +132,33 @@ fn resolve_all<'a>(
 
 /// Checks an assertion against the schema and interns its names.
 fn resolve<'a>(
-    a: &'a Assertion,
+    a: &'a impl AssertionParts,
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
     ann: &mut Announce,
 ) -> Result<Entry<'a>, EncodeError> {
-    let p = &a.packet;
-    let (object, attr, attr_schema) = match dict.recall(&a.object, &a.attr, schema) {
+    let (entry, name, p) = (a.object(), a.attr(), a.packet());
+    let (object, attr, attr_schema) = match dict.recall(entry, name, schema) {
         Some(r) => (r.object, r.attr, r.schema.clone()),
         None => {
-            let object = dict.object(&a.object, schema, false, ann)?;
-            let attr_schema = declared(a, schema)?.clone();
-            let attr = dict.attr(&a.attr, false, ann)?;
+            let object = dict.object(entry, schema, false, ann)?;
+            let attr_schema = declared(entry, name, schema)?.clone();
+            let attr = dict.attr(name, false, ann)?;
             let resolved = Resolved {
                 object,
                 attr,
                 schema: attr_schema.clone(),
             };
-            dict.remember(&a.object, &a.attr, schema, resolved);
+            dict.remember(entry, name, schema, resolved);
             (object, attr, attr_schema)
         }
     };
     check_value(&p.value, &attr_schema.decl)
         .and_then(|()| check_quality(p.accuracy, p.confidence))
         .map_err(|source| EncodeError::Invalid {
-            object: a.object.name.to_string(),
-            attr: a.attr.to_string(),
+            object: entry.name.to_string(),
+            attr: name.to_string(),
             source,
         })?;
     let source = (p.source != *me)
@@ -170,14 +173,18 @@ fn resolve<'a>(
     })
 }
 
-/// The declaration of the assertion's attribute.
-fn declared<'a>(a: &Assertion, schema: &'a Schema) -> Result<&'a Arc<AttrSchema>, EncodeError> {
-    let class = schema.class(&a.object.class);
+/// The declaration of `object.attr`.
+fn declared<'a>(
+    object: &ObjectEntry,
+    attr: &str,
+    schema: &'a Schema,
+) -> Result<&'a Arc<AttrSchema>, EncodeError> {
+    let class = schema.class(&object.class);
     class
-        .and_then(|c| c.attr(&a.attr))
+        .and_then(|c| c.attr(attr))
         .ok_or_else(|| EncodeError::UnknownAttr {
-            object: a.object.name.to_string(),
-            attr: a.attr.to_string(),
+            object: object.name.to_string(),
+            attr: attr.to_string(),
         })
 }
 

@@ -9,7 +9,7 @@ use slate_model::{Address, Packet};
 use slate_wire::Assertion;
 
 use super::ops::own_packet;
-use super::send::{Item, What};
+use super::send::Item;
 use super::state::State;
 use crate::LinkKind;
 
@@ -66,8 +66,12 @@ impl State {
         let chosen: Vec<Assertion> = items
             .iter()
             .filter(|i| !known || self.peer_wants_item(to, i))
-            .filter_map(|i| match &i.what {
-                What::Value(a) => Some(a.clone()),
+            .filter_map(|i| match i {
+                Item::Value(s, packet) => Some(Assertion {
+                    object: s.object.clone(),
+                    attr: s.attr.clone(),
+                    packet: packet.clone(),
+                }),
                 _ => None,
             })
             .collect();

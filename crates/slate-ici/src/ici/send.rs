@@ -9,7 +9,7 @@ use smallvec::SmallVec;
 use slate_model::{
     Address, ChangeItem, Context, MergePolicy, NameId, Packet, ReportPolicy, Timestamp,
 };
-use slate_wire::{Assertion, EncodeError, ObjectEntry};
+use slate_wire::{AssertionParts, EncodeError, ObjectEntry};
 
 use super::classes::{ClassSet, Lineage};
 use super::filter::{Key, is_unfiltered};
@@ -28,11 +28,52 @@ enum Wanted {
     NoPeer,
 }
 
-/// Something to put on the streams.
-pub(crate) enum What {
-    Created(Listed, Timestamp),
-    Value(Assertion),
-    Deleted(Arc<str>, Timestamp),
+/// Something to put on the streams, with what deciding its destinations needs.
+pub(crate) enum Item {
+    /// A packet of an attribute.
+    Value(Arc<Subject>, Packet),
+    /// An own object made: its listing, when, its class chain.
+    Created(Listed, Timestamp, Lineage),
+    /// An own object deleted: its name, when, its class chain and context.
+    Deleted(Arc<str>, Timestamp, Lineage, Context),
+}
+
+/// An object's attribute as reports name it, with the class chain its destinations
+/// are decided by: made once, shared by the items of all its packets.
+pub(crate) struct Subject {
+    pub object: ObjectEntry,
+    pub attr: Arc<str>,
+    pub lineage: Lineage,
+    pub is_class: bool,
+}
+
+impl Item {
+    /// Class chain, context, owner (`me` for a creation or deletion: only own
+    /// objects' are sent), and whether it is a class's.
+    fn dest<'a>(&'a self, me: &'a Address) -> (&'a Lineage, Context, &'a Address, bool) {
+        match self {
+            Item::Value(s, _) => (&s.lineage, s.object.context, &s.object.owner, s.is_class),
+            Item::Created(listed, _, lineage) => (lineage, listed.context, me, false),
+            Item::Deleted(_, _, lineage, context) => (lineage, *context, me, false),
+        }
+    }
+}
+
+/// A packet of a subject, as the encoder reads it.
+struct Reported<'a>(&'a Subject, &'a Packet);
+
+impl AssertionParts for Reported<'_> {
+    fn object(&self) -> &ObjectEntry {
+        &self.0.object
+    }
+
+    fn attr(&self) -> &Arc<str> {
+        &self.0.attr
+    }
+
+    fn packet(&self) -> &Packet {
+        self.1
+    }
 }
 
 /// What reporting an attribute of an own object needs from the catalog, resolved on
@@ -42,27 +83,16 @@ pub(crate) enum What {
 pub(crate) struct OwnAttr {
     /// The object's entry and the attribute's name (holding their names' `Arc`s, whose
     /// identities key the memo).
-    object: ObjectEntry,
-    attr: Arc<str>,
-    lineage: Lineage,
+    subject: Arc<Subject>,
     merge: MergePolicy,
     report: ReportPolicy,
 }
 
 /// A report's assertions, by reference (an occasional one holds a few: inline).
-type Values<'a> = SmallVec<[&'a Assertion; 8]>;
+type Values<'a> = SmallVec<[Reported<'a>; 8]>;
 
 /// Own attributes remembered at most (beyond, the memo starts afresh).
 const MAX_OWN_ATTRS: usize = 1 << 16;
-
-/// An item with what deciding its destinations needs.
-pub(crate) struct Item {
-    pub what: What,
-    pub lineage: Lineage,
-    pub context: Context,
-    pub owner: Address,
-    pub is_class: bool,
-}
 
 impl State {
     /// Takes every change committed since the last call and sends what is due.
@@ -113,24 +143,15 @@ impl State {
                 // Not an own object's (another module's object, or a class): the board says.
                 None => {
                     let item = self.value_item(&object, &attr, packet)?;
-                    let (merge, report) = self.policies(&item.lineage[0], &attr)?;
+                    let Item::Value(subject, _) = &item else {
+                        return None;
+                    };
+                    let (merge, report) = self.policies(&subject.lineage[0], &attr)?;
                     return self.own_value(item, merge, &report);
                 }
             },
         };
-        let context = own.object.context;
-        let item = Item {
-            what: What::Value(Assertion {
-                object: own.object,
-                attr: own.attr,
-                packet,
-            }),
-            lineage: own.lineage,
-            context,
-            owner: self.me.clone(),
-            is_class: false,
-        };
-        self.own_value(item, own.merge, &own.report)
+        self.own_value(Item::Value(own.subject, packet), own.merge, &own.report)
     }
 
     /// What an own object's attribute needs, from the catalog (`None` if the object
@@ -139,7 +160,7 @@ impl State {
         let (class, context) = self.own_objects.get(object)?.clone();
         let lineage = self.lineage(&class)?;
         let (merge, report) = self.policies(&class, attr)?;
-        Some(OwnAttr {
+        let subject = Subject {
             object: ObjectEntry {
                 name: object.clone(),
                 class,
@@ -148,6 +169,10 @@ impl State {
             },
             attr: attr.clone(),
             lineage,
+            is_class: false,
+        };
+        Some(OwnAttr {
+            subject: Arc::new(subject),
             merge,
             report,
         })
@@ -173,26 +198,23 @@ impl State {
     /// kept as the best heard of, and offered to its report filter (the item, if it is
     /// to go now).
     fn own_value(&mut self, item: Item, merge: MergePolicy, report: &ReportPolicy) -> Option<Item> {
-        let What::Value(a) = &item.what else {
+        let Item::Value(subject, packet) = &item else {
             return Some(item);
         };
         self.stats.reports.written += 1;
         if merge == MergePolicy::Latest && is_unfiltered(report) {
             return Some(item); // the common case: nothing to keep
         }
-        let key = (a.object.name.clone(), a.attr.clone());
+        let key = (subject.object.name.clone(), subject.attr.clone());
         if merge == MergePolicy::Fused {
-            self.fusion.update(key.clone(), a.packet.clone());
+            self.fusion.update(key.clone(), packet.clone());
             self.ops.push(BoardOp::Fuse(key.clone()));
         }
         if merge == MergePolicy::Confident {
-            self.keep_best(&key, &a.packet);
+            self.keep_best(&key, packet);
         }
         let (now, quiet) = (self.now, self.config.quiet);
-        match self
-            .filters
-            .offer(key, a.packet.clone(), report, now, quiet)
-        {
+        match self.filters.offer(key, packet.clone(), report, now, quiet) {
             Some(_) => Some(item),
             None => {
                 self.stats.reports.held += 1;
@@ -248,18 +270,13 @@ impl State {
             return None;
         }
         let lineage = self.lineage(&entry.class)?;
-        let (context, owner) = (entry.context, entry.owner.clone());
-        Some(Item {
-            what: What::Value(Assertion {
-                object: entry,
-                attr: attr.clone(),
-                packet,
-            }),
+        let subject = Subject {
+            object: entry,
+            attr: attr.clone(),
             lineage,
-            context,
-            owner,
             is_class,
-        })
+        };
+        Some(Item::Value(Arc::new(subject), packet))
     }
 
     fn own_create(&mut self, object: Arc<str>) -> Option<Item> {
@@ -277,13 +294,7 @@ impl State {
             fingerprint,
             context: info.context,
         };
-        Some(Item {
-            what: What::Created(listed, self.board.clock().now()),
-            lineage,
-            context: info.context,
-            owner: self.me.clone(),
-            is_class: false,
-        })
+        Some(Item::Created(listed, self.board.clock().now(), lineage))
     }
 
     fn deleted(&mut self, object: Arc<str>) -> Option<Item> {
@@ -301,13 +312,7 @@ impl State {
         let lineage = self
             .lineage(&class)
             .unwrap_or_else(|| Arc::from(vec![class]));
-        Some(Item {
-            what: What::Deleted(object, stamp),
-            lineage,
-            context,
-            owner: self.me.clone(),
-            is_class: false,
-        })
+        Some(Item::Deleted(object, stamp, lineage, context))
     }
 
     // ----- destinations -----
@@ -337,11 +342,12 @@ impl State {
     /// Does anyone on `link` want this item, and may it go there?
     fn wanted(&self, link: LinkKind, item: &Item) -> Wanted {
         let export = &self.config.export;
+        let (lineage, context, _, is_class) = item.dest(&self.me);
         let exported = link == LinkKind::Robot
-            || if item.is_class {
-                export.relates_to_class(&item.lineage, &self.catalog)
+            || if is_class {
+                export.relates_to_class(lineage, &self.catalog)
             } else {
-                export.contains(&item.lineage, item.context)
+                export.contains(lineage, context)
             };
         if !exported {
             return Wanted::NotExported;
@@ -359,13 +365,11 @@ impl State {
         let Some(interest) = interest else {
             return false;
         };
-        if item.is_class {
-            interest.relates_to_class(&item.lineage, &self.catalog)
+        let (lineage, context, owner, is_class) = item.dest(&self.me);
+        if is_class {
+            interest.relates_to_class(lineage, &self.catalog)
         } else {
-            interest.contains(
-                &item.lineage,
-                State::context_on(item.context, &item.owner, p),
-            )
+            interest.contains(lineage, State::context_on(context, owner, p))
         }
     }
 
@@ -381,19 +385,19 @@ impl State {
         // The assertions are encoded where they are (not copied into a `Report`).
         let mut values: Values = SmallVec::with_capacity(items.len());
         for item in items {
-            match &item.what {
-                What::Value(a) => {
+            match item {
+                Item::Value(subject, packet) => {
                     self.emit_lifecycle(link, &mut life);
-                    values.push(a);
+                    values.push(Reported(subject, packet));
                 }
-                What::Created(l, ts) => {
+                Item::Created(l, ts, _) => {
                     self.emit_values(link, &mut values);
                     if !life.deleted.is_empty() {
                         self.emit_lifecycle(link, &mut life);
                     }
                     life.created.push((l.clone(), *ts));
                 }
-                What::Deleted(name, ts) => {
+                Item::Deleted(name, ts, ..) => {
                     self.emit_values(link, &mut values);
                     life.deleted.push((name.clone(), *ts));
                 }
@@ -427,7 +431,7 @@ impl State {
 
     /// Encodes and publishes one report; a batch that does not encode is split until
     /// the faulty packet is isolated and dropped.
-    fn emit_report(&mut self, link: LinkKind, items: &[&Assertion]) {
+    fn emit_report(&mut self, link: LinkKind, items: &[Reported]) {
         let Some(out) = self.out.get_mut(&link) else {
             return;
         };
@@ -446,11 +450,11 @@ impl State {
                 self.emit_report(link, a);
                 self.emit_report(link, b);
             }
-            Err(e) => self.encode_failed(items[0], &e),
+            Err(e) => self.encode_failed(&items[0], &e),
         }
     }
 
-    fn encode_failed(&mut self, a: &Assertion, e: &EncodeError) {
+    fn encode_failed(&mut self, a: &impl AssertionParts, e: &EncodeError) {
         self.stats.reports.encode_errors += 1;
         if matches!(
             e,
@@ -458,7 +462,7 @@ impl State {
         ) {
             self.refresh_catalog();
         }
-        tracing::warn!(object = %a.object.name, attr = %a.attr, error = %e, "packet not reported");
+        tracing::warn!(object = %a.object().name, attr = %a.attr(), error = %e, "packet not reported");
     }
 }
 
