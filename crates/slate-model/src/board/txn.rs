@@ -213,22 +213,21 @@ impl<'s> Txn<'s> {
         let Inner {
             state, watchers, ..
         } = &*self.inner;
-        let matching: SmallVec<[usize; 4]> = (0..watchers.len())
-            .filter(|&i| {
-                let spec = &watchers[i].spec;
-                !(foreign && spec.own_writes) && spec.matches(state, id, attr)
-            })
-            .collect();
-        let Some((&last, others)) = matching.split_last() else {
-            return;
-        };
-        if self.notes.len() < watchers.len() {
-            self.notes.resize_with(watchers.len(), Vec::new);
+        // Each matching watcher but the last gets a copy; the last, the item.
+        let mut last = None;
+        for (i, w) in watchers.iter().enumerate() {
+            if !(foreign && w.spec.own_writes) && w.spec.matches(state, id, attr) {
+                if self.notes.len() < watchers.len() {
+                    self.notes.resize_with(watchers.len(), Vec::new);
+                }
+                if let Some(before) = last.replace(i) {
+                    self.notes[before].push(item.clone());
+                }
+            }
         }
-        for &i in others {
-            self.notes[i].push(item.clone());
+        if let Some(i) = last {
+            self.notes[i].push(item);
         }
-        self.notes[last].push(item);
     }
 
     /// Makes the changes visible: one revision, one notification per matching watcher.
