@@ -33,7 +33,7 @@ impl Quant {
             return None;
         }
         let span = (max - min) / res;
-        if span.is_nan() || span >= MAX_STEPS {
+        if span >= MAX_STEPS {
             return None;
         }
         let steps = round_half_up(span);
@@ -86,8 +86,8 @@ impl Quant {
 }
 
 /// `x.round()` as an integer, for `x >= 0` (0 for a negative `x` or NaN, `u64::MAX` at
-/// most): without the library call `f64::round` is on baseline x86-64, which a real
-/// takes two or three of on every update.
+/// most). On baseline x86-64 `f64::round` is a library call, and every update rounds a
+/// real two or three times.
 fn round_half_up(x: f64) -> u64 {
     let whole = x as u64;
     if x - whole as f64 >= 0.5 {
@@ -146,6 +146,7 @@ const ACCURACY_ESCAPE: u64 = (1 << ACCURACY_BITS) - 1;
 const ACCURACY_ONE: i64 = 17;
 /// `2^((k - 17) / 4)` for every code `k` below `ACCURACY_ESCAPE` (a test checks each
 /// against `exp2`): a table, because an accuracy is coded and decoded on every update.
+/// Entry 0 is never read (code 0 is an accuracy of 0); it keeps codes and indices equal.
 #[allow(clippy::approx_constant, clippy::excessive_precision)]
 const ACCURACY_STEPS: [f64; ACCURACY_ESCAPE as usize] = [
     0.052556025953357156,

@@ -211,7 +211,7 @@ impl Ici {
     pub fn set_interest(&self, interest: ClassSet) {
         self.shared.with_state(|st| {
             st.config.interest = interest;
-            st.known.clear();
+            st.forget_resolved();
             for link in LinkKind::ALL {
                 for peer in st.up_peers(link) {
                     st.send_hello(&peer);

@@ -46,6 +46,9 @@ pub(crate) struct Tally {
     kept: u64,
     not_owner: u64,
     invalid: u64,
+    /// A packet merged by a remembered key found its object gone (deleted here since,
+    /// and the ICI has not heard yet): the receiver's memo is out of date.
+    stale_key: bool,
 }
 
 impl Tally {
@@ -67,6 +70,9 @@ impl Tally {
             return;
         }
         let mut st = state.lock();
+        if self.stale_key {
+            st.known.clear();
+        }
         let m = &mut st.stats.merges;
         m.applied += self.applied;
         m.kept += self.kept;
@@ -122,7 +128,11 @@ pub(crate) fn merge_all(
     tally: &mut Tally,
     packets: impl IntoIterator<Item = Merge>,
 ) {
-    for outcome in board.merge_all_keyed(packets) {
+    let mut keyed = false;
+    let outcomes = board.merge_all_keyed(packets.into_iter().inspect(|m| keyed |= m.2.is_some()));
+    for outcome in outcomes {
+        // An object gone under a remembered key: forget them all (rare).
+        tally.stale_key |= keyed && matches!(outcome, Err(WriteError::UnknownObject(_)));
         tally.count(outcome);
     }
 }

@@ -342,10 +342,10 @@ impl State {
         ensured: &mut BTreeSet<Arc<str>>,
     ) {
         let id = (NameId::of(&a.object.name), NameId::of(&a.attr));
-        if let Some(k) = self.known.get(&id).filter(|k| k.entry == a.object) {
+        let same = |k: &&Known| k.entry == a.object && Arc::ptr_eq(&k.attr, &a.attr);
+        if let Some(k) = self.known.get(&id).filter(same) {
             let (merge, key) = (k.merge, k.key);
-            let attr = k.attr.clone();
-            return self.merge_item(&a.object.name, attr, merge, Some(key), a.packet);
+            return self.merge_item(&a.object.name, a.attr, merge, Some(key), a.packet);
         }
         let Some(context) = self.interested(from, &a.object) else {
             return;

@@ -132,30 +132,29 @@ impl State {
         let key = (NameId::of(&object), NameId::of(&attr));
         let own = match self.own_attrs.get(&key) {
             Some(own) => own.clone(),
-            None => match self.resolve_own(&object, &attr) {
-                Some(own) => {
-                    if self.own_attrs.len() >= MAX_OWN_ATTRS {
-                        self.own_attrs.clear();
-                    }
-                    self.own_attrs.insert(key, own.clone());
-                    own
+            // Another module's object, or a class: the board says what it is.
+            None if !self.own_objects.contains_key(&object) => {
+                let item = self.value_item(&object, &attr, packet)?;
+                let Item::Value(subject, _) = &item else {
+                    return None;
+                };
+                let (merge, report) = self.policies(&subject.lineage[0], &attr)?;
+                return self.own_value(item, merge, &report);
+            }
+            None => {
+                let own = self.resolve_own(&object, &attr)?;
+                if self.own_attrs.len() >= MAX_OWN_ATTRS {
+                    self.own_attrs.clear();
                 }
-                // Not an own object's (another module's object, or a class): the board says.
-                None => {
-                    let item = self.value_item(&object, &attr, packet)?;
-                    let Item::Value(subject, _) = &item else {
-                        return None;
-                    };
-                    let (merge, report) = self.policies(&subject.lineage[0], &attr)?;
-                    return self.own_value(item, merge, &report);
-                }
-            },
+                self.own_attrs.insert(key, own.clone());
+                own
+            }
         };
         self.own_value(Item::Value(own.subject, packet), own.merge, &own.report)
     }
 
-    /// What an own object's attribute needs, from the catalog (`None` if the object
-    /// is not an own object of a known class).
+    /// What an own object's attribute needs, from the catalog (`None` if the catalog
+    /// does not know its class or attribute, even once rebuilt).
     fn resolve_own(&mut self, object: &Arc<str>, attr: &Arc<str>) -> Option<OwnAttr> {
         let (class, context) = self.own_objects.get(object)?.clone();
         let lineage = self.lineage(&class)?;
@@ -298,8 +297,7 @@ impl State {
     }
 
     fn deleted(&mut self, object: Arc<str>) -> Option<Item> {
-        self.own_attrs.clear();
-        self.known.clear();
+        self.forget_resolved();
         self.filters.forget(&object);
         self.best.retain(|(o, _), _| *o != object);
         self.fusion.forget(&object);

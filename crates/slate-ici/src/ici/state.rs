@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use rustc_hash::FxHashMap;
 
-use slate_model::{Address, Board, Context, NameId, Packet, Timestamp, Watch};
-use slate_wire::{Decoder, Encoder};
+use slate_model::{Address, Board, Context, MergePolicy, NameId, Packet, Timestamp, Watch};
+use slate_wire::{Decoder, Encoder, ObjectEntry};
 
 use super::classes::{Catalog, ClassSet, Lineage};
 use super::config::IciConfig;
@@ -29,9 +29,9 @@ pub(crate) struct Known {
     /// The object's entry as received and the attribute's name (holding the `Arc`s
     /// whose identities key the memo): another entry under the same name is looked at
     /// anew.
-    pub entry: slate_wire::ObjectEntry,
+    pub entry: ObjectEntry,
     pub attr: Arc<str>,
-    pub merge: slate_model::MergePolicy,
+    pub merge: MergePolicy,
     pub key: slate_model::Key,
 }
 
@@ -243,6 +243,12 @@ impl State {
     /// Rebuilds the catalog from the board (a class was missing).
     pub fn refresh_catalog(&mut self) {
         self.catalog = Catalog::new(&self.board);
+        self.forget_resolved();
+    }
+
+    /// Forgets what was resolved for own and received attributes (the catalog, the
+    /// interest or the objects changed).
+    pub fn forget_resolved(&mut self) {
         self.own_attrs.clear();
         self.known.clear();
     }

@@ -55,9 +55,10 @@ impl Inbound {
         self.gap_since.map(|t| now.saturating_sub(t))
     }
 
-    /// Did messages after `seq` arrive already (is `seq` late)?
+    /// Did messages after `seq` arrive before it (is `seq` late)? A position only
+    /// announced by a heartbeat does not count.
     pub fn overtaken(&self, seq: u64) -> bool {
-        seq < self.want
+        self.above.last().is_some_and(|&after| after > seq)
     }
 
     /// Is anything missing?
@@ -111,6 +112,18 @@ mod tests {
         assert!(s.receive(2, Duration::from_secs(4)));
         assert!(!s.has_gap() && s.gap_age(Duration::from_secs(5)).is_none());
         assert_eq!(s.have(), 3);
+    }
+
+    #[test]
+    fn a_message_is_overtaken_by_later_ones_received_not_announced() {
+        let mut s = Inbound::default();
+        s.receive(1, T0);
+        s.announce(3, T0);
+        assert!(!s.overtaken(2), "a heartbeat's position is not a message");
+        s.receive(3, T0);
+        assert!(s.overtaken(2));
+        s.receive(2, T0);
+        assert!(!s.overtaken(4));
     }
 
     #[test]
