@@ -132,7 +132,7 @@ struct Inner {
     subscribers: Mutex<Vec<Subscriber<()>>>,
     /// A declared publisher per destination (Zenoh resolves its routes once, not on
     /// every put): one per link kind and one per peer.
-    publishers: Mutex<HashMap<Dest, Arc<Publisher<'static>>>>,
+    publishers: Mutex<FxHashMap<Dest, Arc<Publisher<'static>>>>,
     /// The keys of each live peer's messages to this module, declared to this session
     /// ([`keys::from_peer`]): a message on a declared key is routed through a table; on
     /// any other, Zenoh matches its key against every subscription (about 10 µs of the
@@ -165,7 +165,7 @@ impl ZenohTransport {
             peers: Mutex::new(BTreeSet::new()),
             stats: Mutex::new(LinkStats::default()),
             subscribers: Mutex::new(Vec::new()),
-            publishers: Mutex::new(HashMap::new()),
+            publishers: Mutex::new(FxHashMap::default()),
             declared: Mutex::new(HashMap::new()),
             declarer: Mutex::new(None),
             sources: Mutex::new(FxHashMap::default()),
