@@ -55,6 +55,6 @@ pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
     WriteError,
 };
-pub use id::{AttrId, Key, NameId, ObjectId};
+pub use id::{AttrId, Key, NameMemo, ObjectId};
 pub use packet::{Packet, Update, ValueError};
 pub use value::{Value, ValueType};

@@ -7,7 +7,7 @@ use std::hash::Hash;
 use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
-use slate_model::{Address, NameId, Timestamp};
+use slate_model::{Address, NameMemo, Timestamp};
 
 use crate::names::Announce;
 use crate::schema::AttrSchema;
@@ -112,18 +112,13 @@ pub(crate) struct Resolved {
 /// What an assertion of `(object, attribute)` resolved to, and against what.
 #[derive(Debug)]
 struct Remembered {
-    /// The object's entry and the attribute's name (holding their names' `Arc`s, whose
-    /// identities key the memo).
+    /// The object's entry then (another entry under the same name is resolved anew).
     entry: ObjectEntry,
-    attr: Arc<str>,
     resolved: Resolved,
     /// `Schema::id` and `Dictionary::changes` then.
     schema: u64,
     changes: u64,
 }
-
-/// Assertions remembered at most (beyond, the memo starts afresh).
-const MAX_REMEMBERED: usize = 1 << 16;
 
 /// The sender's dictionary and epoch.
 #[derive(Debug, Default)]
@@ -135,7 +130,7 @@ pub(crate) struct Dictionary {
     /// Assertions resolved before, by the identity of their names: a sender reports
     /// the same attributes of the same objects over and over, and looking each name up
     /// again (hashing and comparing its text in four tables) was most of the cost.
-    remembered: FxHashMap<(NameId, NameId), Remembered>,
+    remembered: NameMemo<Remembered>,
     /// Timestamp epoch, whole seconds since the Unix epoch; chosen once.
     epoch: Option<u64>,
     epoch_announced: bool,
@@ -157,13 +152,8 @@ impl Dictionary {
         attr: &Arc<str>,
         schema: &Schema,
     ) -> Option<&Resolved> {
-        let r = self
-            .remembered
-            .get(&(NameId::of(&object.name), NameId::of(attr)))?;
-        let valid = r.schema == schema.id()
-            && r.changes == self.changes()
-            && r.entry == *object
-            && Arc::ptr_eq(&r.attr, attr);
+        let r = self.remembered.get(&object.name, attr)?;
+        let valid = r.schema == schema.id() && r.changes == self.changes() && r.entry == *object;
         valid.then_some(&r.resolved)
     }
 
@@ -176,18 +166,13 @@ impl Dictionary {
         schema: &Schema,
         resolved: Resolved,
     ) {
-        if self.remembered.len() >= MAX_REMEMBERED {
-            self.remembered.clear();
-        }
-        let key = (NameId::of(&object.name), NameId::of(attr));
         let r = Remembered {
             entry: object.clone(),
-            attr: attr.clone(),
             resolved,
             schema: schema.id(),
             changes: self.changes(),
         };
-        self.remembered.insert(key, r);
+        self.remembered.insert(&object.name, attr, r);
     }
 
     /// The id of an object; announces it (with its class and owner) if needed.

@@ -67,8 +67,8 @@ impl Encoder {
 
     /// Encodes a report at position `seq` of these assertions, as
     /// [`encode`](Encoder::encode) does a `Message::Report`, however the sender keeps
-    /// them (references to [`Assertion`](crate::Assertion)s, or its own [`AssertionParts`]): it need not
-    /// copy them into a [`Report`](crate::Report).
+    /// them (references to [`Assertion`](crate::Assertion)s, or its own
+    /// [`AssertionParts`]): it need not copy them into a [`Report`](crate::Report).
     pub fn encode_report<A: AssertionParts>(
         &mut self,
         seq: u64,

@@ -5,14 +5,14 @@ use std::collections::BTreeSet;
 use std::sync::Arc;
 
 use slate_model::{
-    Address, ClassDef, Context, DefineError, MergePolicy, NameId, NewObject, Packet, Timestamp,
+    Address, ClassDef, Context, DefineError, MergePolicy, NewObject, Packet, Timestamp,
 };
 use slate_wire::{Assertion, DecodeError, Heartbeat, Message, ObjectEntry, Report};
 
 use super::frame::{Frame, Hello, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
-use super::state::{Known, MAX_KNOWN, Origin, State};
+use super::state::{Known, Origin, State};
 use super::stream::Inbound;
 use crate::{LinkKind, MsgKind};
 
@@ -341,9 +341,8 @@ impl State {
         seq: Option<u64>,
         ensured: &mut BTreeSet<Arc<str>>,
     ) {
-        let id = (NameId::of(&a.object.name), NameId::of(&a.attr));
-        let same = |k: &&Known| k.entry == a.object && Arc::ptr_eq(&k.attr, &a.attr);
-        if let Some(k) = self.known.get(&id).filter(same) {
+        let known = self.known.get(&a.object.name, &a.attr);
+        if let Some(k) = known.filter(|k| k.entry == a.object) {
             let (merge, key) = (k.merge, k.key);
             return self.merge_item(&a.object.name, a.attr, merge, Some(key), a.packet);
         }
@@ -368,16 +367,12 @@ impl State {
             .then(|| self.board.key(&a.object.name, &a.attr).ok())
             .flatten();
         if let Some(key) = key {
-            if self.known.len() >= MAX_KNOWN {
-                self.known.clear();
-            }
             let known = Known {
                 entry: a.object.clone(),
-                attr: a.attr.clone(),
                 merge,
                 key,
             };
-            self.known.insert(id, known);
+            self.known.insert(&a.object.name, &a.attr, known);
         }
         self.merge_item(&a.object.name, a.attr, merge, key, a.packet);
     }

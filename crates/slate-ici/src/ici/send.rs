@@ -6,9 +6,7 @@ use std::sync::Arc;
 
 use smallvec::SmallVec;
 
-use slate_model::{
-    Address, ChangeItem, Context, MergePolicy, NameId, Packet, ReportPolicy, Timestamp,
-};
+use slate_model::{Address, ChangeItem, Context, MergePolicy, Packet, ReportPolicy, Timestamp};
 use slate_wire::{AssertionParts, EncodeError, ObjectEntry};
 
 use super::classes::{ClassSet, Lineage};
@@ -32,10 +30,19 @@ enum Wanted {
 pub(crate) enum Item {
     /// A packet of an attribute.
     Value(Arc<Subject>, Packet),
-    /// An own object made: its listing, when, its class chain.
-    Created(Listed, Timestamp, Lineage),
-    /// An own object deleted: its name, when, its class chain and context.
-    Deleted(Arc<str>, Timestamp, Lineage, Context),
+    /// An own object made.
+    Created {
+        listed: Listed,
+        stamp: Timestamp,
+        lineage: Lineage,
+    },
+    /// An own object deleted.
+    Deleted {
+        name: Arc<str>,
+        stamp: Timestamp,
+        lineage: Lineage,
+        context: Context,
+    },
 }
 
 /// An object's attribute as reports name it, with the class chain its destinations
@@ -53,8 +60,12 @@ impl Item {
     fn dest<'a>(&'a self, me: &'a Address) -> (&'a Lineage, Context, &'a Address, bool) {
         match self {
             Item::Value(s, _) => (&s.lineage, s.object.context, &s.object.owner, s.is_class),
-            Item::Created(listed, _, lineage) => (lineage, listed.context, me, false),
-            Item::Deleted(_, _, lineage, context) => (lineage, *context, me, false),
+            Item::Created {
+                listed, lineage, ..
+            } => (lineage, listed.context, me, false),
+            Item::Deleted {
+                lineage, context, ..
+            } => (lineage, *context, me, false),
         }
     }
 }
@@ -81,8 +92,6 @@ impl AssertionParts for Reported<'_> {
 /// in four tables); forgotten when the catalog is rebuilt or an object deleted.
 #[derive(Clone)]
 pub(crate) struct OwnAttr {
-    /// The object's entry and the attribute's name (holding their names' `Arc`s, whose
-    /// identities key the memo).
     subject: Arc<Subject>,
     merge: MergePolicy,
     report: ReportPolicy,
@@ -90,9 +99,6 @@ pub(crate) struct OwnAttr {
 
 /// A report's assertions, by reference (an occasional one holds a few: inline).
 type Values<'a> = SmallVec<[Reported<'a>; 8]>;
-
-/// Own attributes remembered at most (beyond, the memo starts afresh).
-const MAX_OWN_ATTRS: usize = 1 << 16;
 
 impl State {
     /// Takes every change committed since the last call and sends what is due.
@@ -129,8 +135,7 @@ impl State {
 
     /// A packet this module wrote: the item to send now, if any.
     fn own_write(&mut self, object: Arc<str>, attr: Arc<str>, packet: Packet) -> Option<Item> {
-        let key = (NameId::of(&object), NameId::of(&attr));
-        let own = match self.own_attrs.get(&key) {
+        let own = match self.own_attrs.get(&object, &attr) {
             Some(own) => own.clone(),
             // Another module's object, or a class: the board says what it is.
             None if !self.own_objects.contains_key(&object) => {
@@ -143,10 +148,7 @@ impl State {
             }
             None => {
                 let own = self.resolve_own(&object, &attr)?;
-                if self.own_attrs.len() >= MAX_OWN_ATTRS {
-                    self.own_attrs.clear();
-                }
-                self.own_attrs.insert(key, own.clone());
+                self.own_attrs.insert(&object, &attr, own.clone());
                 own
             }
         };
@@ -293,7 +295,12 @@ impl State {
             fingerprint,
             context: info.context,
         };
-        Some(Item::Created(listed, self.board.clock().now(), lineage))
+        let stamp = self.board.clock().now();
+        Some(Item::Created {
+            listed,
+            stamp,
+            lineage,
+        })
     }
 
     fn deleted(&mut self, object: Arc<str>) -> Option<Item> {
@@ -310,7 +317,12 @@ impl State {
         let lineage = self
             .lineage(&class)
             .unwrap_or_else(|| Arc::from(vec![class]));
-        Some(Item::Deleted(object, stamp, lineage, context))
+        Some(Item::Deleted {
+            name: object,
+            stamp,
+            lineage,
+            context,
+        })
     }
 
     // ----- destinations -----
@@ -388,16 +400,16 @@ impl State {
                     self.emit_lifecycle(link, &mut life);
                     values.push(Reported(subject, packet));
                 }
-                Item::Created(l, ts, _) => {
+                Item::Created { listed, stamp, .. } => {
                     self.emit_values(link, &mut values);
                     if !life.deleted.is_empty() {
                         self.emit_lifecycle(link, &mut life);
                     }
-                    life.created.push((l.clone(), *ts));
+                    life.created.push((listed.clone(), *stamp));
                 }
-                Item::Deleted(name, ts, ..) => {
+                Item::Deleted { name, stamp, .. } => {
                     self.emit_values(link, &mut values);
-                    life.deleted.push((name.clone(), *ts));
+                    life.deleted.push((name.clone(), *stamp));
                 }
             }
         }

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use rustc_hash::FxHashMap;
 
-use slate_model::{Address, Board, Context, MergePolicy, NameId, Packet, Timestamp, Watch};
+use slate_model::{Address, Board, Context, MergePolicy, NameMemo, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder, ObjectEntry};
 
 use super::classes::{Catalog, ClassSet, Lineage};
@@ -26,17 +26,12 @@ use crate::{LinkKind, MsgKind, Transport};
 /// attribute's merge policy and key) instead of on every one: until the catalog is
 /// rebuilt, the interest changes or an object is deleted.
 pub(crate) struct Known {
-    /// The object's entry as received and the attribute's name (holding the `Arc`s
-    /// whose identities key the memo): another entry under the same name is looked at
-    /// anew.
+    /// The object's entry as received (another entry under the same name is looked at
+    /// anew).
     pub entry: ObjectEntry,
-    pub attr: Arc<str>,
     pub merge: MergePolicy,
     pub key: slate_model::Key,
 }
-
-/// Received attributes remembered at most (beyond, the memo starts afresh).
-pub(crate) const MAX_KNOWN: usize = 1 << 16;
 
 /// One of this module's outgoing streams (one per link kind): its position and the
 /// encoder whose dictionary its receivers share.
@@ -148,10 +143,10 @@ pub(crate) struct State {
     /// Objects this board owns: name → (class, context).
     pub own_objects: FxHashMap<Arc<str>, (Arc<str>, Context)>,
     /// Own objects' attributes written so far, resolved: (object, attribute) → policies.
-    pub own_attrs: FxHashMap<(NameId, NameId), super::send::OwnAttr>,
+    pub own_attrs: NameMemo<super::send::OwnAttr>,
     /// Attributes of objects received before, resolved: (object, attribute) → what
     /// merging a packet needs.
-    pub known: FxHashMap<(NameId, NameId), Known>,
+    pub known: NameMemo<Known>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
     pub conflicts: BTreeSet<Arc<str>>,
@@ -203,8 +198,8 @@ impl State {
             fusion: Fusion::default(),
             best: BTreeMap::new(),
             own_objects: FxHashMap::default(),
-            own_attrs: FxHashMap::default(),
-            known: FxHashMap::default(),
+            own_attrs: NameMemo::default(),
+            known: NameMemo::default(),
             tombstones: Tombstones::default(),
             origins: BTreeMap::new(),
             conflicts: BTreeSet::new(),
