@@ -579,7 +579,9 @@ impl Board {
     /// - `latest` (and `fused`, whose per-source fusion the ICI does before writing): the
     ///   packet wins if its `(timestamp, source)` is greater than the object's own packet's;
     /// - `confident`: the higher confidence wins, ties by `latest`;
-    /// - `owned`: only packets from the object's owner are applied (then by `latest`).
+    /// - `owned`: only packets from the object's owner are applied (then by `latest`);
+    /// - any policy: a packet stamped beyond the clock's tolerance is refused
+    ///   ([`Merged::FromTheFuture`], reported as [`BoardEvent::FutureStamp`]).
     ///
     /// The same packets merged in any order, any number of times, leave every board with the
     /// same packet: this is what makes copies converge.
