@@ -18,6 +18,8 @@ mod filters;
 mod interest;
 #[path = "ici/merge.rs"]
 mod merge;
+#[path = "ici/own_writes.rs"]
+mod own_writes;
 #[path = "ici/plans.rs"]
 mod plans;
 #[path = "ici/random.rs"]

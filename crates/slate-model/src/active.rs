@@ -188,7 +188,7 @@ impl Call<'_> {
         match self.access {
             Access::Live(board) => Some(CallToken {
                 chain: self.chain.clone(),
-                board: std::ptr::from_ref(board) as usize,
+                board: board.id(),
             }),
             Access::Frozen(_) => None,
         }
@@ -202,6 +202,6 @@ impl Call<'_> {
 #[derive(Clone, Debug)]
 pub struct CallToken {
     pub(crate) chain: Chain,
-    /// The board's address in memory, to tell a token of another board.
-    pub(crate) board: usize,
+    /// The [`Board::id`](crate::Board) of the board that took it.
+    pub(crate) board: u64,
 }

@@ -257,16 +257,22 @@ impl Clock {
     /// values order after it. Refuses timestamps too far in the future (a broken or
     /// unsynchronised clock elsewhere must not drag this one forward).
     pub fn observe(&self, remote: Timestamp) -> Result<(), ClockDriftError> {
-        let local = self.physical();
-        let ahead = remote.physical().saturating_sub(local);
+        self.check(remote)?;
+        self.inner.last.fetch_max(remote.0, Ordering::AcqRel);
+        Ok(())
+    }
+
+    /// Is `stamp` within this clock's tolerance (not further ahead of its physical time
+    /// than [`DEFAULT_MAX_DRIFT`])? Changes nothing: [`Clock::observe`] merges.
+    pub fn check(&self, stamp: Timestamp) -> Result<(), ClockDriftError> {
+        let ahead = stamp.physical().saturating_sub(self.physical());
         if ahead > self.inner.max_drift {
             return Err(ClockDriftError {
-                remote,
+                remote: stamp,
                 ahead,
                 max: self.inner.max_drift,
             });
         }
-        self.inner.last.fetch_max(remote.0, Ordering::AcqRel);
         Ok(())
     }
 

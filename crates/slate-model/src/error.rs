@@ -1,6 +1,8 @@
 //! One error enum per board operation.
 
-use crate::ValueError;
+use std::time::Duration;
+
+use crate::{Address, Timestamp, ValueError};
 
 /// Error of [`Board::define`](crate::Board::define).
 #[non_exhaustive]
@@ -174,6 +176,55 @@ pub enum WriteError {
     /// which may not write.
     #[error("writes are not allowed inside a snapshot")]
     ReadOnly,
+    /// An own write stamped older than the packet the object holds: every receiver
+    /// would keep the held packet, so storing it here would make the copies differ.
+    #[error(
+        "{object}.{attr}: the write is older than the stored packet (stamp {stamp}, stored {held} from {held_source}); write without a timestamp or with a newer one"
+    )]
+    Superseded {
+        /// Object name.
+        object: String,
+        /// Attribute name.
+        attr: String,
+        /// The write's timestamp.
+        stamp: Timestamp,
+        /// The held packet's timestamp.
+        held: Timestamp,
+        /// The held packet's source.
+        held_source: Address,
+    },
+    /// An `owned` attribute written by a module that does not own the object: every
+    /// other board refuses such a packet, so this one does too.
+    #[error(
+        "{object}.{attr} is owned by {owner}; {writer} may not write it (write it from {owner}, or declare the attribute with another merge policy)"
+    )]
+    NotOwner {
+        /// Object name.
+        object: String,
+        /// Attribute name.
+        attr: String,
+        /// The object's owner.
+        owner: Address,
+        /// The write's source.
+        writer: Address,
+    },
+    /// An own write stamped further ahead of this board's clock than it tolerates: every
+    /// receiver would refuse it.
+    #[error(
+        "{object}.{attr}: timestamp {stamp} is {ahead:?} ahead of this board's clock, more than the allowed {max:?}; write without a timestamp or fix the clock"
+    )]
+    FromTheFuture {
+        /// Object name.
+        object: String,
+        /// Attribute name.
+        attr: String,
+        /// The write's timestamp.
+        stamp: Timestamp,
+        /// How far ahead of the board's physical time it is.
+        ahead: Duration,
+        /// The clock's tolerance.
+        max: Duration,
+    },
 }
 
 /// Error of [`Batch::commit`](crate::Batch::commit): nothing of the batch was applied.
@@ -249,4 +300,9 @@ pub enum ChainError {
         /// `object.attr` steps of the cycle, first and last equal.
         path: Vec<String>,
     },
+    /// The call token was taken on another board: its chain means nothing here.
+    #[error(
+        "the call token belongs to another board; read and write this board with its own methods"
+    )]
+    ForeignToken,
 }

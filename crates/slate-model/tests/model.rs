@@ -7,6 +7,7 @@ mod model {
     pub mod concurrency;
     pub mod hooks;
     pub mod merge;
+    pub mod own_writes;
     pub mod reference;
     pub mod values;
     pub mod watch;

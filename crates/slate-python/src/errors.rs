@@ -11,7 +11,8 @@
 //! │   └── UnknownClassError                  no class of that name
 //! ├── UnknownAttributeError (LookupError)    the class declares no such attribute
 //! ├── ReadError                              a read failed otherwise
-//! ├── WriteError                             a write was refused
+//! ├── WriteError                             a write was refused (also: not the owner,
+//! │                                            older than the stored packet, stamp ahead)
 //! │   ├── ValueTypeError (TypeError)         the value's type is not the declared one
 //! │   └── InvalidPacketError (ValueError)    not finite, or a bad accuracy/confidence/bound
 //! │       ├── AccuracyError                  accuracy negative or not finite
@@ -290,6 +291,11 @@ fn write_kind(e: &WriteError) -> Kind {
         WriteError::UnknownAttribute { .. } => Kind::UnknownAttribute,
         WriteError::Invalid { source, .. } => invalid_kind(source),
         WriteError::Chain(_) => Kind::Chain,
+        // Refused because every other board would refuse the packet: a non-owner's write
+        // to an `owned` attribute, a stamp older than the stored packet or too far ahead.
+        WriteError::NotOwner { .. }
+        | WriteError::Superseded { .. }
+        | WriteError::FromTheFuture { .. } => Kind::Write,
         _ => Kind::Write,
     }
 }

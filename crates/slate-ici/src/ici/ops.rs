@@ -46,6 +46,8 @@ pub(crate) struct Tally {
     kept: u64,
     not_owner: u64,
     invalid: u64,
+    /// Packets stamped beyond the board clock's tolerance (the board reported each).
+    future: u64,
     /// A packet merged by a remembered key found its object gone (deleted here since,
     /// and the ICI has not heard yet): the receiver's memo is out of date.
     stale_key: bool,
@@ -57,6 +59,7 @@ impl Tally {
             Ok(Merged::Applied(_)) => self.applied += 1,
             Ok(Merged::Kept) => self.kept += 1,
             Ok(Merged::NotOwner) => self.not_owner += 1,
+            Ok(Merged::FromTheFuture { .. }) => self.future += 1,
             Err(e) => {
                 self.invalid += 1;
                 tracing::debug!(error = %e, "packet refused");
@@ -66,7 +69,7 @@ impl Tally {
 
     /// Adds the counts to the state's stats (one lock for a whole queue of merges).
     pub fn flush(self, state: &Mutex<State>) {
-        if self.applied + self.kept + self.not_owner + self.invalid == 0 {
+        if self.applied + self.kept + self.not_owner + self.invalid + self.future == 0 {
             return;
         }
         let mut st = state.lock();
@@ -78,6 +81,7 @@ impl Tally {
         m.kept += self.kept;
         m.not_owner += self.not_owner;
         st.stats.rejects.invalid += self.invalid;
+        st.stats.rejects.future += self.future;
     }
 }
 

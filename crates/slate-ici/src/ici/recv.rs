@@ -477,6 +477,11 @@ impl State {
             });
             return;
         }
+        // Merges check stamps on the board; a fused estimate is kept here instead.
+        if self.board.admit_stamp(object, &attr, &packet).is_err() {
+            self.stats.rejects.future += 1;
+            return;
+        }
         let key = (object.clone(), attr);
         if self.fusion.update(key.clone(), packet) {
             self.stats.merges.fused += 1;

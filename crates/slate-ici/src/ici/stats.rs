@@ -105,6 +105,9 @@ pub struct RejectStats {
     pub frames: u64,
     /// Packets the board refused (type, bounds, unknown attribute).
     pub invalid: u64,
+    /// Packets stamped further ahead of this board's clock than it tolerates (a wrong
+    /// clock at their source): refused, each also a `BoardEvent::FutureStamp`.
+    pub future: u64,
     /// Packets about objects this board does not model.
     pub uninterested: u64,
     /// Packets about deleted objects (older than the deletion, or not from the owner).

@@ -20,7 +20,7 @@ pub use batch::Batch;
 pub(crate) use chain::Chain;
 pub use hook::{ChangeHook, TouchKind, Touched};
 pub use snapshot::Snapshot;
-use state::{Decl, State};
+use state::{Decl, Origin, State};
 use txn::{Committed, Inner, Txn};
 pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Watch};
 
@@ -54,6 +54,8 @@ pub const DEFAULT_MAX_DEPTH: usize = 8;
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 pub struct Board {
+    /// Unique in the process: see [`Board::id`].
+    id: u64,
     inner: RwLock<Inner>,
     clock: Clock,
     address: Address,
@@ -61,6 +63,7 @@ pub struct Board {
     subscribers: Mutex<Vec<Sender<BoardEvent>>>,
     function_failures: AtomicU64,
     chain_cuts: AtomicU64,
+    future_stamps: AtomicU64,
     fn_seq: AtomicU64,
 }
 
@@ -96,7 +99,9 @@ impl BoardBuilder {
     pub fn build(self) -> Board {
         let default_address =
             || Address::new("local/robot/module").unwrap_or_else(|_| Address::unknown());
+        static NEXT_ID: AtomicU64 = AtomicU64::new(1);
         Board {
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             inner: RwLock::new(Inner {
                 state: State::new(),
                 watchers: Vec::new(),
@@ -108,6 +113,7 @@ impl BoardBuilder {
             subscribers: Mutex::new(Vec::new()),
             function_failures: AtomicU64::new(0),
             chain_cuts: AtomicU64::new(0),
+            future_stamps: AtomicU64::new(0),
             fn_seq: AtomicU64::new(0),
         }
     }
@@ -234,6 +240,12 @@ pub enum Merged {
     Kept,
     /// The attribute is `owned` and the packet's source is not the object's owner.
     NotOwner,
+    /// The packet is stamped further ahead of this board's clock than it tolerates (a
+    /// wrong clock elsewhere): refused, or it would win every merge until then.
+    FromTheFuture {
+        /// How far ahead of this board's physical time it was.
+        ahead: std::time::Duration,
+    },
 }
 
 /// Rewrites every packet a board writes itself (its source is the board's address)
@@ -259,6 +271,8 @@ pub struct BoardStats {
     pub function_failures: u64,
     /// Chains of active functions cut for depth or a cycle.
     pub chain_cuts: u64,
+    /// Received packets refused for a stamp beyond the clock's tolerance.
+    pub future_stamps: u64,
 }
 
 impl Default for Board {
@@ -479,7 +493,7 @@ impl Board {
         object: &str,
         attr: &str,
     ) -> Result<Packet, ReadError> {
-        self.read_in(Target::Names(object, attr), &self.chain_of(token))
+        self.read_in(Target::Names(object, attr), self.chain_of(token)?)
     }
 
     /// Writes as an active function of this board would through its `Call`: inside the
@@ -494,18 +508,26 @@ impl Board {
         self.write_in(
             Target::Names(object, attr),
             update.into(),
-            &self.chain_of(token),
+            self.chain_of(token)?,
         )
     }
 
-    /// The token's chain, if it is this board's (borrowed: a binding reads and writes
-    /// through tokens often).
-    fn chain_of<'t>(&self, token: &'t crate::CallToken) -> std::borrow::Cow<'t, Chain> {
-        if token.board == std::ptr::from_ref(self) as usize {
-            std::borrow::Cow::Borrowed(&token.chain)
+    /// The token's chain (borrowed: a binding reads and writes through tokens often).
+    /// A token of another board is refused: its chain says nothing of this board's
+    /// accesses, and an empty chain in its place would let a cycle through two boards
+    /// run without limit.
+    fn chain_of<'t>(&self, token: &'t crate::CallToken) -> Result<&'t Chain, ChainError> {
+        if token.board == self.id {
+            Ok(&token.chain)
         } else {
-            std::borrow::Cow::Owned(Chain::default())
+            Err(ChainError::ForeignToken)
         }
+    }
+
+    /// This board's identity, unique in the process (a token names the board it was
+    /// taken on; an address in memory could be reused by a later board).
+    pub(crate) fn id(&self) -> u64 {
+        self.id
     }
 
     /// Writes through a resolved key.
@@ -537,7 +559,8 @@ impl Board {
             if !inner.is_observed() && !inner.state.may_have_fns(key) {
                 // The common case: nobody to notify, nothing to run.
                 let st = &mut inner.state;
-                let packet = st.prepare(key, update, &self.clock, &self.address, None)?;
+                let packet =
+                    st.prepare(key, update, &self.clock, &self.address, None, Origin::Own)?;
                 st.revision += 1;
                 let revision = st.revision;
                 st.store(key, packet, revision);
@@ -556,7 +579,9 @@ impl Board {
     /// - `latest` (and `fused`, whose per-source fusion the ICI does before writing): the
     ///   packet wins if its `(timestamp, source)` is greater than the object's own packet's;
     /// - `confident`: the higher confidence wins, ties by `latest`;
-    /// - `owned`: only packets from the object's owner are applied (then by `latest`).
+    /// - `owned`: only packets from the object's owner are applied (then by `latest`);
+    /// - any policy: a packet stamped beyond the clock's tolerance is refused
+    ///   ([`Merged::FromTheFuture`], reported as [`BoardEvent::FutureStamp`]).
     ///
     /// The same packets merged in any order, any number of times, leave every board with the
     /// same packet: this is what makes copies converge.
@@ -594,6 +619,7 @@ impl Board {
     {
         let packets = packets.into_iter();
         let mut out = Vec::with_capacity(packets.size_hint().0);
+        let mut refused = Vec::new();
         let done = {
             let mut inner = self.inner.write();
             let mut txn = Txn::new(&mut inner, &self.clock, &self.address, 1);
@@ -606,9 +632,13 @@ impl Board {
                         Some(key) => key,
                         None => txn.state().key(object.as_ref(), attr.as_ref())?,
                     };
+                    if let Err(drift) = self.clock.check(packet.timestamp) {
+                        refused.push(future_stamp(object.as_ref(), attr.as_ref(), &packet, drift));
+                        return Ok(Merged::FromTheFuture { ahead: drift.ahead });
+                    }
                     let verdict = txn.state().merge_verdict(key, &packet)?;
                     if verdict == Merged::Applied(0) {
-                        txn.write(key, Update::from(packet))?;
+                        txn.merge(key, packet)?;
                     }
                     Ok(verdict)
                 };
@@ -619,6 +649,9 @@ impl Board {
             // Nothing stored: the transaction is dropped without a revision.
             any.then(|| txn.commit())
         };
+        for event in refused {
+            self.report(event);
+        }
         if let Some(done) = done {
             let revision = self.finish(done, &Chain::default());
             for r in &mut out {
@@ -628,6 +661,22 @@ impl Board {
             }
         }
         out
+    }
+
+    /// Is a received packet's stamp within this board's clock tolerance? One beyond it
+    /// would win every `latest` merge until the clock caught up (years, for a wrong
+    /// clock), so it is refused: reported as a [`BoardEvent::FutureStamp`] and counted.
+    /// [`merge`](Board::merge) checks every packet; a receiver that keeps packets
+    /// elsewhere (the ICI's `fused` estimates) checks them here first.
+    pub fn admit_stamp(
+        &self,
+        object: &str,
+        attr: &str,
+        packet: &Packet,
+    ) -> Result<(), crate::ClockDriftError> {
+        self.clock.check(packet.timestamp).inspect_err(|drift| {
+            self.report(future_stamp(object, attr, packet, *drift));
+        })
     }
 
     /// Installs the [`Normaliser`] of this board's own writes (`None` removes it). Only
@@ -677,6 +726,7 @@ impl Board {
             classes,
             function_failures: self.function_failures.load(Ordering::Relaxed),
             chain_cuts: self.chain_cuts.load(Ordering::Relaxed),
+            future_stamps: self.future_stamps.load(Ordering::Relaxed),
         }
     }
 
@@ -810,6 +860,16 @@ impl Board {
             BoardEvent::ChainCut(cut) => {
                 self.chain_cuts.fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(%cut, "active function chain cut");
+            }
+            BoardEvent::FutureStamp {
+                object,
+                attr,
+                source,
+                stamp,
+                ahead,
+            } => {
+                self.future_stamps.fetch_add(1, Ordering::Relaxed);
+                tracing::warn!(%object, %attr, %source, %stamp, ?ahead, "packet stamped in the future refused");
             }
         }
         self.subscribers
@@ -1015,6 +1075,22 @@ fn resolve_filter(st: &State, f: &Filter) -> Result<watch::Spec, LookupError> {
         attr,
         own_writes: f.own_writes,
     })
+}
+
+/// The event of a received packet refused for its stamp.
+fn future_stamp(
+    object: &str,
+    attr: &str,
+    packet: &Packet,
+    drift: crate::ClockDriftError,
+) -> BoardEvent {
+    BoardEvent::FutureStamp {
+        object: object.to_owned(),
+        attr: attr.to_owned(),
+        source: packet.source.clone(),
+        stamp: packet.timestamp,
+        ahead: drift.ahead,
+    }
 }
 
 fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {

@@ -103,6 +103,15 @@ struct Slot {
     entity: Option<Entity>,
 }
 
+/// Where a write's packet comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Origin {
+    /// A write made on this board (`write`, a batch, an active function).
+    Own,
+    /// A received packet that won its merge.
+    Merged,
+}
+
 /// A name that did not resolve.
 #[derive(Debug)]
 pub(crate) enum Missing {
@@ -381,8 +390,10 @@ impl State {
     // ----- writes -----
 
     /// Validates an update for `key` and fills in the fields the writer left out; an
-    /// unstamped write gets `stamp`, or a fresh timestamp. A given timestamp is kept and merged into the clock (one too far ahead is still stored; it
-    /// just does not drag the clock forward).
+    /// unstamped write gets `stamp`, or a fresh timestamp. A given timestamp is kept and
+    /// merged into the clock. An [`Origin::Own`] write must also be one every receiver
+    /// would store (see [`State::admit_own`]); a [`Origin::Merged`] one was judged by
+    /// [`State::merge_verdict`] already.
     pub fn prepare(
         &self,
         key: Key,
@@ -390,6 +401,7 @@ impl State {
         clock: &Clock,
         me: &Address,
         stamp: Option<Timestamp>,
+        origin: Origin,
     ) -> Result<Packet, WriteError> {
         let (_, _, decl) = self.decl(key)?;
         let d = &decl.decl;
@@ -406,25 +418,88 @@ impl State {
         let accuracy = update.accuracy.unwrap_or(acc);
         let confidence = update.confidence.unwrap_or(conf);
         check_quality(accuracy, confidence).map_err(invalid)?;
+        let stamped = update.timestamp.is_some();
         let mut packet = Packet {
             value: update.value,
             accuracy,
             confidence,
-            timestamp: match update.timestamp {
-                Some(ts) => {
-                    let _ = clock.observe(ts);
-                    ts
-                }
-                None => stamp.unwrap_or_else(|| clock.now()),
-            },
+            timestamp: update
+                .timestamp
+                .unwrap_or_else(|| stamp.unwrap_or_else(|| clock.now())),
             source: update.source.unwrap_or_else(|| me.clone()),
         };
+        if origin == Origin::Own {
+            self.admit_own(key, &packet, stamped, clock)?;
+        }
+        if stamped {
+            // A merged packet too far ahead was refused by its merge; one taken before
+            // this clock fell behind must not drag it forward.
+            let _ = clock.observe(packet.timestamp);
+        }
         if let Some(n) = self.normaliser.as_ref().filter(|_| packet.source == *me) {
             n.normalise(d, &mut packet);
             check_value(&packet.value, d.ty, d.bounds).map_err(invalid)?;
             check_quality(packet.accuracy, packet.confidence).map_err(invalid)?;
         }
         Ok(packet)
+    }
+
+    /// Would every receiver store this own write as the writer does? An `owned`
+    /// attribute of an instance takes packets from its owner only (the rule
+    /// [`State::merge_verdict`] applies to received ones). An explicit stamp must be
+    /// within the clock's tolerance (receivers refuse the rest), and, except under
+    /// `fused` (whose board value is a fusion the ICI rewrites), not older by
+    /// `(timestamp, source)` than the packet the object holds (receivers keep that one).
+    fn admit_own(
+        &self,
+        key: Key,
+        packet: &Packet,
+        stamped: bool,
+        clock: &Clock,
+    ) -> Result<(), WriteError> {
+        use crate::MergePolicy;
+        let (e, _, decl) = self.decl(key)?;
+        let names = || (self.name_or_stale(key.object), decl.decl.name.clone());
+        if decl.decl.merge == MergePolicy::Owned
+            && let Some(i) = e.instance().filter(|i| i.owner != packet.source)
+        {
+            let (object, attr) = names();
+            return Err(WriteError::NotOwner {
+                object,
+                attr,
+                owner: i.owner.clone(),
+                writer: packet.source.clone(),
+            });
+        }
+        if !stamped {
+            return Ok(());
+        }
+        if let Err(drift) = clock.check(packet.timestamp) {
+            let (object, attr) = names();
+            return Err(WriteError::FromTheFuture {
+                object,
+                attr,
+                stamp: packet.timestamp,
+                ahead: drift.ahead,
+                max: drift.max,
+            });
+        }
+        match e.own(key.attr).map(|s| &s.packet) {
+            Some(held)
+                if decl.decl.merge != MergePolicy::Fused
+                    && (packet.timestamp, &packet.source) < (held.timestamp, &held.source) =>
+            {
+                let (object, attr) = names();
+                Err(WriteError::Superseded {
+                    object,
+                    attr,
+                    stamp: packet.timestamp,
+                    held: held.timestamp,
+                    held_source: held.source.clone(),
+                })
+            }
+            _ => Ok(()),
+        }
     }
 
     /// Would a received packet win against the object's own packet under the attribute's

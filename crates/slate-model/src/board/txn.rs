@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use super::hook::{ChangeHook, TouchKind, Touched};
-use super::state::{Entity, State, Stored};
+use super::state::{Entity, Origin, State, Stored};
 use super::watch::{Change, ChangeItem, Watcher};
 use smallvec::SmallVec;
 
@@ -88,11 +88,21 @@ impl<'s> Txn<'s> {
         &self.inner.state
     }
 
+    /// An own write (see [`Origin::Own`]).
     pub fn write(&mut self, key: Key, update: Update) -> Result<(), WriteError> {
+        self.store(key, update, Origin::Own)
+    }
+
+    /// Stores a received packet that won its merge.
+    pub fn merge(&mut self, key: Key, packet: Packet) -> Result<(), WriteError> {
+        self.store(key, Update::from(packet), Origin::Merged)
+    }
+
+    fn store(&mut self, key: Key, update: Update, origin: Origin) -> Result<(), WriteError> {
         let packet =
             self.inner
                 .state
-                .prepare(key, update, self.clock, self.me, Some(self.stamp))?;
+                .prepare(key, update, self.clock, self.me, Some(self.stamp), origin)?;
         let st = &self.inner.state;
         let fns = if st.may_have_fns(key) {
             st.fns(key, Trigger::Write)

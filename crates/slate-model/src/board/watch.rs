@@ -130,6 +130,20 @@ pub enum BoardEvent {
     /// A chain of active functions was cut (too deep, or a cycle); the access that would
     /// have continued it was refused.
     ChainCut(ChainError),
+    /// A received packet was refused: it is stamped further ahead of this board's clock
+    /// than the clock tolerates (its source's clock is wrong, or this one's is).
+    FutureStamp {
+        /// Object the packet was for.
+        object: String,
+        /// Attribute the packet was for.
+        attr: String,
+        /// The packet's source.
+        source: crate::Address,
+        /// The packet's timestamp.
+        stamp: crate::Timestamp,
+        /// How far ahead of this board's physical time it was.
+        ahead: std::time::Duration,
+    },
 }
 
 /// The last revision a reader has taken from a [`Watch`]; writers wait on it.

@@ -1,0 +1,102 @@
+//! Own writes every receiver would judge differently are refused at the writer, and
+//! packets stamped in the future are refused at receivers: copies stay one.
+
+use std::sync::Arc;
+use std::time::Duration;
+
+use slate_ici::{Ici, SimConfig};
+use slate_model::{Board, BoardEvent, Clock, Timestamp, Update, WriteError};
+
+use crate::common::{Team, addr, classes, open};
+
+fn pair(seed: u64) -> Team {
+    let mut team = Team::with(seed, SimConfig::default());
+    for a in ["t/r1/nav", "t/r2/nav"] {
+        team.add(a, open());
+    }
+    team.run(0.5);
+    team
+}
+
+#[test]
+fn an_old_stamped_latest_write_leaves_writer_and_receiver_with_the_same_packet() {
+    let team = pair(31);
+    let a = team.board("t/r1/nav");
+    a.create("Tracked", "o").unwrap();
+    a.write("o", "x", 1.0).unwrap();
+    team.run(0.5);
+    let old = Timestamp::from_duration(a.clock().physical() - Duration::from_secs(100));
+    let err = a
+        .write("o", "x", Update::new(2.0).timestamp(old))
+        .unwrap_err();
+    assert!(matches!(err, WriteError::Superseded { .. }), "{err}");
+    team.run(8.0);
+    let held = |at: &str| team.board(at).read("o", "x").unwrap();
+    assert_eq!(held("t/r1/nav"), held("t/r2/nav"));
+    assert_eq!(held("t/r1/nav").value.as_f64(), Some(1.0));
+    // A late joiner gets the same packet.
+    let mut team = team;
+    team.add("t/r3/nav", open());
+    team.assert_converges(10);
+}
+
+#[test]
+fn a_non_owner_write_is_refused_at_the_writer_and_copies_stay_the_owners() {
+    let team = pair(32);
+    let owner = team.board("t/r1/nav");
+    owner.create("Vehicle", "gsr").unwrap();
+    owner.write("gsr", "heading", 1.0).unwrap();
+    team.run(0.5);
+    let err = team
+        .board("t/r2/nav")
+        .write("gsr", "heading", 2.0)
+        .unwrap_err();
+    assert!(matches!(err, WriteError::NotOwner { .. }), "{err}");
+    team.run(0.5);
+    for at in ["t/r1/nav", "t/r2/nav"] {
+        let p = team.board(at).read("gsr", "heading").unwrap();
+        assert_eq!(p.value.as_f64(), Some(1.0), "{at}");
+    }
+    team.assert_converges(5);
+}
+
+#[test]
+fn a_packet_from_a_module_whose_clock_is_years_ahead_is_refused_counted_and_reported() {
+    let mut team = pair(33);
+    // A module whose clock is three years ahead of everyone's.
+    let clock = Clock::manual();
+    let skew = Duration::from_secs(3 * 365 * 86_400);
+    clock.set(team.net.clock().physical() + skew).unwrap();
+    let wrong = Arc::new(
+        Board::builder()
+            .clock(clock)
+            .address(addr("t/r9/nav"))
+            .build(),
+    );
+    for def in classes() {
+        wrong.define(def).unwrap();
+    }
+    let transport = team.net.join(&addr("t/r9/nav"));
+    let _ici = Ici::new(wrong.clone(), transport, open()).unwrap();
+    team.run(1.0);
+    let b = team.board("t/r2/nav").clone();
+    let events = b.events();
+    let a = team.board("t/r1/nav");
+    a.create("Tracked", "o").unwrap();
+    a.write("o", "x", 1.0).unwrap();
+    team.run(1.0);
+    wrong.write("o", "x", 9.0).unwrap();
+    team.run(1.0);
+    a.write("o", "x", 2.0).unwrap();
+    team.run(1.0);
+    assert_eq!(b.read("o", "x").unwrap().value.as_f64(), Some(2.0));
+    assert!(team.node("t/r2/nav").ici.stats().rejects.future >= 1);
+    let got: Vec<BoardEvent> = events.try_iter().collect();
+    assert!(
+        got.iter().any(
+            |e| matches!(e, BoardEvent::FutureStamp { source, .. } if source.as_str() == "t/r9/nav")
+        ),
+        "{got:?}"
+    );
+    team.nodes.retain(|n| n.address.as_str() != "t/r9/nav");
+}
