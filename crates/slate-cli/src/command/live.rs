@@ -78,13 +78,11 @@ pub fn team_of(board: &Board) -> String {
     format!("team {}", board.address().team())
 }
 
-/// Seconds since the packet was written (0 for a declared default).
-pub fn age(board: &Board, p: &Packet) -> f64 {
-    if p.timestamp.raw() == 0 {
-        0.0
-    } else {
-        board.clock().age(p.timestamp).as_secs_f64()
-    }
+/// Seconds since the packet was written; `None` for a declared default, which was never
+/// written (an age of 0 would read as fresh).
+fn age(board: &Board, p: &Packet) -> Option<f64> {
+    p.was_written()
+        .then(|| board.clock().age(p.timestamp).as_secs_f64())
 }
 
 /// A value as JSON: numbers, booleans, strings, arrays; a reference as `{"ref": name}`;
@@ -101,16 +99,20 @@ pub fn value_json(v: &Value) -> Json {
     }
 }
 
-/// A packet as JSON, with its attribute's name and unit.
+/// A packet as JSON, with its attribute's name and unit. A declared default says
+/// `"default": true` and has no age, timestamp or source (all null).
 pub fn packet_json(board: &Board, attr: &str, unit: Option<&str>, p: &Packet) -> Json {
+    let written = p.was_written();
     json!({
         "attr": attr, "value": value_json(&p.value), "unit": unit, "accuracy": p.accuracy,
-        "confidence": p.confidence, "age": age(board, p),
-        "timestamp": p.timestamp.as_secs_f64(), "source": p.source.to_string(),
+        "confidence": p.confidence, "default": !written, "age": age(board, p),
+        "timestamp": written.then(|| p.timestamp.as_secs_f64()),
+        "source": written.then(|| p.source.to_string()),
     })
 }
 
-/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`.
+/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`, or for a declared
+/// default `0.0 m/s  confidence 1.00  default, never written`.
 pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     let unit = unit.map_or(String::new(), |u| format!(" {u}"));
     let accuracy = if p.accuracy > 0.0 {
@@ -118,12 +120,14 @@ pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     } else {
         String::new()
     };
+    let written = match age(board, p) {
+        Some(seconds) => format!("age {}  from {}", age_text(seconds), p.source),
+        None => "default, never written".to_owned(),
+    };
     format!(
-        "{}{accuracy}{unit}  confidence {:.2}  age {}  from {}",
+        "{}{accuracy}{unit}  confidence {:.2}  {written}",
         value_text(&p.value),
         p.confidence,
-        age_text(age(board, p)),
-        p.source
     )
 }
 
@@ -170,4 +174,48 @@ pub fn print_line(j: &Json) -> anyhow::Result<()> {
     writeln!(out, "{}", serde_json::to_string(j)?)?;
     out.flush()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use slate_model::{Board, Clock};
+
+    use super::*;
+
+    /// A board holding `o : V` with `speed` written once and `mode` left at its default.
+    fn board() -> Arc<Board> {
+        let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+        let text = "class V { speed: real = 0.0; mode: string = \"auto\"; }\nobject o : V;";
+        slate_plans::Engine::new(&board)
+            .load("v.slate", text)
+            .unwrap();
+        board.write("o", "speed", 2.5).unwrap();
+        board
+    }
+
+    #[test]
+    fn a_never_written_default_shows_as_a_default_not_as_fresh() {
+        let board = board();
+        let mode = board.read("o", "mode").unwrap();
+        let text = packet_text(&board, None, &mode);
+        assert_eq!(text, "auto  confidence 1.00  default, never written");
+        let j = packet_json(&board, "mode", None, &mode);
+        assert_eq!(j["default"], true);
+        assert!(j["age"].is_null() && j["timestamp"].is_null(), "{j}");
+        assert!(j["source"].is_null(), "{j}");
+    }
+
+    #[test]
+    fn a_written_packet_shows_its_age_and_source() {
+        let board = board();
+        let speed = board.read("o", "speed").unwrap();
+        let text = packet_text(&board, None, &speed);
+        assert!(text.contains("age 0.0 s  from "), "{text}");
+        let j = packet_json(&board, "speed", None, &speed);
+        assert_eq!(j["default"], false);
+        assert!(j["age"].is_f64() && j["timestamp"].is_f64(), "{j}");
+        assert!(j["source"].is_string(), "{j}");
+    }
 }

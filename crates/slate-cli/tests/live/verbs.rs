@@ -267,3 +267,25 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
     assert!(String::from_utf8_lossy(&again.stderr).contains("already cancelled"));
     team.stop();
 }
+
+#[test]
+fn get_shows_a_never_written_default_as_a_default_not_as_fresh() {
+    let team = two_nodes("defaults");
+    let get = team.ok(&["get", "gsr"]);
+    assert!(
+        get.contains("mode = auto  confidence 1.00  default, never written\n"),
+        "{get}"
+    );
+    assert!(get.contains("position = [10.0, 20.0]") && get.contains(" age "));
+    let j = team.json(&["get", "gsr.speed"]);
+    let speed = &j["attrs"][0];
+    assert_eq!(speed["default"], true, "{j}");
+    assert!(speed["age"].is_null() && speed["source"].is_null(), "{j}");
+    let j = team.json(&["get", "gsr.position"]);
+    assert_eq!(j["attrs"][0]["default"], false, "{j}");
+    assert!(
+        j["attrs"][0]["age"].as_f64().is_some_and(|a| a >= 0.0),
+        "{j}"
+    );
+    team.stop();
+}
