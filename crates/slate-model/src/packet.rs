@@ -162,8 +162,9 @@ pub enum ValueError {
     Confidence(f64),
 }
 
-/// Checks the accuracy and confidence fields.
-pub(crate) fn check_quality(accuracy: f64, confidence: f64) -> Result<(), ValueError> {
+/// Checks the accuracy and confidence fields: accuracy finite and `>= 0`, confidence in
+/// `[0, 1]` (what every write checks; a tool can check them before it writes).
+pub fn check_quality(accuracy: f64, confidence: f64) -> Result<(), ValueError> {
     if !(accuracy.is_finite() && accuracy >= 0.0) {
         return Err(ValueError::Accuracy(accuracy));
     }

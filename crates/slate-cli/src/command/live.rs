@@ -13,8 +13,12 @@ use slate_node::{Node, ObserverOptions, inspect::Classes, observe, value_text};
 use crate::cli::LiveArgs;
 use crate::command::failed;
 
-/// Joins the team as an observer and waits for its catch-up.
+/// Joins the team as an observer and waits for its catch-up. The arguments are checked
+/// first: a malformed endpoint is named at once, not reported as unreachable.
 pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
+    for endpoint in &live.connect {
+        slate_zenoh::check_endpoint(endpoint).context("--connect")?;
+    }
     let address = live
         .address
         .as_deref()
