@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use crossbeam_channel::Receiver;
 use serde_json::{Value as Json, json};
 use slate_model::{Address, Board, Packet, Value};
-use slate_node::{Node, ObserverOptions, inspect::Classes, observe, value_text};
+use slate_node::{Node, ObserverOptions, inspect::Classes, is_observer, observe, value_text};
 
 use crate::cli::LiveArgs;
 use crate::command::failed;
@@ -66,15 +66,62 @@ pub fn split(target: &str) -> (&str, Option<&str>) {
     }
 }
 
-/// Fails (exit 1) unless `object` is an object or class on the board.
-pub fn known(board: &Board, object: &str) -> anyhow::Result<()> {
+/// Fails (exit 1) unless `object` is an object or class on the observer's board; the
+/// message says which modules it sees only through their export.
+pub fn known(node: &Node, object: &str) -> anyhow::Result<()> {
+    let board = node.board();
     if board.info(object).is_some() {
         return Ok(());
     }
+    let hint = export_note(node).map_or(String::new(), |n| format!("; {n}"));
     failed(format!(
-        "no object or class named {object:?} on the boards of {} (see `slate ls Thing`)",
+        "no object or class named {object:?} on the boards of {} (see `slate ls Thing`){hint}",
         team_of(board)
     ))
+}
+
+/// The modules whose boards this observer sees only through their export policy: those
+/// on another robot (observers own nothing and are left out), sorted.
+pub fn seen_through_export(node: &Node) -> Vec<Address> {
+    let me = node.address();
+    let mut modules: Vec<Address> = node
+        .peers()
+        .into_iter()
+        .filter(|p| !is_observer(p) && (p.team(), p.robot()) != (me.team(), me.robot()))
+        .collect();
+    modules.sort();
+    modules
+}
+
+/// What this observer cannot see and how to see it; `None` when it sees everything:
+/// `modules on other robots show this observer (on t/r1) only what they export: t/r2/loco;
+/// to see all of a robot, add --as TEAM/ROBOT/cli, like --as t/r2/cli`.
+pub fn export_note(node: &Node) -> Option<String> {
+    let modules = seen_through_export(node);
+    let first = modules.first()?;
+    let me = node.address();
+    let names: Vec<&str> = modules.iter().map(Address::as_str).collect();
+    Some(format!(
+        "modules on other robots show this observer (on {}/{}) only what they export: {}; to see all of a robot, add --as TEAM/ROBOT/cli, like --as {}/{}/cli",
+        me.team(),
+        me.robot(),
+        names.join(", "),
+        first.team(),
+        first.robot()
+    ))
+}
+
+/// The JSON list of [`seen_through_export`].
+pub fn seen_through_export_json(node: &Node) -> Json {
+    let modules = seen_through_export(node);
+    json!(modules.iter().map(Address::as_str).collect::<Vec<_>>())
+}
+
+/// Prints [`export_note`] on stderr (text output), if there is one.
+pub fn print_export_note(node: &Node) {
+    if let Some(note) = export_note(node) {
+        eprintln!("note: {note}");
+    }
 }
 
 /// `team t` of an observer's board.

@@ -41,7 +41,7 @@ fn put(
     format: Format,
 ) -> anyhow::Result<()> {
     let board = node.board();
-    known(board, object)?;
+    known(node, object)?;
     let classes = Classes::of(board);
     let info = board.info(object).context("the object went away")?;
     let class = if info.is_class {
