@@ -141,11 +141,11 @@ pub struct BenchArgs {
     pub suite: Suite,
 
     /// Samples per measurement; the median is reported.
-    #[arg(long, default_value_t = 21, value_parser = clap::value_parser!(u32).range(3..=1001))]
+    #[arg(long, default_value_t = 21, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(3..=1001))]
     pub samples: u32,
 
     /// Target duration of one sample, in milliseconds.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..=1000))]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub sample_ms: u64,
 }
 
@@ -168,6 +168,9 @@ pub enum Suite {
 }
 
 /// Where the live verbs join the team.
+///
+/// Numeric options take negative numbers as values (`--wait -1`), so that the value's
+/// own check says what is wrong instead of a usage error.
 #[derive(Debug, clap::Args)]
 pub struct LiveArgs {
     /// Zenoh endpoint of a node to connect to (repeatable).
@@ -180,7 +183,12 @@ pub struct LiveArgs {
     pub address: Option<String>,
 
     /// Seconds to wait for the team to answer and catch up (it goes on as soon as it has).
-    #[arg(long, value_name = "SECONDS", default_value_t = 5.0)]
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 5.0,
+        allow_negative_numbers = true
+    )]
     pub wait: f64,
 }
 
@@ -235,11 +243,11 @@ pub struct PutArgs {
     pub value: String,
 
     /// Accuracy, in the attribute's unit (default: the declared default).
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
     pub accuracy: Option<f64>,
 
     /// Confidence in [0, 1] (default: the declared default).
-    #[arg(long, value_name = "C")]
+    #[arg(long, value_name = "C", allow_negative_numbers = true)]
     pub confidence: Option<f64>,
 
     #[command(flatten)]
@@ -253,7 +261,7 @@ pub struct WatchArgs {
     pub pattern: String,
 
     /// Stop after this many lines.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub count: Option<u64>,
 
     #[command(flatten)]
@@ -298,7 +306,7 @@ pub struct PlanSendArgs {
     pub to: String,
 
     /// Stop waiting for acknowledgements after this many seconds.
-    #[arg(long, value_name = "SECONDS")]
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub timeout: Option<f64>,
 
     #[command(flatten)]

@@ -7,6 +7,7 @@ use std::io::IsTerminal;
 use anyhow::Context as _;
 use tracing_subscriber::filter::Targets;
 use tracing_subscriber::prelude::*;
+use tracing_subscriber::{Registry, reload};
 
 /// The default filter of `slate node`: slate's own news, and only warnings from Zenoh.
 pub const NODE: &str = "warn,slate=info,slate_node=info,slate_ici=info,slate_zenoh=info,slate_dashboard=info,zenoh::net::protocol::gossip=off";
@@ -15,8 +16,11 @@ pub const NODE: &str = "warn,slate=info,slate_node=info,slate_ici=info,slate_zen
 /// links it has not finished opening, which a short-lived observer always races).
 pub const OBSERVER: &str = "error,zenoh::net::protocol::gossip=off";
 
-/// Installs the subscriber.
-pub fn init(flag: Option<&str>, default: &str) -> anyhow::Result<()> {
+/// Zenoh's messages while a node starts: errors only (and slate's own are unchanged).
+const QUIET_ZENOH: &str = "zenoh=error";
+
+/// Installs the subscriber; the handle narrows its filter while a node starts.
+pub fn init(flag: Option<&str>, default: &str) -> anyhow::Result<Logs> {
     let env = std::env::var("RUST_LOG")
         .ok()
         .filter(|s| !s.trim().is_empty());
@@ -28,12 +32,47 @@ pub fn init(flag: Option<&str>, default: &str) -> anyhow::Result<()> {
     let targets: Targets = spec.parse().with_context(|| {
         format!("{from} {spec:?} is not a log filter (like `info` or `warn,slate_ici=debug`)")
     })?;
+    let (filter, reload) = reload::Layer::new(targets);
     let layer = tracing_subscriber::fmt::layer()
         .with_writer(std::io::stderr)
         .with_ansi(std::io::stderr().is_terminal())
         .with_target(true);
     tracing_subscriber::registry()
-        .with(layer.with_filter(targets))
+        .with(layer.with_filter(filter))
         .try_init()
-        .context("cannot install the logger")
+        .context("cannot install the logger")?;
+    Ok(Logs {
+        reload,
+        spec,
+        chosen: flag.is_some() || from == "RUST_LOG",
+    })
+}
+
+/// The installed filter, to narrow for a while.
+pub struct Logs {
+    reload: reload::Handle<Targets, Registry>,
+    spec: String,
+    /// The user chose the filter (`--log` or `RUST_LOG`): it is never narrowed.
+    chosen: bool,
+}
+
+impl Logs {
+    /// Runs `start` with Zenoh's warnings left out, unless the user chose the filter.
+    /// Zenoh warns about what then fails the start (a port in use, with its source
+    /// paths), and the start's one-line error says it already (docs/cli.md).
+    pub fn quiet_zenoh<T>(&self, start: impl FnOnce() -> T) -> T {
+        if self.chosen {
+            return start();
+        }
+        self.set(&format!("{},{QUIET_ZENOH}", self.spec));
+        let result = start();
+        self.set(&self.spec);
+        result
+    }
+
+    fn set(&self, spec: &str) {
+        if let Ok(targets) = spec.parse::<Targets>() {
+            let _ = self.reload.reload(targets);
+        }
+    }
 }

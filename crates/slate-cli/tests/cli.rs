@@ -69,8 +69,58 @@ fn bad_input_gives_a_short_error_and_a_nonzero_exit() {
         let out = slate(args);
         assert!(!out.status.success(), "{args:?} succeeded");
         let err = String::from_utf8_lossy(&out.stderr);
-        assert!(err.starts_with("error:"), "{args:?}: {err}");
+        assert!(err.starts_with("slate: error: "), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
         assert!(out.stdout.is_empty());
+    }
+}
+
+/// One line on stderr, `slate: error: ...` saying `says`, nothing on stdout, exit `code`.
+fn one_line_error(out: &Output, code: i32, says: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    let shown = format!("exit {:?}\n{err}", out.status.code());
+    assert_eq!(out.status.code(), Some(code), "{shown}");
+    assert!(out.stdout.is_empty(), "{shown}");
+    assert_eq!(err.lines().count(), 1, "{shown}");
+    assert!(err.starts_with("slate: error: "), "{shown}");
+    assert!(err.contains(says), "want {says:?}\n{shown}");
+}
+
+/// Nothing listens on port 9 of 127.0.0.1 (discard): a join there fails at once.
+const NOWHERE: &str = "tcp/127.0.0.1:9";
+
+#[test]
+fn a_negative_number_is_a_value_checked_like_any_other_not_a_usage_error() {
+    let put = |flag: &str, value: &str| {
+        slate(&["put", "gsr.speed", "1", flag, value, "--connect", NOWHERE])
+    };
+    let out = put("--accuracy", "-1");
+    one_line_error(&out, 2, "accuracy -1 must be finite and >= 0");
+    let out = put("--confidence", "-0.5");
+    one_line_error(&out, 2, "confidence -0.5 must be between 0 and 1");
+    let out = slate(&["get", "gsr", "--wait", "-1", "--connect", NOWHERE]);
+    one_line_error(&out, 2, "--wait -1: expected a positive number of seconds");
+    let out = slate(&["watch", "*", "--count", "-1", "--connect", NOWHERE]);
+    one_line_error(&out, 2, "'-1' for '--count <N>'");
+}
+
+#[test]
+fn a_malformed_endpoint_is_named_at_once_not_reported_unreachable() {
+    for (endpoint, says) in [
+        ("not-an-endpoint", "is not PROTOCOL/ADDRESS"),
+        ("udp/127.0.0.1:7447", "protocol \"udp\""),
+        ("tcp/127.0.0.1", "no port"),
+        ("tcp/127.0.0.1:99999", "port \"99999\""),
+    ] {
+        let out = slate(&["get", "gsr", "--connect", endpoint]);
+        one_line_error(&out, 2, says);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!("--connect: endpoint {endpoint:?}"))
+                && err.contains("like tcp/127.0.0.1:7447")
+                && !err.contains("reachable"),
+            "{err}"
+        );
     }
 }
 

@@ -56,5 +56,5 @@ pub use error::{
     WriteError,
 };
 pub use id::{AttrId, Key, NameMemo, ObjectId};
-pub use packet::{Packet, Update, ValueError};
+pub use packet::{Packet, Update, ValueError, check_quality};
 pub use value::{Value, ValueType};

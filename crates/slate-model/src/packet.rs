@@ -29,6 +29,24 @@ impl Packet {
             source: Address::unknown(),
         }
     }
+
+    /// Whether a module ever wrote this packet. A declared default and [`Packet::none`]
+    /// were never written: they carry [`Timestamp::ZERO`] and no source, so they have no
+    /// age and must not read as fresh.
+    ///
+    /// ```
+    /// use slate_model::{AttrDecl, Board, ClassDef, NewObject, ValueType};
+    /// let board = Board::builder().build();
+    /// let x = AttrDecl::new("x", ValueType::Real).default_value(1.0);
+    /// board.define(ClassDef::new("V").attr(x)).unwrap();
+    /// board.create_with(NewObject::new("V", "o")).unwrap();
+    /// assert!(!board.read("o", "x").unwrap().was_written());
+    /// board.write("o", "x", 2.0).unwrap();
+    /// assert!(board.read("o", "x").unwrap().was_written());
+    /// ```
+    pub fn was_written(&self) -> bool {
+        self.timestamp != Timestamp::ZERO
+    }
 }
 
 /// A write request: a value and, optionally, the other packet fields.
@@ -144,8 +162,9 @@ pub enum ValueError {
     Confidence(f64),
 }
 
-/// Checks the accuracy and confidence fields.
-pub(crate) fn check_quality(accuracy: f64, confidence: f64) -> Result<(), ValueError> {
+/// Checks the accuracy and confidence fields: accuracy finite and `>= 0`, confidence in
+/// `[0, 1]` (what every write checks; a tool can check them before it writes).
+pub fn check_quality(accuracy: f64, confidence: f64) -> Result<(), ValueError> {
     if !(accuracy.is_finite() && accuracy >= 0.0) {
         return Err(ValueError::Accuracy(accuracy));
     }

@@ -122,11 +122,11 @@ impl View {
         })
     }
 
-    fn age(&self, p: &Packet) -> f64 {
-        if p.timestamp.raw() == 0 {
-            return 0.0;
-        }
-        self.board.clock().age(p.timestamp).as_secs_f64()
+    /// Seconds since the packet was written; `None` (null) for a declared default, which
+    /// was never written and must not read as fresh.
+    fn age(&self, p: &Packet) -> Option<f64> {
+        p.was_written()
+            .then(|| self.board.clock().age(p.timestamp).as_secs_f64())
     }
 
     fn map_items(&self, classes: &Classes) -> Vec<Json> {
@@ -150,7 +150,7 @@ impl View {
             let mut item = json!({
                 "id": name, "kind": kind(&classes.lineage(&info.class)), "x": x, "y": y,
                 "accuracy": pos.accuracy, "confidence": pos.confidence, "age": age,
-                "stale": age > STALE_AFTER_S, "owner": info.owner.to_string(), "board": me,
+                "stale": age.is_some_and(|a| a > STALE_AFTER_S), "owner": info.owner.to_string(), "board": me,
             });
             for (attr, field) in [("heading", "heading"), ("radius", "radius")] {
                 if let Some(v) = self

@@ -7,7 +7,9 @@
 //! Every key expression is built in [`keys`].
 #![warn(missing_docs)]
 
+mod endpoint;
 pub mod keys;
 mod transport;
 
+pub use endpoint::{EndpointError, PROTOCOLS, check_endpoint};
 pub use transport::{Mode, OpenError, ZenohConfig, ZenohTransport};

@@ -68,10 +68,16 @@ pub enum OpenError {
     /// Zenoh failed to open the session or declare what slate needs.
     #[error("zenoh: {0}")]
     Zenoh(String),
+    /// An endpoint to listen on or connect to is malformed (checked before Zenoh starts).
+    #[error(transparent)]
+    Endpoint(#[from] crate::EndpointError),
 }
 
 impl ZenohConfig {
     fn to_zenoh(&self) -> Result<zenoh::Config, OpenError> {
+        for endpoint in self.listen.iter().chain(&self.connect) {
+            crate::check_endpoint(endpoint)?;
+        }
         let mut c = zenoh::Config::default();
         let json = |v: &[String]| {
             format!(
@@ -156,7 +162,7 @@ pub struct ZenohTransport {
 impl ZenohTransport {
     /// Opens a Zenoh session for `address` and declares its subscriptions and liveliness.
     pub fn open(address: Address, config: &ZenohConfig) -> Result<Arc<ZenohTransport>, OpenError> {
-        let zerr = |e: zenoh::Error| OpenError::Zenoh(e.to_string());
+        let zerr = |e: zenoh::Error| OpenError::Zenoh(crate::endpoint::error_text(&e.to_string()));
         let session = zenoh::open(config.to_zenoh()?).wait().map_err(zerr)?;
         let inner = Arc::new(Inner {
             address,
@@ -361,7 +367,7 @@ impl Inner {
         publisher
             .put(payload.to_vec())
             .wait()
-            .map_err(|e| SendError::Failed(e.to_string()))?;
+            .map_err(|e| SendError::Failed(crate::endpoint::error_text(&e.to_string())))?;
         self.stats.lock().sent(link, kind, payload.len());
         Ok(())
     }
@@ -387,7 +393,7 @@ impl Inner {
             // This session's own subscriptions drop what it sends: do not route it there.
             .allowed_destination(Locality::Remote)
             .wait()
-            .map_err(|e| SendError::Failed(e.to_string()))?;
+            .map_err(|e| SendError::Failed(crate::endpoint::error_text(&e.to_string())))?;
         let publisher = Arc::new(publisher);
         self.publishers.lock().insert(dest, publisher.clone());
         Ok(publisher)

@@ -4,6 +4,7 @@ use std::process::ExitCode;
 
 use serde_json::json;
 use slate_model::{Board, Packet};
+use slate_node::Node;
 use slate_node::inspect::{Classes, packets};
 
 use crate::cli::{Format, GetArgs};
@@ -14,14 +15,15 @@ use crate::command::live::{join, known, packet_json, packet_text, print_json, sp
 pub fn run(args: &GetArgs, format: Format) -> anyhow::Result<ExitCode> {
     let (object, attr) = split(&args.target);
     let node = join(&args.live)?;
-    let result = get(node.board(), object, attr, format);
+    let result = get(&node, object, attr, format);
     node.close();
     result?;
     Ok(ExitCode::SUCCESS)
 }
 
-fn get(board: &Board, object: &str, attr: Option<&str>, format: Format) -> anyhow::Result<()> {
-    known(board, object)?;
+fn get(node: &Node, object: &str, attr: Option<&str>, format: Format) -> anyhow::Result<()> {
+    known(node, object)?;
+    let board = node.board();
     let classes = Classes::of(board);
     let list: Vec<(String, Packet)> = match attr {
         Some(a) => vec![(a.to_owned(), read(board, &classes, object, a)?)],

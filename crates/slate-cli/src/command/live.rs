@@ -8,13 +8,17 @@ use anyhow::Context as _;
 use crossbeam_channel::Receiver;
 use serde_json::{Value as Json, json};
 use slate_model::{Address, Board, Packet, Value};
-use slate_node::{Node, ObserverOptions, inspect::Classes, observe, value_text};
+use slate_node::{Node, ObserverOptions, inspect::Classes, is_observer, observe, value_text};
 
 use crate::cli::LiveArgs;
 use crate::command::failed;
 
-/// Joins the team as an observer and waits for its catch-up.
+/// Joins the team as an observer and waits for its catch-up. The arguments are checked
+/// first: a malformed endpoint is named at once, not reported as unreachable.
 pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
+    for endpoint in &live.connect {
+        slate_zenoh::check_endpoint(endpoint).context("--connect")?;
+    }
     let address = live
         .address
         .as_deref()
@@ -62,15 +66,62 @@ pub fn split(target: &str) -> (&str, Option<&str>) {
     }
 }
 
-/// Fails (exit 1) unless `object` is an object or class on the board.
-pub fn known(board: &Board, object: &str) -> anyhow::Result<()> {
+/// Fails (exit 1) unless `object` is an object or class on the observer's board; the
+/// message says which modules it sees only through their export.
+pub fn known(node: &Node, object: &str) -> anyhow::Result<()> {
+    let board = node.board();
     if board.info(object).is_some() {
         return Ok(());
     }
+    let hint = export_note(node).map_or(String::new(), |n| format!("; {n}"));
     failed(format!(
-        "no object or class named {object:?} on the boards of {} (see `slate ls Thing`)",
+        "no object or class named {object:?} on the boards of {} (see `slate ls Thing`){hint}",
         team_of(board)
     ))
+}
+
+/// The modules whose boards this observer sees only through their export policy: those
+/// on another robot (observers own nothing and are left out), sorted.
+pub fn seen_through_export(node: &Node) -> Vec<Address> {
+    let me = node.address();
+    let mut modules: Vec<Address> = node
+        .peers()
+        .into_iter()
+        .filter(|p| !is_observer(p) && (p.team(), p.robot()) != (me.team(), me.robot()))
+        .collect();
+    modules.sort();
+    modules
+}
+
+/// What this observer cannot see and how to see it; `None` when it sees everything:
+/// `modules on other robots show this observer (on t/r1) only what they export: t/r2/loco;
+/// to see all of a robot, add --as TEAM/ROBOT/cli, like --as t/r2/cli`.
+pub fn export_note(node: &Node) -> Option<String> {
+    let modules = seen_through_export(node);
+    let first = modules.first()?;
+    let me = node.address();
+    let names: Vec<&str> = modules.iter().map(Address::as_str).collect();
+    Some(format!(
+        "modules on other robots show this observer (on {}/{}) only what they export: {}; to see all of a robot, add --as TEAM/ROBOT/cli, like --as {}/{}/cli",
+        me.team(),
+        me.robot(),
+        names.join(", "),
+        first.team(),
+        first.robot()
+    ))
+}
+
+/// The JSON list of [`seen_through_export`].
+pub fn seen_through_export_json(node: &Node) -> Json {
+    let modules = seen_through_export(node);
+    json!(modules.iter().map(Address::as_str).collect::<Vec<_>>())
+}
+
+/// Prints [`export_note`] on stderr (text output), if there is one.
+pub fn print_export_note(node: &Node) {
+    if let Some(note) = export_note(node) {
+        eprintln!("note: {note}");
+    }
 }
 
 /// `team t` of an observer's board.
@@ -78,13 +129,11 @@ pub fn team_of(board: &Board) -> String {
     format!("team {}", board.address().team())
 }
 
-/// Seconds since the packet was written (0 for a declared default).
-pub fn age(board: &Board, p: &Packet) -> f64 {
-    if p.timestamp.raw() == 0 {
-        0.0
-    } else {
-        board.clock().age(p.timestamp).as_secs_f64()
-    }
+/// Seconds since the packet was written; `None` for a declared default, which was never
+/// written (an age of 0 would read as fresh).
+fn age(board: &Board, p: &Packet) -> Option<f64> {
+    p.was_written()
+        .then(|| board.clock().age(p.timestamp).as_secs_f64())
 }
 
 /// A value as JSON: numbers, booleans, strings, arrays; a reference as `{"ref": name}`;
@@ -101,16 +150,20 @@ pub fn value_json(v: &Value) -> Json {
     }
 }
 
-/// A packet as JSON, with its attribute's name and unit.
+/// A packet as JSON, with its attribute's name and unit. A declared default says
+/// `"default": true` and has no age, timestamp or source (all null).
 pub fn packet_json(board: &Board, attr: &str, unit: Option<&str>, p: &Packet) -> Json {
+    let written = p.was_written();
     json!({
         "attr": attr, "value": value_json(&p.value), "unit": unit, "accuracy": p.accuracy,
-        "confidence": p.confidence, "age": age(board, p),
-        "timestamp": p.timestamp.as_secs_f64(), "source": p.source.to_string(),
+        "confidence": p.confidence, "default": !written, "age": age(board, p),
+        "timestamp": written.then(|| p.timestamp.as_secs_f64()),
+        "source": written.then(|| p.source.to_string()),
     })
 }
 
-/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`.
+/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`, or for a declared
+/// default `0.0 m/s  confidence 1.00  default, never written`.
 pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     let unit = unit.map_or(String::new(), |u| format!(" {u}"));
     let accuracy = if p.accuracy > 0.0 {
@@ -118,12 +171,14 @@ pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     } else {
         String::new()
     };
+    let written = match age(board, p) {
+        Some(seconds) => format!("age {}  from {}", age_text(seconds), p.source),
+        None => "default, never written".to_owned(),
+    };
     format!(
-        "{}{accuracy}{unit}  confidence {:.2}  age {}  from {}",
+        "{}{accuracy}{unit}  confidence {:.2}  {written}",
         value_text(&p.value),
         p.confidence,
-        age_text(age(board, p)),
-        p.source
     )
 }
 
@@ -170,4 +225,48 @@ pub fn print_line(j: &Json) -> anyhow::Result<()> {
     writeln!(out, "{}", serde_json::to_string(j)?)?;
     out.flush()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use slate_model::{Board, Clock};
+
+    use super::*;
+
+    /// A board holding `o : V` with `speed` written once and `mode` left at its default.
+    fn board() -> Arc<Board> {
+        let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+        let text = "class V { speed: real = 0.0; mode: string = \"auto\"; }\nobject o : V;";
+        slate_plans::Engine::new(&board)
+            .load("v.slate", text)
+            .unwrap();
+        board.write("o", "speed", 2.5).unwrap();
+        board
+    }
+
+    #[test]
+    fn a_never_written_default_shows_as_a_default_not_as_fresh() {
+        let board = board();
+        let mode = board.read("o", "mode").unwrap();
+        let text = packet_text(&board, None, &mode);
+        assert_eq!(text, "auto  confidence 1.00  default, never written");
+        let j = packet_json(&board, "mode", None, &mode);
+        assert_eq!(j["default"], true);
+        assert!(j["age"].is_null() && j["timestamp"].is_null(), "{j}");
+        assert!(j["source"].is_null(), "{j}");
+    }
+
+    #[test]
+    fn a_written_packet_shows_its_age_and_source() {
+        let board = board();
+        let speed = board.read("o", "speed").unwrap();
+        let text = packet_text(&board, None, &speed);
+        assert!(text.contains("age 0.0 s  from "), "{text}");
+        let j = packet_json(&board, "speed", None, &speed);
+        assert_eq!(j["default"], false);
+        assert!(j["age"].is_f64() && j["timestamp"].is_f64(), "{j}");
+        assert!(j["source"].is_string(), "{j}");
+    }
 }

@@ -3,22 +3,28 @@
 use std::process::ExitCode;
 
 use serde_json::json;
-use slate_model::{Board, ObjectInfo, Query};
+use slate_model::{ObjectInfo, Query};
 
 use crate::cli::{Format, LsArgs};
 use crate::command::failed;
-use crate::command::live::{join, print_json, team_of};
+use crate::command::live::{
+    join, print_export_note, print_json, seen_through_export_json, team_of,
+};
+use slate_node::Node;
 
 /// Lists the objects.
 pub fn run(args: &LsArgs, format: Format) -> anyhow::Result<ExitCode> {
     let node = join(&args.live)?;
-    let result = list(node.board(), &args.class, format);
+    let result = list(&node, &args.class, format);
     node.close();
     result?;
     Ok(ExitCode::SUCCESS)
 }
 
-fn list(board: &Board, class: &str, format: Format) -> anyhow::Result<()> {
+/// Lists the objects; says (stderr, or `seen_through_export` in JSON) which modules it
+/// sees only through their export.
+fn list(node: &Node, class: &str, format: Format) -> anyhow::Result<()> {
+    let board = node.board();
     if board.class_def(class).is_none() {
         return failed(format!(
             "no class named {class:?} on the boards of {} (see `slate tree`)",
@@ -39,7 +45,10 @@ fn list(board: &Board, class: &str, format: Format) -> anyhow::Result<()> {
                     json!({"name": &*i.name, "class": &*i.class, "context": i.context.name(), "owner": i.owner.to_string()})
                 })
                 .collect();
-            print_json(&json!({"class": class, "objects": objects}))
+            print_json(&json!({
+                "class": class, "objects": objects,
+                "seen_through_export": seen_through_export_json(node),
+            }))
         }
         Format::Text => {
             let width = |f: &dyn Fn(&ObjectInfo) -> usize| infos.iter().map(f).max().unwrap_or(0);
@@ -56,6 +65,7 @@ fn list(board: &Board, class: &str, format: Format) -> anyhow::Result<()> {
             if infos.is_empty() {
                 eprintln!("no {class} objects");
             }
+            print_export_note(node);
             Ok(())
         }
     }

@@ -1,4 +1,5 @@
-//! `slate node --config FILE`: run one module until SIGINT or SIGTERM.
+//! `slate node --config FILE`: run one module until SIGINT or SIGTERM. While it starts,
+//! Zenoh's warnings are left out: a failed start is one error line (docs/cli.md).
 
 use std::process::ExitCode;
 
@@ -7,12 +8,13 @@ use slate_node::{Node, NodeConfig};
 
 use crate::cli::{Format, NodeArgs};
 use crate::command::live::{interrupted, print_line};
+use crate::logging::Logs;
 
 /// Starts the node, says where it listens, waits for a signal, stops cleanly.
-pub fn run(args: &NodeArgs, format: Format) -> anyhow::Result<ExitCode> {
+pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitCode> {
     let config = NodeConfig::read(&args.config)?;
     let signals = interrupted()?;
-    let node = Node::start(&config)?;
+    let node = logs.quiet_zenoh(|| Node::start(&config))?;
     let dashboard = node.dashboard_url();
     match format {
         Format::Json => print_line(&json!({

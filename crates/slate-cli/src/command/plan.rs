@@ -14,7 +14,9 @@ use slate_wire::PlanStep;
 
 use crate::cli::{Format, PlanCancelArgs, PlanLsArgs, PlanSendArgs};
 use crate::command::failed;
-use crate::command::live::{interrupted, join, print_json, print_line, team_of};
+use crate::command::live::{
+    export_note, interrupted, join, print_json, print_line, seen_through_export_json, team_of,
+};
 
 /// How long a cancellation waits for its confirmation.
 const CONFIRM: Duration = Duration::from_secs(5);
@@ -151,11 +153,13 @@ fn outcome(handle: &PlanHandle, step: &PlanStep, cancelling: bool) -> anyhow::Re
 pub fn ls(args: &PlanLsArgs, format: Format) -> anyhow::Result<ExitCode> {
     let node = join(&args.live)?;
     let plans = plans(node.board());
+    let seen = seen_through_export_json(&node);
+    let note = export_note(&node);
     node.close();
     match format {
         Format::Json => {
             let list: Vec<_> = plans.iter().map(|p| json!(p)).collect();
-            print_json(&json!({"plans": list}))?;
+            print_json(&json!({"plans": list, "seen_through_export": seen}))?;
         }
         Format::Text => {
             for p in &plans {
@@ -176,6 +180,9 @@ pub fn ls(args: &PlanLsArgs, format: Format) -> anyhow::Result<ExitCode> {
             }
             if plans.is_empty() {
                 eprintln!("no plans");
+            }
+            if let Some(note) = note {
+                eprintln!("note: {note}");
             }
         }
     }
@@ -235,25 +242,22 @@ pub fn cancel(args: &PlanCancelArgs, format: Format) -> anyhow::Result<ExitCode>
         .transpose()
         .context("--on")?;
     let node = join(&args.live)?;
-    let result = cancel_on(node.board(), &args.name, on.as_ref(), format);
+    let result = cancel_on(&node, &args.name, on.as_ref(), format);
     node.close();
     result?;
     Ok(ExitCode::SUCCESS)
 }
 
-fn cancel_on(
-    board: &Board,
-    name: &str,
-    on: Option<&Address>,
-    format: Format,
-) -> anyhow::Result<()> {
+fn cancel_on(node: &Node, name: &str, on: Option<&Address>, format: Format) -> anyhow::Result<()> {
+    let board = node.board();
     let info = board
         .info(name)
         .filter(|i| &*i.class == PLAN_CLASS)
         .map_or_else(
             || {
+                let hint = export_note(node).map_or(String::new(), |n| format!("; {n}"));
                 failed(format!(
-                    "no plan named {name:?} on the boards of {} (see `slate plan ls`)",
+                    "no plan named {name:?} on the boards of {} (see `slate plan ls`){hint}",
                     team_of(board)
                 ))
             },

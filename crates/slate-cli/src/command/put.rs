@@ -18,11 +18,19 @@ pub fn run(args: &PutArgs, format: Format) -> anyhow::Result<ExitCode> {
     let (object, Some(attr)) = split(&args.target) else {
         anyhow::bail!("{:?}: expected OBJ.ATTR, like gsr.speed", args.target);
     };
+    check_quality(args)?;
     let node = join(&args.live)?;
     let result = put(&node, object, attr, args, format);
     node.close();
     result?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// Fails (exit 2) on an accuracy or confidence no write would take, before joining.
+fn check_quality(args: &PutArgs) -> anyhow::Result<()> {
+    let accuracy = args.accuracy.unwrap_or(0.0);
+    let confidence = args.confidence.unwrap_or(1.0);
+    Ok(slate_model::check_quality(accuracy, confidence)?)
 }
 
 fn put(
@@ -33,7 +41,7 @@ fn put(
     format: Format,
 ) -> anyhow::Result<()> {
     let board = node.board();
-    known(board, object)?;
+    known(node, object)?;
     let classes = Classes::of(board);
     let info = board.info(object).context("the object went away")?;
     let class = if info.is_class {

@@ -5,25 +5,28 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::Context as _;
-use serde_json::json;
+use serde_json::{Value as Json, json};
 use slate_model::{Board, Clock, THING};
 use slate_node::inspect::Classes;
 use slate_plans::Engine;
 
 use crate::cli::{Format, TreeArgs};
 use crate::command::failed;
-use crate::command::live::{join, print_json};
+use crate::command::live::{join, print_export_note, print_json, seen_through_export_json};
 
 /// Prints the tree.
 pub fn run(args: &TreeArgs, format: Format) -> anyhow::Result<ExitCode> {
     if args.files.is_empty() {
         let node = join(&args.live)?;
-        let result = print(node.board(), format);
+        let result = print(node.board(), format, Some(seen_through_export_json(&node)));
+        if format == Format::Text {
+            print_export_note(&node);
+        }
         node.close();
         result?;
     } else {
         let board = load(&args.files)?;
-        print(&board, format)?;
+        print(&board, format, None)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -42,7 +45,8 @@ fn load(files: &[std::path::PathBuf]) -> anyhow::Result<Arc<Board>> {
     Ok(board)
 }
 
-fn print(board: &Board, format: Format) -> anyhow::Result<()> {
+/// Prints the tree; `seen_through_export` (live only) goes into the JSON.
+fn print(board: &Board, format: Format, seen_through_export: Option<Json>) -> anyhow::Result<()> {
     let classes = Classes::of(board);
     let counts = counts(board);
     let mut children: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
@@ -61,7 +65,11 @@ fn print(board: &Board, format: Format) -> anyhow::Result<()> {
                     })
                 })
                 .collect();
-            print_json(&json!({"classes": list}))
+            let mut j = json!({"classes": list});
+            if let Some(seen) = seen_through_export {
+                j["seen_through_export"] = seen;
+            }
+            print_json(&j)
         }
         Format::Text => {
             println!("{THING}");

@@ -11,7 +11,8 @@ use slate_node::inspect::Classes;
 
 use crate::cli::{Format, WatchArgs};
 use crate::command::live::{
-    interrupted, join, known, packet_json, packet_text, print_line, split, team_of, unit,
+    export_note, interrupted, join, known, packet_json, packet_text, print_line, split, team_of,
+    unit,
 };
 
 /// Prints changes until Ctrl-C or `--count` lines.
@@ -32,10 +33,11 @@ fn watch(
     signals: &crossbeam_channel::Receiver<()>,
 ) -> anyhow::Result<()> {
     let board = node.board();
-    let (filter, modules) = filter(board, pattern)?;
+    let (filter, modules) = filter(node, pattern)?;
     let watch = board.watch(filter)?;
+    let note = export_note(node).map_or(String::new(), |n| format!("; {n}"));
     eprintln!(
-        "watching {pattern} on {} ({} modules up); Ctrl-C to stop",
+        "watching {pattern} on {} ({} modules up); Ctrl-C to stop{note}",
         team_of(board),
         node.peers().len()
     );
@@ -62,12 +64,13 @@ fn watch(
 }
 
 /// The watch filter of a pattern, and whether Module objects are wanted.
-fn filter(board: &Board, pattern: &str) -> anyhow::Result<(Filter, bool)> {
+fn filter(node: &Node, pattern: &str) -> anyhow::Result<(Filter, bool)> {
+    let board = node.board();
     let (target, attr) = split(pattern);
     let base = match target {
         "*" => Filter::all(),
         t => {
-            known(board, t)?;
+            known(node, t)?;
             if board.class_def(t).is_some() {
                 Filter::class(t)
             } else {

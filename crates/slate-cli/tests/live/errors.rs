@@ -136,3 +136,22 @@ fn tree_of_files_needs_no_network() {
             .any(|c| c["name"] == "Target")
     );
 }
+
+#[test]
+fn a_node_on_a_port_in_use_says_so_in_one_line() {
+    let mut team = Team::new("portinuse");
+    team.add("t/r1/nav", "");
+    let taken = team.nodes[0].endpoint.clone();
+    let path = team.dir.join("second.toml");
+    std::fs::write(
+        &path,
+        format!("address = \"t/r1/two\"\n[zenoh]\nlisten = [\"{taken}\"]\n"),
+    )
+    .unwrap();
+    let out = slate(&["node", "--config", path.to_str().unwrap()]);
+    one_line_error(&out, 2, "Address already in use");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.starts_with("slate: error: "), "{err}");
+    assert!(!err.contains(".rs:") && !err.contains("registry"), "{err}");
+    team.stop();
+}

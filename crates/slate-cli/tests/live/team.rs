@@ -131,6 +131,17 @@ impl NodeProc {
     /// `connect`, serves its dashboard on a free port, loads WORLD and `extra`. Returns
     /// once it printed its ready line.
     pub fn start(dir: &Path, address: &str, extra: &str, connect: &[String]) -> NodeProc {
+        NodeProc::start_exporting(dir, address, extra, connect, "\"Thing\"")
+    }
+
+    /// [`NodeProc::start`] with its own `export` list (TOML items, like `"Vehicle"`).
+    pub fn start_exporting(
+        dir: &Path,
+        address: &str,
+        extra: &str,
+        connect: &[String],
+        export: &str,
+    ) -> NodeProc {
         let stem = address.replace('/', "_");
         std::fs::write(dir.join("world.slate"), WORLD).unwrap();
         std::fs::write(dir.join(format!("{stem}.slate")), extra).unwrap();
@@ -138,7 +149,7 @@ impl NodeProc {
         let dashboard = format!("127.0.0.1:{}", free_port());
         let connect: Vec<String> = connect.iter().map(|c| format!("{c:?}")).collect();
         let config = format!(
-            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [\"Thing\"]\ndashboard = \"{dashboard}\"\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n",
+            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [{export}]\ndashboard = \"{dashboard}\"\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n",
             connect.join(", ")
         );
         let path = dir.join(format!("{stem}.toml"));
@@ -314,6 +325,14 @@ impl Team {
     pub fn add(&mut self, address: &str, extra: &str) -> &NodeProc {
         let connect: Vec<String> = self.nodes.iter().map(|n| n.endpoint.clone()).collect();
         let node = NodeProc::start(&self.dir, address, extra, &connect);
+        self.nodes.push(node);
+        self.nodes.last().unwrap()
+    }
+
+    /// Starts one more node that exports only `export` (TOML items, like `"Vehicle"`).
+    pub fn add_exporting(&mut self, address: &str, extra: &str, export: &str) -> &NodeProc {
+        let connect: Vec<String> = self.nodes.iter().map(|n| n.endpoint.clone()).collect();
+        let node = NodeProc::start_exporting(&self.dir, address, extra, &connect, export);
         self.nodes.push(node);
         self.nodes.last().unwrap()
     }

@@ -267,3 +267,72 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
     assert!(String::from_utf8_lossy(&again.stderr).contains("already cancelled"));
     team.stop();
 }
+
+#[test]
+fn get_shows_a_never_written_default_as_a_default_not_as_fresh() {
+    let team = two_nodes("defaults");
+    let get = team.ok(&["get", "gsr"]);
+    assert!(
+        get.contains("mode = auto  confidence 1.00  default, never written\n"),
+        "{get}"
+    );
+    assert!(get.contains("position = [10.0, 20.0]") && get.contains(" age "));
+    let j = team.json(&["get", "gsr.speed"]);
+    let speed = &j["attrs"][0];
+    assert_eq!(speed["default"], true, "{j}");
+    assert!(speed["age"].is_null() && speed["source"].is_null(), "{j}");
+    let j = team.json(&["get", "gsr.position"]);
+    assert_eq!(j["attrs"][0]["default"], false, "{j}");
+    assert!(
+        j["attrs"][0]["age"].as_f64().is_some_and(|a| a >= 0.0),
+        "{j}"
+    );
+    team.stop();
+}
+
+/// t/r2/loco runs a plan of its own and exports its vehicle but not its `Plan` objects.
+const LOCO: &str = "object cart : Vehicle context self;\nplan idle { trigger: cart.speed > 9.0; action { set cart.mode = \"x\"; } }";
+
+#[test]
+fn introspection_says_which_modules_it_sees_only_through_their_export() {
+    let mut team = Team::new("unexported");
+    team.add("t/r1/nav", NAV);
+    team.add_exporting("t/r2/loco", LOCO, "\"Vehicle\"");
+    team.wait_connected();
+    // The observer is on robot r1: loco's plan is not exported to it.
+    let out = team.slate(&["plan", "ls"]);
+    assert!(out.status.success(), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("t/r2/loco") && err.contains("--as t/r2/"),
+        "{}",
+        show(&out)
+    );
+    let j = team.json(&["plan", "ls"]);
+    assert_eq!(j["plans"].as_array().map(Vec::len), Some(0), "{j}");
+    assert_eq!(j["seen_through_export"], serde_json::json!(["t/r2/loco"]));
+    // The same for the other verbs.
+    let j = team.json(&["ls", "Thing"]);
+    assert_eq!(j["seen_through_export"], serde_json::json!(["t/r2/loco"]));
+    let j = team.json(&["tree"]);
+    assert_eq!(j["seen_through_export"], serde_json::json!(["t/r2/loco"]));
+    let out = team.slate(&["get", "idle"]);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("t/r2/loco") && err.contains("--as t/r2/"),
+        "{err}"
+    );
+    // Following the advice shows it.
+    let j = team.json(&["plan", "ls", "--as", "t/r2/cli-test"]);
+    let names: Vec<&str> = j["plans"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|p| p["name"].as_str())
+        .collect();
+    assert_eq!(names, ["idle"], "{j}");
+    assert_eq!(j["seen_through_export"], serde_json::json!(["t/r1/nav"]));
+    team.stop();
+}

@@ -100,3 +100,52 @@ fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
     nav.close();
     assert!(nav.dashboard_url().is_none(), "stopped with the node");
 }
+
+#[test]
+fn a_never_written_default_has_no_age_on_the_dashboard() {
+    let net = SimNet::new(4);
+    let a = addr("t/r1/nav");
+    let nav = Node::builder(a.clone())
+        .transport(net.join(&a))
+        .clock(net.clock())
+        .source("w.slate", WORLD)
+        .source(
+            "o.slate",
+            "object gsr : Vehicle context self { speed = 2.0; }",
+        )
+        .dashboard("127.0.0.1:0".parse().unwrap())
+        .start()
+        .unwrap();
+    net.run_for(Duration::from_secs(30));
+    let url = nav.dashboard_url().expect("serves a dashboard");
+    let j: serde_json::Value = serde_json::from_str(&get(&url, "/api/snapshot")).unwrap();
+    // gsr's position is its declared default: no age, and so never stale.
+    let gsr = j["map"]["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|i| i["id"] == "gsr")
+        .unwrap();
+    assert!(gsr["age"].is_null() && gsr["stale"] == false, "{gsr}");
+    let o = j["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|o| o["name"] == "gsr")
+        .unwrap();
+    let attr = |name: &str| {
+        o["attrs"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["name"] == name)
+            .unwrap()
+            .clone()
+    };
+    assert!(attr("mode")["age"].is_null(), "{o}");
+    assert!(
+        attr("speed")["age"].as_f64().is_some_and(|a| a > 0.0),
+        "{o}"
+    );
+    nav.close();
+}
