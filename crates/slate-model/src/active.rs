@@ -188,7 +188,7 @@ impl Call<'_> {
         match self.access {
             Access::Live(board) => Some(CallToken {
                 chain: self.chain.clone(),
-                board: std::ptr::from_ref(board) as usize,
+                board: board.identity(),
             }),
             Access::Frozen(_) => None,
         }

@@ -17,7 +17,7 @@ use crossbeam_channel::{Receiver, Sender};
 use parking_lot::{Mutex, RwLock};
 
 pub use batch::Batch;
-pub(crate) use chain::Chain;
+pub(crate) use chain::{Chain, Running};
 pub use hook::{ChangeHook, TouchKind, Touched};
 pub use snapshot::Snapshot;
 use state::{Decl, State};
@@ -34,6 +34,12 @@ use crate::{
 
 /// Default limit on the depth of chains of active functions.
 pub const DEFAULT_MAX_DEPTH: usize = 8;
+
+/// The most active functions one thread runs inside one another, whatever the boards and
+/// their limits: each nested function takes stack (a Python callable some 10 KiB), and a
+/// thread's stack must never overflow. An access that would go deeper is cut as
+/// [`ChainError::DepthLimit`] with this limit.
+pub const MAX_NESTED_FUNCTIONS: usize = 128;
 
 /// A module's blackboard: the class tree, its objects, and their attribute packets.
 ///
@@ -501,7 +507,7 @@ impl Board {
     /// The token's chain, if it is this board's (borrowed: a binding reads and writes
     /// through tokens often).
     fn chain_of<'t>(&self, token: &'t crate::CallToken) -> std::borrow::Cow<'t, Chain> {
-        if token.board == std::ptr::from_ref(self) as usize {
+        if token.board == self.identity() {
             std::borrow::Cow::Borrowed(&token.chain)
         } else {
             std::borrow::Cow::Owned(Chain::default())
@@ -519,6 +525,7 @@ impl Board {
         update: Update,
         chain: &Chain,
     ) -> Result<u64, WriteError> {
+        let chain = &*chain.or_running(self.identity());
         let done = {
             let mut inner = self.inner.write();
             let key = target.resolve(&inner.state)?;
@@ -745,7 +752,14 @@ impl Board {
             touched,
             hooks,
         } = done;
+        let chain = &*chain.or_running(self.identity());
         for f in fired {
+            // A write admitted its key already; a batch's writes are admitted here.
+            let names = || (f.object.clone(), f.attr.clone());
+            if let Err(cut) = chain.admit(f.key, Trigger::Write, self.max_depth, names) {
+                self.report(BoardEvent::ChainCut(cut));
+                continue;
+            }
             let chain = chain.with(f.key, Trigger::Write, &f.object, &f.attr);
             let mut call = Call {
                 access: Access::Live(self),
@@ -762,10 +776,18 @@ impl Board {
                 self.run_isolated(func.as_ref(), &mut call);
             }
         }
+        // A hook is no active function: what it does starts chains of its own.
+        let _outside = Running::enter(self.identity(), &Chain::default());
         for hook in hooks.iter().flat_map(|h| h.iter()) {
             hook.changed(self, revision, &touched);
         }
         revision
+    }
+
+    /// This board's identity among the boards of the process (its address in memory),
+    /// to tell its chains and tokens from another board's.
+    pub(crate) fn identity(&self) -> usize {
+        std::ptr::from_ref(self) as usize
     }
 
     /// Adds a change hook, called in the writer's thread after every committed change.
@@ -779,7 +801,9 @@ impl Board {
     /// Runs one function; an error or a panic becomes an event, never a failure of the
     /// access that triggered it.
     fn run_isolated(&self, func: &dyn ActiveFn, call: &mut Call<'_>) -> bool {
+        let running = Running::enter(self.identity(), call.chain);
         let outcome = catch_unwind(AssertUnwindSafe(|| func.call(call)));
+        drop(running);
         let error = match outcome {
             Ok(Ok(())) => return true,
             Ok(Err(e)) => e.to_string(),
@@ -857,6 +881,7 @@ impl PendingRead {
     }
 
     fn finish(self, board: &Board, access: Access<'_>, chain: &Chain) -> Result<Packet, ReadError> {
+        let chain = &*chain.or_running(board.identity());
         let names = || (self.object.clone(), self.attr.clone());
         if let Err(cut) = chain.admit(self.key, Trigger::Read, board.max_depth, names) {
             board.report(BoardEvent::ChainCut(cut.clone()));
