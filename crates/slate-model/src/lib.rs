@@ -49,7 +49,7 @@ pub use board::{
 pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
 pub use clock::{
     Clock, ClockDriftError, ClockError, ClockListener, DEFAULT_MAX_DRIFT, LOGICAL_BITS,
-    MANUAL_EPOCH, Timestamp,
+    MANUAL_EPOCH, MAX_TIME, Timestamp,
 };
 pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
