@@ -10,4 +10,4 @@
 pub mod keys;
 mod transport;
 
-pub use transport::{Mode, OpenError, ZenohConfig, ZenohTransport};
+pub use transport::{Mode, OpenError, ZenohConfig, ZenohTransport, check_endpoint};

@@ -70,8 +70,31 @@ pub enum OpenError {
     Zenoh(String),
 }
 
+/// Checks one endpoint's form (`<protocol>/<address>`, e.g. `tcp/127.0.0.1:7447`), so that
+/// a malformed one is refused with a message that shows the form, not Zenoh's parser
+/// internals. (A well-formed endpoint nobody answers on is not an error: Zenoh retries.)
+pub fn check_endpoint(endpoint: &str) -> Result<(), String> {
+    endpoint
+        .parse::<zenoh::config::EndPoint>()
+        .map(|_| ())
+        .map_err(|_| {
+            format!(
+                "{endpoint:?} is not an endpoint: write <protocol>/<address>, \
+                 like tcp/127.0.0.1:7447 or udp/192.168.1.10:7447"
+            )
+        })
+}
+
 impl ZenohConfig {
     fn to_zenoh(&self) -> Result<zenoh::Config, OpenError> {
+        for (key, list) in [
+            ("listen/endpoints", &self.listen),
+            ("connect/endpoints", &self.connect),
+        ] {
+            for e in list {
+                check_endpoint(e).map_err(|reason| OpenError::Config { key, reason })?;
+            }
+        }
         let mut c = zenoh::Config::default();
         let json = |v: &[String]| {
             format!(
@@ -461,6 +484,27 @@ mod tests {
     use std::time::{Duration, Instant};
 
     use super::*;
+
+    #[test]
+    fn a_malformed_endpoint_is_refused_with_the_form_to_write() {
+        let config = ZenohConfig {
+            connect: vec!["tcp/127.0.0.1:7447".into(), "bogus".into()],
+            ..ZenohConfig::default()
+        };
+        let address = Address::new("t/r1/a").unwrap();
+        let Err(e) = ZenohTransport::open(address, &config) else {
+            panic!("a malformed endpoint was accepted");
+        };
+        let text = e.to_string();
+        assert!(text.contains("connect/endpoints"), "{text}");
+        assert!(text.contains("\"bogus\" is not an endpoint"), "{text}");
+        assert!(text.contains("tcp/127.0.0.1:7447"), "{text}");
+        assert!(
+            !text.contains("Json5Err") && !text.contains(".cargo"),
+            "{text}"
+        );
+        assert!(check_endpoint("udp/10.0.0.1:7447").is_ok());
+    }
 
     fn wait(mut done: impl FnMut() -> bool) -> bool {
         let end = Instant::now() + Duration::from_secs(10);
