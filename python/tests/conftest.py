@@ -67,15 +67,19 @@ def run_with_timeout(fn: Callable[[], object], seconds: float = 20.0) -> None:
         raise errors[0]
 
 
-def run_in_subprocess(code: str, seconds: float = 60.0) -> subprocess.CompletedProcess[str]:
+def run_in_subprocess(
+    code: str, seconds: float = 60.0, cwd: Path | None = None
+) -> subprocess.CompletedProcess[str]:
     """Runs Python `code` in a fresh interpreter, so that a crash (a signal) fails the
-    calling test with the child's output instead of killing the test runner."""
+    calling test with the child's output instead of killing the test runner (and a hang
+    fails it after `seconds`)."""
     return subprocess.run(
         [sys.executable, "-c", textwrap.dedent(code)],
         capture_output=True,
         text=True,
         timeout=seconds,
         check=False,
+        cwd=cwd,
     )
 
 
