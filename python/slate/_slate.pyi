@@ -122,7 +122,7 @@ class LoadError(SlateError):
     column: int
 
 class ClockError(SlateError):
-    """The clock cannot be moved like that (a system clock, or backwards)."""
+    """The clock cannot be moved like that (a system clock, backwards, or past 2112)."""
 
 class AddressError(SlateError, ValueError):
     """Not a module address of the form team/robot/module."""
@@ -166,7 +166,12 @@ class Packet:
     @property
     def confidence(self) -> float: ...
     @property
-    def timestamp(self) -> float: ...
+    def timestamp(self) -> float:
+        """Seconds since the Unix epoch, to the microsecond (0.0: never written)."""
+    @property
+    def stamp(self) -> int:
+        """The full hybrid-clock stamp: microseconds since the epoch in the high bits, a
+        counter in the low 12. Orders writes made at one instant; 0: never written."""
     @property
     def source(self) -> str: ...
     def __eq__(self, other: object, /) -> bool: ...
@@ -229,6 +234,8 @@ class Board:
         owner: str | None = None,
     ) -> None: ...
     def delete(self, name: str) -> int: ...
+    def delete_class(self, name: str) -> None:
+        """Deletes a class without instances or subclasses."""
     def read(self, object: str, attr: str) -> Packet: ...
     def write(
         self,

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+import textwrap
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -62,3 +65,26 @@ def run_with_timeout(fn: Callable[[], object], seconds: float = 20.0) -> None:
     assert not t.is_alive(), f"did not finish within {seconds} s (deadlock?)"
     if errors:
         raise errors[0]
+
+
+def run_in_subprocess(
+    code: str, seconds: float = 60.0, cwd: Path | None = None
+) -> subprocess.CompletedProcess[str]:
+    """Runs Python `code` in a fresh interpreter, so that a crash (a signal) fails the
+    calling test with the child's output instead of killing the test runner (and a hang
+    fails it after `seconds`)."""
+    return subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        timeout=seconds,
+        check=False,
+        cwd=cwd,
+    )
+
+
+def assert_ran_cleanly(done: subprocess.CompletedProcess[str]) -> None:
+    """The child exited with status 0 (a negative status is the signal that killed it)."""
+    assert done.returncode == 0, (
+        f"exit status {done.returncode}\nstdout:\n{done.stdout}\nstderr:\n{done.stderr[-3000:]}"
+    )

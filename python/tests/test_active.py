@@ -10,7 +10,7 @@ import pytest
 
 import slate
 
-from .conftest import run_with_timeout
+from .conftest import assert_ran_cleanly, run_in_subprocess, run_with_timeout
 
 
 def test_on_write_runs_after_the_write_for_every_instance_of_subclasses(
@@ -311,3 +311,52 @@ def test_a_board_and_its_functions_referring_to_it_are_garbage_collected() -> No
     del b, sentinel
     gc.collect()
     assert alive() is None
+
+
+def test_a_read_function_that_reads_through_the_board_is_cut_instead_of_crashing() -> None:
+    done = run_in_subprocess(
+        """
+        import slate
+        b = slate.Board(clock="manual")
+        b.load("class A { x: real; } object o : A;")
+        b.write("o", "x", 1.0)
+        errors = []
+        def again(call):
+            try:
+                return b.read("o", "x").value + 1
+            except slate.ChainError as e:
+                errors.append(e)
+                raise
+        b.on_read("A", "x", again)
+        events = b.events(timeout=0)
+        assert b.read("o", "x").value == 1.0, "the failed function left the packet"
+        assert len(errors) == 1, errors
+        assert "o.x -> o.x" in str(errors[0]) or "cycle" in str(errors[0]).lower(), errors
+        assert b.stats()["chain_cuts"] == 1
+        print("ok")
+        """
+    )
+    assert_ran_cleanly(done)
+    assert done.stdout.strip() == "ok"
+
+
+def test_a_write_function_that_writes_its_attribute_through_the_board_is_cut() -> None:
+    done = run_in_subprocess(
+        """
+        import slate
+        b = slate.Board(clock="manual")
+        b.load("class A { x: real; } object o : A;")
+        runs = []
+        def again(call):
+            runs.append(call.packet.value)
+            b.write("o", "x", call.packet.value + 1)
+        b.on_write("A", "x", again)
+        b.write("o", "x", 1.0)
+        assert runs == [1.0], runs
+        assert b.read("o", "x").value == 1.0
+        assert b.stats()["chain_cuts"] == 1
+        print("ok")
+        """
+    )
+    assert_ran_cleanly(done)
+    assert done.stdout.strip() == "ok"

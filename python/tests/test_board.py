@@ -207,3 +207,34 @@ def test_stats_and_dump(board: slate.Board) -> None:
     assert s["function_failures"] == 0
     assert "object gsr" in board.dump()
     assert repr(board).startswith("Board(address='team/r1/nav'")
+
+
+def test_delete_class_removes_an_unused_class(board: slate.Board) -> None:
+    board.load("class Puppy : Vehicle { tail: real; }")
+    board.create("Puppy", "rex")
+    with pytest.raises(slate.SlateError, match="delete_class"):
+        board.delete("Puppy")
+    with pytest.raises(slate.SlateError, match="instance"):
+        board.delete_class("Puppy")
+    board.delete("rex")
+    board.delete_class("Puppy")
+    assert "Puppy" not in board
+    with pytest.raises(slate.UnknownObjectError):
+        board.delete_class("Puppy")
+    with pytest.raises(slate.SlateError, match="subclass"):
+        board.delete_class("Vehicle")  # Rover is its subclass
+    with pytest.raises(slate.SlateError, match="delete"):
+        board.delete_class("gsr")  # an object, not a class
+    board.load("class Puppy { tail: int; }")  # the name is free again, for a new definition
+    assert board.info("Puppy") is not None
+
+
+@pytest.mark.parametrize("depth", [-1, 10**30, 129, "8", 2.5])
+def test_a_bad_max_depth_is_a_value_error_that_says_what_to_give(depth: object) -> None:
+    with pytest.raises((ValueError, TypeError), match="max_depth"):
+        slate.Board(max_depth=depth)  # type: ignore[arg-type]
+
+
+def test_max_depth_accepts_the_documented_range() -> None:
+    assert slate.Board(max_depth=0) is not None
+    assert slate.Board(max_depth=128) is not None

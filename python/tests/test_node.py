@@ -172,3 +172,23 @@ def test_a_node_closes_once_and_says_so() -> None:
     assert repr(n) == "Node('t/r1/solo', closed)"
     with pytest.raises(slate.PlanError, match="closed"):
         n.send_plan("plan p { action { } }", to="t/r1/x")
+
+
+@pytest.mark.parametrize("key", ["connect", "listen"])
+def test_a_malformed_endpoint_is_a_value_error_that_shows_the_form(key: str) -> None:
+    with pytest.raises(ValueError, match=r"bogus.*PROTOCOL/ADDRESS.*tcp/127\.0\.0\.1:7447") as e:
+        slate.Node("t/r1/nav", **{key: ["bogus"]})  # type: ignore[arg-type]
+    assert "Json5Err" not in str(e.value) and ".cargo" not in str(e.value)
+    assert key in str(e.value)
+
+
+def test_a_second_node_on_one_board_or_address_is_refused_while_the_first_is_open() -> None:
+    board = slate.Board(address="t/r1/twice")
+    with slate.Node("t/r1/twice", board, listen=[free_endpoint()]):
+        with pytest.raises(slate.NodeError, match="board already has an open node"):
+            slate.Node("t/r1/twice", board, listen=[free_endpoint()])
+        with pytest.raises(slate.NodeError, match="t/r1/twice is already open"):
+            slate.Node("t/r1/twice", listen=[free_endpoint()])
+    # Once the first is closed, both are free again.
+    with slate.Node("t/r1/twice", board, listen=[free_endpoint()]) as again:
+        assert again.board.address == "t/r1/twice"

@@ -90,7 +90,20 @@ pub enum ClockError {
     /// Manual time never goes backwards.
     #[error("manual time cannot go backwards")]
     Backwards,
+    /// A timestamp cannot hold a time that late.
+    #[error(
+        "a timestamp holds times up to {:.0} s since the Unix epoch (the year 2112); \
+         the clock was left where it was",
+        max.as_secs_f64()
+    )]
+    OutOfRange {
+        /// The latest time a timestamp holds ([`MAX_TIME`]).
+        max: Duration,
+    },
 }
+
+/// The latest time since the Unix epoch a [`Timestamp`] holds (its physical bits full).
+pub const MAX_TIME: Duration = Duration::from_micros(u64::MAX >> LOGICAL_BITS);
 
 #[derive(Debug)]
 enum Physical {
@@ -282,24 +295,50 @@ impl Clock {
     }
 
     /// Moves a manual clock forward, then tells its listeners.
+    /// Refused with [`ClockError::OutOfRange`] past [`MAX_TIME`] (stamps would stop
+    /// moving there and no longer order writes).
     pub fn advance(&self, by: Duration) -> Result<(), ClockError> {
         let by = u64::try_from(by.as_nanos()).unwrap_or(u64::MAX);
-        self.move_manual(|t| Some(t.saturating_add(by)))
+        self.move_manual(|t| Ok(t.saturating_add(by)))
     }
 
     /// Sets a manual clock to a physical time (since the Unix epoch), then tells its
-    /// listeners; never backwards.
+    /// listeners; never backwards, never past [`MAX_TIME`].
     pub fn set(&self, to: Duration) -> Result<(), ClockError> {
         let to = u64::try_from(to.as_nanos()).unwrap_or(u64::MAX);
-        self.move_manual(|t| (to >= t).then_some(to))
+        self.move_manual(|t| {
+            if to >= t {
+                Ok(to)
+            } else {
+                Err(ClockError::Backwards)
+            }
+        })
     }
 
-    fn move_manual(&self, step: impl FnMut(u64) -> Option<u64>) -> Result<(), ClockError> {
+    /// Moves a manual clock to `step(now)` in nanoseconds, if that is a time a timestamp
+    /// holds.
+    fn move_manual(
+        &self,
+        mut step: impl FnMut(u64) -> Result<u64, ClockError>,
+    ) -> Result<(), ClockError> {
         let Physical::Manual(n) = &self.inner.physical else {
             return Err(ClockError::NotManual);
         };
-        n.fetch_update(Ordering::AcqRel, Ordering::Acquire, step)
-            .map_err(|_| ClockError::Backwards)?;
+        let max_nanos = u64::try_from(MAX_TIME.as_nanos()).unwrap_or(u64::MAX);
+        let mut refused = ClockError::Backwards;
+        let checked = |t| match step(t) {
+            Ok(to) if to <= max_nanos => Some(to),
+            Ok(_) => {
+                refused = ClockError::OutOfRange { max: MAX_TIME };
+                None
+            }
+            Err(e) => {
+                refused = e;
+                None
+            }
+        };
+        n.fetch_update(Ordering::AcqRel, Ordering::Acquire, checked)
+            .map_err(|_| refused)?;
         let now = self.physical();
         let live: Vec<Arc<dyn ClockListener>> = {
             let mut listeners = self.inner.listeners.lock();
@@ -382,6 +421,31 @@ mod tests {
         assert_eq!(
             clock.set(Duration::from_secs(1)),
             Err(ClockError::Backwards)
+        );
+    }
+
+    #[test]
+    fn a_manual_clock_is_not_moved_past_the_last_time_a_timestamp_holds() {
+        let clock = Clock::manual();
+        let before = clock.now();
+        let too_far = Duration::from_secs(5_000_000_000);
+        assert!(matches!(
+            clock.advance(too_far),
+            Err(ClockError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            clock.set(too_far),
+            Err(ClockError::OutOfRange { .. })
+        ));
+        assert_eq!(clock.physical(), MANUAL_EPOCH, "the clock did not move");
+        // Up to the last representable microsecond, time still moves and stamps order.
+        clock.set(MAX_TIME).unwrap();
+        let last = clock.now();
+        assert!(last > before);
+        assert_eq!(last.physical(), MAX_TIME);
+        assert_eq!(
+            clock.advance(Duration::from_micros(1)),
+            Err(ClockError::OutOfRange { max: MAX_TIME })
         );
     }
 

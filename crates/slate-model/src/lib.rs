@@ -43,13 +43,13 @@ pub use active::{ActiveFn, Call, CallToken, FnError, FnRef, Trigger};
 pub use address::{Address, AddressError, Context};
 pub use board::{
     Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeHook, ChangeItem, Cursor,
-    DEFAULT_MAX_DEPTH, Filter, Merged, NewObject, Normaliser, ObjectInfo, Query, Snapshot,
-    TouchKind, Touched, Watch,
+    DEFAULT_MAX_DEPTH, Filter, MAX_NESTED_FUNCTIONS, Merged, NewObject, Normaliser, ObjectInfo,
+    Query, Snapshot, TouchKind, Touched, Watch,
 };
 pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
 pub use clock::{
     Clock, ClockDriftError, ClockError, ClockListener, DEFAULT_MAX_DRIFT, LOGICAL_BITS,
-    MANUAL_EPOCH, Timestamp,
+    MANUAL_EPOCH, MAX_TIME, Timestamp,
 };
 pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,

@@ -14,10 +14,11 @@ use parking_lot::Mutex;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::gc::PyVisit;
 use pyo3::prelude::*;
-use pyo3::types::{PyCFunction, PyDict, PyTuple};
+use pyo3::types::{PyBool, PyCFunction, PyDict, PyInt, PyTuple};
 use pyo3::{PyTraverseError, intern};
 use slate_model::{
-    AttrDecl, Board, ClassDef, Context, DEFAULT_MAX_DEPTH, Filter, NewObject, Query, Trigger,
+    AttrDecl, Board, ClassDef, Context, DEFAULT_MAX_DEPTH, Filter, MAX_NESTED_FUNCTIONS, NewObject,
+    Query, Trigger,
 };
 use slate_plans::Engine;
 
@@ -141,6 +142,24 @@ impl PyBoard {
     }
 }
 
+/// A `max_depth` given from Python: an int from 0 to [`MAX_NESTED_FUNCTIONS`] (deeper
+/// chains could not run anyway: one thread nests no more functions than that).
+fn checked_max_depth(depth: &Bound<'_, PyAny>) -> PyResult<usize> {
+    let what = || format!("from 0 to {MAX_NESTED_FUNCTIONS} (default {DEFAULT_MAX_DEPTH})");
+    if !depth.is_instance_of::<PyInt>() || depth.is_instance_of::<PyBool>() {
+        return Err(PyTypeError::new_err(format!(
+            "max_depth must be an int {}, not {}",
+            what(),
+            depth.get_type().name()?
+        )));
+    }
+    depth
+        .extract::<usize>()
+        .ok()
+        .filter(|d| *d <= MAX_NESTED_FUNCTIONS)
+        .ok_or_else(|| PyValueError::new_err(format!("max_depth must be {}, not {depth}", what())))
+}
+
 fn parse_context(context: Option<&str>) -> PyResult<Option<Context>> {
     context
         .map(|c| Context::from_str(c).map_err(PyValueError::new_err))
@@ -168,15 +187,16 @@ pub(crate) fn new_object(
 impl PyBoard {
     /// A board. `clock`: `"system"` (default), `"manual"`, or a `Clock` to share with
     /// other boards. `address`: the module, `team/robot/module`. `max_depth`: the deepest
-    /// chain of active functions allowed.
+    /// chain of active functions allowed, an int from 0 to 128 (default 8).
     #[new]
     #[pyo3(signature = (clock=None, address=None, max_depth=None))]
     fn new(
         py: Python<'_>,
         clock: Option<&Bound<'_, PyAny>>,
         address: Option<&str>,
-        max_depth: Option<usize>,
+        max_depth: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Self> {
+        let max_depth = max_depth.map(checked_max_depth).transpose()?;
         let clock = match clock {
             None => slate_model::Clock::system(),
             Some(c) => match c.cast::<PyClock>() {
@@ -287,6 +307,15 @@ impl PyBoard {
     fn delete(&self, py: Python<'_>, name: &str) -> PyResult<u64> {
         let board = &self.board;
         py.detach(|| board.delete(name))
+            .map_err(|e| errors::delete(py, e))
+    }
+
+    /// Deletes a class that has no instances and no subclasses (delete those first);
+    /// its name is then free for a new definition. Raises `DeleteError` (in use, an
+    /// object, or `Thing`) or `UnknownObjectError`.
+    fn delete_class(&self, py: Python<'_>, name: &str) -> PyResult<()> {
+        let board = &self.board;
+        py.detach(|| board.delete_class(name))
             .map_err(|e| errors::delete(py, e))
     }
 

@@ -173,7 +173,7 @@ const SPECS: &[(Kind, &str, &[Base], &str)] = &[
         Kind::Clock,
         "ClockError",
         &[Base::Ours(Kind::Slate)],
-        "The clock cannot be moved like that (a system clock, or backwards).",
+        "The clock cannot be moved like that (a system clock, backwards, or past 2112).",
     ),
     (
         Kind::Address,

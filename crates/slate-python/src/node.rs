@@ -7,9 +7,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
 
 use crossbeam_channel::Receiver;
+use parking_lot::Mutex;
 use pyo3::prelude::*;
 use pyo3::types::PyString;
 use slate_ici::IciConfig;
+use slate_model::{Address, Board};
 use slate_node::{Node, is_final};
 use slate_wire::PlanStep;
 use slate_zenoh::{Mode, ZenohConfig};
@@ -47,6 +49,12 @@ fn zenoh(
         }
     };
     let _ = py;
+    for (key, list) in [("listen", &listen), ("connect", &connect)] {
+        for e in list {
+            slate_zenoh::check_endpoint(e)
+                .map_err(|why| pyo3::exceptions::PyValueError::new_err(format!("{key}: {why}")))?;
+        }
+    }
     Ok(ZenohConfig {
         mode,
         listen,
@@ -66,6 +74,32 @@ fn classes(
         Some(e) => slate_node::class_set(&e)
             .map_err(|why| pyo3::exceptions::PyValueError::new_err(format!("{which}: {why}"))),
     }
+}
+
+/// The nodes open in this process, with their boards: one module has one node, and one
+/// board one node (two would answer each other's catch-ups and send every report twice).
+static OPEN_NODES: Mutex<Vec<std::sync::Weak<Node>>> = Mutex::new(Vec::new());
+
+/// Refuses a node on a board or at an address an open node of this process already has.
+fn check_not_open(py: Python<'_>, address: &Address, board: &Arc<Board>) -> PyResult<()> {
+    let mut open = OPEN_NODES.lock();
+    open.retain(|n| n.upgrade().is_some_and(|n| !n.is_closed()));
+    for node in open.iter().filter_map(std::sync::Weak::upgrade) {
+        let why = if Arc::ptr_eq(node.board(), board) {
+            format!(
+                "this board already has an open node, {}: close it first, or give the new node its own board",
+                node.address()
+            )
+        } else if node.address() == address {
+            format!(
+                "a node {address} is already open in this process: close it first, or give each module its own address"
+            )
+        } else {
+            continue;
+        };
+        return Err(errors::new(py, Kind::Node, why));
+    }
+    Ok(())
 }
 
 #[pymethods]
@@ -109,6 +143,7 @@ impl PyNode {
             })
             .transpose()?;
         let b = board.get();
+        check_not_open(py, &addr, b.inner())?;
         let engine = b.engine(py).clone();
         let mut builder = Node::builder(addr)
             .zenoh(zenoh)
@@ -121,10 +156,9 @@ impl PyNode {
         let node = py
             .detach(|| builder.start())
             .map_err(|e| errors::new(py, Kind::Node, e.to_string()))?;
-        Ok(PyNode {
-            node: Arc::new(node),
-            board,
-        })
+        let node = Arc::new(node);
+        OPEN_NODES.lock().push(Arc::downgrade(&node));
+        Ok(PyNode { node, board })
     }
 
     /// The module's address.

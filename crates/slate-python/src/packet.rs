@@ -12,7 +12,8 @@ use std::time::Duration;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyString, PyTuple};
 use slate_model::{
-    Address, Board, Packet, THING, Timestamp, Update, Value, ValueError, ValueType, WriteError,
+    Address, Board, MAX_TIME, Packet, THING, Timestamp, Update, Value, ValueError, ValueType,
+    WriteError,
 };
 
 use crate::errors::{self, Kind};
@@ -48,7 +49,9 @@ impl Reference {
 /// An attribute packet: `value, accuracy, confidence, timestamp, source`.
 ///
 /// Boards return packets from `read`; an on-read active function may return one to
-/// replace what the read returns. `timestamp` is in seconds since the Unix epoch.
+/// replace what the read returns. `timestamp` is in seconds since the Unix epoch, to the
+/// microsecond; `stamp` is the full hybrid-clock stamp, an int that orders every write a
+/// board makes, even several at one instant (see `stamp`).
 #[pyclass(module = "slate", name = "Packet", frozen)]
 #[derive(Clone, Debug)]
 pub(crate) struct PyPacket {
@@ -103,6 +106,16 @@ impl PyPacket {
     #[getter]
     fn timestamp(&self) -> f64 {
         self.inner.timestamp.as_secs_f64()
+    }
+
+    /// The full hybrid logical clock stamp, an int: microseconds since the Unix epoch in
+    /// the high bits, a counter in the low 12 bits (`stamp >> 12` is the microseconds).
+    /// Writes made at one instant share `timestamp` but not `stamp`: a later write (and a
+    /// write made after receiving a packet) always has a greater stamp. `latest` keeps the
+    /// packet with the greatest `(stamp, source)`. 0: never written.
+    #[getter]
+    fn stamp(&self) -> u64 {
+        self.inner.timestamp.raw()
     }
 
     /// The module that wrote it (`team/robot/module`).
@@ -268,14 +281,22 @@ pub(crate) fn to_update(
 }
 
 /// Seconds since the Unix epoch as a timestamp.
+/// A timestamp given in seconds: finite, not negative, and no later than a stamp holds
+/// ([`MAX_TIME`], in 2112), never saturated.
 pub(crate) fn to_timestamp(py: Python<'_>, seconds: f64) -> PyResult<Timestamp> {
     Duration::try_from_secs_f64(seconds)
+        .ok()
+        .filter(|d| *d <= MAX_TIME)
         .map(Timestamp::from_duration)
-        .map_err(|_| {
+        .ok_or_else(|| {
             errors::new(
                 py,
                 Kind::InvalidPacket,
-                format!("timestamp {seconds} must be finite seconds since the Unix epoch, >= 0"),
+                format!(
+                    "timestamp {seconds} must be seconds since the Unix epoch, from 0 to {:.0} \
+                     (the year 2112, the last a stamp holds)",
+                    MAX_TIME.as_secs_f64()
+                ),
             )
         })
 }

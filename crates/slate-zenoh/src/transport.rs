@@ -468,6 +468,25 @@ mod tests {
 
     use super::*;
 
+    #[test]
+    fn a_malformed_endpoint_is_refused_with_the_form_to_write() {
+        let config = ZenohConfig {
+            connect: vec!["tcp/127.0.0.1:7447".into(), "bogus".into()],
+            ..ZenohConfig::default()
+        };
+        let address = Address::new("t/r1/a").unwrap();
+        let Err(e) = ZenohTransport::open(address, &config) else {
+            panic!("a malformed endpoint was accepted");
+        };
+        let text = e.to_string();
+        assert!(text.contains("\"bogus\" is not PROTOCOL/ADDRESS"), "{text}");
+        assert!(text.contains("tcp/127.0.0.1:7447"), "{text}");
+        assert!(
+            !text.contains("Json5Err") && !text.contains(".cargo"),
+            "{text}"
+        );
+    }
+
     fn wait(mut done: impl FnMut() -> bool) -> bool {
         let end = Instant::now() + Duration::from_secs(10);
         while Instant::now() < end && !done() {

@@ -17,7 +17,7 @@ use crossbeam_channel::{Receiver, Sender};
 use parking_lot::{Mutex, RwLock};
 
 pub use batch::Batch;
-pub(crate) use chain::Chain;
+pub(crate) use chain::{Chain, Running};
 pub use hook::{ChangeHook, TouchKind, Touched};
 pub use snapshot::Snapshot;
 use state::{Decl, Origin, State};
@@ -34,6 +34,12 @@ use crate::{
 
 /// Default limit on the depth of chains of active functions.
 pub const DEFAULT_MAX_DEPTH: usize = 8;
+
+/// The most active functions one thread runs inside one another, whatever the boards and
+/// their limits: each nested function takes stack (a Python callable some 10 KiB), and a
+/// thread's stack must never overflow. An access that would go deeper is cut as
+/// [`ChainError::DepthLimit`] with this limit.
+pub const MAX_NESTED_FUNCTIONS: usize = 128;
 
 /// A module's blackboard: the class tree, its objects, and their attribute packets.
 ///
@@ -541,6 +547,7 @@ impl Board {
         update: Update,
         chain: &Chain,
     ) -> Result<u64, WriteError> {
+        let chain = &*chain.or_running(self.id());
         let done = {
             let mut inner = self.inner.write();
             let key = target.resolve(&inner.state)?;
@@ -795,7 +802,14 @@ impl Board {
             touched,
             hooks,
         } = done;
+        let chain = &*chain.or_running(self.id());
         for f in fired {
+            // A write admitted its key already; a batch's writes are admitted here.
+            let names = || (f.object.clone(), f.attr.clone());
+            if let Err(cut) = chain.admit(f.key, Trigger::Write, self.max_depth, names) {
+                self.report(BoardEvent::ChainCut(cut));
+                continue;
+            }
             let chain = chain.with(f.key, Trigger::Write, &f.object, &f.attr);
             let mut call = Call {
                 access: Access::Live(self),
@@ -812,6 +826,8 @@ impl Board {
                 self.run_isolated(func.as_ref(), &mut call);
             }
         }
+        // A hook is no active function: what it does starts chains of its own.
+        let _outside = Running::enter(self.id(), &Chain::default());
         for hook in hooks.iter().flat_map(|h| h.iter()) {
             hook.changed(self, revision, &touched);
         }
@@ -829,7 +845,9 @@ impl Board {
     /// Runs one function; an error or a panic becomes an event, never a failure of the
     /// access that triggered it.
     fn run_isolated(&self, func: &dyn ActiveFn, call: &mut Call<'_>) -> bool {
+        let running = Running::enter(self.id(), call.chain);
         let outcome = catch_unwind(AssertUnwindSafe(|| func.call(call)));
+        drop(running);
         let error = match outcome {
             Ok(Ok(())) => return true,
             Ok(Err(e)) => e.to_string(),
@@ -917,6 +935,7 @@ impl PendingRead {
     }
 
     fn finish(self, board: &Board, access: Access<'_>, chain: &Chain) -> Result<Packet, ReadError> {
+        let chain = &*chain.or_running(board.id());
         let names = || (self.object.clone(), self.attr.clone());
         if let Err(cut) = chain.admit(self.key, Trigger::Read, board.max_depth, names) {
             board.report(BoardEvent::ChainCut(cut.clone()));

@@ -390,3 +390,198 @@ fn functions_run_inside_a_snapshot_get_no_token() {
         "a snapshot's read has none"
     );
 }
+
+/// Attaches to `Vehicle.<attr>` a function that calls `access` on the board it captured
+/// (not through its `Call`), at most `bound` times in all, so that a board that does not
+/// cut the recursion fails the test instead of overflowing the stack.
+fn recurse_through_the_board(
+    b: &Arc<Board>,
+    attr: &str,
+    trigger: Trigger,
+    bound: usize,
+    access: impl Fn(&Board) + Send + Sync + 'static,
+) -> impl Fn() -> usize {
+    let (runs, count) = counter();
+    let weak = Arc::downgrade(b);
+    let f = move |_: &mut slate_model::Call<'_>| {
+        if runs.fetch_add(1, Ordering::SeqCst) < bound
+            && let Some(board) = weak.upgrade()
+        {
+            access(&board);
+        }
+        Ok(())
+    };
+    match trigger {
+        Trigger::Read => b.on_read("Vehicle", attr, f).unwrap(),
+        _ => b.on_write("Vehicle", attr, f).unwrap(),
+    }
+    count
+}
+
+#[test]
+fn a_read_function_that_reads_through_the_board_is_cut_as_a_cycle() {
+    let b = Arc::new(board());
+    b.create("Vehicle", "v").unwrap();
+    let runs = recurse_through_the_board(&b, "speed", Trigger::Read, 100, |board| {
+        let again = board.read("v", "speed");
+        assert!(
+            matches!(
+                again,
+                Err(slate_model::ReadError::Chain(ChainError::Cycle { .. }))
+            ),
+            "{again:?}"
+        );
+    });
+    let events = b.events();
+    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(0.0));
+    assert_eq!(runs(), 1, "the nested read ran no function");
+    assert_eq!(cycle_cut(&events).unwrap(), ["v.speed", "v.speed"]);
+    assert_eq!(b.stats().function_failures, 0);
+}
+
+#[test]
+fn a_write_function_that_writes_its_attribute_through_the_board_is_cut_as_a_cycle() {
+    let b = Arc::new(board());
+    b.create("Vehicle", "v").unwrap();
+    let runs = recurse_through_the_board(&b, "speed", Trigger::Write, 100, |board| {
+        let again = board.write("v", "speed", 1.0);
+        assert!(
+            matches!(again, Err(WriteError::Chain(ChainError::Cycle { .. }))),
+            "{again:?}"
+        );
+    });
+    let events = b.events();
+    b.write("v", "speed", 5.0).unwrap();
+    assert_eq!(runs(), 1);
+    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(5.0));
+    assert_eq!(cycle_cut(&events).unwrap(), ["v.speed", "v.speed"]);
+}
+
+#[test]
+fn a_batch_committed_by_a_function_stays_in_its_chain() {
+    let b = Arc::new(board());
+    b.create("Vehicle", "v").unwrap();
+    let runs = recurse_through_the_board(&b, "speed", Trigger::Write, 100, |board| {
+        let mut batch = board.batch();
+        batch.write("v", "speed", 2.0);
+        // The batch is stored; the function it would run again is cut.
+        batch.commit().unwrap();
+    });
+    let events = b.events();
+    b.write("v", "speed", 5.0).unwrap();
+    assert_eq!(runs(), 1);
+    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(2.0));
+    assert_eq!(cycle_cut(&events).unwrap(), ["v.speed", "v.speed"]);
+}
+
+#[test]
+fn functions_that_call_each_others_boards_are_cut_as_a_cycle() {
+    let a = Arc::new(board());
+    let b = Arc::new(board());
+    a.create("Vehicle", "v").unwrap();
+    b.create("Vehicle", "v").unwrap();
+    let weak_b = Arc::downgrade(&b);
+    let runs_a = recurse_through_the_board(&a, "mode", Trigger::Read, 100, move |_| {
+        if let Some(b) = weak_b.upgrade() {
+            let _ = b.read("v", "mode");
+        }
+    });
+    let weak_a = Arc::downgrade(&a);
+    let runs_b = recurse_through_the_board(&b, "mode", Trigger::Read, 100, move |_| {
+        if let Some(a) = weak_a.upgrade() {
+            let _ = a.read("v", "mode");
+        }
+    });
+    let events = a.events();
+    assert_eq!(a.read("v", "mode").unwrap().value, Value::from("idle"));
+    assert_eq!((runs_a(), runs_b()), (1, 1));
+    assert_eq!(cycle_cut(&events).unwrap(), ["v.mode", "v.mode"]);
+}
+
+#[test]
+fn a_function_on_another_thread_starts_its_own_chain() {
+    let b = Arc::new(board());
+    b.create("Vehicle", "v").unwrap();
+    let runs = recurse_through_the_board(&b, "speed", Trigger::Write, 2, |board| {
+        // Not this thread's chain: the other thread's write runs the function again.
+        std::thread::scope(|s| {
+            s.spawn(|| board.write("v", "speed", 1.0).unwrap());
+        });
+    });
+    b.write("v", "speed", 5.0).unwrap();
+    assert_eq!(runs(), 3);
+}
+
+#[test]
+fn a_thread_nests_no_more_functions_than_its_stack_allows_whatever_the_limit() {
+    let b = Arc::new(
+        Board::builder()
+            .clock(Clock::manual())
+            .max_depth(100_000)
+            .build(),
+    );
+    b.define(ClassDef::new("Hop").attr(AttrDecl::new("x", ValueType::Int)))
+        .unwrap();
+    let hops = 3 * slate_model::MAX_NESTED_FUNCTIONS;
+    for i in 0..hops {
+        b.create("Hop", &format!("h{i}")).unwrap();
+    }
+    let (runs, count) = counter();
+    // Each hop's function reads the next hop through the board it captured.
+    let weak = Arc::downgrade(&b);
+    b.on_read("Hop", "x", move |call| {
+        runs.fetch_add(1, Ordering::SeqCst);
+        let next: usize = call.object()[1..].parse().unwrap_or(usize::MAX);
+        if let (Some(board), true) = (weak.upgrade(), next + 1 < hops) {
+            board.read(&format!("h{}", next + 1), "x")?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    let events = b.events();
+    // A large stack, so that a board without the bound fails the assertion, not the run.
+    let b2 = b.clone();
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(move || b2.read("h0", "x").unwrap())
+        .unwrap()
+        .join()
+        .unwrap();
+    assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
+    let cut = events.try_iter().find_map(|e| match e {
+        BoardEvent::ChainCut(c) => Some(c),
+        _ => None,
+    });
+    assert!(
+        matches!(cut, Some(ChainError::DepthLimit { limit, .. }) if limit == slate_model::MAX_NESTED_FUNCTIONS),
+        "{cut:?}"
+    );
+}
+
+#[test]
+fn functions_hopping_across_many_boards_are_bounded_too() {
+    let hops = 2 * slate_model::MAX_NESTED_FUNCTIONS;
+    let boards: Vec<Arc<Board>> = (0..hops).map(|_| Arc::new(board())).collect();
+    let (runs, count) = counter();
+    for (i, b) in boards.iter().enumerate() {
+        b.create("Vehicle", "v").unwrap();
+        let next = boards.get(i + 1).map(Arc::downgrade);
+        let runs = runs.clone();
+        b.on_read("Vehicle", "mode", move |_| {
+            runs.fetch_add(1, Ordering::SeqCst);
+            if let Some(next) = next.as_ref().and_then(std::sync::Weak::upgrade) {
+                next.read("v", "mode")?;
+            }
+            Ok(())
+        })
+        .unwrap();
+    }
+    let first = boards[0].clone();
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(move || first.read("v", "mode").unwrap())
+        .unwrap()
+        .join()
+        .unwrap();
+    assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
+}

@@ -113,3 +113,34 @@ fn hooks_may_write_the_board() {
         slate_model::Value::Int(6)
     );
 }
+
+/// A hook that writes `v.speed` once, when `v.wheels` changes.
+struct SpeedFromWheels;
+
+impl ChangeHook for SpeedFromWheels {
+    fn changed(&self, board: &Board, _revision: u64, touched: &[Touched]) {
+        let wheels = board.attr_id("wheels");
+        if touched.iter().any(|t| t.attr == wheels && t.attr.is_some()) {
+            board.write("v", "speed", 9.0).unwrap();
+        }
+    }
+}
+
+#[test]
+fn a_hook_called_inside_an_active_function_starts_its_own_chain() {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    // speed's function writes wheels; the hook then writes speed: not a cycle of
+    // active functions (a hook bounds its own recursion).
+    b.on_write("Vehicle", "speed", |call| {
+        if call.packet().value.as_f64() == Some(1.0) {
+            call.write("v", "wheels", 4)?;
+        }
+        Ok(())
+    })
+    .unwrap();
+    b.add_hook(Arc::new(SpeedFromWheels));
+    b.write("v", "speed", 1.0).unwrap();
+    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(9.0));
+    assert_eq!(b.stats().chain_cuts, 0);
+}
