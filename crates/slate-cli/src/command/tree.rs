@@ -18,12 +18,13 @@ use crate::command::live::{join, print_json};
 pub fn run(args: &TreeArgs, format: Format) -> anyhow::Result<ExitCode> {
     if args.files.is_empty() {
         let node = join(&args.live)?;
-        let result = print(node.board(), format);
+        let conflicts = Conflicts::of(node.ici().class_conflicts());
+        let result = print(node.board(), &conflicts, format);
         node.close();
         result?;
     } else {
         let board = load(&args.files)?;
-        print(&board, format)?;
+        print(&board, &Conflicts::default(), format)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -42,7 +43,25 @@ fn load(files: &[std::path::PathBuf]) -> anyhow::Result<Arc<Board>> {
     Ok(board)
 }
 
-fn print(board: &Board, format: Format) -> anyhow::Result<()> {
+/// The modules that define a class differently from the board shown, by class.
+#[derive(Default)]
+struct Conflicts(BTreeMap<String, Vec<String>>);
+
+impl Conflicts {
+    fn of(found: Vec<(String, slate_model::Address)>) -> Self {
+        let mut by_class: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for (class, peer) in found {
+            by_class.entry(class).or_default().push(peer.to_string());
+        }
+        Conflicts(by_class)
+    }
+
+    fn peers(&self, class: &str) -> &[String] {
+        self.0.get(class).map(Vec::as_slice).unwrap_or_default()
+    }
+}
+
+fn print(board: &Board, conflicts: &Conflicts, format: Format) -> anyhow::Result<()> {
     let classes = Classes::of(board);
     let counts = counts(board);
     let mut children: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
@@ -58,6 +77,7 @@ fn print(board: &Board, format: Format) -> anyhow::Result<()> {
                     json!({
                         "name": d.name, "parent": d.parent, "attrs": attrs,
                         "objects": counts.get(d.name.as_str()).copied().unwrap_or(0),
+                        "conflicts": conflicts.peers(&d.name),
                     })
                 })
                 .collect();
@@ -65,7 +85,13 @@ fn print(board: &Board, format: Format) -> anyhow::Result<()> {
         }
         Format::Text => {
             println!("{THING}");
-            print_children(&classes, &children, &counts, THING, "");
+            let tree = Tree {
+                classes: &classes,
+                children: &children,
+                counts: &counts,
+                conflicts,
+            };
+            tree.print_children(THING, "");
             Ok(())
         }
     }
@@ -82,26 +108,46 @@ fn counts(board: &Board) -> BTreeMap<String, usize> {
     counts
 }
 
-fn print_children(
-    classes: &Classes,
-    children: &BTreeMap<&str, Vec<&str>>,
-    counts: &BTreeMap<String, usize>,
-    parent: &str,
-    indent: &str,
-) {
-    let kids = children.get(parent).map(Vec::as_slice).unwrap_or_default();
-    for (i, name) in kids.iter().enumerate() {
-        if *name == THING {
-            continue;
+/// What the text tree is drawn from.
+struct Tree<'a> {
+    classes: &'a Classes,
+    children: &'a BTreeMap<&'a str, Vec<&'a str>>,
+    counts: &'a BTreeMap<String, usize>,
+    conflicts: &'a Conflicts,
+}
+
+impl Tree<'_> {
+    fn print_children(&self, parent: &str, indent: &str) {
+        let kids = self
+            .children
+            .get(parent)
+            .map(Vec::as_slice)
+            .unwrap_or_default();
+        for (i, name) in kids.iter().enumerate() {
+            if *name == THING {
+                continue;
+            }
+            let last = i + 1 == kids.len();
+            let (branch, more) = if last {
+                ("└── ", "    ")
+            } else {
+                ("├── ", "│   ")
+            };
+            println!("{indent}{branch}{}", self.line(name));
+            self.print_children(name, &format!("{indent}{more}"));
         }
-        let last = i + 1 == kids.len();
-        let (branch, more) = if last {
-            ("└── ", "    ")
-        } else {
-            ("├── ", "│   ")
-        };
-        println!("{indent}{branch}{}", line(classes, counts, name));
-        print_children(classes, children, counts, name, &format!("{indent}{more}"));
+    }
+
+    /// `Vehicle (position, speed): 2 objects`, and the modules that define it otherwise.
+    fn line(&self, name: &str) -> String {
+        let line = line(self.classes, self.counts, name);
+        match self.conflicts.peers(name) {
+            [] => line,
+            peers => format!(
+                "{line}  [conflict: defined differently by {}; their objects are not merged]",
+                peers.join(", ")
+            ),
+        }
     }
 }
 

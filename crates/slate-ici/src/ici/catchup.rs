@@ -51,7 +51,7 @@ impl State {
     }
 
     /// Encodes a message with the stream encoder of `to`'s link and sends it reliably.
-    fn send_message(&mut self, to: &Address, msg: &Message) -> bool {
+    pub(super) fn send_message(&mut self, to: &Address, msg: &Message) -> bool {
         let link = LinkKind::between(&self.me, to);
         let Some(out) = self.out.get_mut(&link) else {
             return false;

@@ -795,6 +795,15 @@ impl Board {
         false
     }
 
+    /// Reports that `peer` defines `class` differently from this board (the ICI, which
+    /// finds it, reports it once per peer and class): an event, and a warning in the log.
+    pub fn report_class_conflict(&self, class: &str, peer: &Address) {
+        self.report(BoardEvent::ClassConflict {
+            class: class.to_owned(),
+            peer: peer.clone(),
+        });
+    }
+
     pub(crate) fn report(&self, event: BoardEvent) {
         match &event {
             BoardEvent::FunctionFailed {
@@ -810,6 +819,9 @@ impl Board {
             BoardEvent::ChainCut(cut) => {
                 self.chain_cuts.fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(%cut, "active function chain cut");
+            }
+            BoardEvent::ClassConflict { class, peer } => {
+                tracing::warn!(%class, %peer, "class defined differently by another module: its objects are not merged");
             }
         }
         self.subscribers

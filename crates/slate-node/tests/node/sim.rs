@@ -221,3 +221,29 @@ fn a_node_can_adopt_an_existing_board_and_engine() {
         "the board is t/r1/other but the node is t/r1/nav"
     );
 }
+
+#[test]
+fn a_class_conflict_is_a_warning_in_the_events_of_both_nodes() {
+    let net = SimNet::new(10);
+    let nav = start(
+        &net,
+        "t/r1/nav",
+        "class Sonar { ping: real; } object s1 : Sonar;",
+    );
+    let other = start(&net, "t/r2/nav", "class Sonar { ping: int; }");
+    net.run_for(Duration::from_millis(500));
+    nav.board().write("s1", "ping", 0.5).unwrap();
+    net.run_for(Duration::from_secs(3));
+    let said = |node: &Node, peer: &str| {
+        let text = format!(
+            "class Sonar is defined differently by {peer}: objects of Sonar are not merged with it"
+        );
+        eventually(|| {
+            node.events()
+                .iter()
+                .any(|e| e.text == text && e.level == Level::Warn)
+        })
+    };
+    assert!(said(&other, "t/r1/nav"), "{:?}", other.events());
+    assert!(said(&nav, "t/r2/nav"), "{:?}", nav.events());
+}
