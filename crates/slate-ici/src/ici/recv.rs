@@ -288,10 +288,12 @@ impl State {
     }
 
     /// Was something stamped `stamp` by `from` made before its current incarnation
-    /// started (a late message of the incarnation before a restart)?
+    /// started (a late message of the incarnation before a restart)? Never for
+    /// `Timestamp::ZERO`, the stamp of initial values from files, which every incarnation
+    /// writes alike.
     pub fn before_incarnation(&self, from: &Address, stamp: Timestamp) -> bool {
         let incarnation = self.peers.get(from).and_then(|p| p.incarnation);
-        incarnation.is_some_and(|i| stamp.raw() < i)
+        incarnation.is_some_and(|i| stamp != Timestamp::ZERO && stamp.raw() < i)
     }
 
     /// An object its owner says exists: create it if this board models it and holds
