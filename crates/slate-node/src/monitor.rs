@@ -171,6 +171,10 @@ impl Sources {
     fn drain(&self, board: &Board, log: &EventLog) {
         while let Some(change) = self.modules.as_ref().and_then(Watch::try_recv) {
             for item in change.items {
+                if let ChangeItem::Delete { object, .. } = &item {
+                    // A forgotten module (dead for the ICI's `forget_dead`).
+                    self.alive.lock().remove(&**object);
+                }
                 if let ChangeItem::Write {
                     object,
                     attr,

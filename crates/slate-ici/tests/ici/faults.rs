@@ -361,3 +361,36 @@ fn initial_values_written_while_running_reach_the_team_and_are_not_stale() {
     let stats = team.node("t/r1/m0").ici.stats();
     assert_eq!(stats.rejects.stale, 0, "{:?}", stats.rejects);
 }
+
+#[test]
+fn modules_that_come_and_go_leave_no_lasting_module_objects() {
+    let mut team = Team::new(36);
+    let config = open().forget_dead(secs(20.0));
+    team.add("t/r1/nav", config.clone());
+    team.add("t/r2/loco", config);
+    team.run(1.0);
+    let objects = |team: &Team, n: &str| team.board(n).stats().objects;
+    let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
+    for i in 0..10 {
+        let cli = format!("t/r1/cli-{i}");
+        team.add(&cli, open());
+        team.run(0.5);
+        team.net.kill(&addr(&cli));
+        team.nodes.retain(|n| n.address != addr(&cli));
+        team.run(0.5);
+    }
+    assert!(
+        objects(&team, "t/r1/nav") > before.0,
+        "each was a module while it lived"
+    );
+    team.run(30.0);
+    let after = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
+    assert_eq!(after, before);
+    let name = module_object_name(&addr("t/r1/cli-3"));
+    assert!(team.board("t/r2/loco").info(&name).is_none());
+    // One that comes back is found again.
+    team.add("t/r1/cli-3", open());
+    team.run(1.0);
+    let alive = team.board("t/r2/loco").read(&name, "alive").unwrap().value;
+    assert_eq!(alive, Value::Bool(true));
+}
