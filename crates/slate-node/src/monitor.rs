@@ -1,5 +1,5 @@
 //! What a node tells its operator: peers coming up and going down, plan progress, failed
-//! active functions. Each is logged through `tracing` and kept in a short event log (the
+//! active functions, classes other modules define differently. Each is logged through `tracing` and kept in a short event log (the
 //! dashboard's `events`).
 
 use std::collections::{HashMap, VecDeque};
@@ -171,6 +171,10 @@ impl Sources {
     fn drain(&self, board: &Board, log: &EventLog) {
         while let Some(change) = self.modules.as_ref().and_then(Watch::try_recv) {
             for item in change.items {
+                if let ChangeItem::Delete { object, .. } = &item {
+                    // A forgotten module (dead for the ICI's `forget_dead`).
+                    self.alive.lock().remove(&**object);
+                }
                 if let ChangeItem::Write {
                     object,
                     attr,
@@ -260,6 +264,9 @@ fn board_event(e: &BoardEvent) -> String {
             ..
         } => format!("active function {function} failed on {object}.{attr}: {error}"),
         BoardEvent::ChainCut(c) => format!("chain of active functions cut: {c}"),
+        BoardEvent::ClassConflict { class, peer } => format!(
+            "class {class} is defined differently by {peer}: objects of {class} are not merged with it"
+        ),
         other => format!("{other:?}"),
     }
 }

@@ -5,7 +5,8 @@
 //! the node it connects to: it models everything,
 //! owns no object and writes only what it is told to (`slate put`), so it leaves no
 //! object on anyone's board. The other modules keep a `Module` object for it, which goes
-//! `alive = false` once it has left, like any module that stopped.
+//! `alive = false` once it has left, like any module that stopped, and is deleted once it
+//! has been dead for the ICI's `forget_dead` (10 min by default).
 
 use std::collections::BTreeSet;
 use std::time::{Duration, Instant};

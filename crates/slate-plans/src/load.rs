@@ -796,7 +796,9 @@ fn create_objects(
             } else {
                 value
             };
-            let mut u = Update::new(value);
+            // Stamped zero, like a declared default: an initial value claims no time,
+            // so it loses to any packet the team wrote (a restart never rolls it back).
+            let mut u = Update::new(value).timestamp(slate_model::Timestamp::ZERO);
             u.accuracy = w
                 .accuracy
                 .as_ref()

@@ -18,7 +18,9 @@ use crate::command::live::{join, print_export_note, print_json, seen_through_exp
 pub fn run(args: &TreeArgs, format: Format) -> anyhow::Result<ExitCode> {
     if args.files.is_empty() {
         let node = join(&args.live)?;
-        let result = print(node.board(), format, Some(seen_through_export_json(&node)));
+        let conflicts = Conflicts::of(node.ici().class_conflicts());
+        let seen = Some(seen_through_export_json(&node));
+        let result = print(node.board(), &conflicts, format, seen);
         if format == Format::Text {
             print_export_note(&node);
         }
@@ -26,7 +28,7 @@ pub fn run(args: &TreeArgs, format: Format) -> anyhow::Result<ExitCode> {
         result?;
     } else {
         let board = load(&args.files)?;
-        print(&board, format, None)?;
+        print(&board, &Conflicts::default(), format, None)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -45,8 +47,31 @@ fn load(files: &[std::path::PathBuf]) -> anyhow::Result<Arc<Board>> {
     Ok(board)
 }
 
+/// The modules that define a class differently from the board shown, by class.
+#[derive(Default)]
+struct Conflicts(BTreeMap<String, Vec<String>>);
+
+impl Conflicts {
+    fn of(found: Vec<(String, slate_model::Address)>) -> Self {
+        let mut by_class: BTreeMap<String, Vec<String>> = BTreeMap::new();
+        for (class, peer) in found {
+            by_class.entry(class).or_default().push(peer.to_string());
+        }
+        Conflicts(by_class)
+    }
+
+    fn peers(&self, class: &str) -> &[String] {
+        self.0.get(class).map(Vec::as_slice).unwrap_or_default()
+    }
+}
+
 /// Prints the tree; `seen_through_export` (live only) goes into the JSON.
-fn print(board: &Board, format: Format, seen_through_export: Option<Json>) -> anyhow::Result<()> {
+fn print(
+    board: &Board,
+    conflicts: &Conflicts,
+    format: Format,
+    seen_through_export: Option<Json>,
+) -> anyhow::Result<()> {
     let classes = Classes::of(board);
     let counts = counts(board);
     let mut children: BTreeMap<&str, Vec<&str>> = BTreeMap::new();
@@ -62,6 +87,7 @@ fn print(board: &Board, format: Format, seen_through_export: Option<Json>) -> an
                     json!({
                         "name": d.name, "parent": d.parent, "attrs": attrs,
                         "objects": counts.get(d.name.as_str()).copied().unwrap_or(0),
+                        "conflicts": conflicts.peers(&d.name),
                     })
                 })
                 .collect();
@@ -73,7 +99,13 @@ fn print(board: &Board, format: Format, seen_through_export: Option<Json>) -> an
         }
         Format::Text => {
             println!("{THING}");
-            print_children(&classes, &children, &counts, THING, "");
+            let tree = Tree {
+                classes: &classes,
+                children: &children,
+                counts: &counts,
+                conflicts,
+            };
+            tree.print_children(THING, "");
             Ok(())
         }
     }
@@ -90,26 +122,46 @@ fn counts(board: &Board) -> BTreeMap<String, usize> {
     counts
 }
 
-fn print_children(
-    classes: &Classes,
-    children: &BTreeMap<&str, Vec<&str>>,
-    counts: &BTreeMap<String, usize>,
-    parent: &str,
-    indent: &str,
-) {
-    let kids = children.get(parent).map(Vec::as_slice).unwrap_or_default();
-    for (i, name) in kids.iter().enumerate() {
-        if *name == THING {
-            continue;
+/// What the text tree is drawn from.
+struct Tree<'a> {
+    classes: &'a Classes,
+    children: &'a BTreeMap<&'a str, Vec<&'a str>>,
+    counts: &'a BTreeMap<String, usize>,
+    conflicts: &'a Conflicts,
+}
+
+impl Tree<'_> {
+    fn print_children(&self, parent: &str, indent: &str) {
+        let kids = self
+            .children
+            .get(parent)
+            .map(Vec::as_slice)
+            .unwrap_or_default();
+        for (i, name) in kids.iter().enumerate() {
+            if *name == THING {
+                continue;
+            }
+            let last = i + 1 == kids.len();
+            let (branch, more) = if last {
+                ("└── ", "    ")
+            } else {
+                ("├── ", "│   ")
+            };
+            println!("{indent}{branch}{}", self.line(name));
+            self.print_children(name, &format!("{indent}{more}"));
         }
-        let last = i + 1 == kids.len();
-        let (branch, more) = if last {
-            ("└── ", "    ")
-        } else {
-            ("├── ", "│   ")
-        };
-        println!("{indent}{branch}{}", line(classes, counts, name));
-        print_children(classes, children, counts, name, &format!("{indent}{more}"));
+    }
+
+    /// `Vehicle (position, speed): 2 objects`, and the modules that define it otherwise.
+    fn line(&self, name: &str) -> String {
+        let line = line(self.classes, self.counts, name);
+        match self.conflicts.peers(name) {
+            [] => line,
+            peers => format!(
+                "{line}  [conflict: defined differently by {}; their objects are not merged]",
+                peers.join(", ")
+            ),
+        }
     }
 }
 

@@ -336,3 +336,30 @@ fn introspection_says_which_modules_it_sees_only_through_their_export() {
     assert_eq!(j["seen_through_export"], serde_json::json!(["t/r1/nav"]));
     team.stop();
 }
+
+#[test]
+fn tree_shows_a_class_two_modules_define_differently() {
+    let mut team = Team::new("conflict");
+    team.add(
+        "t/r1/nav",
+        "class Sonar { ping: real; }\nobject s1 : Sonar { ping = 0.5; }",
+    );
+    team.add(
+        "t/r2/loco",
+        "class Sonar { ping: int; }\nobject s2 : Sonar { ping = 3; }",
+    );
+    team.wait_connected();
+    let tree = team.ok(&["tree"]);
+    assert!(
+        tree.contains("[conflict: defined differently by t/r"),
+        "{tree}"
+    );
+    let j = team.json(&["tree"]);
+    let sonar = j["classes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "Sonar")
+        .unwrap();
+    assert_eq!(sonar["conflicts"].as_array().map(Vec::len), Some(1), "{j}");
+}

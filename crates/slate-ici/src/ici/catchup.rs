@@ -51,7 +51,7 @@ impl State {
     }
 
     /// Encodes a message with the stream encoder of `to`'s link and sends it reliably.
-    fn send_message(&mut self, to: &Address, msg: &Message) -> bool {
+    pub(super) fn send_message(&mut self, to: &Address, msg: &Message) -> bool {
         let link = LinkKind::between(&self.me, to);
         let Some(out) = self.out.get_mut(&link) else {
             return false;
@@ -150,7 +150,7 @@ impl State {
                 objects.push(self.listing(&info));
             }
             let values = snap.own_values(id).into_iter().map(|(a, p, _)| (a, p));
-            for (attr, packet) in values.filter(|(_, p)| self.relays(&info, owned, p)) {
+            for (attr, packet) in values.filter(|(_, p)| self.relays(&info, owned, p, to)) {
                 items.push(Assertion {
                     object: entry.clone(),
                     attr,
@@ -168,13 +168,16 @@ impl State {
         (items, objects)
     }
 
-    /// Does a catch-up answer carry this packet? This module's own, all packets of
-    /// the objects it owns, and (having no owner to relay them) class-level values and
-    /// what a restarted module's previous incarnation wrote. Never the fusion of a
-    /// `fused` attribute (its source is unknown): the estimates go instead.
-    fn relays(&self, info: &ObjectInfo, owned: bool, packet: &Packet) -> bool {
+    /// Does a catch-up answer to `to` carry this packet? This module's own, all packets
+    /// of the objects it owns, and (having no owner to relay them) class-level values and
+    /// what a restarted module's previous incarnation wrote; and what others wrote to the
+    /// objects `to` owns: a restarted owner lost them, and their writer may be gone (an
+    /// operator's `slate put`). Never the fusion of a `fused` attribute (its source is
+    /// unknown): the estimates go instead.
+    fn relays(&self, info: &ObjectInfo, owned: bool, packet: &Packet, to: &Address) -> bool {
         let ours = packet.source == self.me || owned || info.is_class || self.orphan(packet);
-        ours && !packet.source.is_unknown()
+        let theirs = !info.is_class && info.owner == *to && packet.source != *to;
+        (ours || theirs) && !packet.source.is_unknown()
     }
 
     fn listing(&self, info: &ObjectInfo) -> Listed {

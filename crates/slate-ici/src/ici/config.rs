@@ -50,6 +50,11 @@ pub struct IciConfig {
     pub max_report_items: usize,
     /// Deleted objects remembered (tombstones) to refuse stale packets (default 4096).
     pub max_tombstones: usize,
+    /// A module dead for this long is forgotten: its `Module` object is deleted and what
+    /// this ICI knew of it dropped, so modules that come and go (the CLI's observers) do
+    /// not grow the board without bound (default 10 min). It is found again, like any
+    /// new module, if it comes back.
+    pub forget_dead: Duration,
 }
 
 impl Default for IciConfig {
@@ -70,6 +75,7 @@ impl Default for IciConfig {
             catch_up_retry: Duration::from_secs(3),
             max_report_items: 128,
             max_tombstones: 4096,
+            forget_dead: Duration::from_secs(600),
         }
     }
 }
@@ -96,6 +102,12 @@ impl IciConfig {
     /// Sets the quiet period of value filters.
     pub fn quiet(mut self, quiet: Duration) -> Self {
         self.quiet = quiet;
+        self
+    }
+
+    /// Sets how long a dead module is remembered.
+    pub fn forget_dead(mut self, after: Duration) -> Self {
+        self.forget_dead = after;
         self
     }
 

@@ -207,6 +207,16 @@ impl Ici {
             .is_some_and(|p| p.caught_up && p.catch_up.is_none() && !p.failed)
     }
 
+    /// The classes other modules define differently from this board, with the module:
+    /// `(class, peer)`, sorted. Objects of such a class are not merged with that module.
+    pub fn class_conflicts(&self) -> Vec<(String, Address)> {
+        let st = self.shared.state.lock();
+        st.conflicts
+            .iter()
+            .map(|(class, peer)| (class.to_string(), peer.clone()))
+            .collect()
+    }
+
     /// Changes what this board models: tells every peer, and catches up with each.
     pub fn set_interest(&self, interest: ClassSet) {
         self.shared.with_state(|st| {

@@ -37,6 +37,8 @@ pub(crate) enum BoardOp {
         alive: bool,
         last_seen: Duration,
     },
+    /// Delete a forgotten peer's `Module` object.
+    ForgetModule(Address),
 }
 
 /// Outcomes of merges, counted outside the state lock and added to its stats once.
@@ -102,6 +104,7 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
             alive,
             last_seen,
         } => module(board, &peer, alive, last_seen),
+        BoardOp::ForgetModule(peer) => forget_module(board, &peer),
     }
 }
 
@@ -185,6 +188,14 @@ fn delete(board: &Board, state: &Mutex<State>, object: &str, owner: &Address) {
     }
     if board.delete(object).is_ok() {
         state.lock().stats.merges.deleted += 1;
+    }
+}
+
+/// Deletes a forgotten peer's `Module` object (if it is one: a name is not proof).
+fn forget_module(board: &Board, peer: &Address) {
+    let name = module_object_name(peer);
+    if board.info(&name).is_some_and(|i| &*i.class == MODULE_CLASS) {
+        let _ = board.delete(&name);
     }
 }
 

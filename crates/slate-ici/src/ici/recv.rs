@@ -84,7 +84,7 @@ impl State {
         match msg {
             Message::Report(r) => self.on_report(from, r),
             Message::CatchUpAnswer(r) => self.apply_items(from, r.items, None),
-            Message::Classes(defs) => self.on_classes(defs),
+            Message::Classes(defs) => self.on_classes(from, defs),
             Message::CatchUpRequest(req) => self.on_request(from, req),
             Message::Heartbeat(h) => self.on_heartbeat(from, h),
             Message::Names(_) => {}
@@ -111,9 +111,7 @@ impl State {
         tracing::debug!(from = %from, %kind, error = %e, "message refused");
         let (names, classes) = match e {
             DecodeError::UnknownName { .. } => (true, false),
-            DecodeError::SchemaMismatch { class, .. } => {
-                (false, !self.conflicts.contains(class.as_str()))
-            }
+            DecodeError::SchemaMismatch { class, .. } => (false, !self.conflicts_with(from, class)),
             _ => return,
         };
         if !(names || classes) {
@@ -205,19 +203,39 @@ impl State {
             .retain(|name, _| board.info(name).is_none_or(|i| i.owner != *owner));
     }
 
-    fn on_classes(&mut self, defs: Vec<ClassDef>) {
+    fn on_classes(&mut self, from: &Address, defs: Vec<ClassDef>) {
+        let mut found = Vec::new();
         for def in defs.into_iter().filter(|d| d.name != MODULE_CLASS) {
             let name: Arc<str> = def.name.as_str().into();
             match self.board.define(def) {
                 Ok(_) => {}
                 Err(DefineError::Conflict { .. }) => {
                     self.stats.rejects.class_conflicts += 1;
-                    self.conflicts.insert(name);
+                    if self.conflicts.insert((name.clone(), from.clone())) {
+                        found.push(name);
+                    }
                 }
                 Err(e) => tracing::debug!(class = %name, error = %e, "class not defined"),
             }
         }
         self.refresh_catalog();
+        self.class_conflicts_found(from, &found);
+    }
+
+    /// Reports conflicts newly found with `from` (once per peer and class), and sends it
+    /// this board's definitions of those classes: it may hold no object of them, and
+    /// would never ask for them, yet its board must say so too.
+    fn class_conflicts_found(&mut self, from: &Address, classes: &[Arc<str>]) {
+        for class in classes {
+            self.board.report_class_conflict(class, from);
+        }
+        let mine: Vec<ClassDef> = classes
+            .iter()
+            .filter_map(|c| self.board.class_def(c))
+            .collect();
+        if !mine.is_empty() {
+            self.send_message(from, &Message::Classes(mine));
+        }
     }
 
     fn on_lifecycle(&mut self, from: &Address, l: Lifecycle) {
@@ -270,10 +288,12 @@ impl State {
     }
 
     /// Was something stamped `stamp` by `from` made before its current incarnation
-    /// started (a late message of the incarnation before a restart)?
+    /// started (a late message of the incarnation before a restart)? Never for
+    /// `Timestamp::ZERO`, the stamp of initial values from files, which every incarnation
+    /// writes alike.
     pub fn before_incarnation(&self, from: &Address, stamp: Timestamp) -> bool {
         let incarnation = self.peers.get(from).and_then(|p| p.incarnation);
-        incarnation.is_some_and(|i| stamp.raw() < i)
+        incarnation.is_some_and(|i| stamp != Timestamp::ZERO && stamp.raw() < i)
     }
 
     /// An object its owner says exists: create it if this board models it and holds
@@ -301,7 +321,7 @@ impl State {
         if self.catalog.schema.fingerprint(class) == Some(fingerprint) {
             return true;
         }
-        if self.conflicts.contains(class) {
+        if self.conflicts_with(from, class) {
             self.stats.rejects.object_conflicts += 1;
         } else {
             self.peer(from).failed = true;
@@ -383,7 +403,7 @@ impl State {
             return None;
         }
         let Some(lineage) = self.lineage(&entry.class) else {
-            if !self.conflicts.contains(&entry.class) {
+            if !self.conflicts_with(from, &entry.class) {
                 self.peer(from).failed = true;
                 self.request_catch_up(from, false, true);
             }

@@ -119,18 +119,25 @@ impl State {
     fn collect(&mut self, item: ChangeItem, out: &mut Vec<Item>) {
         match item {
             // A packet of this module's previous incarnation, handed back by a peer, is
-            // not a new write.
+            // not a new write (an initial value, stamped zero, is this one's).
             ChangeItem::Write {
                 object,
                 attr,
                 packet,
-            } if packet.source == self.me && packet.timestamp.raw() >= self.incarnation => {
+            } if packet.source == self.me && self.of_this_incarnation(packet.timestamp) => {
                 out.extend(self.own_write(object, attr, packet));
             }
             ChangeItem::Write { .. } => {}
             ChangeItem::Create { object, .. } => out.extend(self.own_create(object)),
             ChangeItem::Delete { object, .. } => out.extend(self.deleted(object)),
         }
+    }
+
+    /// Was an own packet stamped `stamp` written by this incarnation? Initial values
+    /// from files are stamped `Timestamp::ZERO` (they claim no time, so that they lose
+    /// to whatever the team wrote since): they are.
+    fn of_this_incarnation(&self, stamp: Timestamp) -> bool {
+        stamp == Timestamp::ZERO || stamp.raw() >= self.incarnation
     }
 
     /// A packet this module wrote: the item to send now, if any.

@@ -149,7 +149,8 @@ pub(crate) struct State {
     pub known: NameMemo<Known>,
     pub tombstones: Tombstones,
     pub origins: BTreeMap<Arc<str>, Origin>,
-    pub conflicts: BTreeSet<Arc<str>>,
+    /// Classes another module defines differently, with that module: (class, peer).
+    pub conflicts: BTreeSet<(Arc<str>, Address)>,
     pub next_heartbeat: BTreeMap<LinkKind, Duration>,
     pub watch: Watch,
     pub stats: IciStats,
@@ -225,6 +226,11 @@ impl State {
             .collect();
         drop(snap);
         self.own_objects.extend(owned);
+    }
+
+    /// Does `peer` define `class` differently from this board (as found so far)?
+    pub fn conflicts_with(&self, peer: &Address, class: &str) -> bool {
+        self.conflicts.contains(&(Arc::from(class), peer.clone()))
     }
 
     /// The peer entry of `address`, made on first mention.

@@ -150,4 +150,6 @@ pub struct LivelinessStats {
     pub restarts: u64,
     /// Hellos sent again because the peer had not answered.
     pub hellos_resent: u64,
+    /// Modules forgotten after being dead for `forget_dead` (their `Module` object deleted).
+    pub forgotten: u64,
 }

@@ -8,6 +8,7 @@ use slate_wire::{Heartbeat, Message};
 use super::classes::ClassSet;
 use super::filter::Due;
 use super::frame::{Frame, Hello};
+use super::ops::BoardOp;
 use super::ops::own_packet;
 use super::state::State;
 use crate::{LinkKind, MsgKind};
@@ -18,6 +19,7 @@ impl State {
         self.filter_timers();
         self.heartbeats();
         self.timeouts();
+        self.forget_dead();
         self.catch_up_timers();
         self.hello_timers();
     }
@@ -129,6 +131,26 @@ impl State {
             .collect();
         for peer in dead {
             self.lost(&peer);
+        }
+    }
+
+    /// Forgets the modules dead (and down) for longer than `forget_dead`: their
+    /// `Module` object is deleted and their entry (incarnation, stream, names) dropped,
+    /// so a board holds a bounded number of dead modules however many came and went.
+    fn forget_dead(&mut self) {
+        let (now, after) = (self.now, self.config.forget_dead);
+        let gone: Vec<Address> = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.alive == Some(false) && !p.up)
+            .filter(|(_, p)| now.saturating_sub(p.last_heard) > after)
+            .map(|(a, _)| a.clone())
+            .collect();
+        for peer in gone {
+            self.peers.remove(&peer);
+            self.decoder.forget(&peer);
+            self.stats.liveliness.forgotten += 1;
+            self.ops.push(BoardOp::ForgetModule(peer));
         }
     }
 

@@ -1,7 +1,7 @@
 //! Reports, objects, contexts, classes and deletions on clean links.
 
 use slate_ici::{IciConfig, LinkKind, MsgKind};
-use slate_model::{AttrDecl, ClassDef, Context, NewObject, Update, Value, ValueType};
+use slate_model::{AttrDecl, BoardEvent, ClassDef, Context, NewObject, Update, Value, ValueType};
 
 use crate::common::{Team, addr, classes, open};
 
@@ -274,4 +274,46 @@ fn interest_defaults_to_everything_and_export_to_nothing() {
     assert!(team.board("t/r1/cam").info("gsr").is_some());
     assert!(team.board("t/r2/nav").info("gsr").is_none());
     assert!(team.node("t/r1/nav").ici.stats().reports.suppressed_export >= 1);
+}
+
+/// The `ClassConflict` events a board reported so far.
+fn conflicts(events: &crossbeam_channel::Receiver<BoardEvent>) -> Vec<(String, String)> {
+    events
+        .try_iter()
+        .filter_map(|e| match e {
+            BoardEvent::ClassConflict { class, peer } => Some((class, peer.to_string())),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
+    let mut team = Team::new(33);
+    let a = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
+    let b = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Int));
+    let with = |d: &ClassDef| {
+        let mut v = classes();
+        v.push(d.clone());
+        v
+    };
+    team.add_with("t/r1/nav", open(), &with(&a));
+    team.add_with("t/r2/nav", open(), &with(&b));
+    let (nav_events, other_events) = (
+        team.board("t/r1/nav").events(),
+        team.board("t/r2/nav").events(),
+    );
+    team.run(0.5);
+    // Only r1 has an object of the class: r2 finds the conflict, and r1 must hear of it.
+    let nav = team.board("t/r1/nav");
+    nav.create("Sonar", "s1").unwrap();
+    for i in 0..5 {
+        nav.write("s1", "ping", f64::from(i)).unwrap();
+        team.run(1.0);
+    }
+    let sonar = || "Sonar".to_owned();
+    assert_eq!(conflicts(&other_events), [(sonar(), "t/r1/nav".to_owned())]);
+    assert_eq!(conflicts(&nav_events), [(sonar(), "t/r2/nav".to_owned())]);
+    let listed = team.node("t/r1/nav").ici.class_conflicts();
+    assert_eq!(listed, [(sonar(), addr("t/r2/nav"))]);
 }

@@ -609,8 +609,10 @@ fn on_the_system_clock_timer_driven_steps_reach_the_origin() {
         (engine, circuits, timers)
     };
     let (_e1, origin, _t1) = start("t/r1/planner", "");
-    let world = "class Counter { n: int = 0; } object c : Counter { n = 1; }";
+    let world = "class Counter { n: int = 0; } object c : Counter;";
     let (cell_engine, _cell, _t2) = start("t/r2/cell", world);
+    // A write with a time (an initial value from a file has none: its age is `none`).
+    cell_engine.board().unwrap().write("c", "n", 1_i64).unwrap();
     net.run_for(secs(0.5));
     let plan = "plan later { initiation: age(c.n) > 0.2s; action { report c; } }";
     let h = origin.send(&addr("t/r2/cell"), plan).unwrap();

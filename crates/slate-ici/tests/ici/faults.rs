@@ -1,10 +1,12 @@
 //! Convergence under loss, duplication, reordering, partitions, late joins, restarts,
 //! and a killed module seen dead everywhere.
 
-use slate_ici::{LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
-use slate_model::Value;
+use std::sync::Arc;
 
-use crate::common::{Team, addr, open, secs, workload};
+use slate_ici::{Ici, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
+use slate_model::{Board, Context, NewObject, Timestamp, Update, Value};
+
+use crate::common::{Node, Team, addr, classes, open, secs, workload};
 
 /// 3 robots × 2 modules on links with these faults, some random work, then the boards
 /// must agree (faults still on).
@@ -270,4 +272,125 @@ fn a_lost_hello_is_said_again_until_answered() {
         assert!(ici.stats().liveliness.hellos_resent >= 1);
         assert_eq!(ici.alive_peers().len(), 1);
     }
+}
+
+/// Starts (or restarts) `address` as a node does from its files: the board holds the
+/// object `gsr` with its initial speed, written as files write initial values (stamped
+/// `Timestamp::ZERO`), before the ICI starts.
+fn start_from_files(team: &mut Team, address: &str, speed: f64) {
+    let address = addr(address);
+    let board = Arc::new(
+        Board::builder()
+            .clock(team.net.clock())
+            .address(address.clone())
+            .build(),
+    );
+    for def in classes() {
+        board.define(def).unwrap();
+    }
+    board
+        .create_with(NewObject::new("Vehicle", "gsr").context(Context::Self_))
+        .unwrap();
+    let initial = Update::new(speed).timestamp(Timestamp::ZERO);
+    board.write("gsr", "speed", initial).unwrap();
+    let ici = Ici::new(board.clone(), team.net.join(&address), open()).unwrap();
+    team.nodes.retain(|n| n.address != address);
+    team.nodes.push(Node {
+        address,
+        board,
+        ici,
+        config: open(),
+    });
+}
+
+fn speed(team: &Team, address: &str) -> Option<f64> {
+    team.board(address)
+        .read("gsr", "speed")
+        .ok()?
+        .value
+        .as_f64()
+}
+
+#[test]
+fn a_restarted_module_leaves_the_team_its_newer_values_and_gets_them_back() {
+    let mut team = Team::new(34);
+    start_from_files(&mut team, "t/r1/nav", 1.0);
+    team.add("t/r1/cam", open());
+    team.add("t/r2/loco", open());
+    team.add("t/r2/operator", open());
+    team.run(1.0);
+    assert_eq!(
+        speed(&team, "t/r2/loco"),
+        Some(1.0),
+        "initial values reach the team"
+    );
+    // An operator's `slate put`: a short-lived module writes, and is gone.
+    team.board("t/r2/operator")
+        .write("gsr", "speed", 5.0)
+        .unwrap();
+    team.run(1.0);
+    assert_eq!(speed(&team, "t/r1/nav"), Some(5.0));
+    team.net.kill(&addr("t/r2/operator"));
+    team.nodes.retain(|n| n.address != addr("t/r2/operator"));
+    team.run(0.3);
+    team.net.kill(&addr("t/r1/nav"));
+    team.run(0.3);
+    start_from_files(&mut team, "t/r1/nav", 1.0);
+    team.assert_converges(10);
+    for n in ["t/r1/nav", "t/r1/cam", "t/r2/loco"] {
+        assert_eq!(speed(&team, n), Some(5.0), "{n}");
+    }
+}
+
+#[test]
+fn initial_values_written_while_running_reach_the_team_and_are_not_stale() {
+    let team = Team::grid(35, SimConfig::default(), 2, 1);
+    team.run(1.0);
+    let nav = team.board("t/r0/m0");
+    nav.create_with(NewObject::new("Vehicle", "gsr")).unwrap();
+    nav.write("gsr", "speed", Update::new(2.0).timestamp(Timestamp::ZERO))
+        .unwrap();
+    team.run(1.0);
+    assert_eq!(
+        speed(&team, "t/r1/m0"),
+        Some(2.0),
+        "{:?} {:?}",
+        team.node("t/r1/m0").ici.stats(),
+        team.node("t/r0/m0").ici.stats().reports
+    );
+    let stats = team.node("t/r1/m0").ici.stats();
+    assert_eq!(stats.rejects.stale, 0, "{:?}", stats.rejects);
+}
+
+#[test]
+fn modules_that_come_and_go_leave_no_lasting_module_objects() {
+    let mut team = Team::new(36);
+    let config = open().forget_dead(secs(20.0));
+    team.add("t/r1/nav", config.clone());
+    team.add("t/r2/loco", config);
+    team.run(1.0);
+    let objects = |team: &Team, n: &str| team.board(n).stats().objects;
+    let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
+    for i in 0..10 {
+        let cli = format!("t/r1/cli-{i}");
+        team.add(&cli, open());
+        team.run(0.5);
+        team.net.kill(&addr(&cli));
+        team.nodes.retain(|n| n.address != addr(&cli));
+        team.run(0.5);
+    }
+    assert!(
+        objects(&team, "t/r1/nav") > before.0,
+        "each was a module while it lived"
+    );
+    team.run(30.0);
+    let after = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
+    assert_eq!(after, before);
+    let name = module_object_name(&addr("t/r1/cli-3"));
+    assert!(team.board("t/r2/loco").info(&name).is_none());
+    // One that comes back is found again.
+    team.add("t/r1/cli-3", open());
+    team.run(1.0);
+    let alive = team.board("t/r2/loco").read(&name, "alive").unwrap().value;
+    assert_eq!(alive, Value::Bool(true));
 }

@@ -863,6 +863,15 @@ impl Board {
         false
     }
 
+    /// Reports that `peer` defines `class` differently from this board (the ICI, which
+    /// finds it, reports it once per peer and class): an event, and a warning in the log.
+    pub fn report_class_conflict(&self, class: &str, peer: &Address) {
+        self.report(BoardEvent::ClassConflict {
+            class: class.to_owned(),
+            peer: peer.clone(),
+        });
+    }
+
     pub(crate) fn report(&self, event: BoardEvent) {
         match &event {
             BoardEvent::FunctionFailed {
@@ -888,6 +897,9 @@ impl Board {
             } => {
                 self.future_stamps.fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(%object, %attr, %source, %stamp, ?ahead, "packet stamped in the future refused");
+            }
+            BoardEvent::ClassConflict { class, peer } => {
+                tracing::warn!(%class, %peer, "class defined differently by another module: its objects are not merged");
             }
         }
         self.subscribers

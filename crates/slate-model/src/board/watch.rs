@@ -7,7 +7,7 @@ use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
 use parking_lot::{Condvar, Mutex};
 
 use super::state::State;
-use crate::{AttrId, ChainError, ObjectId, Packet, Trigger};
+use crate::{Address, AttrId, ChainError, ObjectId, Packet, Trigger};
 
 /// What to watch: changes that match every part given (an empty filter matches all).
 ///
@@ -143,6 +143,15 @@ pub enum BoardEvent {
         stamp: crate::Timestamp,
         /// How far ahead of this board's physical time it was.
         ahead: std::time::Duration,
+    },
+    /// Another module defines a class of this board's differently: objects of that class
+    /// are not merged between the two boards (each keeps its own), until one of them
+    /// changes its definition. Reported once per (module, class).
+    ClassConflict {
+        /// The class both define.
+        class: String,
+        /// The module whose definition differs.
+        peer: Address,
     },
 }
 

@@ -221,3 +221,48 @@ fn a_node_can_adopt_an_existing_board_and_engine() {
         "the board is t/r1/other but the node is t/r1/nav"
     );
 }
+
+#[test]
+fn a_class_conflict_is_a_warning_in_the_events_of_both_nodes() {
+    let net = SimNet::new(10);
+    let nav = start(
+        &net,
+        "t/r1/nav",
+        "class Sonar { ping: real; } object s1 : Sonar;",
+    );
+    let other = start(&net, "t/r2/nav", "class Sonar { ping: int; }");
+    net.run_for(Duration::from_millis(500));
+    nav.board().write("s1", "ping", 0.5).unwrap();
+    net.run_for(Duration::from_secs(3));
+    let said = |node: &Node, peer: &str| {
+        let text = format!(
+            "class Sonar is defined differently by {peer}: objects of Sonar are not merged with it"
+        );
+        eventually(|| {
+            node.events()
+                .iter()
+                .any(|e| e.text == text && e.level == Level::Warn)
+        })
+    };
+    assert!(said(&other, "t/r1/nav"), "{:?}", other.events());
+    assert!(said(&nav, "t/r2/nav"), "{:?}", nav.events());
+}
+
+#[test]
+fn a_restarted_module_does_not_roll_the_team_back_to_its_files_initial_values() {
+    let net = SimNet::new(11);
+    let file = "object gsr : Vehicle context self { speed = 1.0; }";
+    let nav = start(&net, "t/r1/nav", file);
+    let loco = start(&net, "t/r2/loco", "");
+    net.run_for(Duration::from_secs(1));
+    loco.board().write("gsr", "speed", 5.0).unwrap();
+    assert!(run_until(&net, 3.0, || speed(&nav) == Some(5.0)));
+    // Killed without a word, and started again from the same files.
+    net.kill(&addr("t/r1/nav"));
+    drop(nav);
+    net.run_for(Duration::from_millis(300));
+    let nav = start(&net, "t/r1/nav", file);
+    net.run_for(Duration::from_secs(5));
+    assert_eq!(speed(&loco), Some(5.0), "the team keeps the newer value");
+    assert_eq!(speed(&nav), Some(5.0), "the restarted module gets it back");
+}

@@ -436,3 +436,22 @@ fn report_and_send_actions_produce_messages_for_the_ici() {
     };
     assert!(p.text.starts_with("plan inline {") && p.to.as_str() == "team/r2/exec");
 }
+
+#[test]
+fn initial_values_from_a_file_claim_no_time_and_lose_to_any_packet_written_since() {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    engine
+        .load("w.slate", "class A { x: real; } object o : A { x = 1.0; }")
+        .unwrap();
+    let initial = board.read("o", "x").unwrap();
+    assert_eq!(initial.value, Value::Real(1.0));
+    assert_eq!(initial.timestamp, slate_model::Timestamp::ZERO);
+    // A packet the team wrote long ago (before a restart, say) still wins.
+    let mut older = initial.clone();
+    older.value = Value::Real(5.0);
+    older.timestamp = slate_model::Timestamp::from_raw(1 << 12);
+    older.source = slate_model::Address::new("t/r2/op").unwrap();
+    board.merge("o", "x", older).unwrap();
+    assert_eq!(board.read("o", "x").unwrap().value, Value::Real(5.0));
+}
