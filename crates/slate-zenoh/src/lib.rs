@@ -8,6 +8,7 @@
 #![warn(missing_docs)]
 
 pub mod keys;
+mod outbox;
 mod transport;
 
 pub use transport::{Mode, OpenError, ZenohConfig, ZenohTransport};
