@@ -253,6 +253,18 @@ pub enum SendError {
     /// The transport failed (I/O, session).
     #[error("transport failure: {0}")]
     Failed(String),
+    /// The peer does not take what it is sent: its queue is full. It is reported down
+    /// until it has caught up with its queue, then up again (and caught up by the ICI).
+    #[error(
+        "{peer} is not reading what it is sent: dropped until it catches up{}",
+        if *overflowed { " (its queue just overflowed)" } else { "" }
+    )]
+    Congested {
+        /// The peer's address.
+        peer: String,
+        /// This send is the one that overflowed the queue.
+        overflowed: bool,
+    },
 }
 
 /// Receives what a transport delivers. Called from the transport's threads (or the
@@ -271,7 +283,10 @@ pub trait Handler: Send + Sync {
 /// - [`publish`](Transport::publish) is best effort: a message reaches each live peer on
 ///   that kind of link once, or not at all, or twice, in any order.
 /// - [`send`](Transport::send) is reliable: messages to one peer arrive once and in order
-///   while the peer stays reachable; a peer that goes down may miss some.
+///   while the peer stays reachable; a peer that goes down may miss some. It never
+///   blocks on a slow peer: sends to each peer are queued (bounded); a peer whose queue
+///   overflows is reported down ([`SendError::Congested`] until then) and up again once
+///   it has caught up, so one peer that does not read cannot stall the others.
 /// - Request and response are two `send`s (a catch-up request, then its answer); there is
 ///   no separate query primitive.
 /// - Liveliness: the handler's [`peer`](Handler::peer) hears every peer that comes up and

@@ -21,10 +21,29 @@ use crate::{
 /// on any error nothing of it is applied and the error is counted in
 /// [`stats`](Decoder::stats). A names section whose epoch differs from the one known
 /// for that source means the source restarted: its old dictionary is dropped.
+///
+/// At most [`MAX_SOURCES`] dictionaries are kept. A new source that finds the table full
+/// takes the slot of the source heard least recently (short-lived modules, like the
+/// CLI's observers, come and go): that is counted ([`DecodeStats::evicted`]) and named
+/// once by [`take_evicted`](Decoder::take_evicted); the evicted source's next message
+/// that uses its names is refused as [`DecodeError::UnknownName`], which asks it to
+/// announce them again. A new source is never refused for want of room.
 #[derive(Debug, Default)]
 pub struct Decoder {
-    sources: FxHashMap<Address, SourceDict>,
+    sources: FxHashMap<Address, Heard>,
+    /// Counts the messages decoded: the "time" of [`Heard::last`].
+    clock: u64,
+    /// The source last evicted, until taken.
+    evicted: Option<Address>,
     stats: DecodeStats,
+}
+
+/// One source's dictionary, and when it was last heard.
+#[derive(Debug, Default)]
+struct Heard {
+    dict: SourceDict,
+    /// [`Decoder::clock`] at the last message accepted from the source.
+    last: u64,
 }
 
 impl Decoder {
@@ -43,7 +62,19 @@ impl Decoder {
     ) -> Result<Message, DecodeError> {
         let result = self.read(from, bytes, schema);
         self.stats.record(&result);
+        if result.is_ok() {
+            self.clock += 1;
+            if let Some(heard) = self.sources.get_mut(from) {
+                heard.last = self.clock;
+            }
+        }
         result
+    }
+
+    /// The source whose dictionary was last dropped to make room for a new one, once:
+    /// a source still alive will have to announce its names again.
+    pub fn take_evicted(&mut self) -> Option<Address> {
+        self.evicted.take()
     }
 
     /// Counters of accepted and rejected messages.
@@ -79,7 +110,7 @@ impl Decoder {
         let (msg, section) = self.read_body(kind, &mut r, from, schema)?;
         r.finish()?;
         if let Some(section) = section {
-            self.apply(from, section)?;
+            self.apply(from, section);
         }
         Ok(msg)
     }
@@ -92,7 +123,7 @@ impl Decoder {
         from: &Address,
         schema: &Schema,
     ) -> Result<(Message, Option<Section>), DecodeError> {
-        let base = self.sources.get(from);
+        let base = self.sources.get(from).map(|h| &h.dict);
         Ok(match kind {
             Kind::Report | Kind::CatchUpAnswer => {
                 let (report, section) = read_report(ReportReader {
@@ -114,16 +145,25 @@ impl Decoder {
         })
     }
 
-    fn apply(&mut self, from: &Address, section: Section) -> Result<(), DecodeError> {
+    /// Applies a decoded names section, making room for a new source if needed.
+    fn apply(&mut self, from: &Address, section: Section) {
         if !self.sources.contains_key(from) && self.sources.len() >= MAX_SOURCES {
-            return Err(DecodeError::TooLarge {
-                what: "sources",
-                len: self.sources.len() as u64 + 1,
-                max: MAX_SOURCES as u64,
-            });
+            self.evict_least_recent();
         }
-        self.sources.entry(from.clone()).or_default().apply(section);
-        Ok(())
+        let heard = self.sources.entry(from.clone()).or_default();
+        heard.dict.apply(section);
+    }
+
+    /// Drops the dictionary of the source heard least recently (a scan: it happens only
+    /// when a new source finds the table full).
+    fn evict_least_recent(&mut self) {
+        let oldest = self.sources.iter().min_by_key(|(_, h)| h.last);
+        let Some(gone) = oldest.map(|(a, _)| a.clone()) else {
+            return;
+        };
+        self.sources.remove(&gone);
+        self.stats.evicted += 1;
+        self.evicted = Some(gone);
     }
 }
 

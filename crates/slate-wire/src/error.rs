@@ -137,6 +137,9 @@ pub struct DecodeStats {
     pub bad_value: u64,
     /// Rejected: [`DecodeError::Trailing`].
     pub trailing: u64,
+    /// Not a rejection: sources whose dictionaries were dropped to make room for a new
+    /// source (the table holds [`MAX_SOURCES`](crate::MAX_SOURCES)).
+    pub evicted: u64,
 }
 
 impl DecodeStats {

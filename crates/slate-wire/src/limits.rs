@@ -24,5 +24,6 @@ pub const MAX_ELEMENTS: usize = 65_536;
 /// one source; interned ids are below this.
 pub const MAX_IDS: usize = 65_536;
 
-/// Most sources whose dictionaries one decoder keeps.
+/// Most sources whose dictionaries one decoder keeps; a new source beyond this takes the
+/// slot of the source heard least recently.
 pub const MAX_SOURCES: usize = 4096;

@@ -12,3 +12,5 @@ mod robustness;
 mod roundtrip;
 #[path = "wire/sizes.rs"]
 mod sizes;
+#[path = "wire/sources.rs"]
+mod sources;

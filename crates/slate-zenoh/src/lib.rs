@@ -9,6 +9,7 @@
 
 mod endpoint;
 pub mod keys;
+mod outbox;
 mod transport;
 
 pub use endpoint::{EndpointError, PROTOCOLS, check_endpoint};

@@ -17,6 +17,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::sample::{Locality, Sample, SampleKind};
 
 use crate::keys;
+use crate::outbox::{Outbox, Refused};
 
 /// Zenoh's role for this node.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -129,7 +130,7 @@ enum Dest {
     Direct(Address),
 }
 
-struct Inner {
+pub(crate) struct Inner {
     address: Address,
     session: zenoh::Session,
     handler: RwLock<Option<Arc<dyn Handler>>>,
@@ -139,6 +140,8 @@ struct Inner {
     /// A declared publisher per destination (Zenoh resolves its routes once, not on
     /// every put): one per link kind and one per peer.
     publishers: Mutex<FxHashMap<Dest, Arc<Publisher<'static>>>>,
+    /// Each live peer's queue of reliable sends ([`Outbox`]), made on first send.
+    outboxes: Mutex<FxHashMap<Address, Outbox>>,
     /// The keys of each live peer's messages to this module, declared to this session
     /// ([`keys::from_peer`]): a message on a declared key is routed through a table; on
     /// any other, Zenoh matches its key against every subscription (about 10 µs of the
@@ -172,6 +175,7 @@ impl ZenohTransport {
             stats: Mutex::new(LinkStats::default()),
             subscribers: Mutex::new(Vec::new()),
             publishers: Mutex::new(FxHashMap::default()),
+            outboxes: Mutex::new(FxHashMap::default()),
             declared: Mutex::new(HashMap::new()),
             declarer: Mutex::new(None),
             sources: Mutex::new(FxHashMap::default()),
@@ -242,19 +246,31 @@ fn declare(inner: &Arc<Inner>) -> zenoh::Result<()> {
     Ok(())
 }
 
-/// The thread that declares peers' keys, and how to tell it a peer came up or went down.
-type Declarer = (mpsc::Sender<(Address, bool)>, JoinHandle<()>);
+/// What the declarer thread does for a peer.
+enum Task {
+    /// The peer came up (`true`) or went down: declare or drop its keys.
+    Keys(bool),
+    /// The peer fell behind (`true`) or caught up with its queue: tell the handler it
+    /// is down or up (never from inside a send).
+    Congestion(bool),
+}
+
+/// The thread that declares peers' keys and reports congestion, and how to tell it.
+type Declarer = (mpsc::Sender<(Address, Task)>, JoinHandle<()>);
 
 /// Starts the thread that declares (and undeclares) the keys of peers as they come up
-/// (and go down); it ends when the transport closes.
+/// (and go down), and reports peers that fall behind; it ends when the transport closes.
 fn spawn_declarer(inner: Weak<Inner>) -> std::io::Result<Declarer> {
-    let (tx, rx) = mpsc::channel::<(Address, bool)>();
+    let (tx, rx) = mpsc::channel::<(Address, Task)>();
     let thread = std::thread::Builder::new()
         .name("slate-zenoh-keys".into())
         .spawn(move || {
-            for (peer, up) in rx {
+            for (peer, task) in rx {
                 let Some(inner) = inner.upgrade() else { return };
-                inner.declare_keys(&peer, up);
+                match task {
+                    Task::Keys(up) => inner.declare_keys(&peer, up),
+                    Task::Congestion(behind) => inner.report_congestion(&peer, behind),
+                }
             }
         })?;
     Ok((tx, thread))
@@ -308,22 +324,60 @@ impl Inner {
             return;
         }
         let up = s.kind() == SampleKind::Put;
-        let changed = if up {
-            self.peers.lock().insert(peer.clone())
+        let (changed, reported_down) = if up {
+            (self.peers.lock().insert(peer.clone()), false)
         } else {
-            // Its inbox publishers go with it (short-lived observers come and go).
+            // Its inbox publisher and queue go with it (short-lived observers come and go).
             self.publishers
                 .lock()
                 .retain(|dest, _| !matches!(dest, Dest::Direct(to) if *to == peer));
-            self.peers.lock().remove(&peer)
+            let outbox = self.outboxes.lock().remove(&peer);
+            let congested = outbox.is_some_and(|o| o.congested());
+            (self.peers.lock().remove(&peer), congested)
         };
-        if changed && let Some((tx, _)) = &*self.declarer.lock() {
-            let _ = tx.send((peer.clone(), up));
+        if changed {
+            self.tell(&peer, Task::Keys(up));
         }
         let handler = self.handler.read().clone();
-        if let (true, Some(h)) = (changed, handler) {
+        if let (true, false, Some(h)) = (changed, reported_down, handler) {
             h.peer(&peer, up);
         }
+    }
+
+    /// Hands a task to the declarer thread (gone once the transport closed).
+    fn tell(&self, peer: &Address, task: Task) {
+        if let Some((tx, _)) = &*self.declarer.lock() {
+            let _ = tx.send((peer.clone(), task));
+        }
+    }
+
+    /// `peer` fell behind (`true`: its queue overflowed) or caught up: the handler hears
+    /// it go down or come up, from the declarer thread.
+    pub(crate) fn congestion(&self, peer: &Address, behind: bool) {
+        self.tell(peer, Task::Congestion(behind));
+    }
+
+    /// Tells the handler that `peer`, still live for Zenoh, is down while it falls behind
+    /// and up once it has caught up.
+    fn report_congestion(&self, peer: &Address, behind: bool) {
+        if behind {
+            tracing::warn!(peer = %peer, "peer not reading what it is sent: dropped until it catches up");
+        }
+        if !self.peers.lock().contains(peer) || self.closed.load(Ordering::Acquire) {
+            return;
+        }
+        let handler = self.handler.read().clone();
+        if let Some(h) = handler {
+            h.peer(peer, !behind);
+        }
+    }
+
+    /// The peers live for Zenoh that keep up with what they are sent.
+    fn peers_up(&self) -> Vec<Address> {
+        let outboxes = self.outboxes.lock();
+        let behind = |p: &Address| outboxes.get(p).is_some_and(Outbox::congested);
+        let peers = self.peers.lock();
+        peers.iter().filter(|p| !behind(p)).cloned().collect()
     }
 
     /// Declares the keys of `peer`'s messages to this module (`up`), or drops them.
@@ -346,13 +400,52 @@ impl Inner {
         self.declared.lock().insert(peer.clone(), declared);
     }
 
-    fn put(
-        &self,
-        dest: Dest,
-        link: LinkKind,
+    /// Publishes on `link` (Zenoh drops it if the link is congested).
+    fn put(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        self.check(payload)?;
+        let publisher = self.publisher(Dest::Publication(link))?;
+        publisher
+            .put(payload.to_vec())
+            .wait()
+            .map_err(|e| SendError::Failed(crate::endpoint::error_text(&e.to_string())))?;
+        self.stats.lock().sent(link, kind, payload.len());
+        Ok(())
+    }
+
+    /// Queues a reliable send to `to` on its outbox: never blocks on a slow peer.
+    fn send_to(
+        self: &Arc<Self>,
+        to: &Address,
         kind: MsgKind,
         payload: &[u8],
     ) -> Result<(), SendError> {
+        self.check(payload)?;
+        let mut outboxes = self.outboxes.lock();
+        if !outboxes.contains_key(to) {
+            let publisher = self.publisher(Dest::Direct(to.clone()))?;
+            let outbox = Outbox::open(to.clone(), publisher, Arc::downgrade(self))
+                .map_err(|e| SendError::Failed(format!("cannot start a thread: {e}")))?;
+            outboxes.insert(to.clone(), outbox);
+        }
+        let outbox = outboxes.get(to).ok_or(SendError::Closed)?;
+        match outbox.offer(payload.to_vec(), || self.congestion(to, true)) {
+            Ok(()) => {
+                let link = LinkKind::between(&self.address, to);
+                self.stats.lock().sent(link, kind, payload.len());
+                Ok(())
+            }
+            Err(refused) => {
+                self.stats.lock().refused += 1;
+                Err(SendError::Congested {
+                    peer: to.to_string(),
+                    overflowed: refused == Refused::Overflowed,
+                })
+            }
+        }
+    }
+
+    /// Refuses a send on a closed endpoint or of a payload over the limit.
+    fn check(&self, payload: &[u8]) -> Result<(), SendError> {
         if self.closed.load(Ordering::Acquire) {
             return Err(SendError::Closed);
         }
@@ -363,18 +456,12 @@ impl Inner {
                 max: slate_wire::MAX_MESSAGE_BYTES,
             });
         }
-        let publisher = self.publisher(dest)?;
-        publisher
-            .put(payload.to_vec())
-            .wait()
-            .map_err(|e| SendError::Failed(crate::endpoint::error_text(&e.to_string())))?;
-        self.stats.lock().sent(link, kind, payload.len());
         Ok(())
     }
 
     /// The publisher of `dest`, declared on first use: direct sends (reliable) block
-    /// when the link is congested, publications drop (the ICI catches up from the
-    /// current state).
+    /// when the link is congested (in their outbox's thread, never the caller's),
+    /// publications drop (the ICI catches up from the current state).
     fn publisher(&self, dest: Dest) -> Result<Arc<Publisher<'static>>, SendError> {
         if let Some(p) = self.publishers.lock().get(&dest) {
             return Ok(p.clone());
@@ -408,23 +495,21 @@ impl Transport for ZenohTransport {
     fn set_handler(&self, handler: Arc<dyn Handler>) {
         *self.inner.handler.write() = Some(handler.clone());
         // Peers seen before the handler was installed.
-        for p in self.inner.peers.lock().clone() {
+        for p in self.inner.peers_up() {
             handler.peer(&p, true);
         }
     }
 
     fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.inner.put(Dest::Publication(link), link, kind, payload)
+        self.inner.put(link, kind, payload)
     }
 
     fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        let link = LinkKind::between(&self.inner.address, to);
-        self.inner
-            .put(Dest::Direct(to.clone()), link, kind, payload)
+        self.inner.send_to(to, kind, payload)
     }
 
     fn peers(&self) -> Vec<Address> {
-        self.inner.peers.lock().iter().cloned().collect()
+        self.inner.peers_up()
     }
 
     fn stats(&self) -> LinkStats {
@@ -449,6 +534,8 @@ impl Transport for ZenohTransport {
             let _ = sub.undeclare().wait();
         }
         self.inner.publishers.lock().clear();
+        // An outbox's thread stuck in a congested put ends when Zenoh gives up on it.
+        self.inner.outboxes.lock().clear();
         let declared = std::mem::take(&mut *self.inner.declared.lock());
         drop(declared);
         let _ = self.inner.session.close().wait();

@@ -97,12 +97,31 @@ impl State {
 
     /// Decodes against the catalog, refreshed once if the board has learned a class.
     fn decode(&mut self, from: &Address, bytes: &[u8]) -> Result<Message, DecodeError> {
-        match self.decoder.decode(from, bytes, &self.catalog.schema) {
+        let msg = match self.decoder.decode(from, bytes, &self.catalog.schema) {
             Err(DecodeError::SchemaMismatch { class, .. }) if !self.catalog.knows(&class) => {
                 self.refresh_catalog();
                 self.decoder.decode(from, bytes, &self.catalog.schema)
             }
             other => other,
+        };
+        self.warn_if_evicted_alive();
+        msg
+    }
+
+    /// The decoder's table of sources is full of live modules if it had to evict one
+    /// this board holds alive (dead modules' names are dropped when they die): say so.
+    fn warn_if_evicted_alive(&mut self) {
+        let Some(gone) = self.decoder.take_evicted() else {
+            return;
+        };
+        if self.peers.get(&gone).is_some_and(|p| p.alive == Some(true)) {
+            tracing::warn!(
+                evicted = %gone,
+                max = slate_wire::MAX_SOURCES,
+                "more live modules than the decoder holds names for: the one heard least \
+                 recently must announce its names again (fewer modules per team, or raise \
+                 slate_wire::MAX_SOURCES)"
+            );
         }
     }
 

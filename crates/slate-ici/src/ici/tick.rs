@@ -154,9 +154,11 @@ impl State {
         }
     }
 
-    /// A peer is dead (timeout or the transport's word).
+    /// A peer is dead (timeout or the transport's word). Its names are dropped from the
+    /// decoder, whose slots are bounded: if it comes back, it is asked for them again.
     pub fn lost(&mut self, peer: &Address) {
         self.stats.liveliness.lost += 1;
+        self.decoder.forget(peer);
         self.set_alive(peer, false);
         self.plans.push(super::PlanEvent::Peer(peer.clone(), false));
     }

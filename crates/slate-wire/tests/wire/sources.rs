@@ -1,0 +1,69 @@
+//! Many sources: the decoder's per-source dictionaries are bounded, and the slots of
+//! sources not heard for longest are reclaimed for new ones (counted, named).
+
+use slate_model::Address;
+use slate_wire::{DecodeError, Decoder, Encoder, MAX_SOURCES, Message, ObjectEntry};
+
+use crate::common::*;
+
+/// Module `i` of a team, each on its own robot.
+fn source(i: usize) -> Address {
+    addr(&format!("team/r{i}/cli"))
+}
+
+/// A report of `from`'s own robot pose, stamped by `from`.
+fn pose_of(from: &Address, seq: u64) -> Message {
+    let mut p = packet(1.5, 0.1, 0.9, at(seq * 1000, 0));
+    p.source = from.clone();
+    let robot = ObjectEntry::new("r1", "Robot").owner(from.clone());
+    Message::Report(report(seq, vec![assertion(&robot, "x", p)]))
+}
+
+#[test]
+fn five_thousand_sources_in_turn_are_all_decoded() {
+    let schema = schema();
+    let mut decoder = Decoder::new();
+    for i in 0..5000 {
+        let from = source(i);
+        let bytes = Encoder::new(from.clone())
+            .encode(&pose_of(&from, 1), &schema)
+            .unwrap();
+        let got = decoder.decode(&from, &bytes, &schema);
+        assert!(got.is_ok(), "source {i}: {got:?}");
+    }
+    let stats = decoder.stats();
+    assert_eq!(stats.accepted, 5000);
+    assert_eq!(stats.evicted, (5000 - MAX_SOURCES) as u64);
+}
+
+#[test]
+fn the_source_heard_least_recently_gives_up_its_slot_and_is_named() {
+    let schema = schema();
+    let mut decoder = Decoder::new();
+    let mut encoders: Vec<Encoder> = (0..=MAX_SOURCES).map(|i| Encoder::new(source(i))).collect();
+    let mut send = |decoder: &mut Decoder, i: usize, seq: u64| {
+        let bytes = encoders[i].encode(&pose_of(&source(i), seq), &schema);
+        decoder.decode(&source(i), &bytes.unwrap(), &schema)
+    };
+    for i in 0..MAX_SOURCES {
+        send(&mut decoder, i, 1).unwrap();
+    }
+    send(&mut decoder, 0, 2).expect("source 0 heard again: now the most recent");
+    assert_eq!(decoder.take_evicted(), None, "nothing evicted yet");
+    send(&mut decoder, MAX_SOURCES, 1).expect("a new source finds a slot");
+    assert_eq!(
+        decoder.take_evicted(),
+        Some(source(1)),
+        "the least recently heard"
+    );
+    assert_eq!(decoder.take_evicted(), None, "taken once");
+    assert!(decoder.knows(&source(0)) && !decoder.knows(&source(1)));
+    assert!(
+        matches!(
+            send(&mut decoder, 1, 2),
+            Err(DecodeError::UnknownName { .. })
+        ),
+        "its next report asks for its names again"
+    );
+    assert_eq!(decoder.stats().evicted, 1);
+}
