@@ -4,7 +4,7 @@ use std::fmt;
 use std::str::FromStr;
 use std::time::Duration;
 
-use crate::{Value, ValueType};
+use crate::{Value, ValueError, ValueType};
 
 /// Name of the root class every class descends from.
 pub const THING: &str = "Thing";
@@ -177,6 +177,27 @@ impl AttrDecl {
     pub fn report(mut self, report: ReportPolicy) -> Self {
         self.report = report;
         self
+    }
+
+    /// Checks a value as a write to this attribute would: type, finiteness, bounds.
+    /// Loaders call it before applying anything, so that a bad value fails a whole load
+    /// rather than the middle of one.
+    pub fn check_value(&self, value: &Value) -> Result<(), ValueError> {
+        crate::packet::check_value(value, self.ty, self.bounds)
+    }
+
+    /// Checks an accuracy and a confidence as a write would (a missing one takes the
+    /// declared default's, as a write does).
+    pub fn check_quality(
+        &self,
+        accuracy: Option<f64>,
+        confidence: Option<f64>,
+    ) -> Result<(), ValueError> {
+        let (acc, conf) = self
+            .default
+            .as_ref()
+            .map_or((0.0, 1.0), |p| (p.accuracy, p.confidence));
+        crate::packet::check_quality(accuracy.unwrap_or(acc), confidence.unwrap_or(conf))
     }
 }
 

@@ -736,6 +736,20 @@ impl Board {
         Ok(())
     }
 
+    /// Detaches a function attached with [`Board::attach`] (the same `Arc`), as a load
+    /// that fails half-way takes back what it attached. Returns whether it was attached.
+    pub fn detach(
+        &self,
+        target: &str,
+        attr: &str,
+        trigger: Trigger,
+        f: &Arc<dyn ActiveFn>,
+    ) -> Result<bool, LookupError> {
+        let mut inner = self.inner.write();
+        let key = inner.state.key(target, attr)?;
+        Ok(inner.state.detach(key, trigger, f))
+    }
+
     /// After a commit, outside the lock: runs the on-write functions, then the change
     /// hooks. Returns the committed revision.
     pub(crate) fn finish(&self, done: Committed, chain: &Chain) -> u64 {

@@ -741,6 +741,23 @@ impl State {
         }
     }
 
+    /// Removes one attached function (the same `Arc`); returns whether it was attached.
+    pub fn detach(&mut self, key: Key, trigger: Trigger, f: &FnRef) -> bool {
+        let Some(e) = self.get_mut(key.object) else {
+            return false;
+        };
+        let Some(fns) = e.fns.get_mut(&(key.attr, trigger)) else {
+            return false;
+        };
+        let before = fns.len();
+        fns.retain(|g| !Arc::ptr_eq(g, f));
+        let removed = fns.len() < before;
+        if removed && e.class_data().is_some() {
+            self.recompute_effective(key.object);
+        }
+        removed
+    }
+
     fn recompute_effective(&mut self, class: ObjectId) {
         let parent = self.class(class).and_then(|c| c.ancestors.get(1).copied());
         let mut table = parent
