@@ -124,3 +124,41 @@ fn check_reports_every_error_with_a_caret_and_exits_one() {
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("slate: error: cannot read"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn check_accepts_the_demo_files_that_together_form_a_module() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/demo");
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path().display().to_string())
+        .filter(|p| p.ends_with(".slate"))
+        .collect();
+    files.sort();
+    let mut args = vec!["check"];
+    args.extend(files.iter().map(String::as_str));
+    let out = slate(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn check_accepts_a_plan_over_the_builtin_module_class() {
+    let dir = std::env::temp_dir().join(format!("slate-check-builtin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("watch.slate");
+    std::fs::write(
+        &file,
+        "plan watch { trigger: any m: Module where not m.alive; action { } }\n",
+    )
+    .unwrap();
+    let out = slate(&["check", file.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

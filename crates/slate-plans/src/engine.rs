@@ -17,8 +17,7 @@ use std::time::Duration;
 use crossbeam_channel::Receiver;
 use parking_lot::{Condvar, Mutex};
 use slate_model::{
-    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, Key, NewObject, ObjectId,
-    Touched, Value, ValueType,
+    Board, ChangeHook, ClockListener, Context, Key, NewObject, ObjectId, Touched, Value,
 };
 use smallvec::SmallVec;
 
@@ -28,8 +27,8 @@ use crate::eval::{Ctx, Node, truthy};
 use crate::index::DepIndex;
 use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
 
-/// Class of the objects that show plans on the board.
-pub const PLAN_CLASS: &str = "Plan";
+/// Class of the objects that show plans on the board (built in on every board).
+pub use slate_model::PLAN_CLASS;
 
 /// Most plan evaluations one change may cause (a guard against plans that trigger each
 /// other for ever); past it the rest is dropped and reported.
@@ -179,10 +178,9 @@ pub struct Engine {
 }
 
 impl Engine {
-    /// An engine for `board`: defines the `Plan` class there and starts listening to the
-    /// board's changes and, for a manual clock, to the clock.
+    /// An engine for `board` (which has the built-in `Plan` class from the start): starts
+    /// listening to the board's changes and, for a manual clock, to the clock.
     pub fn new(board: &Arc<Board>) -> Engine {
-        let _ = board.define(plan_class());
         let shared = Arc::new(Shared {
             board: Arc::downgrade(board),
             state: Mutex::new(State::default()),
@@ -336,15 +334,6 @@ impl Engine {
             .lock()
             .insert(name.to_owned(), text.to_owned());
     }
-}
-
-fn plan_class() -> ClassDef {
-    ClassDef::new(PLAN_CLASS)
-        .attr(AttrDecl::new("state", ValueType::Str).default_value("pending"))
-        .attr(AttrDecl::new("fired", ValueType::Int).default_value(0))
-        .attr(AttrDecl::new("last_error", ValueType::Str).default_value(""))
-        .attr(AttrDecl::new("origin", ValueType::Str).default_value(""))
-        .attr(AttrDecl::new("text", ValueType::Str).default_value(""))
 }
 
 struct Hook(Weak<Shared>);

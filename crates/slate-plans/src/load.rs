@@ -90,6 +90,30 @@ impl Engine {
         Ok(loaded)
     }
 
+    /// Loads files that together form a module, in whatever order they are given: a file
+    /// that fails is tried again once another has loaded (it may name what that one
+    /// defines), until a round loads nothing more. A failed load applies nothing, so
+    /// trying again is safe. The results are in the order of `files`; a file that never
+    /// loads keeps the diagnostics of its last try.
+    pub fn load_all(&self, files: &[(String, String)]) -> Vec<Result<Loaded, LoadError>> {
+        let mut results: Vec<Option<Result<Loaded, LoadError>>> = vec![None; files.len()];
+        loop {
+            let mut progress = false;
+            for (i, (name, source)) in files.iter().enumerate() {
+                if matches!(results[i], Some(Ok(_))) {
+                    continue;
+                }
+                let r = self.load(name, source);
+                progress |= r.is_ok();
+                results[i] = Some(r);
+            }
+            if !progress || results.iter().all(|r| matches!(r, Some(Ok(_)))) {
+                break;
+            }
+        }
+        results.into_iter().flatten().collect()
+    }
+
     /// Applies a checked file. The check leaves little that can fail here (an initial
     /// value computed from the board, a concurrent change); if anything does, what was
     /// applied is taken back, so that a failed load leaves the board as it was.

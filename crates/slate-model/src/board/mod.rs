@@ -96,7 +96,7 @@ impl BoardBuilder {
     pub fn build(self) -> Board {
         let default_address =
             || Address::new("local/robot/module").unwrap_or_else(|_| Address::unknown());
-        Board {
+        let board = Board {
             inner: RwLock::new(Inner {
                 state: State::new(),
                 watchers: Vec::new(),
@@ -109,7 +109,9 @@ impl BoardBuilder {
             function_failures: AtomicU64::new(0),
             chain_cuts: AtomicU64::new(0),
             fn_seq: AtomicU64::new(0),
-        }
+        };
+        board.define_builtins();
+        board
     }
 }
 
@@ -303,6 +305,17 @@ impl Board {
         match st.define(&def)? {
             Some(id) => Ok(id),
             None => st.id(&def.name).ok_or(DefineError::NameTaken(def.name)),
+        }
+    }
+
+    /// Defines the built-in classes (see [`crate::builtin_classes`]): every board has them
+    /// from the start, so that files and plans may name them before the ICI or the plan
+    /// engine runs.
+    fn define_builtins(&self) {
+        let mut inner = self.inner.write();
+        for def in crate::builtin_classes() {
+            // A fresh board has no class of these names: defining them cannot fail.
+            let _ = inner.state.define(&def);
         }
     }
 
