@@ -32,7 +32,8 @@ pub fn module_class() -> ClassDef {
         .attr(AttrDecl::new("last_seen", ValueType::Real).unit("s"))
 }
 
-/// The `Plan` class: one object per plan a board runs, in the SELF context.
+/// The `Plan` class: one object per plan a board runs, in the SELF context. Every field is
+/// guarded: only the plan engine writes them (a plan is cancelled through the engine).
 ///
 /// | attribute | type | meaning |
 /// |---|---|---|
@@ -42,12 +43,15 @@ pub fn module_class() -> ClassDef {
 /// | `origin` | string | the module that sent it (empty if loaded locally) |
 /// | `text` | string | its source text |
 pub fn plan_class() -> ClassDef {
+    let field = |name: &str, ty: ValueType, default: crate::Value| {
+        AttrDecl::new(name, ty).default_value(default).guarded()
+    };
     ClassDef::new(PLAN_CLASS)
-        .attr(AttrDecl::new("state", ValueType::Str).default_value("pending"))
-        .attr(AttrDecl::new("fired", ValueType::Int).default_value(0))
-        .attr(AttrDecl::new("last_error", ValueType::Str).default_value(""))
-        .attr(AttrDecl::new("origin", ValueType::Str).default_value(""))
-        .attr(AttrDecl::new("text", ValueType::Str).default_value(""))
+        .attr(field("state", ValueType::Str, "pending".into()))
+        .attr(field("fired", ValueType::Int, 0.into()))
+        .attr(field("last_error", ValueType::Str, "".into()))
+        .attr(field("origin", ValueType::Str, "".into()))
+        .attr(field("text", ValueType::Str, "".into()))
 }
 
 /// The built-in classes below `Thing`, parents before children.

@@ -112,6 +112,11 @@ pub struct AttrDecl {
     pub merge: MergePolicy,
     /// Report policy.
     pub report: ReportPolicy,
+    /// Written only by the machinery that declared it, through
+    /// [`Batch::write_guarded`](crate::Batch::write_guarded) (a `Plan`'s fields by the plan
+    /// engine): a plain local write is refused, so the object cannot say what its machinery
+    /// does not do. Packets merged from other boards are their machinery's and pass.
+    pub guarded: bool,
 }
 
 impl AttrDecl {
@@ -126,6 +131,7 @@ impl AttrDecl {
             default: None,
             merge: MergePolicy::default(),
             report: ReportPolicy::default(),
+            guarded: false,
         }
     }
 
@@ -176,6 +182,12 @@ impl AttrDecl {
     /// Sets the report policy.
     pub fn report(mut self, report: ReportPolicy) -> Self {
         self.report = report;
+        self
+    }
+
+    /// Makes the attribute guarded (see [`AttrDecl::guarded`]).
+    pub fn guarded(mut self) -> Self {
+        self.guarded = true;
         self
     }
 

@@ -260,7 +260,7 @@ impl Engine {
             }
             st.plans[idx].state = PlanState::Cancelled;
         }
-        let _ = board.write(name, "state", PlanState::Cancelled.name());
+        write_plan(&board, name, "state", PlanState::Cancelled.name());
         self.shared.outbox.event(PlanEvent::Cancelled {
             plan: name.to_owned(),
         });
@@ -296,8 +296,8 @@ impl Engine {
         let mut batch = board.batch();
         batch
             .create_with(NewObject::new(PLAN_CLASS, &name).context(Context::Self_))
-            .write(&name, "state", PlanState::Pending.name())
-            .write(&name, "text", plan.text.as_str());
+            .write_guarded(&name, "state", PlanState::Pending.name())
+            .write_guarded(&name, "text", plan.text.as_str());
         batch.commit().map_err(|e| e.to_string())?;
         let idx = {
             let mut st = self.shared.state.lock();
@@ -334,6 +334,13 @@ impl Engine {
             .lock()
             .insert(name.to_owned(), text.to_owned());
     }
+}
+
+/// Writes one of a plan object's fields: they are guarded, the engine's alone.
+fn write_plan(board: &Board, plan: &str, attr: &str, value: &str) {
+    let mut batch = board.batch();
+    batch.write_guarded(plan, attr, value);
+    let _ = batch.commit();
 }
 
 struct Hook(Weak<Shared>);
@@ -487,11 +494,11 @@ impl Shared {
             self.outbox.event(e.clone());
         }
         if let Some(state) = outcome.new_state {
-            let _ = board.write(&name, "state", state.name());
+            write_plan(board, &name, "state", state.name());
         }
         if let Some(error) = &outcome.eval_error {
             st.plans[idx].last_error = Some(error.clone());
-            let _ = board.write(&name, "last_error", error.as_str());
+            write_plan(board, &name, "last_error", error.as_str());
         }
         if let Some(effects) = outcome.effects {
             self.act(st, idx, effects, board);
@@ -512,25 +519,24 @@ impl Shared {
     }
 
     fn act(&self, st: &mut State, idx: usize, effects: Result<Vec<Effect>, String>, board: &Board) {
+        // `fired` counts the actions that committed: it is written in the action's own
+        // batch, and a failed action leaves it as it was.
         let rt = &mut st.plans[idx];
-        rt.fired += 1;
-        let (name, fired) = (rt.plan.name.clone(), rt.fired);
+        let name = rt.plan.name.clone();
         let progress = Progress {
             name: &name,
-            fired,
+            fired: rt.fired + 1,
             fired_key: rt.fired_key,
             clear_error: rt.last_error.is_some(),
         };
         let result = effects.and_then(|effects| apply(board, &progress, effects, self));
         let rt = &mut st.plans[idx];
         rt.last_error = result.as_ref().err().cloned();
-        if let Err(e) = &result {
-            let mut batch = board.batch();
-            batch
-                .write(&name, "fired", fired as i64)
-                .write(&name, "last_error", e.as_str());
-            let _ = batch.commit();
+        match &result {
+            Ok(()) => rt.fired = progress.fired,
+            Err(e) => write_plan(board, &name, "last_error", e.as_str()),
         }
+        let fired = rt.fired;
         if self.outbox.has_event_subscribers() {
             let error = result.err();
             self.outbox.event(PlanEvent::Triggered {
@@ -691,11 +697,11 @@ fn apply(
     }
     let fired = progress.fired as i64;
     match progress.fired_key {
-        Some(key) => drop(batch.write_key(key, fired)),
-        None => drop(batch.write(plan, "fired", fired)),
+        Some(key) => drop(batch.write_key_guarded(key, fired)),
+        None => drop(batch.write_guarded(plan, "fired", fired)),
     }
     if progress.clear_error {
-        batch.write(plan, "last_error", "");
+        batch.write_guarded(plan, "last_error", "");
     }
     batch.commit().map_err(|e| e.to_string())?;
     for e in messages {

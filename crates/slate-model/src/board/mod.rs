@@ -132,6 +132,20 @@ impl Target<'_> {
     }
 }
 
+/// Refuses a plain local write to a guarded attribute ([`AttrDecl::guarded`]); a key
+/// that does not resolve is left to the write to report.
+pub(crate) fn refuse_guarded(st: &State, key: Key) -> Result<(), WriteError> {
+    match st.decl(key) {
+        Ok((_, _, decl)) if decl.decl.guarded => Err(WriteError::Guarded {
+            object: st
+                .name(key.object)
+                .map_or_else(|| "?".into(), |n| n.to_string()),
+            attr: decl.decl.name.clone(),
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// How to create an object: class, name, context, owner.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NewObject {
@@ -542,6 +556,7 @@ impl Board {
                     st.attr_name(key.attr),
                 )
             };
+            refuse_guarded(&inner.state, key)?;
             if let Err(cut) = chain.admit(key, Trigger::Write, self.max_depth, names) {
                 drop(inner);
                 self.report(BoardEvent::ChainCut(cut.clone()));
