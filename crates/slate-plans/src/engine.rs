@@ -267,6 +267,32 @@ impl Engine {
         true
     }
 
+    /// Records who sent a plan in its object's `origin` (a guarded field: the ICI that
+    /// received the plan tells the engine, which writes it).
+    pub fn set_origin(&self, plan: &str, origin: &str) -> Result<(), slate_model::BatchError> {
+        let board = self.board().ok_or_else(|| slate_model::BatchError::Write {
+            index: 0,
+            source: slate_model::WriteError::UnknownObject(plan.to_owned()),
+        })?;
+        let mut batch = board.batch();
+        batch.write_guarded(plan, "origin", origin);
+        batch.commit().map(|_| ())
+    }
+
+    /// Writes a plan's state back on its object from the engine's own (after a copy of it
+    /// was written by another module: only the engine says what state a plan is in).
+    pub fn restore_state(&self, plan: &str) -> Result<(), slate_model::BatchError> {
+        let unknown = || slate_model::BatchError::Write {
+            index: 0,
+            source: slate_model::WriteError::UnknownObject(plan.to_owned()),
+        };
+        let state = self.status(plan).ok_or_else(unknown)?.state;
+        let board = self.board().ok_or_else(unknown)?;
+        let mut batch = board.batch();
+        batch.write_guarded(plan, "state", state.name());
+        batch.commit().map(|_| ())
+    }
+
     /// Runs the plans whose deadlines have passed (a manual clock does this by itself when
     /// it moves; see [`Engine::run_timers`] for the system clock).
     pub fn tick(&self) {

@@ -142,7 +142,7 @@ fn apply(txn: &mut Txn<'_>, board: &Board, index: usize, op: Op) -> Result<(), B
         let failed = |source| BatchError::Write { index, source };
         let key = target.resolve(txn.state()).map_err(|m| failed(m.into()))?;
         if !may_guarded {
-            super::refuse_guarded(txn.state(), key).map_err(failed)?;
+            super::refuse_guarded(txn.state(), key, &board.address).map_err(failed)?;
         }
         txn.write(key, update).map_err(failed)
     };
