@@ -411,6 +411,21 @@ fn class_def(ck: &mut Checker<'_>, class: &ClassDecl, board: &Board) -> Option<C
     for a in &class.attributes {
         def = def.attr(attr_decl(ck, a));
     }
+    if slate_model::is_builtin(&def.name)
+        && board
+            .class_def(&def.name)
+            .is_none_or(|existing| existing != def)
+    {
+        ck.error(
+            class.name.span,
+            format!(
+                "{} is a built-in class (every board has it, as the language docs list); \
+                 choose another name",
+                def.name
+            ),
+        );
+        return None;
+    }
     if let Some(existing) = board.class_def(&def.name)
         && existing != def
     {

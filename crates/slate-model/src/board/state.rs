@@ -858,9 +858,15 @@ fn entity(name: Arc<str>, kind: Kind) -> Entity {
 /// Says how two definitions of one class differ, or `None` if they are the same.
 fn describe_difference(old: &ClassDef, new: &ClassDef) -> Option<String> {
     if old.parent != new.parent {
+        // The root class has no parent: say so rather than print an empty name.
+        let here = if old.parent.is_empty() {
+            "it is the root class here (no parent)".to_owned()
+        } else {
+            format!("parent {} here", old.parent)
+        };
         return Some(format!(
-            "parent {} here, {} in the new definition",
-            old.parent, new.parent
+            "{here}, parent {} in the new definition",
+            new.parent
         ));
     }
     for a in &old.attrs {

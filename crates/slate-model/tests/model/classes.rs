@@ -302,3 +302,11 @@ fn references_to_deleted_objects_dangle_and_resolve_again_by_name() {
     b.write("chaser", "target", Value::reference("not_yet"))
         .unwrap();
 }
+
+#[test]
+fn redefining_the_root_class_names_what_differs() {
+    let b = slate_model::Board::new();
+    let err = b.define(ClassDef::new("Thing")).unwrap_err().to_string();
+    assert!(err.contains("root class"), "{err}");
+    assert!(!err.contains("  "), "{err}");
+}

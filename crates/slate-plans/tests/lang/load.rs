@@ -116,3 +116,21 @@ fn a_plan_named_like_an_existing_object_is_reported_at_its_name() {
     assert_eq!((p[0].0, p[0].1), (2, 6), "{p:?}");
     assert!(board.info("n").is_none(), "{e}");
 }
+
+#[test]
+fn redefining_a_builtin_class_says_it_is_built_in() {
+    let (_board, engine) = engine();
+    for (src, name) in [
+        ("class Thing { x: real; }", "Thing"),
+        ("class Module { y: real; }", "Module"),
+    ] {
+        let e = engine.load("w.slate", src).unwrap_err();
+        let p = positions(&e);
+        assert_eq!((p[0].0, p[0].1), (1, 7), "{p:?}");
+        assert!(
+            p[0].2.contains(&format!("{name} is a built-in class")),
+            "{p:?}"
+        );
+        assert!(!p[0].2.contains("  "), "{p:?}");
+    }
+}
