@@ -49,7 +49,7 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("slate: error: {}", message(&e));
+            eprintln!("{}", report(&e));
             let code = if e.downcast_ref::<Failed>().is_some() {
                 1
             } else {
@@ -57,6 +57,18 @@ fn main() -> ExitCode {
             };
             ExitCode::from(code)
         }
+    }
+}
+
+/// What to print for an error: `slate: error: MESSAGE`, except for a `.slate` file's
+/// diagnostics, which say `FILE:LINE:COL: error:` themselves (one "error" per line).
+fn report(e: &anyhow::Error) -> String {
+    let load = e
+        .chain()
+        .find_map(|c| c.downcast_ref::<slate_plans::LoadError>());
+    match load {
+        Some(l) => format!("slate: {}", l.rendered),
+        None => format!("slate: error: {}", message(e)),
     }
 }
 

@@ -174,3 +174,77 @@ fn check_reports_every_error_with_a_caret_and_exits_one() {
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("slate: error: cannot read"));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn check_accepts_the_demo_files_that_together_form_a_module() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/demo");
+    let mut files: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path().display().to_string())
+        .filter(|p| p.ends_with(".slate"))
+        .collect();
+    files.sort();
+    let mut args = vec!["check"];
+    args.extend(files.iter().map(String::as_str));
+    let out = slate(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn check_accepts_a_plan_over_the_builtin_module_class() {
+    let dir = std::env::temp_dir().join(format!("slate-check-builtin-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("watch.slate");
+    std::fs::write(
+        &file,
+        "plan watch { trigger: any m: Module where not m.alive; action { } }\n",
+    )
+    .unwrap();
+    let out = slate(&["check", file.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_load_error_says_error_once_and_keeps_its_caret() {
+    let dir = std::env::temp_dir().join(format!("slate-node-load-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("bad.slate"), "class V { speed: real }").unwrap();
+    std::fs::write(
+        dir.join("m.toml"),
+        "address = \"t/r1/nav\"\nfiles = [\"bad.slate\"]\n[zenoh]\nlisten = [\"tcp/127.0.0.1:0\"]\n",
+    )
+    .unwrap();
+    let out = slate(&["node", "--config", dir.join("m.toml").to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    let first = err.lines().next().unwrap_or_default();
+    assert_eq!(first.matches("error").count(), 1, "{err}");
+    assert!(first.contains("bad.slate:1:23: error: "), "{err}");
+    assert!(err.contains('^'), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn check_says_a_builtin_class_cannot_be_redefined() {
+    let dir = std::env::temp_dir().join(format!("slate-check-thing-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("thing.slate");
+    std::fs::write(&file, "class Thing { x: real; }\n").unwrap();
+    let out = slate(&["check", file.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("thing.slate:1:7: error: Thing is a built-in class"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

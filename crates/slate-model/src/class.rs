@@ -4,7 +4,7 @@ use std::fmt;
 use std::str::FromStr;
 use std::time::Duration;
 
-use crate::{Value, ValueType};
+use crate::{Value, ValueError, ValueType};
 
 /// Name of the root class every class descends from.
 pub const THING: &str = "Thing";
@@ -112,6 +112,11 @@ pub struct AttrDecl {
     pub merge: MergePolicy,
     /// Report policy.
     pub report: ReportPolicy,
+    /// Written only by the machinery that declared it, through
+    /// [`Batch::write_guarded`](crate::Batch::write_guarded) (a `Plan`'s fields by the plan
+    /// engine): a plain local write is refused, so the object cannot say what its machinery
+    /// does not do. Packets merged from other boards are their machinery's and pass.
+    pub guarded: bool,
 }
 
 impl AttrDecl {
@@ -126,6 +131,7 @@ impl AttrDecl {
             default: None,
             merge: MergePolicy::default(),
             report: ReportPolicy::default(),
+            guarded: false,
         }
     }
 
@@ -177,6 +183,33 @@ impl AttrDecl {
     pub fn report(mut self, report: ReportPolicy) -> Self {
         self.report = report;
         self
+    }
+
+    /// Makes the attribute guarded (see [`AttrDecl::guarded`]).
+    pub fn guarded(mut self) -> Self {
+        self.guarded = true;
+        self
+    }
+
+    /// Checks a value as a write to this attribute would: type, finiteness, bounds.
+    /// Loaders call it before applying anything, so that a bad value fails a whole load
+    /// rather than the middle of one.
+    pub fn check_value(&self, value: &Value) -> Result<(), ValueError> {
+        crate::packet::check_value(value, self.ty, self.bounds)
+    }
+
+    /// Checks an accuracy and a confidence as a write would (a missing one takes the
+    /// declared default's, as a write does).
+    pub fn check_quality(
+        &self,
+        accuracy: Option<f64>,
+        confidence: Option<f64>,
+    ) -> Result<(), ValueError> {
+        let (acc, conf) = self
+            .default
+            .as_ref()
+            .map_or((0.0, 1.0), |p| (p.accuracy, p.confidence));
+        crate::packet::check_quality(accuracy.unwrap_or(acc), confidence.unwrap_or(conf))
     }
 }
 

@@ -32,6 +32,7 @@
 mod active;
 mod address;
 mod board;
+mod builtin;
 mod class;
 mod clock;
 mod error;
@@ -45,6 +46,9 @@ pub use board::{
     Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeHook, ChangeItem, Cursor,
     DEFAULT_MAX_DEPTH, Filter, MAX_NESTED_FUNCTIONS, Merged, NewObject, Normaliser, ObjectInfo,
     Query, Snapshot, TouchKind, Touched, Watch,
+};
+pub use builtin::{
+    MODULE_CLASS, PLAN_CLASS, builtin_classes, is_builtin, module_class, plan_class,
 };
 pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
 pub use clock::{

@@ -245,7 +245,7 @@ impl Sources {
                         format!("plan {object} cancelled by {by}"),
                     );
                     self.engine.cancel(&object);
-                } else if let Err(e) = board.write(&object, "state", status.state.name()) {
+                } else if let Err(e) = self.engine.restore_state(&object) {
                     // Only the engine says what state a plan is in: put it back.
                     tracing::debug!(plan = %object, error = %e, "plan state not restored");
                 }

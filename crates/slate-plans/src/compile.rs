@@ -610,6 +610,7 @@ impl<'s> Checker<'s> {
             obj,
         };
         let ty = self.attr_type(&base, last)?;
+        self.refuse_guarded(base.class.as_deref(), &last.name, target.span);
         let (value, vty) = self.expr(&packet.value, l);
         let target_ty = value_type(ty);
         if let Some(t) = target_ty
@@ -637,6 +638,24 @@ impl<'s> Checker<'s> {
             real: ty == Ty::Real,
             cache: KeyCache::default(),
         })
+    }
+
+    /// A guarded attribute (a `Plan`'s fields) is written by its machinery only: a write
+    /// to one in a file is an error here rather than a failure at run time.
+    fn refuse_guarded(&mut self, class: Option<&str>, attr: &str, span: Span) {
+        let guarded = class
+            .and_then(|c| self.scope.attr(c, attr))
+            .is_some_and(|a| a.decl.guarded);
+        if guarded {
+            let class = class.unwrap_or_default();
+            self.error(
+                span,
+                format!(
+                    "{class}.{attr} is written only by the plan engine; a plan is cancelled \
+                     through the engine (`slate plan cancel`), never by a write"
+                ),
+            );
+        }
     }
 
     fn class_of(&self, obj: &Obj, l: &Locals) -> Option<String> {
@@ -709,6 +728,7 @@ impl<'s> Checker<'s> {
             let Some(ty) = self.attr_type(&base, &v.name) else {
                 continue;
             };
+            self.refuse_guarded(Some(&class.name), &v.name.name, v.name.span);
             let (value, vty) = self.expr(&v.packet.value, l);
             if let Some(t) = value_type(ty)
                 && !vty.fits(t)

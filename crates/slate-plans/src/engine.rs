@@ -17,8 +17,7 @@ use std::time::Duration;
 use crossbeam_channel::Receiver;
 use parking_lot::{Condvar, Mutex};
 use slate_model::{
-    AttrDecl, Board, ChangeHook, ClassDef, ClockListener, Context, Key, NewObject, ObjectId,
-    Touched, Value, ValueType,
+    Board, ChangeHook, ClockListener, Context, Key, NewObject, ObjectId, Touched, Value,
 };
 use smallvec::SmallVec;
 
@@ -28,8 +27,8 @@ use crate::eval::{Ctx, Node, truthy};
 use crate::index::DepIndex;
 use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
 
-/// Class of the objects that show plans on the board.
-pub const PLAN_CLASS: &str = "Plan";
+/// Class of the objects that show plans on the board (built in on every board).
+pub use slate_model::PLAN_CLASS;
 
 /// Most plan evaluations one change may cause (a guard against plans that trigger each
 /// other for ever); past it the rest is dropped and reported.
@@ -179,10 +178,9 @@ pub struct Engine {
 }
 
 impl Engine {
-    /// An engine for `board`: defines the `Plan` class there and starts listening to the
-    /// board's changes and, for a manual clock, to the clock.
+    /// An engine for `board` (which has the built-in `Plan` class from the start): starts
+    /// listening to the board's changes and, for a manual clock, to the clock.
     pub fn new(board: &Arc<Board>) -> Engine {
-        let _ = board.define(plan_class());
         let shared = Arc::new(Shared {
             board: Arc::downgrade(board),
             state: Mutex::new(State::default()),
@@ -262,11 +260,37 @@ impl Engine {
             }
             st.plans[idx].state = PlanState::Cancelled;
         }
-        let _ = board.write(name, "state", PlanState::Cancelled.name());
+        write_plan(&board, name, "state", PlanState::Cancelled.name());
         self.shared.outbox.event(PlanEvent::Cancelled {
             plan: name.to_owned(),
         });
         true
+    }
+
+    /// Records who sent a plan in its object's `origin` (a guarded field: the ICI that
+    /// received the plan tells the engine, which writes it).
+    pub fn set_origin(&self, plan: &str, origin: &str) -> Result<(), slate_model::BatchError> {
+        let board = self.board().ok_or_else(|| slate_model::BatchError::Write {
+            index: 0,
+            source: slate_model::WriteError::UnknownObject(plan.to_owned()),
+        })?;
+        let mut batch = board.batch();
+        batch.write_guarded(plan, "origin", origin);
+        batch.commit().map(|_| ())
+    }
+
+    /// Writes a plan's state back on its object from the engine's own (after a copy of it
+    /// was written by another module: only the engine says what state a plan is in).
+    pub fn restore_state(&self, plan: &str) -> Result<(), slate_model::BatchError> {
+        let unknown = || slate_model::BatchError::Write {
+            index: 0,
+            source: slate_model::WriteError::UnknownObject(plan.to_owned()),
+        };
+        let state = self.status(plan).ok_or_else(unknown)?.state;
+        let board = self.board().ok_or_else(unknown)?;
+        let mut batch = board.batch();
+        batch.write_guarded(plan, "state", state.name());
+        batch.commit().map(|_| ())
     }
 
     /// Runs the plans whose deadlines have passed (a manual clock does this by itself when
@@ -298,8 +322,8 @@ impl Engine {
         let mut batch = board.batch();
         batch
             .create_with(NewObject::new(PLAN_CLASS, &name).context(Context::Self_))
-            .write(&name, "state", PlanState::Pending.name())
-            .write(&name, "text", plan.text.as_str());
+            .write_guarded(&name, "state", PlanState::Pending.name())
+            .write_guarded(&name, "text", plan.text.as_str());
         batch.commit().map_err(|e| e.to_string())?;
         let idx = {
             let mut st = self.shared.state.lock();
@@ -338,13 +362,11 @@ impl Engine {
     }
 }
 
-fn plan_class() -> ClassDef {
-    ClassDef::new(PLAN_CLASS)
-        .attr(AttrDecl::new("state", ValueType::Str).default_value("pending"))
-        .attr(AttrDecl::new("fired", ValueType::Int).default_value(0))
-        .attr(AttrDecl::new("last_error", ValueType::Str).default_value(""))
-        .attr(AttrDecl::new("origin", ValueType::Str).default_value(""))
-        .attr(AttrDecl::new("text", ValueType::Str).default_value(""))
+/// Writes one of a plan object's fields: they are guarded, the engine's alone.
+fn write_plan(board: &Board, plan: &str, attr: &str, value: &str) {
+    let mut batch = board.batch();
+    batch.write_guarded(plan, attr, value);
+    let _ = batch.commit();
 }
 
 struct Hook(Weak<Shared>);
@@ -498,11 +520,11 @@ impl Shared {
             self.outbox.event(e.clone());
         }
         if let Some(state) = outcome.new_state {
-            let _ = board.write(&name, "state", state.name());
+            write_plan(board, &name, "state", state.name());
         }
         if let Some(error) = &outcome.eval_error {
             st.plans[idx].last_error = Some(error.clone());
-            let _ = board.write(&name, "last_error", error.as_str());
+            write_plan(board, &name, "last_error", error.as_str());
         }
         if let Some(effects) = outcome.effects {
             self.act(st, idx, effects, board);
@@ -523,25 +545,24 @@ impl Shared {
     }
 
     fn act(&self, st: &mut State, idx: usize, effects: Result<Vec<Effect>, String>, board: &Board) {
+        // `fired` counts the actions that committed: it is written in the action's own
+        // batch, and a failed action leaves it as it was.
         let rt = &mut st.plans[idx];
-        rt.fired += 1;
-        let (name, fired) = (rt.plan.name.clone(), rt.fired);
+        let name = rt.plan.name.clone();
         let progress = Progress {
             name: &name,
-            fired,
+            fired: rt.fired + 1,
             fired_key: rt.fired_key,
             clear_error: rt.last_error.is_some(),
         };
         let result = effects.and_then(|effects| apply(board, &progress, effects, self));
         let rt = &mut st.plans[idx];
         rt.last_error = result.as_ref().err().cloned();
-        if let Err(e) = &result {
-            let mut batch = board.batch();
-            batch
-                .write(&name, "fired", fired as i64)
-                .write(&name, "last_error", e.as_str());
-            let _ = batch.commit();
+        match &result {
+            Ok(()) => rt.fired = progress.fired,
+            Err(e) => write_plan(board, &name, "last_error", e.as_str()),
         }
+        let fired = rt.fired;
         if self.outbox.has_event_subscribers() {
             let error = result.err();
             self.outbox.event(PlanEvent::Triggered {
@@ -702,11 +723,11 @@ fn apply(
     }
     let fired = progress.fired as i64;
     match progress.fired_key {
-        Some(key) => drop(batch.write_key(key, fired)),
-        None => drop(batch.write(plan, "fired", fired)),
+        Some(key) => drop(batch.write_key_guarded(key, fired)),
+        None => drop(batch.write_guarded(plan, "fired", fired)),
     }
     if progress.clear_error {
-        batch.write(plan, "last_error", "");
+        batch.write_guarded(plan, "last_error", "");
     }
     batch.commit().map_err(|e| e.to_string())?;
     for e in messages {

@@ -11,7 +11,7 @@ use slate_model::{
 use crate::action::Write;
 use crate::ast::{
     ActionKind, ActiveFn as RuleDecl, AttributeDecl, ClassDecl, Expr, File, Item, ObjectDecl,
-    PlanDecl,
+    PacketExpr, PlanDecl,
 };
 use crate::compile::{Checker, Locals, model_context};
 use crate::diagnostic::{Diagnostic, Diagnostics, Span, Stage};
@@ -57,7 +57,7 @@ struct PendingFn {
 struct Compiled {
     classes: Vec<(ClassDef, Span)>,
     fns: Vec<PendingFn>,
-    objects: Vec<(ObjectDecl, Vec<Write>)>,
+    objects: Vec<(ObjectDecl, Vec<(Span, Write)>)>,
     plans: Vec<CompiledPlan>,
     texts: Vec<(String, String)>,
 }
@@ -90,12 +90,60 @@ impl Engine {
         Ok(loaded)
     }
 
+    /// Loads files that together form a module, in whatever order they are given: a file
+    /// that fails is tried again once another has loaded (it may name what that one
+    /// defines), until a round loads nothing more. A failed load applies nothing, so
+    /// trying again is safe. The results are in the order of `files`; a file that never
+    /// loads keeps the diagnostics of its last try.
+    pub fn load_all(&self, files: &[(String, String)]) -> Vec<Result<Loaded, LoadError>> {
+        let mut results: Vec<Option<Result<Loaded, LoadError>>> = vec![None; files.len()];
+        loop {
+            let mut progress = false;
+            for (i, (name, source)) in files.iter().enumerate() {
+                if matches!(results[i], Some(Ok(_))) {
+                    continue;
+                }
+                let r = self.load(name, source);
+                progress |= r.is_ok();
+                results[i] = Some(r);
+            }
+            if !progress || results.iter().all(|r| matches!(r, Some(Ok(_)))) {
+                break;
+            }
+        }
+        results.into_iter().flatten().collect()
+    }
+
+    /// Applies a checked file. The check leaves little that can fail here (an initial
+    /// value computed from the board, a concurrent change); if anything does, what was
+    /// applied is taken back, so that a failed load leaves the board as it was.
     fn apply(&self, c: Compiled, board: &Arc<Board>) -> Result<Loaded, Diagnostics> {
+        let mut undo = Undo::default();
+        match self.apply_or_stop(c, board, &mut undo) {
+            Ok(loaded) => Ok(loaded),
+            Err(diags) => {
+                undo.roll_back(board);
+                Err(diags)
+            }
+        }
+    }
+
+    fn apply_or_stop(
+        &self,
+        c: Compiled,
+        board: &Arc<Board>,
+        undo: &mut Undo,
+    ) -> Result<Loaded, Diagnostics> {
         let mut loaded = Loaded::default();
+        free_plan_names(self, board, &c.plans)?;
         for (def, span) in c.classes {
+            let new = board.class_def(&def.name).is_none();
             board
                 .define(def.clone())
                 .map_err(|e| one(span, e.to_string()))?;
+            if new {
+                undo.classes.push(def.name.clone());
+            }
             loaded.classes.push(def.name);
         }
         // Functions on classes first, so that objects get them from their first write;
@@ -104,13 +152,14 @@ impl Engine {
             .fns
             .iter()
             .partition(|f| board.class_def(&f.target).is_some());
-        attach(board, &on_classes)?;
-        loaded.objects = create_objects(board, c.objects)?;
-        attach(board, &on_objects)?;
+        attach(board, &on_classes, undo)?;
+        loaded.objects = create_objects(board, c.objects, undo)?;
+        attach(board, &on_objects, undo)?;
         loaded.rules = c.fns.iter().filter(|f| f.trigger == Trigger::Write).count();
         for (name, text) in &c.texts {
             self.remember_text(name, text);
         }
+        // Plan names were found free above: installing does not fail half-way.
         for plan in c.plans {
             let name = plan.name.to_string();
             self.install(plan, board)
@@ -121,11 +170,65 @@ impl Engine {
     }
 }
 
-fn attach(board: &Board, fns: &[&PendingFn]) -> Result<(), Diagnostics> {
+/// What a load applied so far, to take back if a later step fails.
+#[derive(Default)]
+struct Undo {
+    /// Classes the load defined (not those it found already defined), in order.
+    classes: Vec<String>,
+    /// Functions attached: target, attribute, trigger, function.
+    fns: Vec<(String, String, Trigger, slate_model::FnRef)>,
+    /// Objects created.
+    objects: Vec<String>,
+}
+
+impl Undo {
+    /// Takes everything back, newest first: objects, then functions, then classes.
+    fn roll_back(self, board: &Board) {
+        if !self.objects.is_empty() {
+            let mut batch = board.batch();
+            for o in &self.objects {
+                batch.delete(o);
+            }
+            let _ = batch.commit();
+        }
+        for (target, attr, trigger, f) in self.fns.iter().rev() {
+            let _ = board.detach(target, attr, *trigger, f);
+        }
+        for class in self.classes.iter().rev() {
+            let _ = board.delete_class(class);
+        }
+    }
+}
+
+/// Fails if a plan's name is taken on the board or by the engine (a concurrent load may
+/// have taken it since the check).
+fn free_plan_names(
+    engine: &Engine,
+    board: &Board,
+    plans: &[CompiledPlan],
+) -> Result<(), Diagnostics> {
+    let taken = plans
+        .iter()
+        .find(|p| board.info(&p.name).is_some() || engine.status(&p.name).is_some());
+    match taken {
+        Some(p) => Err(one(
+            Span::default(),
+            format!(
+                "{} already exists on this board; plan names must be unique object names",
+                p.name
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+fn attach(board: &Board, fns: &[&PendingFn], undo: &mut Undo) -> Result<(), Diagnostics> {
     for f in fns {
         board
             .attach(&f.target, &f.attr, f.trigger, f.f.clone())
             .map_err(|e| one(f.span, e.to_string()))?;
+        undo.fns
+            .push((f.target.clone(), f.attr.clone(), f.trigger, f.f.clone()));
     }
     Ok(())
 }
@@ -220,15 +323,19 @@ fn compile_item(
             .fns
             .extend(rule_fn(ck, rule, None, source, board, engine)),
         Item::Object(o) => {
-            let writes = o.values.iter().filter_map(|v| {
+            check_owner(ck, o);
+            let mut writes = Vec::new();
+            for v in &o.values {
                 let target = crate::ast::Path {
                     root: o.name.clone(),
                     fields: vec![v.name.clone()],
                     span: v.span,
                 };
-                ck.assignment(&target, &v.packet, &mut Locals::default())
-            });
-            let writes = writes.collect();
+                if let Some(w) = ck.assignment(&target, &v.packet, &mut Locals::default()) {
+                    check_initial(ck, &o.class.name, &v.packet, &w);
+                    writes.push((v.packet.value.span, w));
+                }
+            }
             out.objects.push((o.clone(), writes));
         }
         Item::Plan(p) => {
@@ -262,6 +369,20 @@ fn declare_objects(file: &File, scope: &mut Scope, diags: &mut Vec<Diagnostic>) 
             .objects
             .insert(o.name.name.clone(), o.class.name.clone());
     }
+    let mut plans = HashSet::new();
+    for p in file.plans() {
+        let name = &p.name.name;
+        if scope.objects.contains_key(name)
+            || scope.classes.contains_key(name)
+            || !plans.insert(name)
+        {
+            diags.push(Diagnostic::error(
+                Stage::Check,
+                p.name.span,
+                format!("{name} already exists; plan names must be unique object names"),
+            ));
+        }
+    }
     for p in file.plans() {
         for a in &p.action {
             if let ActionKind::Create { class, name, .. } = &a.kind {
@@ -289,6 +410,21 @@ fn class_def(ck: &mut Checker<'_>, class: &ClassDecl, board: &Board) -> Option<C
     let mut def = ClassDef::new(&class.name.name).parent(parent);
     for a in &class.attributes {
         def = def.attr(attr_decl(ck, a));
+    }
+    if slate_model::is_builtin(&def.name)
+        && board
+            .class_def(&def.name)
+            .is_none_or(|existing| existing != def)
+    {
+        ck.error(
+            class.name.span,
+            format!(
+                "{} is a built-in class (every board has it, as the language docs list); \
+                 choose another name",
+                def.name
+            ),
+        );
+        return None;
     }
     if let Some(existing) = board.class_def(&def.name)
         && existing != def
@@ -353,6 +489,11 @@ fn attr_decl(ck: &mut Checker<'_>, a: &AttributeDecl) -> AttrDecl {
                 ),
             );
         }
+        if value.value_type() == Some(ty) {
+            let mut probe = d.clone();
+            probe.default = None;
+            check_packet(ck, &probe, p, &value, Some(acc), Some(conf));
+        }
         d = d.default_packet(value, acc, conf);
     }
     if let Some(m) = &a.merge {
@@ -386,6 +527,78 @@ fn report_policy(ck: &mut Checker<'_>, r: &crate::ast::ReportPolicy) -> ReportPo
             .and_then(|v| v.as_f64()),
         on_accuracy: r.on_accuracy.is_some(),
     }
+}
+
+/// An object's owner must be a valid address.
+fn check_owner(ck: &mut Checker<'_>, o: &ObjectDecl) {
+    if let Some(owner) = &o.owner
+        && let Err(e) = owner.value.parse::<slate_model::Address>()
+    {
+        ck.error(owner.span, e.to_string());
+    }
+}
+
+/// Checks an object's initial value against its declaration when it is a constant (a
+/// value computed from the board is checked when it is written, and a failure there
+/// takes the whole load back).
+fn check_initial(ck: &mut Checker<'_>, class: &str, packet: &PacketExpr, w: &Write) {
+    let Some(decl) = ck.scope.attr(class, &w.attr).map(|a| a.decl.clone()) else {
+        return;
+    };
+    let Some(value) = constant_value(&w.value) else {
+        return;
+    };
+    let value = if w.real {
+        coerce(value, slate_model::ValueType::Real)
+    } else {
+        value
+    };
+    let quality = |n: &Option<Node>| n.as_ref().and_then(constant_value)?.as_f64();
+    check_packet(
+        ck,
+        &decl,
+        packet,
+        &value,
+        quality(&w.accuracy),
+        quality(&w.confidence),
+    );
+}
+
+/// Reports a value, accuracy or confidence that `decl` refuses, each at its expression.
+fn check_packet(
+    ck: &mut Checker<'_>,
+    decl: &AttrDecl,
+    packet: &PacketExpr,
+    value: &Value,
+    accuracy: Option<f64>,
+    confidence: Option<f64>,
+) {
+    if let Err(e) = decl.check_value(value) {
+        ck.error(packet.value.span, format!("{}: {e}", decl.name));
+    }
+    for (q, expr, acc) in [
+        (accuracy, &packet.accuracy, true),
+        (confidence, &packet.confidence, false),
+    ] {
+        let (Some(q), Some(expr)) = (q, expr) else {
+            continue;
+        };
+        let checked = if acc {
+            decl.check_quality(Some(q), None)
+        } else {
+            decl.check_quality(None, Some(q))
+        };
+        if let Err(e) = checked {
+            ck.error(expr.span, format!("{}: {e}", decl.name));
+        }
+    }
+}
+
+/// The value of a constant expression; `None` if it reads the world or fails.
+fn constant_value(node: &Node) -> Option<Value> {
+    is_constant(node)
+        .then(|| node.eval(&mut Ctx::new(&NoWorld, 0, &[])).ok())
+        .flatten()
 }
 
 fn coerce(v: Value, ty: slate_model::ValueType) -> Value {
@@ -755,14 +968,17 @@ fn expand_derived(
 
 // ----- objects -----
 
+/// Creates the objects in one batch, then writes their initial values in another (they
+/// may read the objects just created). Every object created is recorded in `undo`; an
+/// initial value the board refuses is reported at its expression.
 fn create_objects(
     board: &Board,
-    objects: Vec<(ObjectDecl, Vec<Write>)>,
+    objects: Vec<(ObjectDecl, Vec<(Span, Write)>)>,
+    undo: &mut Undo,
 ) -> Result<Vec<String>, Diagnostics> {
     let mut batch = board.batch();
     let mut names = Vec::new();
-    let mut initial = Vec::new();
-    for (o, writes) in &objects {
+    for (o, _) in &objects {
         let mut spec = NewObject::new(&o.class.name, &o.name.name);
         if let Some(c) = o.context {
             spec = spec.context(model_context(c.context));
@@ -776,47 +992,71 @@ fn create_objects(
         }
         batch.create_with(spec);
         names.push(o.name.name.clone());
-        initial.push((o.span, writes));
     }
-    batch
-        .commit()
-        .map_err(|e| one(Span::default(), e.to_string()))?;
-    // Initial values may name the objects just created, so they are written after.
-    let mut batch = board.batch();
-    let snap_env = BoardEnv(board);
-    for (span, writes) in initial {
-        for w in writes.iter() {
-            let mut cx = Ctx::new(&snap_env, 0, &[]);
-            let value = w
-                .value
-                .eval(&mut cx)
-                .map_err(|e| one(span, e.to_string()))?;
-            let value = if w.real {
-                coerce(value, slate_model::ValueType::Real)
-            } else {
-                value
-            };
-            // Stamped zero, like a declared default: an initial value claims no time,
-            // so it loses to any packet the team wrote (a restart never rolls it back).
-            let mut u = Update::new(value).timestamp(slate_model::Timestamp::ZERO);
-            u.accuracy = w
-                .accuracy
-                .as_ref()
-                .and_then(|n| n.eval(&mut cx).ok())
-                .and_then(|v| v.as_f64());
-            u.confidence = w
-                .confidence
-                .as_ref()
-                .and_then(|n| n.eval(&mut cx).ok())
-                .and_then(|v| v.as_f64());
-            let Obj::Named(obj) = &w.obj else { continue };
-            batch.write(obj, &w.attr, u);
-        }
-    }
-    batch
-        .commit()
-        .map_err(|e| one(Span::default(), e.to_string()))?;
+    batch.commit().map_err(|e| {
+        let span = batch_index(&e)
+            .and_then(|i| objects.get(i))
+            .map(|o| o.0.name.span);
+        one(span.unwrap_or_default(), e.to_string())
+    })?;
+    undo.objects.extend(names.iter().cloned());
+    write_initial(board, objects.iter().flat_map(|(_, w)| w.iter()))?;
     Ok(names)
+}
+
+/// Writes the initial values in one batch; a failure names the value's position.
+fn write_initial<'w>(
+    board: &Board,
+    writes: impl Iterator<Item = &'w (Span, Write)>,
+) -> Result<(), Diagnostics> {
+    let mut batch = board.batch();
+    let mut spans = Vec::new();
+    let snap_env = BoardEnv(board);
+    for (span, w) in writes {
+        let Obj::Named(obj) = &w.obj else { continue };
+        let mut cx = Ctx::new(&snap_env, 0, &[]);
+        let value = w
+            .value
+            .eval(&mut cx)
+            .map_err(|e| one(*span, e.to_string()))?;
+        let value = if w.real {
+            coerce(value, slate_model::ValueType::Real)
+        } else {
+            value
+        };
+        let mut quality =
+            |n: &Option<Node>| n.as_ref().and_then(|n| n.eval(&mut cx).ok())?.as_f64();
+        // Stamped zero, like a declared default: an initial value claims no time, so it
+        // loses to any packet the team wrote (a restarted module never rolls it back).
+        let mut u = Update::new(value).timestamp(slate_model::Timestamp::ZERO);
+        u.accuracy = quality(&w.accuracy);
+        u.confidence = quality(&w.confidence);
+        batch.write(obj, &w.attr, u);
+        spans.push(*span);
+    }
+    batch.commit().map_err(|e| {
+        let span = batch_index(&e).and_then(|i| spans.get(i).copied());
+        one(span.unwrap_or_default(), batch_cause(e))
+    })?;
+    Ok(())
+}
+
+/// The operation of a batch that failed.
+fn batch_index(e: &slate_model::BatchError) -> Option<usize> {
+    match e {
+        slate_model::BatchError::Write { index, .. }
+        | slate_model::BatchError::Create { index, .. }
+        | slate_model::BatchError::Delete { index, .. } => Some(*index),
+        _ => None,
+    }
+}
+
+/// Why a batch failed, without "batch operation N" (the diagnostic's position says which).
+fn batch_cause(e: slate_model::BatchError) -> String {
+    match e {
+        slate_model::BatchError::Write { source, .. } => source.to_string(),
+        other => other.to_string(),
+    }
 }
 
 struct BoardEnv<'a>(&'a Board);

@@ -69,7 +69,8 @@ pub enum PlanEvent {
     Triggered {
         /// Plan name.
         plan: String,
-        /// How many times it has fired, this time included.
+        /// How many of its actions have committed, this one included if it did (a
+        /// failed action does not count).
         fired: u64,
         /// `None` on success.
         error: Option<String>,

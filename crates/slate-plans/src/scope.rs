@@ -3,7 +3,7 @@
 
 use std::collections::HashMap;
 
-use slate_model::{Board, ClassDef, THING, ValueType};
+use slate_model::{AttrDecl, Board, ClassDef, THING, ValueType};
 
 /// One attribute as the checker sees it.
 #[derive(Clone, Debug, PartialEq)]
@@ -13,6 +13,8 @@ pub(crate) struct AttrInfo {
     pub class: String,
     /// Is it computed on read?
     pub derived: bool,
+    /// The declaration, to check constant values against before anything is applied.
+    pub decl: AttrDecl,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -60,6 +62,7 @@ impl Scope {
                 ty: a.ty,
                 class: def.name.clone(),
                 derived: derived.contains(&a.name),
+                decl: a.clone(),
             };
             attrs.insert(a.name.clone(), info);
         }

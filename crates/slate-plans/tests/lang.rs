@@ -15,6 +15,8 @@ mod fuzz;
 mod gsr_run;
 #[path = "lang/items.rs"]
 mod items;
+#[path = "lang/load.rs"]
+mod load;
 #[path = "lang/plans.rs"]
 mod plans;
 

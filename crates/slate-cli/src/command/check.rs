@@ -10,17 +10,24 @@ use slate_plans::Engine;
 
 use crate::cli::{CheckArgs, Format};
 
-/// Loads every file into one scratch board and reports what is wrong.
+/// Loads every file into one scratch board, as one module (in any order), and reports
+/// what is wrong.
 pub fn run(args: &CheckArgs, format: Format) -> anyhow::Result<ExitCode> {
     let board = Arc::new(Board::builder().clock(Clock::manual()).build());
     let engine = Engine::new(&board);
-    let mut results = Vec::new();
+    let mut files = Vec::new();
     for path in &args.files {
         let name = path.display().to_string();
         let source =
             std::fs::read_to_string(path).with_context(|| format!("cannot read {name}"))?;
-        results.push((name.clone(), engine.load(&name, &source)));
+        files.push((name, source));
     }
+    // The files form one module: each may name what another defines, in any order.
+    let results: Vec<_> = files
+        .iter()
+        .map(|(name, _)| name.clone())
+        .zip(engine.load_all(&files))
+        .collect();
     let ok = results.iter().all(|(_, r)| r.is_ok());
     match format {
         Format::Text => print_text(&results),

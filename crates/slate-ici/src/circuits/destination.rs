@@ -285,8 +285,7 @@ impl Inner {
     }
 
     fn accepted(self: &Arc<Self>, key: &Key, name: &str) {
-        let board = self.ici.board();
-        if let Err(e) = board.write(name, "origin", key.0.as_str()) {
+        if let Err(e) = self.engine.set_origin(name, key.0.as_str()) {
             tracing::debug!(plan = %name, error = %e, "plan origin not written");
         }
         let (acks, cancel) = self.destination.lock().accept(key);

@@ -97,7 +97,9 @@ impl State {
             .board
             .class_defs()
             .into_iter()
-            .filter(|d| d.name != MODULE_CLASS)
+            // Every board has the built-in classes already (and their guarded flags do not
+            // travel): sending them could only make a conflict.
+            .filter(|d| !slate_model::is_builtin(&d.name))
             .collect();
         for chunk in defs.chunks(CLASSES_PER_MESSAGE) {
             if self.send_message(to, &Message::Classes(chunk.to_vec())) {

@@ -1,27 +1,11 @@
 //! Liveliness as a world-model fact: the `Module` class and how a module's address
 //! names its object.
 
-use slate_model::{Address, AttrDecl, ClassDef, ValueType};
+use slate_model::Address;
 
-/// The class of the objects that stand for other modules on every board.
-pub const MODULE_CLASS: &str = "Module";
-
-/// The `Module` class every ICI defines on its board:
-///
-/// | attribute | type | meaning |
-/// |---|---|---|
-/// | `address` | string | the module's address, `team/robot/module` |
-/// | `alive` | bool | heard from within its liveliness timeout (default false) |
-/// | `last_seen` | real, s | when it was last heard from, seconds since the Unix epoch |
-///
-/// Each board's ICI writes these objects from what it hears (they are local facts, never
-/// reported): SELF context for the modules of its own robot, SYSTEM for other robots'.
-pub fn module_class() -> ClassDef {
-    ClassDef::new(MODULE_CLASS)
-        .attr(AttrDecl::new("address", ValueType::Str))
-        .attr(AttrDecl::new("alive", ValueType::Bool).default_value(false))
-        .attr(AttrDecl::new("last_seen", ValueType::Real).unit("s"))
-}
+/// The `Module` class and its name live with the other built-in classes in slate-model:
+/// every board has them from the start (the ICI writes the objects).
+pub use slate_model::{MODULE_CLASS, module_class};
 
 /// The name of a module's object: its address with `/` and `-` turned into `_`, and a
 /// leading `_` if it would start with a digit: `team/r1/nav` is `team_r1_nav`.

@@ -238,7 +238,8 @@ fn every_step_arrives_once_in_order_under_loss_duplication_and_reordering() {
         );
         assert_eq!(
             [&got[3], &got[4], &got[6]],
-            [&ok(1), &ok(2), &ok(4)],
+            // `fired` counts the actions that committed: the failure at 5 does not count.
+            [&ok(1), &ok(2), &ok(3)],
             "seed {seed}"
         );
         for failed in [&got[5], &got[7]] {

@@ -9,6 +9,10 @@ use crate::{BatchError, Key, Update};
 enum Op {
     Write(Arc<str>, Arc<str>, Update),
     WriteKey(Key, Update),
+    /// A write that may touch a guarded attribute.
+    Guarded(Arc<str>, Arc<str>, Update),
+    /// The same through a resolved key.
+    GuardedKey(Key, Update),
     Create(NewObject),
     Delete(String),
 }
@@ -58,6 +62,29 @@ impl<'b> Batch<'b> {
     /// Adds a write through a resolved key.
     pub fn write_key(&mut self, key: Key, update: impl Into<Update>) -> &mut Self {
         self.ops.push(Op::WriteKey(key, update.into()));
+        self
+    }
+
+    /// Adds a write that may also write a guarded attribute ([`AttrDecl::guarded`]): the
+    /// door of the machinery that declared it (the plan engine for `Plan`'s fields).
+    /// Bindings, tools and plans never use it, so what they write cannot contradict what
+    /// that machinery does.
+    ///
+    /// [`AttrDecl::guarded`]: crate::AttrDecl::guarded
+    pub fn write_guarded(
+        &mut self,
+        object: &str,
+        attr: &str,
+        update: impl Into<Update>,
+    ) -> &mut Self {
+        self.ops
+            .push(Op::Guarded(object.into(), attr.into(), update.into()));
+        self
+    }
+
+    /// [`Batch::write_guarded`] through a resolved key.
+    pub fn write_key_guarded(&mut self, key: Key, update: impl Into<Update>) -> &mut Self {
+        self.ops.push(Op::GuardedKey(key, update.into()));
         self
     }
 
@@ -111,17 +138,19 @@ impl<'b> Batch<'b> {
 }
 
 fn apply(txn: &mut Txn<'_>, board: &Board, index: usize, op: Op) -> Result<(), BatchError> {
-    let write = |txn: &mut Txn<'_>, target: Target<'_>, update| {
-        let key = target.resolve(txn.state()).map_err(|m| BatchError::Write {
-            index,
-            source: m.into(),
-        })?;
-        txn.write(key, update)
-            .map_err(|source| BatchError::Write { index, source })
+    let write = |txn: &mut Txn<'_>, target: Target<'_>, update, may_guarded: bool| {
+        let failed = |source| BatchError::Write { index, source };
+        let key = target.resolve(txn.state()).map_err(|m| failed(m.into()))?;
+        if !may_guarded {
+            super::refuse_guarded(txn.state(), key, &board.address).map_err(failed)?;
+        }
+        txn.write(key, update).map_err(failed)
     };
     match op {
-        Op::Write(o, a, u) => write(txn, Target::Names(&o, &a), u),
-        Op::WriteKey(k, u) => write(txn, Target::Key(k), u),
+        Op::Write(o, a, u) => write(txn, Target::Names(&o, &a), u, false),
+        Op::WriteKey(k, u) => write(txn, Target::Key(k), u, false),
+        Op::Guarded(o, a, u) => write(txn, Target::Names(&o, &a), u, true),
+        Op::GuardedKey(k, u) => write(txn, Target::Key(k), u, true),
         Op::Create(spec) => {
             let owner = spec.owner.unwrap_or_else(|| board.address.clone());
             txn.create(&spec.class, &spec.name, spec.context, owner)

@@ -106,7 +106,7 @@ impl BoardBuilder {
         let default_address =
             || Address::new("local/robot/module").unwrap_or_else(|_| Address::unknown());
         static NEXT_ID: AtomicU64 = AtomicU64::new(1);
-        Board {
+        let board = Board {
             id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
             inner: RwLock::new(Inner {
                 state: State::new(),
@@ -121,7 +121,9 @@ impl BoardBuilder {
             chain_cuts: AtomicU64::new(0),
             future_stamps: AtomicU64::new(0),
             fn_seq: AtomicU64::new(0),
-        }
+        };
+        board.define_builtins();
+        board
     }
 }
 
@@ -140,6 +142,27 @@ impl Target<'_> {
             Target::Key(k) => Ok(k),
         }
     }
+}
+
+/// Refuses a plain local write to a guarded attribute ([`AttrDecl::guarded`]) of an
+/// object this board keeps (`me` owns it, or it is a class). On another module's object the
+/// write is a request to that module's machinery, which answers it (a node's engine cancels
+/// a plan whose copy was written `cancelled`, and restores any other state). A key that does
+/// not resolve is left to the write to report.
+pub(crate) fn refuse_guarded(st: &State, key: Key, me: &Address) -> Result<(), WriteError> {
+    let Ok((entity, _, decl)) = st.decl(key) else {
+        return Ok(());
+    };
+    let kept_here = entity.instance().is_none_or(|i| i.owner == *me);
+    if !(decl.decl.guarded && kept_here) {
+        return Ok(());
+    }
+    Err(WriteError::Guarded {
+        object: st
+            .name(key.object)
+            .map_or_else(|| "?".into(), |n| n.to_string()),
+        attr: decl.decl.name.clone(),
+    })
 }
 
 /// How to create an object: class, name, context, owner.
@@ -323,6 +346,17 @@ impl Board {
         match st.define(&def)? {
             Some(id) => Ok(id),
             None => st.id(&def.name).ok_or(DefineError::NameTaken(def.name)),
+        }
+    }
+
+    /// Defines the built-in classes (see [`crate::builtin_classes`]): every board has them
+    /// from the start, so that files and plans may name them before the ICI or the plan
+    /// engine runs.
+    fn define_builtins(&self) {
+        let mut inner = self.inner.write();
+        for def in crate::builtin_classes() {
+            // A fresh board has no class of these names: defining them cannot fail.
+            let _ = inner.state.define(&def);
         }
     }
 
@@ -558,6 +592,7 @@ impl Board {
                     st.attr_name(key.attr),
                 )
             };
+            refuse_guarded(&inner.state, key, &self.address)?;
             if let Err(cut) = chain.admit(key, Trigger::Write, self.max_depth, names) {
                 drop(inner);
                 self.report(BoardEvent::ChainCut(cut.clone()));
@@ -791,6 +826,20 @@ impl Board {
         let key = inner.state.key(target, attr)?;
         inner.state.attach(key, trigger, f);
         Ok(())
+    }
+
+    /// Detaches a function attached with [`Board::attach`] (the same `Arc`), as a load
+    /// that fails half-way takes back what it attached. Returns whether it was attached.
+    pub fn detach(
+        &self,
+        target: &str,
+        attr: &str,
+        trigger: Trigger,
+        f: &Arc<dyn ActiveFn>,
+    ) -> Result<bool, LookupError> {
+        let mut inner = self.inner.write();
+        let key = inner.state.key(target, attr)?;
+        Ok(inner.state.detach(key, trigger, f))
     }
 
     /// After a commit, outside the lock: runs the on-write functions, then the change

@@ -816,6 +816,23 @@ impl State {
         }
     }
 
+    /// Removes one attached function (the same `Arc`); returns whether it was attached.
+    pub fn detach(&mut self, key: Key, trigger: Trigger, f: &FnRef) -> bool {
+        let Some(e) = self.get_mut(key.object) else {
+            return false;
+        };
+        let Some(fns) = e.fns.get_mut(&(key.attr, trigger)) else {
+            return false;
+        };
+        let before = fns.len();
+        fns.retain(|g| !Arc::ptr_eq(g, f));
+        let removed = fns.len() < before;
+        if removed && e.class_data().is_some() {
+            self.recompute_effective(key.object);
+        }
+        removed
+    }
+
     fn recompute_effective(&mut self, class: ObjectId) {
         let parent = self.class(class).and_then(|c| c.ancestors.get(1).copied());
         let mut table = parent
@@ -916,9 +933,15 @@ fn entity(name: Arc<str>, kind: Kind) -> Entity {
 /// Says how two definitions of one class differ, or `None` if they are the same.
 fn describe_difference(old: &ClassDef, new: &ClassDef) -> Option<String> {
     if old.parent != new.parent {
+        // The root class has no parent: say so rather than print an empty name.
+        let here = if old.parent.is_empty() {
+            "it is the root class here (no parent)".to_owned()
+        } else {
+            format!("parent {} here", old.parent)
+        };
         return Some(format!(
-            "parent {} here, {} in the new definition",
-            old.parent, new.parent
+            "{here}, parent {} in the new definition",
+            new.parent
         ));
     }
     for a in &old.attrs {

@@ -585,3 +585,43 @@ fn functions_hopping_across_many_boards_are_bounded_too() {
         .unwrap();
     assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
 }
+
+#[test]
+fn a_detached_function_no_longer_runs_and_others_stay() {
+    let b = board();
+    b.define(ClassDef::new("A").attr(AttrDecl::new("x", ValueType::Real)))
+        .unwrap();
+    b.create("A", "a").unwrap();
+    let runs = Arc::new(AtomicUsize::new(0));
+    let counted = {
+        let runs = runs.clone();
+        move |_: &mut slate_model::Call<'_>| {
+            runs.fetch_add(1, Ordering::SeqCst);
+            Ok(())
+        }
+    };
+    b.on_write("A", "x", counted.clone()).unwrap();
+    let f: slate_model::FnRef = Arc::new(Named(counted));
+    b.attach("A", "x", Trigger::Write, f.clone()).unwrap();
+    b.write("a", "x", 1.0).unwrap();
+    assert_eq!(runs.load(Ordering::SeqCst), 2);
+    assert!(b.detach("A", "x", Trigger::Write, &f).unwrap());
+    assert!(!b.detach("A", "x", Trigger::Write, &f).unwrap());
+    b.write("a", "x", 2.0).unwrap();
+    assert_eq!(runs.load(Ordering::SeqCst), 3);
+}
+
+/// A closure as an [`slate_model::ActiveFn`] the test can hold on to.
+struct Named<F>(F);
+
+impl<F> slate_model::ActiveFn for Named<F>
+where
+    F: Fn(&mut slate_model::Call<'_>) -> Result<(), FnError> + Send + Sync,
+{
+    fn name(&self) -> &str {
+        "counted"
+    }
+    fn call(&self, call: &mut slate_model::Call<'_>) -> Result<(), FnError> {
+        (self.0)(call)
+    }
+}

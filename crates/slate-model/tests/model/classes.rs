@@ -159,7 +159,18 @@ fn classes_defined_at_runtime_get_instances_and_can_be_listed() {
     let b = board();
     let defs = b.class_defs();
     let names: Vec<&str> = defs.iter().map(|d| d.name.as_str()).collect();
-    assert_eq!(names, ["Vehicle", "GroundVehicle", "Gsr", "Obstacle"]);
+    // The built-in classes come first: every board has them from the start.
+    assert_eq!(
+        names,
+        [
+            "Module",
+            "Plan",
+            "Vehicle",
+            "GroundVehicle",
+            "Gsr",
+            "Obstacle"
+        ]
+    );
     // A second board built from the first's definitions (a "download") has the same tree.
     let copy = slate_model::Board::new();
     for d in defs {
@@ -290,4 +301,12 @@ fn references_to_deleted_objects_dangle_and_resolve_again_by_name() {
     // Writing a token to an object that does not exist (yet) is allowed.
     b.write("chaser", "target", Value::reference("not_yet"))
         .unwrap();
+}
+
+#[test]
+fn redefining_the_root_class_names_what_differs() {
+    let b = slate_model::Board::new();
+    let err = b.define(ClassDef::new("Thing")).unwrap_err().to_string();
+    assert!(err.contains("root class"), "{err}");
+    assert!(!err.contains("  "), "{err}");
 }

@@ -42,3 +42,23 @@ fn a_slate_file_with_errors_stops_the_start_with_its_diagnostics() {
     assert!(err.to_string().starts_with("cannot read "), "{err}");
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+#[test]
+fn a_node_whose_file_names_the_builtin_module_class_starts() {
+    let d = dir("builtin");
+    std::fs::write(
+        d.join("watch.slate"),
+        "plan watch_modules { trigger: any m: Module where not m.alive; action { } }\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("m.toml"),
+        "address = \"t/r1/nav\"\nfiles = [\"watch.slate\"]\n[zenoh]\nlisten = [\"tcp/127.0.0.1:0\"]\n",
+    )
+    .unwrap();
+    let config = NodeConfig::read(&d.join("m.toml")).unwrap();
+    let node = Node::start(&config).unwrap();
+    assert!(node.board().info("watch_modules").is_some());
+    node.close();
+    std::fs::remove_dir_all(&d).unwrap();
+}

@@ -144,3 +144,19 @@ fn a_class_defined_differently_on_the_board_is_a_conflict() {
         e.rendered
     );
 }
+
+#[test]
+fn the_builtin_classes_are_known_to_a_fresh_board_and_its_checker() {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    for class in ["Module", "Plan"] {
+        assert!(board.class_def(class).is_some(), "{class}");
+    }
+    let engine = Engine::new(&board);
+    engine
+        .load(
+            "w.slate",
+            "plan watch { trigger: any m: Module where not m.alive; action { } }\n\
+             plan quiet { trigger: all p: Plan where p.fired == 0; action { } }",
+        )
+        .unwrap();
+}

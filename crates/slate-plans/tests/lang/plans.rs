@@ -378,7 +378,7 @@ fn a_failing_action_is_recorded_and_applies_nothing() {
         .unwrap();
     b.write("gsr", "speed", 6.0).unwrap();
     let status = e.status("bad").unwrap();
-    assert_eq!(status.fired, 1);
+    assert_eq!(status.fired, 0, "fired counts the actions that committed");
     let error = status.last_error.expect("the failure is recorded");
     assert!(error.contains("ghost"), "{error}");
     assert_eq!(
@@ -454,4 +454,81 @@ fn initial_values_from_a_file_claim_no_time_and_lose_to_any_packet_written_since
     older.source = slate_model::Address::new("t/r2/op").unwrap();
     board.merge("o", "x", older).unwrap();
     assert_eq!(board.read("o", "x").unwrap().value, Value::Real(5.0));
+}
+
+#[test]
+fn a_plan_object_refuses_writes_from_anyone_but_its_engine() {
+    let (b, e) = world("");
+    set(&b, "init", true);
+    for (attr, value) in [
+        ("state", Value::from("terminated")),
+        ("fired", Value::Int(7)),
+    ] {
+        let err = b.write("p", attr, value).unwrap_err();
+        assert!(
+            matches!(err, slate_model::WriteError::Guarded { .. }),
+            "{attr}: {err}"
+        );
+        assert!(err.to_string().contains("plan engine"), "{err}");
+    }
+    let mut batch = b.batch();
+    batch.write("p", "state", "cancelled");
+    assert!(batch.commit().is_err());
+    // The object still tells the truth, and the plan still acts.
+    assert_eq!(b.read("p", "state").unwrap().value, Value::from("active"));
+    set(&b, "trig", true);
+    assert_eq!(fired(&b, &e), 1);
+    assert_eq!(b.read("p", "fired").unwrap().value, Value::Int(1));
+    // Cancelling goes through the engine, and the object says so.
+    assert!(e.cancel("p"));
+    assert_eq!(
+        b.read("p", "state").unwrap().value,
+        Value::from("cancelled")
+    );
+}
+
+#[test]
+fn a_plan_action_that_writes_a_plan_object_is_refused_by_the_checker() {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    engine
+        .load("a.slate", "plan q { trigger: false; action { } }")
+        .unwrap();
+    let e = engine
+        .load(
+            "b.slate",
+            "plan r { trigger: true; action { set q.state = \"terminated\"; } }",
+        )
+        .unwrap_err();
+    assert!(e.diagnostics.0[0].message.contains("plan engine"), "{e}");
+    assert_eq!(
+        (e.diagnostics.0[0].span.line, e.diagnostics.0[0].span.col),
+        (1, 38)
+    );
+}
+
+#[test]
+fn a_failed_action_does_not_count_as_fired() {
+    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
+    let engine = Engine::new(&board);
+    engine
+        .load(
+            "t.slate",
+            "class A { x: real in 0 .. 1; go: bool = false; }\nobject a : A;\n\
+             plan p { trigger: a.go; action { set a.x = 5.0; } }",
+        )
+        .unwrap();
+    board.write("a", "go", true).unwrap();
+    let status = engine.status("p").unwrap();
+    assert!(status.last_error.is_some(), "{status:?}");
+    assert_eq!(status.fired, 0, "{status:?}");
+    assert_eq!(board.read("p", "fired").unwrap().value, Value::Int(0));
+    assert!(
+        board
+            .read("p", "last_error")
+            .unwrap()
+            .value
+            .to_string()
+            .contains("outside the declared bounds")
+    );
 }
