@@ -391,6 +391,8 @@ class Watch:
 _EventKind = Literal[
     "function_failed",
     "chain_cut",
+    "future_stamp",
+    "class_conflict",
     "installed",
     "initiated",
     "triggered",
@@ -415,6 +417,8 @@ class Event:
     def attr(self) -> str | None: ...
     @property
     def trigger(self) -> str | None: ...
+    @property
+    def source(self) -> str | None: ...
     @property
     def error(self) -> str | None: ...
     @property

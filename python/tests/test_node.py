@@ -192,3 +192,28 @@ def test_a_second_node_on_one_board_or_address_is_refused_while_the_first_is_ope
     # Once the first is closed, both are free again.
     with slate.Node("t/r1/twice", board, listen=[free_endpoint()]) as again:
         assert again.board.address == "t/r1/twice"
+
+
+def test_a_class_two_nodes_define_differently_is_an_event_on_both() -> None:
+    endpoint = free_endpoint()
+    nav_board = slate.Board(address="t/r1/nav")
+    nav_board.load("class Sonar { ping: real; }\nobject s1 : Sonar context self { ping = 0.5; }")
+    loco_board = slate.Board(address="t/r2/loco")
+    loco_board.load("class Sonar { ping: int; }\nobject s2 : Sonar context self { ping = 3; }")
+    nav_events = nav_board.events(timeout=0.0)
+    loco_events = loco_board.events(timeout=0.0)
+    with (
+        slate.Node("t/r1/nav", nav_board, listen=[endpoint], export=["Thing"]),
+        slate.Node("t/r2/loco", loco_board, connect=[endpoint], export=["Thing"]),
+    ):
+        seen: dict[str, list[slate.Event]] = {"nav": [], "loco": []}
+
+        def both_report() -> bool:
+            seen["nav"] += nav_events.drain()
+            seen["loco"] += loco_events.drain()
+            return all(any(e.kind == "class_conflict" for e in got) for got in seen.values())
+
+        assert eventually(both_report), seen
+    conflict = next(e for e in seen["nav"] if e.kind == "class_conflict")
+    assert conflict.object == "Sonar" and conflict.source == "t/r2/loco"
+    assert "defined differently" in (conflict.error or "")

@@ -1,4 +1,4 @@
-//! Plan circuits (DESIGN.md 2.4): a plan sent to another module travels on a virtual
+//! Plan circuits (docs/ici.md): a plan sent to another module travels on a virtual
 //! circuit, and its origin hears every step of its progression — received, accepted or
 //! rejected with the reason, initiated, each trigger with success or failure,
 //! terminated, cancelled, destination lost.

@@ -30,9 +30,10 @@ impl Packet {
         }
     }
 
-    /// Whether a module ever wrote this packet. A declared default and [`Packet::none`]
-    /// were never written: they carry [`Timestamp::ZERO`] and no source, so they have no
-    /// age and must not read as fresh.
+    /// Whether the packet claims a time, and so has an age. A declared default,
+    /// [`Packet::none`] and an initial value from a `.slate` file carry
+    /// [`Timestamp::ZERO`]: they claim no time (so they lose to any packet written since)
+    /// and must not read as fresh.
     ///
     /// ```
     /// use slate_model::{AttrDecl, Board, ClassDef, NewObject, ValueType};
@@ -40,12 +41,19 @@ impl Packet {
     /// let x = AttrDecl::new("x", ValueType::Real).default_value(1.0);
     /// board.define(ClassDef::new("V").attr(x)).unwrap();
     /// board.create_with(NewObject::new("V", "o")).unwrap();
-    /// assert!(!board.read("o", "x").unwrap().was_written());
+    /// assert!(!board.read("o", "x").unwrap().has_time());
     /// board.write("o", "x", 2.0).unwrap();
-    /// assert!(board.read("o", "x").unwrap().was_written());
+    /// assert!(board.read("o", "x").unwrap().has_time());
     /// ```
-    pub fn was_written(&self) -> bool {
+    pub fn has_time(&self) -> bool {
         self.timestamp != Timestamp::ZERO
+    }
+
+    /// Whether this is a declared default (or [`Packet::none`]): no module wrote it, so
+    /// it has neither a time nor a source. An initial value from a file has no time
+    /// but has its writer as source.
+    pub fn is_default(&self) -> bool {
+        !self.has_time() && self.source.is_unknown()
     }
 }
 

@@ -73,7 +73,8 @@ pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
     };
     let ici = IciConfig::default()
         .interest(ClassSet::all())
-        .export(ClassSet::all());
+        .export(ClassSet::all())
+        .observer(true);
     let node = Node::builder(address)
         .zenoh(zenoh_config(&options.connect))
         .ici(ici)

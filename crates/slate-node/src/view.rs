@@ -122,10 +122,11 @@ impl View {
         })
     }
 
-    /// Seconds since the packet was written; `None` (null) for a declared default, which
-    /// was never written and must not read as fresh.
+    /// Seconds since the packet was written; `None` (null) for a packet that claims no
+    /// time (a declared default, an initial value from a file), which must not read as
+    /// fresh.
     fn age(&self, p: &Packet) -> Option<f64> {
-        p.was_written()
+        p.has_time()
             .then(|| self.board.clock().age(p.timestamp).as_secs_f64())
     }
 

@@ -2,11 +2,11 @@
 //! whose conditions read what changed (a dependency index); a condition that depends on
 //! time is re-evaluated when its truth can change (deadlines on the board's clock).
 //!
-//! Semantics (DESIGN.md 2.4): initiation is latched; the trigger fires the action when it
-//! becomes true (its edge is counted from activation, so a trigger already true when the
-//! plan initiates fires at once) or, with `every`, repeatedly while it holds; termination is
-//! latched and checked first, so a termination true before or together with initiation
-//! means the action never runs.
+//! Semantics (docs/language.md, "What a plan does"): initiation is latched; the trigger fires
+//! the action when it becomes true (its edge is counted from activation, so a trigger
+//! already true when the plan initiates fires at once) or, with `every`, repeatedly while it
+//! holds; termination is latched and checked first, so a termination true before or
+//! together with initiation means the action never runs.
 
 use std::cmp::Reverse;
 use std::collections::{BinaryHeap, HashMap};
@@ -584,7 +584,7 @@ struct Outcome {
     eval_error: Option<String>,
 }
 
-/// Evaluates a plan's conditions once, per DESIGN.md 2.4.
+/// Evaluates a plan's conditions once, by the plan semantics (docs/language.md).
 fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
     let mut out = Outcome::default();
     if rt.state.is_over() {

@@ -51,7 +51,7 @@ pub enum Outgoing {
     Plan(PlanMessage),
 }
 
-/// A step of a plan's progress (DESIGN.md 2.4); the ICI turns them into acknowledgements
+/// A step of a plan's progress (docs/language.md); the ICI turns them into acknowledgements
 /// for the module that sent the plan.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PlanEvent {

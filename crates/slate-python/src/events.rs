@@ -16,8 +16,11 @@ use crate::stream;
 /// An event. `kind` says which; the other fields are set where they apply:
 ///
 /// - board events: `"function_failed"` (`function`, `object`, `attr`, `trigger`, `error`:
-///   an active function raised or failed; the access that ran it stands) and
-///   `"chain_cut"` (`error`: a chain of active functions was too deep or a cycle);
+///   an active function raised or failed; the access that ran it stands),
+///   `"chain_cut"` (`error`: a chain of active functions was too deep or a cycle),
+///   `"future_stamp"` (`object`, `attr`, `source`, `error`: a received packet stamped
+///   beyond the clock's tolerance was refused) and `"class_conflict"` (`object` is the
+///   class, `source` the module that defines it differently; their objects are not merged);
 /// - plan events: `"installed"`, `"initiated"`, `"triggered"` (`fired`, and `error` if the
 ///   action failed), `"terminated"`, `"cancelled"`, `"failed"` (`error`: a condition could
 ///   not be evaluated), all with `plan`.
@@ -36,6 +39,8 @@ pub(crate) struct Event {
     attr: Option<String>,
     /// `"read"` or `"write"`, for `function_failed`.
     trigger: Option<String>,
+    /// The module concerned, for `future_stamp` and `class_conflict`.
+    source: Option<String>,
     /// What went wrong, if something did.
     error: Option<String>,
     /// Times the plan has fired, for `triggered`.
@@ -52,6 +57,7 @@ impl Event {
             ("object", &self.object),
             ("attr", &self.attr),
             ("trigger", &self.trigger),
+            ("source", &self.source),
             ("error", &self.error),
         ];
         for (name, value) in fields {
@@ -87,6 +93,32 @@ impl From<BoardEvent> for Event {
             BoardEvent::ChainCut(cut) => Event {
                 kind: "chain_cut",
                 error: Some(cut.to_string()),
+                ..Event::default()
+            },
+            BoardEvent::FutureStamp {
+                object,
+                attr,
+                source,
+                stamp,
+                ahead,
+            } => Event {
+                kind: "future_stamp",
+                object: Some(object),
+                attr: Some(attr),
+                error: Some(format!(
+                    "packet stamped {stamp}, {:.3} s ahead of this board's clock: refused",
+                    ahead.as_secs_f64()
+                )),
+                source: Some(source.to_string()),
+                ..Event::default()
+            },
+            BoardEvent::ClassConflict { class, peer } => Event {
+                error: Some(format!(
+                    "class {class} is defined differently by {peer}: its objects are not merged"
+                )),
+                kind: "class_conflict",
+                object: Some(class),
+                source: Some(peer.to_string()),
                 ..Event::default()
             },
             other => Event {

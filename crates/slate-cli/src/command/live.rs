@@ -129,10 +129,10 @@ pub fn team_of(board: &Board) -> String {
     format!("team {}", board.address().team())
 }
 
-/// Seconds since the packet was written; `None` for a declared default, which was never
-/// written (an age of 0 would read as fresh).
+/// Seconds since the packet was written; `None` for a packet that claims no time (a
+/// declared default, an initial value from a file: an age of 0 would read as fresh).
 fn age(board: &Board, p: &Packet) -> Option<f64> {
-    p.was_written()
+    p.has_time()
         .then(|| board.clock().age(p.timestamp).as_secs_f64())
 }
 
@@ -151,19 +151,21 @@ pub fn value_json(v: &Value) -> Json {
 }
 
 /// A packet as JSON, with its attribute's name and unit. A declared default says
-/// `"default": true` and has no age, timestamp or source (all null).
+/// `"default": true` and has no source; a packet that claims no time (a default, an
+/// initial value from a file) has no age or timestamp (null).
 pub fn packet_json(board: &Board, attr: &str, unit: Option<&str>, p: &Packet) -> Json {
-    let written = p.was_written();
+    let timed = p.has_time();
     json!({
         "attr": attr, "value": value_json(&p.value), "unit": unit, "accuracy": p.accuracy,
-        "confidence": p.confidence, "default": !written, "age": age(board, p),
-        "timestamp": written.then(|| p.timestamp.as_secs_f64()),
-        "source": written.then(|| p.source.to_string()),
+        "confidence": p.confidence, "default": p.is_default(), "age": age(board, p),
+        "timestamp": timed.then(|| p.timestamp.as_secs_f64()),
+        "source": (!p.is_default()).then(|| p.source.to_string()),
     })
 }
 
-/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`, or for a declared
-/// default `0.0 m/s  confidence 1.00  default, never written`.
+/// `2.5 ± 0.1 m/s  confidence 0.90  age 1.2 s  from team/r1/nav`; for a declared default
+/// `0.0 m/s  confidence 1.00  default, never written`; for an initial value from a file
+/// `1.0 m/s  confidence 1.00  initial value from team/r1/nav, no time`.
 pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     let unit = unit.map_or(String::new(), |u| format!(" {u}"));
     let accuracy = if p.accuracy > 0.0 {
@@ -173,7 +175,8 @@ pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     };
     let written = match age(board, p) {
         Some(seconds) => format!("age {}  from {}", age_text(seconds), p.source),
-        None => "default, never written".to_owned(),
+        None if p.is_default() => "default, never written".to_owned(),
+        None => format!("initial value from {}, no time", p.source),
     };
     format!(
         "{}{accuracy}{unit}  confidence {:.2}  {written}",
@@ -235,10 +238,12 @@ mod tests {
 
     use super::*;
 
-    /// A board holding `o : V` with `speed` written once and `mode` left at its default.
+    /// A board holding `o : V` with `speed` written once, `mode` left at its default and
+    /// `goal` given an initial value by the file.
     fn board() -> Arc<Board> {
         let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-        let text = "class V { speed: real = 0.0; mode: string = \"auto\"; }\nobject o : V;";
+        let text = "class V { speed: real = 0.0; mode: string = \"auto\"; goal: real; }\n\
+                    object o : V { goal = 4.0; }";
         slate_plans::Engine::new(&board)
             .load("v.slate", text)
             .unwrap();
@@ -268,5 +273,20 @@ mod tests {
         assert_eq!(j["default"], false);
         assert!(j["age"].is_f64() && j["timestamp"].is_f64(), "{j}");
         assert!(j["source"].is_string(), "{j}");
+    }
+
+    #[test]
+    fn an_initial_value_from_a_file_shows_its_source_and_no_age() {
+        let board = board();
+        let goal = board.read("o", "goal").unwrap();
+        let text = packet_text(&board, None, &goal);
+        assert!(
+            text.ends_with("initial value from local/robot/module, no time"),
+            "{text}"
+        );
+        let j = packet_json(&board, "goal", None, &goal);
+        assert_eq!(j["default"], false);
+        assert!(j["age"].is_null() && j["timestamp"].is_null(), "{j}");
+        assert_eq!(j["source"], "local/robot/module", "{j}");
     }
 }

@@ -71,7 +71,10 @@ fn tree_ls_and_get_show_the_team_as_text_and_json() {
     );
     assert_eq!(a["confidence"], 1.0);
     assert_eq!(a["source"], "t/r1/nav");
-    assert!(a["age"].as_f64().is_some_and(|x| x >= 0.0));
+    assert!(
+        a["age"].is_null(),
+        "an initial value from a file claims no time: {a}"
+    );
     team.stop();
 }
 
@@ -276,17 +279,26 @@ fn get_shows_a_never_written_default_as_a_default_not_as_fresh() {
         get.contains("mode = auto  confidence 1.00  default, never written\n"),
         "{get}"
     );
-    assert!(get.contains("position = [10.0, 20.0]") && get.contains(" age "));
+    // An initial value from nav's file claims no time either, but has its writer.
+    assert!(
+        get.contains("position = [10.0, 20.0] ± 0.5 m  confidence 1.00  initial value from t/r1/nav, no time\n"),
+        "{get}"
+    );
     let j = team.json(&["get", "gsr.speed"]);
     let speed = &j["attrs"][0];
     assert_eq!(speed["default"], true, "{j}");
     assert!(speed["age"].is_null() && speed["source"].is_null(), "{j}");
     let j = team.json(&["get", "gsr.position"]);
-    assert_eq!(j["attrs"][0]["default"], false, "{j}");
-    assert!(
-        j["attrs"][0]["age"].as_f64().is_some_and(|a| a >= 0.0),
-        "{j}"
-    );
+    let position = &j["attrs"][0];
+    assert_eq!(position["default"], false, "{j}");
+    assert!(position["age"].is_null(), "{j}");
+    assert_eq!(position["source"], "t/r1/nav", "{j}");
+    // A packet written since has an age and a source.
+    team.ok(&["put", "gsr.speed", "1.0"]);
+    let j = team.json(&["get", "gsr.speed"]);
+    let speed = &j["attrs"][0];
+    assert_eq!(speed["default"], false, "{j}");
+    assert!(speed["age"].as_f64().is_some_and(|a| a >= 0.0), "{j}");
     team.stop();
 }
 

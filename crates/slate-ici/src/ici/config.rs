@@ -55,6 +55,10 @@ pub struct IciConfig {
     /// not grow the board without bound (default 10 min). It is found again, like any
     /// new module, if it comes back.
     pub forget_dead: Duration,
+    /// This module is a short-lived observer (the CLI's `get`, `put`, `ls`...): its
+    /// hellos say so, and the boards it meets forget it as soon as it leaves instead of
+    /// after `forget_dead`, so it leaves no trace (default false).
+    pub observer: bool,
 }
 
 impl Default for IciConfig {
@@ -76,6 +80,7 @@ impl Default for IciConfig {
             max_report_items: 128,
             max_tombstones: 4096,
             forget_dead: Duration::from_secs(600),
+            observer: false,
         }
     }
 }
@@ -108,6 +113,12 @@ impl IciConfig {
     /// Sets how long a dead module is remembered.
     pub fn forget_dead(mut self, after: Duration) -> Self {
         self.forget_dead = after;
+        self
+    }
+
+    /// Makes this module a short-lived observer, forgotten as soon as it leaves.
+    pub fn observer(mut self, observer: bool) -> Self {
+        self.observer = observer;
         self
     }
 

@@ -20,13 +20,19 @@ const MAX_NAME: u64 = slate_wire::MAX_NAME_BYTES as u64;
 
 /// A module's hello: which incarnation it is and what it models; `reply` when it
 /// answers the other's hello (a hello that is not a reply is answered by one, so its
-/// sender knows it was heard).
+/// sender knows it was heard); `observer` when its sender is a short-lived observer, to
+/// be forgotten as soon as it leaves.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Hello {
     pub incarnation: u64,
     pub interest: ClassSet,
     pub reply: bool,
+    pub observer: bool,
 }
+
+/// The bits of a hello's flags byte.
+const HELLO_REPLY: u8 = 1;
+const HELLO_OBSERVER: u8 = 2;
 
 /// An object as a source lists it: name, class (with the fingerprint of its
 /// definition, as slate-wire computes it), context on the source's board.
@@ -124,7 +130,8 @@ impl Frame {
                     w.str(class);
                     w.0.push(*mask);
                 }
-                w.0.push(u8::from(h.reply));
+                let observer = if h.observer { HELLO_OBSERVER } else { 0 };
+                w.0.push(u8::from(h.reply) | observer);
             }
             Frame::Lifecycle(l) => write_lifecycle(&mut w, l),
             Frame::ObjectList(o) => {
@@ -271,15 +278,15 @@ fn read_hello(r: &mut Reader<'_>) -> Result<Hello, FrameError> {
         }
         interest = interest.with(&class, mask);
     }
-    let reply = match r.byte()? {
-        0 => false,
-        1 => true,
-        _ => return Err(FrameError::Bad("reply flag")),
-    };
+    let flags = r.byte()?;
+    if flags & !(HELLO_REPLY | HELLO_OBSERVER) != 0 {
+        return Err(FrameError::Bad("hello flags"));
+    }
     Ok(Hello {
         incarnation,
         interest,
-        reply,
+        reply: flags & HELLO_REPLY != 0,
+        observer: flags & HELLO_OBSERVER != 0,
     })
 }
 
@@ -342,6 +349,7 @@ mod tests {
                     .class("Vehicle")
                     .class_in("Rock", &[Context::Self_]),
                 reply: true,
+                observer: false,
             }),
             Frame::Lifecycle(Lifecycle {
                 seq: 300,
@@ -362,6 +370,23 @@ mod tests {
         for f in samples() {
             assert_eq!(Frame::decode(&f.encode()), Ok(f));
         }
+    }
+
+    #[test]
+    fn an_observers_hello_says_so_and_unknown_flags_are_refused() {
+        let hello = |reply, observer| Hello {
+            incarnation: 3,
+            interest: ClassSet::none(),
+            reply,
+            observer,
+        };
+        for (reply, observer) in [(false, true), (true, true), (false, false)] {
+            let f = Frame::Hello(hello(reply, observer));
+            assert_eq!(Frame::decode(&f.encode()), Ok(f));
+        }
+        let mut bytes = Frame::Hello(hello(false, true)).encode();
+        *bytes.last_mut().unwrap() |= 4;
+        assert!(Frame::decode(&bytes).is_err());
     }
 
     #[test]

@@ -198,6 +198,7 @@ impl State {
         };
         p.incarnation = Some(hello.incarnation);
         p.interest = Some(hello.interest);
+        p.observer = hello.observer;
         if restarted {
             p.stream = Inbound::default();
             p.newest = None;

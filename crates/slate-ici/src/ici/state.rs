@@ -71,6 +71,8 @@ pub(crate) struct Peer {
     /// The newest stamp of its own on its stream (packets it wrote, objects it created
     /// or deleted): older than its incarnation means a previous incarnation's stream.
     pub newest: Option<Timestamp>,
+    /// Its hello said it is a short-lived observer: forgotten as soon as it is dead.
+    pub observer: bool,
 }
 
 impl Peer {
@@ -89,6 +91,7 @@ impl Peer {
             caught_up: false,
             hello_unanswered: None,
             newest: None,
+            observer: false,
         }
     }
 }

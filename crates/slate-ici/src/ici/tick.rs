@@ -134,16 +134,17 @@ impl State {
         }
     }
 
-    /// Forgets the modules dead (and down) for longer than `forget_dead`: their
-    /// `Module` object is deleted and their entry (incarnation, stream, names) dropped,
-    /// so a board holds a bounded number of dead modules however many came and went.
+    /// Forgets the modules dead (and down) for longer than `forget_dead`, and observers
+    /// as soon as they are: their `Module` object is deleted and their entry
+    /// (incarnation, stream, names) dropped, so a board holds a bounded number of dead
+    /// modules however many came and went, and none that only looked.
     fn forget_dead(&mut self) {
         let (now, after) = (self.now, self.config.forget_dead);
         let gone: Vec<Address> = self
             .peers
             .iter()
             .filter(|(_, p)| p.alive == Some(false) && !p.up)
-            .filter(|(_, p)| now.saturating_sub(p.last_heard) > after)
+            .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
             .map(|(a, _)| a.clone())
             .collect();
         for peer in gone {
@@ -230,6 +231,7 @@ impl State {
             incarnation: self.incarnation,
             interest,
             reply,
+            observer: self.config.observer,
         };
         self.send_to(to, MsgKind::Hello, &Frame::Hello(hello).encode());
     }

@@ -394,3 +394,40 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
     let alive = team.board("t/r2/loco").read(&name, "alive").unwrap().value;
     assert_eq!(alive, Value::Bool(true));
 }
+
+#[test]
+fn observers_leave_no_module_object_once_they_are_gone() {
+    let mut team = Team::new(37);
+    team.add("t/r1/nav", open());
+    team.add("t/r2/loco", open());
+    team.run(1.0);
+    let objects = |team: &Team, n: &str| team.board(n).stats().objects;
+    let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
+    for i in 0..10 {
+        let cli = format!("t/r1/cli-{i}");
+        team.add(&cli, open().observer(true));
+        team.run(0.5);
+        team.net.kill(&addr(&cli));
+        team.nodes.retain(|n| n.address != addr(&cli));
+        team.run(0.5);
+    }
+    // Well within the default forget_dead (10 min): a module would still be there.
+    team.run(5.0);
+    let after = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
+    assert_eq!(after, before);
+    let name = module_object_name(&addr("t/r1/cli-3"));
+    assert!(team.board("t/r2/loco").info(&name).is_none());
+    // A module that is no observer is remembered, dead, for forget_dead.
+    team.add("t/r1/vision", open());
+    team.run(0.5);
+    team.net.kill(&addr("t/r1/vision"));
+    team.nodes.retain(|n| n.address != addr("t/r1/vision"));
+    team.run(5.0);
+    let vision = module_object_name(&addr("t/r1/vision"));
+    let alive = team
+        .board("t/r2/loco")
+        .read(&vision, "alive")
+        .unwrap()
+        .value;
+    assert_eq!(alive, Value::Bool(false));
+}

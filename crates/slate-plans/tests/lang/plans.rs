@@ -1,5 +1,5 @@
-//! The plan engine: DESIGN.md 2.4's truth table of initiation, trigger and termination,
-//! repetition, quantifiers with bindings, time, actions and their failures.
+//! The plan engine: the truth table of initiation, trigger and termination (docs/language.md,
+//! "What a plan does"), repetition, quantifiers with bindings, time, actions and their failures.
 
 use std::sync::Arc;
 use std::time::Duration;
