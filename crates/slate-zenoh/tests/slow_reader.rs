@@ -199,8 +199,6 @@ fn wait(bound: Duration, mut done: impl FnMut() -> bool) -> bool {
 }
 
 #[test]
-#[ignore = "fails on main every time; with the per-peer outboxes it passes about half the \
-            time: something else still delays the node (under investigation)"]
 fn a_peer_that_never_reads_does_not_stall_a_node_for_the_others() {
     let (node_port, proxy_port) = (free_port(), free_port());
     let listen = |port: u16| ZenohConfig {

@@ -73,10 +73,33 @@ pub fn known(node: &Node, object: &str) -> anyhow::Result<()> {
     if board.info(object).is_some() {
         return Ok(());
     }
-    let hint = export_note(node).map_or(String::new(), |n| format!("; {n}"));
+    let notes = [export_note(node), conflict_note(node)];
+    let hint: String = notes
+        .into_iter()
+        .flatten()
+        .map(|n| format!("; {n}"))
+        .collect();
     failed(format!(
         "no object or class named {object:?} on the boards of {} (see `slate ls Thing`){hint}",
         team_of(board)
+    ))
+}
+
+/// The classes this observer's board and another module define differently, whose
+/// objects it therefore does not hold; `None` when there are none:
+/// `classes defined differently on this team, whose objects are not merged: Sonar (t/r2/loco); see slate tree`.
+pub fn conflict_note(node: &Node) -> Option<String> {
+    let conflicts = node.ici().class_conflicts();
+    if conflicts.is_empty() {
+        return None;
+    }
+    let list: Vec<String> = conflicts
+        .iter()
+        .map(|(class, peer)| format!("{class} ({peer})"))
+        .collect();
+    Some(format!(
+        "classes defined differently on this team, whose objects are not merged: {}; see `slate tree`",
+        list.join(", ")
     ))
 }
 

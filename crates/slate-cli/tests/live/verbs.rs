@@ -374,4 +374,16 @@ fn tree_shows_a_class_two_modules_define_differently() {
         .find(|c| c["name"] == "Sonar")
         .unwrap();
     assert_eq!(sonar["conflicts"].as_array().map(Vec::len), Some(1), "{j}");
+    // The object of the other definition is not held, and `get` says why.
+    let missing: Vec<String> = ["s1", "s2"]
+        .iter()
+        .map(|o| team.slate(&["get", o]))
+        .filter(|out| !out.status.success())
+        .map(|out| String::from_utf8_lossy(&out.stderr).into_owned())
+        .collect();
+    assert_eq!(missing.len(), 1, "{missing:?}");
+    assert!(
+        missing[0].contains("Sonar (t/r") && missing[0].contains("defined differently"),
+        "{missing:?}"
+    );
 }

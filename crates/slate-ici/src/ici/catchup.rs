@@ -71,8 +71,66 @@ impl State {
 
     // ----- the source's side -----
 
-    /// Answers a request with the current state.
+    /// Answers a request with the current state: at once, unless this module answered
+    /// `from` less than its link's heartbeat interval ago. Then the request waits (merged
+    /// with any other that came meanwhile) and one answer goes when the interval is over
+    /// ([`State::deferred_answers`]): a peer that asks again and again, or never reads
+    /// what it asked for, costs one current state per interval, not one per request.
     pub fn on_request(&mut self, from: &Address, req: CatchUpRequest) {
+        let (now, interval) = (self.now, self.answer_interval(from));
+        let p = self.peer(from);
+        if p.answered.is_some_and(|t| now.saturating_sub(t) < interval) {
+            p.deferred = Some(match p.deferred {
+                Some(d) => CatchUpRequest {
+                    have_seq: d.have_seq.min(req.have_seq),
+                    needs_names: d.needs_names || req.needs_names,
+                    needs_classes: d.needs_classes || req.needs_classes,
+                },
+                None => req,
+            });
+            self.stats.catch_up.deferred += 1;
+            return;
+        }
+        p.answered = Some(now);
+        self.answer(from, req);
+    }
+
+    /// The shortest time between two answers to `peer`.
+    fn answer_interval(&self, peer: &Address) -> std::time::Duration {
+        self.config
+            .link(LinkKind::between(&self.me, peer))
+            .heartbeat
+    }
+
+    /// Answers the requests that waited for their peer's interval to pass.
+    pub fn deferred_answers(&mut self) {
+        let now = self.now;
+        let due: Vec<Address> = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.deferred.is_some())
+            .map(|(a, _)| a.clone())
+            .collect();
+        for peer in due {
+            let interval = self.answer_interval(&peer);
+            let Some(p) = self.peers.get_mut(&peer) else {
+                continue;
+            };
+            if p.answered.is_some_and(|t| now.saturating_sub(t) < interval) {
+                continue;
+            }
+            let Some(req) = p.deferred.take() else {
+                continue;
+            };
+            p.answered = Some(now);
+            if p.up {
+                self.answer(&peer, req);
+            }
+        }
+    }
+
+    /// Sends `from` the current state.
+    fn answer(&mut self, from: &Address, req: CatchUpRequest) {
         self.stats.catch_up.answered += 1;
         self.refresh_catalog();
         let link = LinkKind::between(&self.me, from);

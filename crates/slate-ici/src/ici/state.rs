@@ -73,6 +73,10 @@ pub(crate) struct Peer {
     pub newest: Option<Timestamp>,
     /// Its hello said it is a short-lived observer: forgotten as soon as it is dead.
     pub observer: bool,
+    /// When this module last answered a catch-up request of its, and the request that
+    /// waits for the answer interval to pass (see `State::on_request`).
+    pub answered: Option<Duration>,
+    pub deferred: Option<slate_wire::CatchUpRequest>,
 }
 
 impl Peer {
@@ -92,6 +96,8 @@ impl Peer {
             hello_unanswered: None,
             newest: None,
             observer: false,
+            answered: None,
+            deferred: None,
         }
     }
 }

@@ -133,6 +133,9 @@ pub struct CatchUpStats {
     pub completed: u64,
     /// Requests this module answered.
     pub answered: u64,
+    /// Requests that came within the answer interval of the previous answer to the same
+    /// module: they wait, merged, for one answer when the interval is over.
+    pub deferred: u64,
     /// Class definitions sent on request.
     pub classes_sent: u64,
 }

@@ -21,6 +21,7 @@ impl State {
         self.timeouts();
         self.forget_dead();
         self.catch_up_timers();
+        self.deferred_answers();
         self.hello_timers();
     }
 

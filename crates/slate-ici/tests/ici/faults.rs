@@ -431,3 +431,47 @@ fn observers_leave_no_module_object_once_they_are_gone() {
         .value;
     assert_eq!(alive, Value::Bool(false));
 }
+
+/// Counts the catch-up answers a raw module receives.
+#[derive(Default)]
+struct Answers(std::sync::atomic::AtomicUsize);
+
+impl slate_ici::Handler for Answers {
+    fn message(&self, _: &slate_model::Address, payload: &[u8]) {
+        if slate_ici::MsgKind::of(payload) == slate_ici::MsgKind::CatchUpAnswer {
+            self.0.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        }
+    }
+
+    fn peer(&self, _: &slate_model::Address, _: bool) {}
+}
+
+#[test]
+fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
+    use slate_ici::{MsgKind, Transport};
+    use slate_wire::{CatchUpRequest, Encoder, Message, Schema};
+    let mut team = Team::new(38);
+    team.add("t/r1/nav", open());
+    team.board("t/r1/nav").create("Vehicle", "v1").unwrap();
+    team.board("t/r1/nav").write("v1", "speed", 2.0).unwrap();
+    let flood = team.net.join(&addr("t/r1/flood"));
+    let answers = Arc::new(Answers::default());
+    flood.set_handler(answers.clone());
+    team.run(1.0);
+    let request = Message::CatchUpRequest(CatchUpRequest::default());
+    let bytes = Encoder::new(addr("t/r1/flood"))
+        .encode(&request, &Schema::new(&[]))
+        .unwrap();
+    for _ in 0..20 {
+        flood
+            .send(&addr("t/r1/nav"), MsgKind::CatchUpRequest, &bytes)
+            .unwrap();
+    }
+    team.run(0.1);
+    let stats = || team.node("t/r1/nav").ici.stats().catch_up;
+    assert_eq!((stats().answered, stats().deferred), (1, 19));
+    // The nineteen that waited, merged, are answered once the interval is over.
+    team.run(1.0);
+    assert_eq!(stats().answered, 2);
+    assert!(answers.0.load(std::sync::atomic::Ordering::SeqCst) >= 2);
+}
