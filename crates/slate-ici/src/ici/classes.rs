@@ -198,4 +198,16 @@ mod tests {
                 .relates_to_class(&chain(&c, "Gsr"), &c)
         );
     }
+
+    #[test]
+    fn a_class_set_matches_through_a_chain_deeper_than_256() {
+        let defs: Vec<ClassDef> = (1..300)
+            .map(|i| ClassDef::new(&format!("C{i}")).parent(&format!("C{}", i - 1)))
+            .chain([ClassDef::new("C0")])
+            .collect();
+        let c = Catalog::from_defs(&defs);
+        assert_eq!(c.lineage("C299").map(|l| l.len()), Some(301));
+        let set = ClassSet::none().class("C0");
+        assert!(set.contains(&chain(&c, "C299"), Context::Self_));
+    }
 }
