@@ -34,6 +34,7 @@ mod address;
 mod board;
 mod builtin;
 mod class;
+mod class_tree;
 mod clock;
 mod error;
 mod id;
@@ -51,6 +52,7 @@ pub use builtin::{
     MODULE_CLASS, PLAN_CLASS, builtin_classes, is_builtin, module_class, plan_class,
 };
 pub use class::{AttrDecl, ClassDef, DefaultPacket, MergePolicy, ReportPolicy, THING};
+pub use class_tree::{ClassTree, Lineage};
 pub use clock::{
     Clock, ClockDriftError, ClockError, ClockListener, DEFAULT_MAX_DRIFT, LOGICAL_BITS,
     MANUAL_EPOCH, MAX_TIME, Timestamp,

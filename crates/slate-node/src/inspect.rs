@@ -1,59 +1,46 @@
 //! Looking at a board as a whole: the attributes an object has (its class chain's
 //! declarations) and their packets. The dashboard and the CLI's `get` use these.
 
-use std::collections::BTreeMap;
+use slate_model::{AttrDecl, Board, ClassDef, ClassTree, Packet, THING, Value, ValueType};
 
-use slate_model::{AttrDecl, Board, ClassDef, Packet, THING, Value, ValueType};
-
-/// The classes of a board by name, to walk class chains without asking the board again.
-pub struct Classes(BTreeMap<String, ClassDef>);
+/// The classes of a board, to walk class chains without asking the board again: the
+/// board's [`ClassTree`] (its rules for chains and inherited declarations), with chains
+/// as people read them, without `Thing`.
+pub struct Classes(ClassTree);
 
 impl Classes {
     /// The board's classes now.
     pub fn of(board: &Board) -> Self {
-        Classes(
-            board
-                .class_defs()
-                .into_iter()
-                .map(|d| (d.name.clone(), d))
-                .collect(),
-        )
+        Classes(board.class_tree())
     }
 
-    /// Every class, by name.
+    /// Every class but `Thing`, by name.
     pub fn defs(&self) -> impl Iterator<Item = &ClassDef> {
-        self.0.values()
+        self.0.defs()
     }
 
-    /// `class` and its ancestors, class first, up to (and without) `Thing`. Stops at a
+    /// `class` and its ancestors, class first, up to (and without) `Thing`; empty for a
     /// class it does not know.
     pub fn lineage(&self, class: &str) -> Vec<&str> {
-        let mut chain = Vec::new();
-        let mut at = class;
-        while at != THING && chain.len() < 64 {
-            let Some(def) = self.0.get(at) else { break };
-            chain.push(def.name.as_str());
-            at = &def.parent;
-        }
-        chain
+        self.0
+            .lineage(class)
+            .into_iter()
+            .flat_map(|l| l.iter())
+            .map(|c| &**c)
+            .filter(|c| *c != THING)
+            .collect()
     }
 
     /// The declaration of `attr` that an instance of `class` (or the class itself) has.
     pub fn decl(&self, class: &str, attr: &str) -> Option<&AttrDecl> {
-        self.lineage(class)
-            .into_iter()
-            .filter_map(|c| self.0.get(c))
-            .find_map(|d| d.attrs.iter().find(|a| a.name == attr))
+        self.0.decl(class, attr)
     }
 
     /// Every attribute an instance of `class` has, inherited ones first.
     pub fn attributes(&self, class: &str) -> Vec<&str> {
-        let chain = self.lineage(class);
-        chain
-            .iter()
-            .rev()
-            .filter_map(|c| self.0.get(*c))
-            .flat_map(|d| d.attrs.iter().map(|a| a.name.as_str()))
+        self.0
+            .declarations(class)
+            .map(|(_, a)| a.name.as_str())
             .collect()
     }
 }
@@ -148,6 +135,22 @@ mod tests {
             Some(ValueType::Real)
         );
         assert!(classes.decl("Vehicle", "wheels").is_none());
+    }
+
+    #[test]
+    fn a_class_chain_deeper_than_64_is_read_whole() {
+        let board = Board::new();
+        board
+            .define(ClassDef::new("C0").attr(AttrDecl::new("x", ValueType::Int)))
+            .unwrap();
+        for i in 1..70 {
+            let def = ClassDef::new(&format!("C{i}")).parent(&format!("C{}", i - 1));
+            board.define(def).unwrap();
+        }
+        let classes = Classes::of(&board);
+        assert_eq!(classes.lineage("C69").len(), 70);
+        assert_eq!(classes.attributes("C69"), ["x"]);
+        assert!(classes.decl("C69", "x").is_some());
     }
 
     #[test]

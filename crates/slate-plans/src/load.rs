@@ -289,11 +289,7 @@ fn compile(
 
 fn mark_derived(scope: &mut Scope, derived: &DerivedDeps) {
     for ((class, attr), _) in derived.iter() {
-        for info in scope.classes.values_mut() {
-            if let Some(a) = info.attrs.get_mut(attr).filter(|a| &a.class == class) {
-                a.derived = true;
-            }
-        }
+        scope.mark_derived(class, attr);
     }
 }
 

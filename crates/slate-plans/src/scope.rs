@@ -1,9 +1,9 @@
 //! What the checker knows about the world a file is loaded into: the classes (with their
 //! flattened attributes) and the objects, from the board and from the file itself.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
-use slate_model::{AttrDecl, Board, ClassDef, THING, ValueType};
+use slate_model::{AttrDecl, Board, ClassDef, ClassTree, THING, ValueType};
 
 /// One attribute as the checker sees it.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,19 +26,24 @@ pub(crate) struct ClassInfo {
 /// Classes and objects by name.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Scope {
+    /// Every class's flattened attributes, computed from `tree`.
     pub classes: HashMap<String, ClassInfo>,
     /// Object name to class name.
     pub objects: HashMap<String, String>,
+    /// The classes, by the board's rules for chains and inherited declarations.
+    tree: ClassTree,
+    /// Derived attributes, by declaring class and attribute name.
+    derived: HashSet<(String, String)>,
 }
 
 impl Scope {
     /// The classes and objects a board holds now.
     pub fn from_board(board: &Board) -> Self {
-        let mut scope = Scope::default();
-        scope.classes.insert(THING.to_owned(), ClassInfo::default());
-        for def in board.class_defs() {
-            scope.add_class(&def, &[]);
-        }
+        let mut scope = Scope {
+            tree: board.class_tree(),
+            ..Scope::default()
+        };
+        scope.refresh(THING);
         let snap = board.snapshot();
         for id in snap.objects() {
             if let Some(info) = snap.info(id).filter(|i| !i.is_class) {
@@ -52,21 +57,50 @@ impl Scope {
 
     /// Adds a class (its parent must be known); `derived` names its derived attributes.
     pub fn add_class(&mut self, def: &ClassDef, derived: &[String]) {
-        let mut attrs = self
-            .classes
-            .get(&def.parent)
-            .map(|p| p.attrs.clone())
-            .unwrap_or_default();
-        for a in &def.attrs {
-            let info = AttrInfo {
-                ty: a.ty,
-                class: def.name.clone(),
-                derived: derived.contains(&a.name),
-                decl: a.clone(),
-            };
-            attrs.insert(a.name.clone(), info);
+        for attr in derived {
+            self.derived.insert((def.name.clone(), attr.clone()));
         }
-        self.classes.insert(def.name.clone(), ClassInfo { attrs });
+        self.tree.insert(def.clone());
+        self.refresh(&def.name);
+    }
+
+    /// Marks `class.attr` as derived (computed on read), for `class` and its subclasses.
+    pub fn mark_derived(&mut self, class: &str, attr: &str) {
+        self.derived.insert((class.to_owned(), attr.to_owned()));
+        self.refresh(class);
+    }
+
+    /// Recomputes the flattened attributes of `class` and of every class below it.
+    fn refresh(&mut self, class: &str) {
+        let below: Vec<String> = std::iter::once(THING)
+            .chain(self.tree.defs().map(|d| d.name.as_str()))
+            .filter(|c| self.tree.is_a(c, class))
+            .map(str::to_owned)
+            .collect();
+        for name in below {
+            let info = self.flattened(&name);
+            self.classes.insert(name, info);
+        }
+    }
+
+    /// Every attribute `class` has, declared there or inherited.
+    fn flattened(&self, class: &str) -> ClassInfo {
+        let attrs = self
+            .tree
+            .declarations(class)
+            .map(|(declaring, a)| {
+                let info = AttrInfo {
+                    ty: a.ty,
+                    class: declaring.name.clone(),
+                    derived: self
+                        .derived
+                        .contains(&(declaring.name.clone(), a.name.clone())),
+                    decl: a.clone(),
+                };
+                (a.name.clone(), info)
+            })
+            .collect();
+        ClassInfo { attrs }
     }
 
     pub fn attr(&self, class: &str, attr: &str) -> Option<&AttrInfo> {
@@ -91,5 +125,28 @@ impl Scope {
                  the object behind this reference is not known here"
             )),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_class_inherits_board_declarations_and_their_derived_marks() {
+        let board = Board::new();
+        let speed = AttrDecl::new("speed", ValueType::Real);
+        board.define(ClassDef::new("Vehicle").attr(speed)).unwrap();
+        let mut scope = Scope::from_board(&board);
+        assert!(scope.classes.contains_key(THING) && scope.classes.contains_key("Plan"));
+        scope.mark_derived("Vehicle", "speed");
+        let gsr = ClassDef::new("Gsr")
+            .parent("Vehicle")
+            .attr(AttrDecl::new("mode", ValueType::Str));
+        scope.add_class(&gsr, &["mode".to_owned()]);
+        let inherited = scope.attr("Gsr", "speed").unwrap();
+        assert!(inherited.derived && inherited.class == "Vehicle");
+        assert!(scope.attr("Gsr", "mode").is_some_and(|a| a.derived));
+        assert!(scope.attr("Vehicle", "mode").is_none());
     }
 }

@@ -12,8 +12,7 @@ use std::time::Duration;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyString, PyTuple};
 use slate_model::{
-    Address, Board, MAX_TIME, Packet, THING, Timestamp, Update, Value, ValueError, ValueType,
-    WriteError,
+    Address, Board, MAX_TIME, Packet, Timestamp, Update, Value, ValueError, ValueType, WriteError,
 };
 
 use crate::errors::{self, Kind};
@@ -388,19 +387,8 @@ pub(crate) fn declared_type(board: &Board, object: &str, attr: &str) -> Option<V
     class_attr_type(board, &class, attr)
 }
 
-/// The declared type of `attr` in `class` or its ancestors.
+/// The declared type of `attr` in `class` or its ancestors (the board's own flattened
+/// declarations: one lookup, no walk of the class chain here).
 pub(crate) fn class_attr_type(board: &Board, class: &str, attr: &str) -> Option<ValueType> {
-    let mut name = class.to_owned();
-    // The class tree has no cycles; the bound only guards against a broken one.
-    for _ in 0..1024 {
-        let def = board.class_def(&name)?;
-        if let Some(a) = def.attrs.iter().find(|a| a.name == attr) {
-            return Some(a.ty);
-        }
-        if def.name == THING || def.parent == def.name {
-            return None;
-        }
-        name = def.parent;
-    }
-    None
+    board.attr_decl(class, attr).map(|d| d.ty)
 }

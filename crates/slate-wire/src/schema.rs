@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
-use slate_model::{AttrDecl, ClassDef, THING};
+use slate_model::{AttrDecl, ClassDef, ClassTree, THING};
 
 use crate::bits::BitWriter;
 use crate::classes::write_decl;
@@ -87,30 +87,23 @@ impl ClassSchema {
 }
 
 impl Schema {
-    /// A schema of these classes. A class whose parent is missing keeps only the
-    /// declarations found; an attribute redeclared below an ancestor keeps the
+    /// A schema of these classes, flattened by the rules of
+    /// [`ClassTree`](slate_model::ClassTree): a class whose parent is missing keeps only
+    /// the declarations found; an attribute redeclared below an ancestor keeps the
     /// ancestor's declaration (a board refuses both).
     pub fn new(classes: &[ClassDef]) -> Schema {
-        let defs: FxHashMap<&str, &ClassDef> =
-            classes.iter().map(|d| (d.name.as_str(), d)).collect();
-        let own: FxHashMap<&str, Vec<Arc<AttrSchema>>> = defs
-            .iter()
-            .map(|(name, d)| {
-                (
-                    *name,
-                    d.attrs
-                        .iter()
-                        .map(|a| Arc::new(AttrSchema::new(a)))
-                        .collect(),
-                )
-            })
-            .collect();
+        Schema::from_tree(&ClassTree::new(classes))
+    }
+
+    /// A schema of the classes of a tree (every class, `Thing` included).
+    pub fn from_tree(tree: &ClassTree) -> Schema {
+        let mut shared = FxHashMap::default();
         let mut schema = Schema {
             classes: FxHashMap::default(),
             id: SCHEMAS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
-        for name in defs.keys().copied().chain([THING]) {
-            let flat = flatten(&lineage(name, &defs), &own);
+        for name in tree.defs().map(|d| d.name.as_str()).chain([THING]) {
+            let flat = flatten(tree.declarations(name), &mut shared);
             schema.classes.insert(name.into(), flat);
         }
         schema
@@ -153,33 +146,24 @@ impl Schema {
     }
 }
 
-/// The class and its ancestors, root first, stopping at a missing parent or a cycle.
-fn lineage<'a>(name: &'a str, defs: &FxHashMap<&'a str, &'a ClassDef>) -> Vec<&'a str> {
-    let mut chain = vec![name];
-    let mut current = name;
-    while let Some(def) = defs.get(current) {
-        let parent = def.parent.as_str();
-        if chain.contains(&parent) {
-            break;
-        }
-        chain.push(parent);
-        current = parent;
-    }
-    chain.reverse();
-    chain
-}
+/// Declarations already prepared, by declaration: a class's declarations are shared
+/// with every subclass's flattened set.
+type Shared = FxHashMap<*const AttrDecl, Arc<AttrSchema>>;
 
-/// Merges the declarations along a lineage and fingerprints them.
-fn flatten(chain: &[&str], own: &FxHashMap<&str, Vec<Arc<AttrSchema>>>) -> ClassSchema {
+/// Merges a class's declarations (root first, as the tree gives them) and fingerprints
+/// them.
+fn flatten<'a>(
+    declarations: impl Iterator<Item = (&'a ClassDef, &'a AttrDecl)>,
+    shared: &mut Shared,
+) -> ClassSchema {
     let mut attrs = FxHashMap::default();
     let mut canonical = BitWriter::new();
-    for class in chain {
-        for a in own.get(class).into_iter().flatten() {
-            if !attrs.contains_key(a.decl.name.as_str()) {
-                write_decl(&mut canonical, &a.decl);
-                attrs.insert(a.decl.name.as_str().into(), a.clone());
-            }
-        }
+    for (_, decl) in declarations {
+        let prepared = shared
+            .entry(std::ptr::from_ref(decl))
+            .or_insert_with(|| Arc::new(AttrSchema::new(decl)));
+        write_decl(&mut canonical, decl);
+        attrs.insert(decl.name.as_str().into(), prepared.clone());
     }
     let mut bytes = (attrs.len() as u32).to_be_bytes().to_vec();
     bytes.extend(canonical.finish());
@@ -250,5 +234,33 @@ mod tests {
         ]);
         assert!(schema.attr("A", "x").is_some());
         assert!(schema.fingerprint("C").is_some());
+    }
+
+    /// Fingerprints travel between builds: a refactoring of how the schema walks the class
+    /// tree must leave every one as it was.
+    #[test]
+    fn fingerprints_of_a_three_level_tree_are_pinned() {
+        let schema = Schema::new(&[
+            ClassDef::new("Gsr")
+                .parent("Ground")
+                .attr(AttrDecl::new("mode", ValueType::Str)),
+            ClassDef::new("Vehicle")
+                .attr(
+                    AttrDecl::new("speed", ValueType::Real)
+                        .bounds(0.0, 20.0)
+                        .resolution(0.01),
+                )
+                .attr(AttrDecl::new("pos", ValueType::Vector(2)).default_packet(
+                    vec![0.0, 0.0],
+                    1.0,
+                    0.5,
+                )),
+            ClassDef::new("Ground")
+                .parent("Vehicle")
+                .attr(AttrDecl::new("wheels", ValueType::Int).bounds(0.0, 8.0)),
+        ]);
+        let got = ["Thing", "Vehicle", "Ground", "Gsr"].map(|c| schema.fingerprint(c));
+        let pinned = [0x4b95_f515, 0xf604_8744, 0x01a0_a3b9, 0xca15_29e6];
+        assert_eq!(got, pinned.map(Some), "Thing, Vehicle, Ground, Gsr");
     }
 }

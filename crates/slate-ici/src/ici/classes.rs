@@ -1,12 +1,9 @@
 //! Class sets (what a board models, what may leave a robot) and the catalog of class
 //! definitions the ICI encodes and matches with.
 
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use rustc_hash::FxHashMap;
-
-use slate_model::{AttrDecl, Board, ClassDef, Context, THING};
+use slate_model::{AttrDecl, Board, ClassTree, Context, THING};
 use slate_wire::Schema;
 
 /// Bit of a context in a context mask.
@@ -106,51 +103,42 @@ impl ClassSet {
     }
 }
 
-/// A class and its ancestors, class first, `Thing` last (shared: the catalog computes
-/// each chain once).
-pub(crate) type Lineage = Arc<[Arc<str>]>;
+// A class and its ancestors, class first, `Thing` last (computed once by the tree).
+pub(crate) use slate_model::Lineage;
 
 /// The class definitions of a board, as the ICI needs them: the wire schema and the
 /// class tree. Rebuilt from the board when a class is missing.
 pub(crate) struct Catalog {
     pub schema: Schema,
-    /// Every class's chain (`Thing`'s too), by class name.
-    lineages: FxHashMap<Arc<str>, Lineage>,
+    /// Every class's chain (`Thing`'s too), by the tree's rules.
+    tree: ClassTree,
 }
 
 impl Catalog {
     pub fn new(board: &Board) -> Self {
-        Catalog::from_defs(&board.class_defs())
+        Catalog::from_tree(board.class_tree())
     }
 
-    pub fn from_defs(defs: &[ClassDef]) -> Self {
-        let parents: BTreeMap<Arc<str>, Arc<str>> = defs
-            .iter()
-            .map(|d| (Arc::from(d.name.as_str()), Arc::from(d.parent.as_str())))
-            .collect();
-        let lineages = parents
-            .keys()
-            .cloned()
-            .chain([Arc::from(THING)])
-            .map(|c| {
-                let chain = chain(&parents, &c);
-                (c, chain)
-            })
-            .collect();
+    #[cfg(test)]
+    pub fn from_defs(defs: &[slate_model::ClassDef]) -> Self {
+        Catalog::from_tree(ClassTree::new(defs))
+    }
+
+    fn from_tree(tree: ClassTree) -> Self {
         Catalog {
-            schema: Schema::new(defs),
-            lineages,
+            schema: Schema::from_tree(&tree),
+            tree,
         }
     }
 
     /// Does the catalog hold this class?
     pub fn knows(&self, class: &str) -> bool {
-        self.lineages.contains_key(class)
+        self.tree.contains(class)
     }
 
     /// The class and its ancestors, up to `Thing`.
     pub fn lineage(&self, class: &str) -> Option<Lineage> {
-        self.lineages.get(class).cloned()
+        self.tree.lineage(class).cloned()
     }
 
     /// The declaration of `class.attr` (declared there or by an ancestor).
@@ -159,25 +147,10 @@ impl Catalog {
     }
 }
 
-/// The chain of `class` in a class tree, up to `Thing` (a cycle or a chain over 256
-/// classes is cut).
-fn chain(parents: &BTreeMap<Arc<str>, Arc<str>>, class: &Arc<str>) -> Lineage {
-    let mut out: Vec<Arc<str>> = vec![class.clone()];
-    while let Some(parent) = out.last().and_then(|c| parents.get(c)) {
-        if out.contains(parent) || out.len() > 256 {
-            break;
-        }
-        out.push(parent.clone());
-    }
-    if out.last().is_none_or(|c| &**c != THING) {
-        out.push(THING.into());
-    }
-    out.into()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use slate_model::ClassDef;
 
     fn catalog() -> Catalog {
         Catalog::from_defs(&[
@@ -224,5 +197,17 @@ mod tests {
                 .class("Vehicle")
                 .relates_to_class(&chain(&c, "Gsr"), &c)
         );
+    }
+
+    #[test]
+    fn a_class_set_matches_through_a_chain_deeper_than_256() {
+        let defs: Vec<ClassDef> = (1..300)
+            .map(|i| ClassDef::new(&format!("C{i}")).parent(&format!("C{}", i - 1)))
+            .chain([ClassDef::new("C0")])
+            .collect();
+        let c = Catalog::from_defs(&defs);
+        assert_eq!(c.lineage("C299").map(|l| l.len()), Some(301));
+        let set = ClassSet::none().class("C0");
+        assert!(set.contains(&chain(&c, "C299"), Context::Self_));
     }
 }

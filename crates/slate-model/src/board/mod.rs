@@ -27,9 +27,9 @@ pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Watch};
 use crate::active::{FnRef, NativeFn};
 use crate::packet::check_value;
 use crate::{
-    ActiveFn, Address, Call, ChainError, ClassDef, Clock, Context, CreateError, DefineError,
-    DeleteError, FnError, Key, LookupError, ObjectId, Packet, ReadError, THING, Trigger, Update,
-    WriteError,
+    ActiveFn, Address, AttrDecl, Call, ChainError, ClassDef, Clock, Context, CreateError,
+    DefineError, DeleteError, FnError, Key, LookupError, ObjectId, Packet, ReadError, THING,
+    Trigger, Update, WriteError,
 };
 
 /// Default limit on the depth of chains of active functions.
@@ -389,6 +389,23 @@ impl Board {
             stack.extend(c.children.iter().rev());
         }
         out
+    }
+
+    /// The class tree now, as a value to walk without asking the board again (lineages,
+    /// declarations; see [`ClassTree`](crate::ClassTree) for the rules).
+    pub fn class_tree(&self) -> crate::ClassTree {
+        crate::ClassTree::new(&self.class_defs())
+    }
+
+    /// The declaration of `attr` that `class` and its instances have (declared there or
+    /// inherited); `None` if there is no such class or attribute. One lookup in the
+    /// board's own flattened declarations, cheaper than building a
+    /// [`class_tree`](Board::class_tree) for one answer.
+    pub fn attr_decl(&self, class: &str, attr: &str) -> Option<AttrDecl> {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        let c = st.class(st.class_id(class)?)?;
+        c.decls.get(&st.attr_id(attr)?).map(|d| d.decl.clone())
     }
 
     // ----- objects -----

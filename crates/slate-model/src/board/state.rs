@@ -43,7 +43,10 @@ pub(crate) type FnTable = FxHashMap<(AttrId, Trigger), Vec<FnRef>>;
 
 pub(crate) struct ClassData {
     pub def: ClassDef,
-    /// This class first, then its parent, up to `Thing`.
+    /// This class first, then its parent, up to `Thing`: the chain
+    /// [`ClassTree::lineage`](crate::ClassTree::lineage) gives by name, kept here by id for
+    /// reads. A class is defined only below an existing parent, so the chain is its
+    /// parent's with the class in front, and has no cycle.
     pub ancestors: Vec<ObjectId>,
     /// Every attribute this class has, declared here or inherited.
     pub decls: FxHashMap<AttrId, Arc<Decl>>,

@@ -310,3 +310,30 @@ fn redefining_the_root_class_names_what_differs() {
     assert!(err.contains("root class"), "{err}");
     assert!(!err.contains("  "), "{err}");
 }
+
+#[test]
+fn the_class_tree_of_a_board_has_the_boards_chains_and_declarations() {
+    let b = board();
+    let tree = b.class_tree();
+    for def in b.class_defs() {
+        let id = b.info(&def.name).unwrap().id;
+        let by_board: Vec<String> = b
+            .lineage(id)
+            .into_iter()
+            .map(|c| b.name_of(c).unwrap().to_string())
+            .collect();
+        let by_tree: Vec<String> = tree
+            .lineage(&def.name)
+            .unwrap()
+            .iter()
+            .map(|c| c.to_string())
+            .collect();
+        assert_eq!(by_board, by_tree, "chain of {}", def.name);
+        for (_, decl) in tree.declarations(&def.name) {
+            assert_eq!(b.attr_decl(&def.name, &decl.name).as_ref(), Some(decl));
+        }
+    }
+    assert_eq!(tree.len(), b.class_defs().len() + 1, "and Thing");
+    assert!(b.attr_decl("Gsr", "nothing").is_none());
+    assert!(b.attr_decl("Nothing", "mode").is_none());
+}
