@@ -182,9 +182,15 @@ fn plans(demo: &Demo) -> Value {
                 .iter()
                 .find(|d| d.address == c.peer)
                 .and_then(|d| d.engine.status(&c.name));
-            let state = status
-                .as_ref()
-                .map_or_else(|| last_state(&c.steps), |s| s.state.name().to_owned());
+            let state = status.as_ref().map_or_else(
+                || {
+                    c.steps
+                        .last()
+                        .map_or("sent", PlanStep::plan_state)
+                        .to_owned()
+                },
+                |s| s.state.name().to_owned(),
+            );
             let state = if c.steps.contains(&PlanStep::DestinationLost) {
                 "lost".to_owned()
             } else {
@@ -194,32 +200,11 @@ fn plans(demo: &Demo) -> Value {
                 json!({"board": c.peer.to_string(), "name": c.name, "origin": m.address.to_string(),
                 "state": state, "fired": status.as_ref().map_or(0, |s| s.fired),
                 "last_error": status.and_then(|s| s.last_error).unwrap_or_default(),
-                "acks": c.steps.iter().map(step_name).collect::<Vec<_>>()}),
+                "acks": c.steps.iter().map(ToString::to_string).collect::<Vec<_>>()}),
             );
         }
     }
     Value::Array(out)
-}
-
-fn step_name(s: &PlanStep) -> String {
-    match s {
-        PlanStep::Received => "received".into(),
-        PlanStep::Accepted => "accepted".into(),
-        PlanStep::Rejected { reason } => format!("rejected: {reason}"),
-        PlanStep::Initiated => "initiated".into(),
-        PlanStep::Triggered { ok: true, .. } => "triggered ok".into(),
-        PlanStep::Triggered { ok: false, detail } => format!("triggered error: {detail}"),
-        PlanStep::Terminated => "terminated".into(),
-        PlanStep::Cancelled => "cancelled".into(),
-        PlanStep::DestinationLost => "destination lost".into(),
-    }
-}
-
-fn last_state(steps: &[PlanStep]) -> String {
-    steps.last().map_or("sent".into(), |s| match s {
-        PlanStep::Initiated | PlanStep::Triggered { .. } => "active".into(),
-        other => step_name(other),
-    })
 }
 
 fn links(demo: &Demo) -> Value {

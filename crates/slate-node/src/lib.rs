@@ -58,4 +58,4 @@ pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
 pub use timers::TICK;
-pub use view::{STALE_AFTER_S, is_final, step_text, value_text};
+pub use view::{STALE_AFTER_S, value_text};

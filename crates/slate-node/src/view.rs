@@ -182,7 +182,7 @@ impl View {
                 let circuit = received.iter().find(|c| c.name == p.name);
                 let origin = circuit.map_or_else(String::new, |c| c.peer.to_string());
                 let acks: Vec<String> = circuit
-                    .map(|c| c.steps.iter().map(step_text).collect())
+                    .map(|c| c.steps.iter().map(ToString::to_string).collect())
                     .unwrap_or_default();
                 json!({
                     "board": me, "name": p.name, "state": p.state.name(), "fired": p.fired,
@@ -191,8 +191,8 @@ impl View {
             })
             .collect();
         for c in self.circuits.sent() {
-            let acks: Vec<String> = c.steps.iter().map(step_text).collect();
-            let state = c.steps.last().map_or("sent", step_state);
+            let acks: Vec<String> = c.steps.iter().map(ToString::to_string).collect();
+            let state = c.steps.last().map_or("sent", PlanStep::plan_state);
             out.push(json!({
                 "board": c.peer.to_string(), "name": c.name, "state": state,
                 "origin": me, "acks": acks,
@@ -281,47 +281,4 @@ pub fn value_text(v: &Value) -> String {
         Value::Str(s) => s.to_string(),
         other => other.to_string(),
     }
-}
-
-/// An acknowledgement as a few words: `received`, `accepted`, `rejected: why`,
-/// `initiated`, `triggered ok`, `triggered failed: why`, `terminated`, `cancelled`,
-/// `destination lost`.
-pub fn step_text(step: &PlanStep) -> String {
-    match step {
-        PlanStep::Received => "received".into(),
-        PlanStep::Accepted => "accepted".into(),
-        PlanStep::Rejected { reason } => format!("rejected: {reason}"),
-        PlanStep::Initiated => "initiated".into(),
-        PlanStep::Triggered { ok: true, detail } if detail.is_empty() => "triggered ok".into(),
-        PlanStep::Triggered { ok: true, detail } => format!("triggered ok: {detail}"),
-        PlanStep::Triggered { ok: false, detail } => format!("triggered failed: {detail}"),
-        PlanStep::Terminated => "terminated".into(),
-        PlanStep::Cancelled => "cancelled".into(),
-        PlanStep::DestinationLost => "destination lost".into(),
-    }
-}
-
-/// The state a sent plan is in after `step` (the dashboard colours it).
-fn step_state(step: &PlanStep) -> &'static str {
-    match step {
-        PlanStep::Received | PlanStep::Accepted => "pending",
-        PlanStep::Rejected { .. } => "rejected",
-        PlanStep::Initiated => "active",
-        PlanStep::Triggered { ok: true, .. } => "triggered",
-        PlanStep::Triggered { ok: false, .. } => "failed",
-        PlanStep::Terminated => "terminated",
-        PlanStep::Cancelled => "cancelled",
-        PlanStep::DestinationLost => "lost",
-    }
-}
-
-/// Is this the last step a circuit will see?
-pub fn is_final(step: &PlanStep) -> bool {
-    matches!(
-        step,
-        PlanStep::Rejected { .. }
-            | PlanStep::Terminated
-            | PlanStep::Cancelled
-            | PlanStep::DestinationLost
-    )
 }
