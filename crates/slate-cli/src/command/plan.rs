@@ -8,7 +8,7 @@ use crossbeam_channel::{Receiver, select};
 use serde_json::json;
 use slate_ici::PlanHandle;
 use slate_model::{Address, Board, ObjectInfo, Query, Value};
-use slate_node::{Node, value_text};
+use slate_node::Node;
 use slate_plans::{Item, PLAN_CLASS};
 use slate_wire::PlanStep;
 
@@ -210,7 +210,7 @@ fn row(board: &Board, info: &ObjectInfo) -> PlanRow {
     let text = |attr: &str| {
         board
             .read(&info.name, attr)
-            .map(|p| value_text(&p.value))
+            .map(|p| p.value.plain_text())
             .unwrap_or_default()
     };
     let fired = match board.read(&info.name, "fired").map(|p| p.value) {
