@@ -3,8 +3,9 @@
 //! their acknowledgements, links against their budgets, and the event log.
 //!
 //! The crate knows nothing of boards or nodes: whoever serves it (a node, the multi-robot
-//! demo) implements [`DashboardSource`] and returns the view as JSON (the contract is in
-//! `docs/dashboard.md`). The server runs on its own thread, so the host need not be async.
+//! demo) implements [`DashboardSource`] and returns the view as JSON: it fills a
+//! [`Snapshot`], the contract of `docs/dashboard.md` as types, and hands over
+//! [`Snapshot::to_json`]. The server runs on its own thread, so the host need not be async.
 //!
 //! ```
 //! use std::net::SocketAddr;
@@ -24,6 +25,7 @@
 //! `GET /ws` (a WebSocket pushing the JSON every 250 ms), `GET /healthz`.
 #![warn(missing_docs)]
 
+mod contract;
 mod error;
 mod page;
 mod routes;
@@ -32,6 +34,10 @@ mod server;
 mod snapshots;
 mod source;
 
+pub use contract::{
+    AttrRow, ClassRow, EventRow, ItemKind, Level, LinkRow, MapItem, MapView, ObjectRow, PlanRow,
+    STALE_AFTER_S, Snapshot, Status, is_stale,
+};
 pub use error::ServeError;
 pub use sample::SampleTeam;
 pub use server::{Dashboard, serve};

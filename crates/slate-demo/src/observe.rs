@@ -5,36 +5,13 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use slate_dashboard::Level;
 use slate_model::{Board, Value};
 use slate_wire::PlanStep;
 
 use crate::module::Role;
 use crate::team::Team;
 use crate::world::{World, dist};
-
-/// How much an event matters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Level {
-    /// Detail: shown on the dashboard, not in the progress output.
-    Detail,
-    /// Something happened.
-    Info,
-    /// Something went wrong and was handled.
-    Warn,
-    /// Something failed.
-    Error,
-}
-
-impl Level {
-    /// `info`, `warn`, `error` (detail shows as info).
-    pub fn name(self) -> &'static str {
-        match self {
-            Level::Detail | Level::Info => "info",
-            Level::Warn => "warn",
-            Level::Error => "error",
-        }
-    }
-}
 
 /// Something that happened, at world time `t`.
 #[derive(Clone, Debug, PartialEq)]
@@ -43,6 +20,8 @@ pub struct Event {
     pub t: f64,
     /// How much it matters.
     pub level: Level,
+    /// A detail: shown on the dashboard, not in the progress output.
+    pub detail: bool,
     /// What happened.
     pub text: String,
 }
@@ -129,7 +108,24 @@ impl Observer {
     }
 
     fn push(&mut self, t: f64, level: Level, text: String) {
-        self.events.push(Event { t, level, text });
+        let detail = false;
+        self.events.push(Event {
+            t,
+            level,
+            detail,
+            text,
+        });
+    }
+
+    /// An event for the dashboard only, not the progress output.
+    fn push_detail(&mut self, t: f64, text: String) {
+        let (level, detail) = (Level::Info, true);
+        self.events.push(Event {
+            t,
+            level,
+            detail,
+            text,
+        });
     }
 
     /// Remembers `value` under `key`; returns the previous value if it changed.
@@ -158,7 +154,7 @@ impl Observer {
         for r in &team.robots {
             let phase = text(console, r, "phase");
             if let Some(Some(_)) = self.changed(format!("{r}.phase"), phase.clone()) {
-                self.push(t, Level::Detail, format!("{r}: {phase} (console's view)"));
+                self.push_detail(t, format!("{r}: {phase} (console's view)"));
             }
             let alive = read(console, r, "alive").map(|v| v == Value::Bool(true));
             let flipped = self.changed(format!("{r}.alive"), format!("{alive:?}"));
@@ -289,9 +285,8 @@ impl Observer {
                     .map_or(String::new(), |(a, (b, _))| {
                         format!(", {:.1} m from the truth", dist(a, b))
                     });
-                self.push(
+                self.push_detail(
                     t,
-                    Level::Detail,
                     format!(
                         "{r}/loco sees {o} at {} (derived: navigation + proximity{error})",
                         point_text(loco, &o, "position")
@@ -356,11 +351,7 @@ impl Observer {
                         format!("{} → {}", short(m.address.as_str()), short(c.peer.as_str()));
                     match step {
                         PlanStep::Accepted => {
-                            self.push(
-                                t,
-                                Level::Detail,
-                                format!("{route}: plan {} accepted", c.name),
-                            );
+                            self.push_detail(t, format!("{route}: plan {} accepted", c.name));
                         }
                         PlanStep::Rejected { reason } => {
                             self.push(

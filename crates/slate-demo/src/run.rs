@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 
 use parking_lot::Mutex;
 use serde_json::Value;
+use slate_dashboard::Status;
 use slate_ici::LinkKind;
 use slate_wire::PlanStep;
 
@@ -329,7 +330,7 @@ pub fn run(config: DemoConfig, progress: &mut dyn FnMut(Progress)) -> Result<Sum
     while !demo.done() {
         demo.step();
         for e in &demo.observer.events[told..] {
-            if e.level > crate::observe::Level::Detail {
+            if !e.detail {
                 progress(Progress::Event(e.clone()));
             }
         }
@@ -338,12 +339,12 @@ pub fn run(config: DemoConfig, progress: &mut dyn FnMut(Progress)) -> Result<Sum
             progress(Progress::Status(demo.status_line()));
         }
         if dashboard.is_some() && demo.step.is_multiple_of(2) {
-            *shared.lock() = crate::snapshot::snapshot(&demo, "running");
+            *shared.lock() = crate::snapshot::snapshot(&demo, Status::Running).to_json();
         }
         pacer.wait(demo.time());
     }
     let summary = demo.finish();
-    *shared.lock() = crate::snapshot::snapshot(&demo, "finished");
+    *shared.lock() = crate::snapshot::snapshot(&demo, Status::Finished).to_json();
     if let Some(d) = dashboard {
         if !demo.config.linger.is_zero() {
             progress(Progress::Status(format!(

@@ -3,7 +3,13 @@
 //! age; obstacles from the terrain map), the console's class tree and objects, every plan
 //! sent on a circuit with its acknowledgements, the links against their budget, events.
 
+use std::collections::BTreeMap;
+
 use serde_json::{Value, json};
+use slate_dashboard::{
+    AttrRow, ClassRow, EventRow, ItemKind, LinkRow, MapItem, MapView, ObjectRow, PlanRow, Snapshot,
+    Status, is_stale,
+};
 use slate_ici::LinkKind;
 use slate_model::{Board, Packet, Value as V};
 use slate_wire::PlanStep;
@@ -11,27 +17,30 @@ use slate_wire::PlanStep;
 use crate::observe::{flag, instances, point, reference, text};
 use crate::run::Demo;
 
-/// Older than this (seconds), a position is drawn stale.
-const STALE: f64 = 5.0;
-
 /// The whole snapshot.
-pub fn snapshot(demo: &Demo, status: &str) -> Value {
+pub fn snapshot(demo: &Demo, status: Status) -> Snapshot {
     let c = &demo.config;
-    json!({
-        "title": format!("slate demo — seed {}, {} robots, {} network", c.seed, c.robots, c.network.name()),
-        "time": (demo.time() * 10.0).round() / 10.0,
-        "status": status,
-        "summary": summary(demo),
-        "map": map(demo),
-        "classes": classes(&demo.team.console().board),
-        "objects": objects(&demo.team.console().board),
-        "plans": plans(demo),
-        "links": links(demo),
-        "events": events(demo),
-    })
+    let console = &demo.team.console().board;
+    Snapshot {
+        title: format!(
+            "slate demo — seed {}, {} robots, {} network",
+            c.seed,
+            c.robots,
+            c.network.name()
+        ),
+        time: (demo.time() * 10.0).round() / 10.0,
+        status,
+        summary: summary(demo),
+        map: map(demo),
+        classes: classes(console),
+        objects: objects(console),
+        plans: plans(demo),
+        links: links(demo),
+        events: events(demo),
+    }
 }
 
-fn summary(demo: &Demo) -> Value {
+fn summary(demo: &Demo) -> BTreeMap<String, Value> {
     let console = &demo.team.console().board;
     let found = instances(console, "Target")
         .iter()
@@ -40,38 +49,63 @@ fn summary(demo: &Demo) -> Value {
     let alive = demo.team.dead.iter().filter(|d| !**d).count();
     let team_bps = demo.traffic.team_bps();
     let fault = demo.observer.fault.as_ref();
-    json!({
-        "mission": text(console, "mission", "phase"),
-        "targets found": format!("{found}/{}", demo.world.targets.len()),
-        "robots alive": format!("{alive}/{}", demo.team.robots.len()),
-        "duplicate investigations": demo.observer.duplicates().len(),
-        "team link now": format!("{:.0} bit/s", team_bps),
-        "team link peak": format!("{:.0} of {} bit/s", demo.traffic.peak_radio_bps.0, demo.config.team_link.budget_bps),
-        "recovery": fault.and_then(|f| f.recovered.map(|r| format!("{:.1} s", r - f.at))).unwrap_or_else(|| "—".into()),
-        "seed": demo.config.seed,
-    })
+    let recovery = fault.and_then(|f| f.recovered.map(|r| format!("{:.1} s", r - f.at)));
+    [
+        ("mission", json!(text(console, "mission", "phase"))),
+        (
+            "targets found",
+            json!(format!("{found}/{}", demo.world.targets.len())),
+        ),
+        (
+            "robots alive",
+            json!(format!("{alive}/{}", demo.team.robots.len())),
+        ),
+        (
+            "duplicate investigations",
+            json!(demo.observer.duplicates().len()),
+        ),
+        ("team link now", json!(format!("{:.0} bit/s", team_bps))),
+        (
+            "team link peak",
+            json!(format!(
+                "{:.0} of {} bit/s",
+                demo.traffic.peak_radio_bps.0, demo.config.team_link.budget_bps
+            )),
+        ),
+        ("recovery", json!(recovery.unwrap_or_else(|| "—".into()))),
+        ("seed", json!(demo.config.seed)),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_owned(), v))
+    .collect()
 }
 
-fn age(board: &Board, p: &Packet) -> f64 {
-    (board.clock().physical().as_secs_f64() - p.timestamp.as_secs_f64()).max(0.0)
+/// Seconds since the packet was written on the console's clock; `None` when it claims
+/// no time.
+fn age(board: &Board, p: &Packet) -> Option<f64> {
+    p.age(board.clock()).map(|a| a.as_secs_f64())
 }
 
-fn map(demo: &Demo) -> Value {
+fn map(demo: &Demo) -> MapView {
     let console = &demo.team.console().board;
-    let mut items: Vec<Value> = demo
+    let mut items: Vec<MapItem> = demo
         .world
         .obstacles
         .iter()
-        .map(|o| json!({"id": o.id, "kind": "obstacle", "x": o.center[0], "y": o.center[1], "radius": o.radius}))
+        .map(|o| MapItem {
+            id: o.id.to_string(),
+            kind: ItemKind::Obstacle,
+            x: o.center[0],
+            y: o.center[1],
+            radius: Some(o.radius),
+            ..MapItem::default()
+        })
         .collect();
-    for w in instances(console, "Waypoint") {
-        if let Some((p, _)) = point(console, &w, "position") {
-            let visited = flag(console, &w, "visited");
-            let label = if visited { "✓" } else { "·" };
-            items.push(json!({"id": w, "kind": "other", "label": label, "x": p[0], "y": p[1],
-                "owner": reference(console, &w, "assignee"), "confidence": if visited { 0.2 } else { 0.8 }}));
-        }
-    }
+    items.extend(
+        instances(console, "Waypoint")
+            .iter()
+            .filter_map(|w| waypoint_item(console, w)),
+    );
     for t in instances(console, "Target") {
         items.extend(target_item(console, &t));
     }
@@ -79,10 +113,29 @@ fn map(demo: &Demo) -> Value {
         items.extend(robot_items(console, r, demo.team.dead[i]));
     }
     let b = demo.world.bounds;
-    json!({"bounds": [b[0], b[1], b[2], b[3]], "items": items})
+    MapView {
+        bounds: Some([b[0], b[1], b[2], b[3]]),
+        items,
+    }
 }
 
-fn target_item(console: &Board, t: &str) -> Option<Value> {
+/// A waypoint, ticked once visited (and then drawn faint).
+fn waypoint_item(console: &Board, w: &str) -> Option<MapItem> {
+    let (p, _) = point(console, w, "position")?;
+    let visited = flag(console, w, "visited");
+    Some(MapItem {
+        id: w.to_owned(),
+        kind: ItemKind::Other,
+        label: Some(if visited { "✓" } else { "·" }.to_owned()),
+        x: p[0],
+        y: p[1],
+        owner: Some(reference(console, w, "assignee")),
+        confidence: Some(if visited { 0.2 } else { 0.8 }),
+        ..MapItem::default()
+    })
+}
+
+fn target_item(console: &Board, t: &str) -> Option<MapItem> {
     let p = console.read(t, "location").ok()?;
     let [x, y] = p.value.as_vector()? else {
         return None;
@@ -96,83 +149,116 @@ fn target_item(console: &Board, t: &str) -> Option<Value> {
         _ => t.to_owned(),
     };
     let age = age(console, &p);
-    let mut item = json!({"id": t, "kind": "target", "label": label, "x": x, "y": y,
-        "accuracy": p.accuracy, "confidence": identity.confidence, "age": age, "stale": age > STALE && found.is_empty(),
-        "board": console.address().to_string(), "owner": p.source.to_string()});
-    if !found.is_empty() {
-        item["found_by"] = json!(found);
-    }
-    Some(item)
+    Some(MapItem {
+        id: t.to_owned(),
+        kind: ItemKind::Target,
+        label: Some(label),
+        x: *x,
+        y: *y,
+        accuracy: Some(p.accuracy),
+        confidence: Some(identity.confidence),
+        age,
+        stale: is_stale(age) && found.is_empty(),
+        board: Some(console.address().to_string()),
+        owner: Some(p.source.to_string()),
+        found_by: (!found.is_empty()).then_some(found),
+        ..MapItem::default()
+    })
 }
 
-fn robot_items(console: &Board, r: &str, dead: bool) -> Vec<Value> {
+fn robot_items(console: &Board, r: &str, dead: bool) -> Vec<MapItem> {
     let Ok(p) = console.read(r, "position") else {
         return Vec::new();
     };
     let Some([x, y]) = p.value.as_vector() else {
         return Vec::new();
     };
-    let heading = console
-        .read(r, "heading")
-        .ok()
-        .and_then(|h| h.value.as_f64());
     let alive = !matches!(
         console.read(r, "alive").map(|a| a.value),
         Ok(V::Bool(false))
     );
     let age = age(console, &p);
-    let phase = text(console, r, "phase");
-    let mut items = vec![
-        json!({"id": r, "kind": "robot", "label": format!("{r} {phase}"), "x": x, "y": y,
-        "heading": heading, "accuracy": p.accuracy, "confidence": p.confidence, "age": age,
-        "stale": age > STALE && !dead, "alive": alive, "board": console.address().to_string(),
-        "owner": p.source.to_string()}),
-    ];
+    let mut items = vec![MapItem {
+        id: r.to_owned(),
+        kind: ItemKind::Robot,
+        label: Some(format!("{r} {}", text(console, r, "phase"))),
+        x: *x,
+        y: *y,
+        heading: console
+            .read(r, "heading")
+            .ok()
+            .and_then(|h| h.value.as_f64()),
+        accuracy: Some(p.accuracy),
+        confidence: Some(p.confidence),
+        age,
+        stale: is_stale(age) && !dead,
+        alive: Some(alive),
+        board: Some(console.address().to_string()),
+        owner: Some(p.source.to_string()),
+        ..MapItem::default()
+    }];
     if let Some((g, _)) = point(console, r, "goal").filter(|_| alive) {
-        items.push(json!({"id": format!("{r}_goal"), "kind": "goal", "label": format!("{r} goal"), "x": g[0], "y": g[1]}));
+        items.push(MapItem {
+            id: format!("{r}_goal"),
+            kind: ItemKind::Goal,
+            label: Some(format!("{r} goal")),
+            x: g[0],
+            y: g[1],
+            ..MapItem::default()
+        });
     }
     items
 }
 
-fn classes(board: &Board) -> Value {
-    let defs = board.class_defs();
-    Value::Array(
-        defs.iter()
-            .map(|d| {
-                let attrs: Vec<&str> = d.attrs.iter().map(|a| a.name.as_str()).collect();
-                json!({"name": d.name, "parent": d.parent, "attrs": attrs})
-            })
-            .collect(),
-    )
+fn classes(board: &Board) -> Vec<ClassRow> {
+    board
+        .class_defs()
+        .into_iter()
+        .map(|d| ClassRow {
+            attrs: d.attrs.iter().map(|a| a.name.clone()).collect(),
+            name: d.name,
+            parent: d.parent,
+        })
+        .collect()
 }
 
-fn objects(board: &Board) -> Value {
+/// Every object the console holds, with the values it wrote itself.
+fn objects(board: &Board) -> Vec<ObjectRow> {
     let snap = board.snapshot();
-    let now = board.clock().physical().as_secs_f64();
-    let mut out = Vec::new();
-    for id in snap.objects() {
-        let Some(info) = snap.info(id) else { continue };
-        if info.is_class {
-            continue;
-        }
-        let attrs: Vec<Value> = snap
-            .own_values(id)
-            .into_iter()
-            .map(|(name, p, _)| {
-                json!({"name": &*name, "value": p.value.to_string(),
-                "accuracy": p.accuracy, "confidence": p.confidence,
-                "age": (now - p.timestamp.as_secs_f64()).max(0.0), "source": p.source.to_string()})
-            })
-            .collect();
-        out.push(
-            json!({"board": board.address().to_string(), "name": &*info.name, "class": &*info.class,
-            "context": info.context.name(), "owner": info.owner.to_string(), "attrs": attrs}),
-        );
-    }
-    Value::Array(out)
+    let me = board.address().to_string();
+    snap.objects()
+        .into_iter()
+        .filter_map(|id| snap.info(id))
+        .filter(|info| !info.is_class)
+        .map(|info| ObjectRow {
+            board: me.clone(),
+            name: info.name.to_string(),
+            class: info.class.to_string(),
+            context: info.context.name().to_owned(),
+            owner: info.owner.to_string(),
+            attrs: snap
+                .own_values(info.id)
+                .into_iter()
+                .map(|(name, p, _)| attr_row(board, name.to_string(), &p))
+                .collect(),
+        })
+        .collect()
 }
 
-fn plans(demo: &Demo) -> Value {
+fn attr_row(board: &Board, name: String, p: &Packet) -> AttrRow {
+    AttrRow {
+        name,
+        value: p.value.plain_text(),
+        accuracy: p.accuracy,
+        confidence: p.confidence,
+        age: age(board, p),
+        source: p.source.to_string(),
+    }
+}
+
+/// Every plan sent on a circuit, with the state its destination's engine holds (the
+/// latest step's when the engine has none; `lost` once the destination is).
+fn plans(demo: &Demo) -> Vec<PlanRow> {
     let mut out = Vec::new();
     for m in &demo.team.modules {
         for c in m.circuits.sent() {
@@ -182,79 +268,70 @@ fn plans(demo: &Demo) -> Value {
                 .iter()
                 .find(|d| d.address == c.peer)
                 .and_then(|d| d.engine.status(&c.name));
-            let state = status
-                .as_ref()
-                .map_or_else(|| last_state(&c.steps), |s| s.state.name().to_owned());
             let state = if c.steps.contains(&PlanStep::DestinationLost) {
                 "lost".to_owned()
             } else {
-                state
+                status.as_ref().map_or_else(
+                    || {
+                        c.steps
+                            .last()
+                            .map_or("sent", PlanStep::plan_state)
+                            .to_owned()
+                    },
+                    |s| s.state.name().to_owned(),
+                )
             };
-            out.push(
-                json!({"board": c.peer.to_string(), "name": c.name, "origin": m.address.to_string(),
-                "state": state, "fired": status.as_ref().map_or(0, |s| s.fired),
-                "last_error": status.and_then(|s| s.last_error).unwrap_or_default(),
-                "acks": c.steps.iter().map(step_name).collect::<Vec<_>>()}),
-            );
+            out.push(PlanRow {
+                board: c.peer.to_string(),
+                origin: m.address.to_string(),
+                state,
+                fired: Some(status.as_ref().map_or(0, |s| s.fired)),
+                last_error: Some(status.and_then(|s| s.last_error).unwrap_or_default()),
+                acks: c.steps.iter().map(ToString::to_string).collect(),
+                name: c.name,
+            });
         }
     }
-    Value::Array(out)
+    out
 }
 
-fn step_name(s: &PlanStep) -> String {
-    match s {
-        PlanStep::Received => "received".into(),
-        PlanStep::Accepted => "accepted".into(),
-        PlanStep::Rejected { reason } => format!("rejected: {reason}"),
-        PlanStep::Initiated => "initiated".into(),
-        PlanStep::Triggered { ok: true, .. } => "triggered ok".into(),
-        PlanStep::Triggered { ok: false, detail } => format!("triggered error: {detail}"),
-        PlanStep::Terminated => "terminated".into(),
-        PlanStep::Cancelled => "cancelled".into(),
-        PlanStep::DestinationLost => "destination lost".into(),
-    }
-}
-
-fn last_state(steps: &[PlanStep]) -> String {
-    steps.last().map_or("sent".into(), |s| match s {
-        PlanStep::Initiated | PlanStep::Triggered { .. } => "active".into(),
-        other => step_name(other),
-    })
-}
-
-fn links(demo: &Demo) -> Value {
+fn links(demo: &Demo) -> Vec<LinkRow> {
     let budget = demo.config.team_link.budget_bps as f64 / 8.0;
-    let mut out = Vec::new();
     let mut totals: Vec<_> = demo.traffic.total.iter().collect();
     totals.sort_by_key(|((robot, link), _)| {
         (std::cmp::Reverse(*link == LinkKind::Team), robot.clone())
     });
+    let mut out = Vec::new();
     for ((robot, link), total) in totals {
-        let rate = demo
-            .traffic
-            .rate
-            .get(&(robot.clone(), *link))
-            .copied()
-            .unwrap_or(0.0);
-        let (name, budget) = match link {
-            LinkKind::Team => (format!("{robot} radio (team link)"), json!(budget)),
-            LinkKind::Robot => (format!("{robot} LAN"), Value::Null),
-        };
         if *link == LinkKind::Robot && *total == 0 {
             continue;
         }
-        out.push(json!({"name": name, "kind": link.name(), "bytes_per_s": rate, "budget_bps": budget, "total_bytes": total}));
+        let rate = demo.traffic.rate.get(&(robot.clone(), *link)).copied();
+        let (name, budget_bps) = match link {
+            LinkKind::Team => (format!("{robot} radio (team link)"), Some(budget)),
+            LinkKind::Robot => (format!("{robot} LAN"), None),
+        };
+        out.push(LinkRow {
+            name,
+            kind: link.name().to_owned(),
+            bytes_per_s: rate.unwrap_or(0.0),
+            budget_bps,
+            total_bytes: *total,
+        });
     }
-    Value::Array(out)
+    out
 }
 
-fn events(demo: &Demo) -> Value {
+/// The last 300 events (the page shows no more).
+fn events(demo: &Demo) -> Vec<EventRow> {
     let events = &demo.observer.events;
     let from = events.len().saturating_sub(300);
-    Value::Array(
-        events[from..]
-            .iter()
-            .map(|e| json!({"t": (e.t * 10.0).round() / 10.0, "level": e.level.name(), "text": e.text}))
-            .collect(),
-    )
+    events[from..]
+        .iter()
+        .map(|e| EventRow {
+            t: (e.t * 10.0).round() / 10.0,
+            level: e.level,
+            text: e.text.clone(),
+        })
+        .collect()
 }

@@ -1,6 +1,8 @@
 //! Attribute packets: `value, accuracy, confidence, timestamp` plus the writing module.
 
-use crate::{Address, Timestamp, Value, ValueType};
+use std::time::Duration;
+
+use crate::{Address, Clock, Timestamp, Value, ValueType};
 
 /// The paper's attribute packet: `<value, accuracy, confidence, timestamp>`, plus `source`.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +49,13 @@ impl Packet {
     /// ```
     pub fn has_time(&self) -> bool {
         self.timestamp != Timestamp::ZERO
+    }
+
+    /// How long ago the packet was written, by `clock`'s physical time; `None` for a
+    /// packet that claims no time ([`has_time`](Self::has_time)), which must not read as
+    /// fresh nor as old.
+    pub fn age(&self, clock: &Clock) -> Option<Duration> {
+        self.has_time().then(|| clock.age(self.timestamp))
     }
 
     /// Whether this is a declared default (or [`Packet::none`]): no module wrote it, so

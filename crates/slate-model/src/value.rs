@@ -111,6 +111,16 @@ impl Value {
         }
     }
 
+    /// The value for people to read: a string without its quotes, anything else as the
+    /// language writes it (`2.5`, `[1.0, 2.0]`, `&r1`). Every view of a board (the
+    /// dashboards, `slate get`) shows values this way, so one value reads the same in each.
+    pub fn plain_text(&self) -> String {
+        match self {
+            Value::Str(s) => s.to_string(),
+            other => other.to_string(),
+        }
+    }
+
     /// The reals this value is made of (one for a real or integer, n for a vector).
     pub(crate) fn reals(&self) -> &[f64] {
         match self {

@@ -57,5 +57,5 @@ pub use error::{ConfigError, ObserveError, StartError};
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
+pub use slate_dashboard::STALE_AFTER_S;
 pub use timers::TICK;
-pub use view::{STALE_AFTER_S, is_final, step_text, value_text};

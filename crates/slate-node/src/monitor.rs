@@ -26,27 +26,8 @@ const REGREET: Duration = Duration::from_secs(1);
 /// How often the monitor looks at the board's events and the engine's.
 const POLL: Duration = Duration::from_millis(50);
 
-/// How much an event matters.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Level {
-    /// Normal operation.
-    Info,
-    /// Something went wrong, and the node carries on.
-    Warn,
-    /// Something failed.
-    Error,
-}
-
-impl Level {
-    /// `info`, `warn` or `error`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Level::Info => "info",
-            Level::Warn => "warn",
-            Level::Error => "error",
-        }
-    }
-}
+/// How much an event matters: the dashboard's level, so the log shows as it is.
+pub use slate_dashboard::Level;
 
 /// One entry of a node's event log.
 #[derive(Clone, Debug, PartialEq)]

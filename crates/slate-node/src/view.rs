@@ -8,6 +8,10 @@ use std::time::Instant;
 
 use parking_lot::Mutex;
 use serde_json::{Value as Json, json};
+use slate_dashboard::{
+    AttrRow, ClassRow, EventRow, ItemKind, LinkRow, MapItem, MapView, ObjectRow, PlanRow, Snapshot,
+    Status, is_stale,
+};
 use slate_ici::{Ici, LinkKind, PlanCircuits, Transport};
 use slate_model::{Board, Packet, Value};
 use slate_plans::Engine;
@@ -15,9 +19,6 @@ use slate_wire::PlanStep;
 
 use crate::inspect::{Classes, packets};
 use crate::monitor::EventLog;
-
-/// A map item older than this is drawn stale.
-pub const STALE_AFTER_S: f64 = 5.0;
 
 /// Everything the view reads, shared with the node.
 pub(crate) struct View {
@@ -61,47 +62,64 @@ impl View {
         }
     }
 
-    /// The whole snapshot.
+    /// The whole snapshot, as the page's JSON.
     pub fn snapshot(&self) -> Json {
-        let classes = Classes::of(&self.board);
-        let objects = self.objects(&classes);
-        let stats = self.board.stats();
-        json!({
-            "title": format!("slate node {}", self.board.address()),
-            "time": self.board.clock().physical().as_secs_f64(),
-            "status": "running",
-            "summary": {
-                "address": self.board.address().as_str(),
-                "listening": self.listen.join(", "),
-                "peers alive": self.ici.alive_peers().len(),
-                "objects": stats.objects,
-                "classes": stats.classes,
-                "revision": stats.revision,
-            },
-            "map": {"items": self.map_items(&classes)},
-            "classes": classes_json(&classes),
-            "objects": objects,
-            "plans": self.plans(),
-            "links": self.links(),
-            "events": self.events(),
-        })
+        self.view().to_json()
     }
 
-    fn objects(&self, classes: &Classes) -> Vec<Json> {
-        let me = self.board.address().as_str();
+    /// The whole snapshot.
+    fn view(&self) -> Snapshot {
+        let classes = Classes::of(&self.board);
+        Snapshot {
+            title: format!("slate node {}", self.board.address()),
+            time: self.board.clock().physical().as_secs_f64(),
+            status: Status::Running,
+            summary: self.summary(),
+            map: MapView {
+                bounds: None,
+                items: self.map_items(&classes),
+            },
+            classes: class_rows(&classes),
+            objects: self.objects(&classes),
+            plans: self.plans(),
+            links: self.links(),
+            events: self.events(),
+        }
+    }
+
+    fn summary(&self) -> BTreeMap<String, Json> {
+        let stats = self.board.stats();
+        [
+            ("address", json!(self.board.address().as_str())),
+            ("listening", json!(self.listen.join(", "))),
+            ("peers alive", json!(self.ici.alive_peers().len())),
+            ("objects", json!(stats.objects)),
+            ("classes", json!(stats.classes)),
+            ("revision", json!(stats.revision)),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_owned(), v))
+        .collect()
+    }
+
+    fn objects(&self, classes: &Classes) -> Vec<ObjectRow> {
+        let me = self.board.address().to_string();
         self.names()
             .into_iter()
             .filter_map(|name| {
                 let info = self.board.info(&name)?;
-                let attrs: Vec<Json> = packets(&self.board, classes, &name)?
+                let attrs = packets(&self.board, classes, &name)?
                     .into_iter()
-                    .map(|(attr, p)| self.packet_json(&attr, &p))
+                    .map(|(attr, p)| self.attr_row(attr, &p))
                     .collect();
-                Some(json!({
-                    "board": me, "name": name, "class": &*info.class,
-                    "context": info.context.name(), "owner": info.owner.to_string(),
-                    "attrs": attrs,
-                }))
+                Some(ObjectRow {
+                    board: me.clone(),
+                    name,
+                    class: info.class.to_string(),
+                    context: info.context.name().to_owned(),
+                    owner: info.owner.to_string(),
+                    attrs,
+                })
             })
             .collect()
     }
@@ -115,93 +133,98 @@ impl View {
             .collect()
     }
 
-    fn packet_json(&self, attr: &str, p: &Packet) -> Json {
-        json!({
-            "name": attr, "value": value_text(&p.value), "accuracy": p.accuracy,
-            "confidence": p.confidence, "age": self.age(p), "source": p.source.to_string(),
-        })
+    fn attr_row(&self, name: String, p: &Packet) -> AttrRow {
+        AttrRow {
+            name,
+            value: p.value.plain_text(),
+            accuracy: p.accuracy,
+            confidence: p.confidence,
+            age: self.age(p),
+            source: p.source.to_string(),
+        }
     }
 
     /// Seconds since the packet was written; `None` (null) for a packet that claims no
     /// time (a declared default, an initial value from a file), which must not read as
     /// fresh.
     fn age(&self, p: &Packet) -> Option<f64> {
-        p.has_time()
-            .then(|| self.board.clock().age(p.timestamp).as_secs_f64())
+        p.age(self.board.clock()).map(|a| a.as_secs_f64())
     }
 
-    fn map_items(&self, classes: &Classes) -> Vec<Json> {
-        let me = self.board.address().as_str();
-        let mut items = Vec::new();
-        for name in self.names() {
-            let Ok(pos) = self.board.read(&name, "position") else {
-                continue;
-            };
-            let Some([x, y]) = pos
-                .value
-                .as_vector()
-                .and_then(|v| <[f64; 2]>::try_from(v).ok())
-            else {
-                continue;
-            };
-            let Some(info) = self.board.info(&name) else {
-                continue;
-            };
-            let age = self.age(&pos);
-            let mut item = json!({
-                "id": name, "kind": kind(&classes.lineage(&info.class)), "x": x, "y": y,
-                "accuracy": pos.accuracy, "confidence": pos.confidence, "age": age,
-                "stale": age.is_some_and(|a| a > STALE_AFTER_S), "owner": info.owner.to_string(), "board": me,
-            });
-            for (attr, field) in [("heading", "heading"), ("radius", "radius")] {
-                if let Some(v) = self
-                    .board
-                    .read(&name, attr)
-                    .ok()
-                    .and_then(|p| p.value.as_f64())
-                {
-                    item[field] = json!(v);
-                }
-            }
-            if let Ok(Value::Bool(alive)) = self.board.read(&name, "alive").map(|p| p.value) {
-                item["alive"] = json!(alive);
-            }
-            items.push(item);
-        }
-        items
+    fn map_items(&self, classes: &Classes) -> Vec<MapItem> {
+        self.names()
+            .into_iter()
+            .filter_map(|name| self.map_item(classes, name))
+            .collect()
     }
 
-    fn plans(&self) -> Vec<Json> {
+    /// An object with a `position` vec<2>, drawn by its class chain's kind.
+    fn map_item(&self, classes: &Classes, name: String) -> Option<MapItem> {
+        let pos = self.board.read(&name, "position").ok()?;
+        let [x, y] = <[f64; 2]>::try_from(pos.value.as_vector()?).ok()?;
+        let info = self.board.info(&name)?;
+        let real = |attr| self.board.read(&name, attr).ok()?.value.as_f64();
+        let alive = match self.board.read(&name, "alive").map(|p| p.value) {
+            Ok(Value::Bool(alive)) => Some(alive),
+            _ => None,
+        };
+        let age = self.age(&pos);
+        Some(MapItem {
+            kind: kind(&classes.lineage(&info.class)),
+            x,
+            y,
+            heading: real("heading"),
+            accuracy: Some(pos.accuracy),
+            confidence: Some(pos.confidence),
+            age,
+            stale: is_stale(age),
+            alive,
+            owner: Some(info.owner.to_string()),
+            board: Some(self.board.address().to_string()),
+            radius: real("radius"),
+            id: name,
+            ..MapItem::default()
+        })
+    }
+
+    fn plans(&self) -> Vec<PlanRow> {
         let me = self.board.address().to_string();
         let received = self.circuits.received();
-        let mut out: Vec<Json> = self
+        let mut out: Vec<PlanRow> = self
             .engine
             .plans()
             .into_iter()
             .map(|p| {
                 let circuit = received.iter().find(|c| c.name == p.name);
-                let origin = circuit.map_or_else(String::new, |c| c.peer.to_string());
-                let acks: Vec<String> = circuit
-                    .map(|c| c.steps.iter().map(step_text).collect())
-                    .unwrap_or_default();
-                json!({
-                    "board": me, "name": p.name, "state": p.state.name(), "fired": p.fired,
-                    "last_error": p.last_error.unwrap_or_default(), "origin": origin, "acks": acks,
-                })
+                PlanRow {
+                    board: me.clone(),
+                    state: p.state.name().to_owned(),
+                    fired: Some(p.fired),
+                    last_error: Some(p.last_error.unwrap_or_default()),
+                    origin: circuit.map_or_else(String::new, |c| c.peer.to_string()),
+                    acks: circuit.map(|c| ack_texts(&c.steps)).unwrap_or_default(),
+                    name: p.name,
+                }
             })
             .collect();
         for c in self.circuits.sent() {
-            let acks: Vec<String> = c.steps.iter().map(step_text).collect();
-            let state = c.steps.last().map_or("sent", step_state);
-            out.push(json!({
-                "board": c.peer.to_string(), "name": c.name, "state": state,
-                "origin": me, "acks": acks,
-            }));
+            out.push(PlanRow {
+                board: c.peer.to_string(),
+                state: c
+                    .steps
+                    .last()
+                    .map_or("sent", PlanStep::plan_state)
+                    .to_owned(),
+                origin: me.clone(),
+                acks: ack_texts(&c.steps),
+                name: c.name,
+                ..PlanRow::default()
+            });
         }
         out
     }
 
-    fn links(&self) -> Vec<Json> {
+    fn links(&self) -> Vec<LinkRow> {
         let stats = self.transport.stats();
         let mut rates = self.rates.lock();
         let now = Instant::now();
@@ -227,101 +250,60 @@ impl View {
         }
         LinkKind::ALL
             .iter()
-            .map(|l| {
-                json!({
-                    "name": format!("{l} link"), "kind": l.name(),
-                    "bytes_per_s": rates.per_s.get(l).copied().unwrap_or(0.0),
-                    "total_bytes": totals.get(l).copied().unwrap_or(0),
-                })
+            .map(|l| LinkRow {
+                name: format!("{l} link"),
+                kind: l.name().to_owned(),
+                bytes_per_s: rates.per_s.get(l).copied().unwrap_or(0.0),
+                budget_bps: None,
+                total_bytes: totals.get(l).copied().unwrap_or(0),
             })
             .collect()
     }
 
-    fn events(&self) -> Vec<Json> {
+    fn events(&self) -> Vec<EventRow> {
         self.log
             .events()
             .into_iter()
-            .map(|e| json!({"t": e.time, "level": e.level.name(), "text": e.text}))
+            .map(|e| EventRow {
+                t: e.time,
+                level: e.level,
+                text: e.text,
+            })
             .collect()
     }
 }
 
-fn classes_json(classes: &Classes) -> Vec<Json> {
+fn class_rows(classes: &Classes) -> Vec<ClassRow> {
     classes
         .defs()
-        .map(|d| {
-            let attrs: Vec<&str> = d.attrs.iter().map(|a| a.name.as_str()).collect();
-            json!({"name": d.name, "parent": d.parent, "attrs": attrs})
+        .map(|d| ClassRow {
+            name: d.name.clone(),
+            parent: d.parent.clone(),
+            attrs: d.attrs.iter().map(|a| a.name.clone()).collect(),
         })
         .collect()
 }
 
+/// Each acknowledgement as its step's text.
+fn ack_texts(steps: &[PlanStep]) -> Vec<String> {
+    steps.iter().map(ToString::to_string).collect()
+}
+
 /// The map's kind of an object, from its class chain's names.
-fn kind(lineage: &[&str]) -> &'static str {
+fn kind(lineage: &[&str]) -> ItemKind {
     for class in lineage {
         let c = class.to_ascii_lowercase();
         for (word, kind) in [
-            ("vehicle", "robot"),
-            ("robot", "robot"),
-            ("obstacle", "obstacle"),
-            ("target", "target"),
-            ("goal", "goal"),
+            ("vehicle", ItemKind::Robot),
+            ("robot", ItemKind::Robot),
+            ("obstacle", ItemKind::Obstacle),
+            ("target", ItemKind::Target),
+            ("goal", ItemKind::Goal),
         ] {
             if c.contains(word) {
                 return kind;
             }
         }
     }
-    "other"
-}
-
-/// A value as text: strings without their quotes, the rest as the language writes them.
-pub fn value_text(v: &Value) -> String {
-    match v {
-        Value::Str(s) => s.to_string(),
-        other => other.to_string(),
-    }
-}
-
-/// An acknowledgement as a few words: `received`, `accepted`, `rejected: why`,
-/// `initiated`, `triggered ok`, `triggered failed: why`, `terminated`, `cancelled`,
-/// `destination lost`.
-pub fn step_text(step: &PlanStep) -> String {
-    match step {
-        PlanStep::Received => "received".into(),
-        PlanStep::Accepted => "accepted".into(),
-        PlanStep::Rejected { reason } => format!("rejected: {reason}"),
-        PlanStep::Initiated => "initiated".into(),
-        PlanStep::Triggered { ok: true, detail } if detail.is_empty() => "triggered ok".into(),
-        PlanStep::Triggered { ok: true, detail } => format!("triggered ok: {detail}"),
-        PlanStep::Triggered { ok: false, detail } => format!("triggered failed: {detail}"),
-        PlanStep::Terminated => "terminated".into(),
-        PlanStep::Cancelled => "cancelled".into(),
-        PlanStep::DestinationLost => "destination lost".into(),
-    }
-}
-
-/// The state a sent plan is in after `step` (the dashboard colours it).
-fn step_state(step: &PlanStep) -> &'static str {
-    match step {
-        PlanStep::Received | PlanStep::Accepted => "pending",
-        PlanStep::Rejected { .. } => "rejected",
-        PlanStep::Initiated => "active",
-        PlanStep::Triggered { ok: true, .. } => "triggered",
-        PlanStep::Triggered { ok: false, .. } => "failed",
-        PlanStep::Terminated => "terminated",
-        PlanStep::Cancelled => "cancelled",
-        PlanStep::DestinationLost => "lost",
-    }
-}
-
-/// Is this the last step a circuit will see?
-pub fn is_final(step: &PlanStep) -> bool {
-    matches!(
-        step,
-        PlanStep::Rejected { .. }
-            | PlanStep::Terminated
-            | PlanStep::Cancelled
-            | PlanStep::DestinationLost
-    )
+    ItemKind::Other
 }

@@ -12,7 +12,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyString;
 use slate_ici::IciConfig;
 use slate_model::{Address, Board};
-use slate_node::{Node, is_final};
+use slate_node::Node;
 use slate_wire::PlanStep;
 use slate_zenoh::{Mode, ZenohConfig};
 
@@ -293,7 +293,7 @@ impl PlanHandle {
         let alive = move || !node.is_closed();
         let step = stream::next_from(py, &self.acks, timeout, &alive)?;
         Ok(step.map(|s| {
-            if is_final(&s) {
+            if s.is_final() {
                 self.done.store(true, Ordering::Release);
             }
             Ack::from(&s)
@@ -374,21 +374,11 @@ pub(crate) struct Ack {
 
 impl From<&PlanStep> for Ack {
     fn from(s: &PlanStep) -> Self {
-        let (step, ok, detail) = match s {
-            PlanStep::Received => ("received", true, String::new()),
-            PlanStep::Accepted => ("accepted", true, String::new()),
-            PlanStep::Rejected { reason } => ("rejected", false, reason.clone()),
-            PlanStep::Initiated => ("initiated", true, String::new()),
-            PlanStep::Triggered { ok, detail } => ("triggered", *ok, detail.clone()),
-            PlanStep::Terminated => ("terminated", true, String::new()),
-            PlanStep::Cancelled => ("cancelled", true, String::new()),
-            PlanStep::DestinationLost => ("destination_lost", false, String::new()),
-        };
         Ack {
-            step: step.to_owned(),
-            ok,
-            detail,
-            last: is_final(s),
+            step: s.kind().to_owned(),
+            ok: s.is_ok(),
+            detail: s.detail().to_owned(),
+            last: s.is_final(),
         }
     }
 }

@@ -69,6 +69,7 @@ mod names;
 mod quant;
 mod report;
 mod schema;
+mod step;
 mod text;
 mod value;
 

@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use crossbeam_channel::Receiver;
 use serde_json::{Value as Json, json};
 use slate_model::{Address, Board, Packet, Value};
-use slate_node::{Node, ObserverOptions, inspect::Classes, is_observer, observe, value_text};
+use slate_node::{Node, ObserverOptions, inspect::Classes, is_observer, observe};
 
 use crate::cli::LiveArgs;
 use crate::command::failed;
@@ -203,7 +203,7 @@ pub fn packet_text(board: &Board, unit: Option<&str>, p: &Packet) -> String {
     };
     format!(
         "{}{accuracy}{unit}  confidence {:.2}  {written}",
-        value_text(&p.value),
+        p.value.plain_text(),
         p.confidence,
     )
 }

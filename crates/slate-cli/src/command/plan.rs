@@ -8,7 +8,7 @@ use crossbeam_channel::{Receiver, select};
 use serde_json::json;
 use slate_ici::PlanHandle;
 use slate_model::{Address, Board, ObjectInfo, Query, Value};
-use slate_node::{Node, is_final, step_text, value_text};
+use slate_node::Node;
 use slate_plans::{Item, PLAN_CLASS};
 use slate_wire::PlanStep;
 
@@ -86,7 +86,7 @@ fn send_and_follow(
             recv(handle.acks()) -> step => {
                 let Ok(step) = step else { return failed("the circuit closed") };
                 print_step(&handle, &step, format)?;
-                if is_final(&step) {
+                if step.is_final() {
                     return outcome(&handle, &step, cancelling);
                 }
             }
@@ -116,25 +116,20 @@ fn print_step(handle: &PlanHandle, step: &PlanStep, format: Format) -> anyhow::R
             }))
         }
         Format::Text => {
-            println!("{} -> {}: {}", handle.name, handle.to, step_text(step));
+            println!("{} -> {}: {}", handle.name, handle.to, step);
             Ok(())
         }
     }
 }
 
-/// `("triggered", "fired 1")`, `("rejected", reason)`, `("accepted", "")`.
+/// `("triggered", "fired 1")`, `("rejected", reason)`, `("accepted", "")`; a failed
+/// action's kind is `failed` in this output (a JSON consumer tells it apart by kind alone).
 fn step_parts(step: &PlanStep) -> (&'static str, String) {
-    match step {
-        PlanStep::Received => ("received", String::new()),
-        PlanStep::Accepted => ("accepted", String::new()),
-        PlanStep::Rejected { reason } => ("rejected", reason.clone()),
-        PlanStep::Initiated => ("initiated", String::new()),
-        PlanStep::Triggered { ok: true, detail } => ("triggered", detail.clone()),
-        PlanStep::Triggered { ok: false, detail } => ("failed", detail.clone()),
-        PlanStep::Terminated => ("terminated", String::new()),
-        PlanStep::Cancelled => ("cancelled", String::new()),
-        PlanStep::DestinationLost => ("destination_lost", String::new()),
-    }
+    let kind = match step {
+        PlanStep::Triggered { ok: false, .. } => "failed",
+        other => other.kind(),
+    };
+    (kind, step.detail().to_owned())
 }
 
 /// Exit 0 when the plan terminated or this command cancelled it; 1 otherwise.
@@ -215,7 +210,7 @@ fn row(board: &Board, info: &ObjectInfo) -> PlanRow {
     let text = |attr: &str| {
         board
             .read(&info.name, attr)
-            .map(|p| value_text(&p.value))
+            .map(|p| p.value.plain_text())
             .unwrap_or_default()
     };
     let fired = match board.read(&info.name, "fired").map(|p| p.value) {
