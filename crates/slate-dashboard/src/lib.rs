@@ -27,12 +27,14 @@
 mod error;
 mod page;
 mod routes;
+#[cfg(feature = "testing")]
 mod sample;
 mod server;
 mod snapshots;
 mod source;
 
 pub use error::ServeError;
+#[cfg(feature = "testing")]
 pub use sample::SampleTeam;
 pub use server::{Dashboard, serve};
 pub use source::DashboardSource;

@@ -17,8 +17,8 @@
 //!
 //! [`SimNet`] is a deterministic network simulator (virtual time, seeded loss,
 //! duplication, reordering, delay, partitions, bandwidth caps, killed nodes) on which
-//! whole teams run reproducibly; [`conformance`] is the test suite every transport
-//! passes.
+//! whole teams run reproducibly. The test suite every transport passes is the
+//! `conformance` module, compiled with the `testing` feature only.
 //!
 //! ```
 //! use std::sync::Arc;
@@ -51,6 +51,7 @@
 #![warn(missing_docs)]
 
 mod circuits;
+#[cfg(feature = "testing")]
 pub mod conformance;
 mod ici;
 mod sim;
@@ -62,7 +63,5 @@ pub use ici::{
     MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, StartError, module_class,
     module_object_name,
 };
-pub use sim::{
-    LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimFactory, SimNet, SimStats, SimTransport,
-};
+pub use sim::{LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport};
 pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};

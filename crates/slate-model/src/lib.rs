@@ -37,6 +37,7 @@ mod class;
 mod clock;
 mod error;
 mod id;
+pub mod memo;
 mod packet;
 mod value;
 
@@ -59,6 +60,6 @@ pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
     WriteError,
 };
-pub use id::{AttrId, Key, NameMemo, ObjectId};
+pub use id::{AttrId, Key, ObjectId};
 pub use packet::{Packet, Update, ValueError, check_quality};
 pub use value::{Value, ValueType};
