@@ -28,7 +28,7 @@
 //!
 //! let net = SimNet::new(1);
 //! let vehicle = ClassDef::new("Vehicle").attr(AttrDecl::new("speed", ValueType::Real));
-//! let start = |text: &str| -> Result<(Arc<Board>, Ici), Box<dyn std::error::Error>> {
+//! let start = |text: &str| -> Result<(Arc<Board>, Ici), slate_ici::Error> {
 //!     let address = Address::new(text)?;
 //!     let board = Arc::new(Board::builder().clock(net.clock()).address(address.clone()).build());
 //!     board.define(vehicle.clone())?;
@@ -44,7 +44,7 @@
 //! nav.write("gsr", "speed", 2.5)?;
 //! net.run_for(Duration::from_millis(500));
 //! assert_eq!(base.read("gsr", "speed")?.value.as_f64(), Some(2.5));
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! # Ok::<(), slate_ici::Error>(())
 //! ```
 //!
 //! The protocol, the simulator's model and the counters are described in `docs/ici.md`.
@@ -53,11 +53,13 @@
 mod circuits;
 #[cfg(feature = "testing")]
 pub mod conformance;
+mod error;
 mod ici;
 mod sim;
 mod transport;
 
 pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
+pub use error::Error;
 pub use ici::{
     CatchUpStats, ClassSet, Ici, IciConfig, IciStats, Liveliness, LivelinessStats, MODULE_CLASS,
     MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, StartError, module_class,

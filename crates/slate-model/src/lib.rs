@@ -25,7 +25,7 @@
 //! // An instance's own value wins over its class's.
 //! board.write("r2", "clearance", Update::new(0.5).accuracy(0.05).confidence(0.8))?;
 //! assert_eq!(board.read("r2", "clearance")?.confidence, 0.8);
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! # Ok::<(), slate_model::Error>(())
 //! ```
 #![warn(missing_docs)]
 
@@ -39,6 +39,7 @@ mod error;
 mod id;
 pub mod memo;
 mod packet;
+mod umbrella;
 mod value;
 
 pub use active::{ActiveFn, Call, CallToken, FnError, FnRef, Trigger};
@@ -62,4 +63,5 @@ pub use error::{
 };
 pub use id::{AttrId, Key, ObjectId};
 pub use packet::{Packet, Update, ValueError, check_quality};
+pub use umbrella::Error;
 pub use value::{Value, ValueType};
