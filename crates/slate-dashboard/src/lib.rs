@@ -29,6 +29,7 @@ mod contract;
 mod error;
 mod page;
 mod routes;
+#[cfg(feature = "testing")]
 mod sample;
 mod server;
 mod snapshots;
@@ -39,6 +40,7 @@ pub use contract::{
     STALE_AFTER_S, Snapshot, Status, is_stale,
 };
 pub use error::ServeError;
+#[cfg(feature = "testing")]
 pub use sample::SampleTeam;
 pub use server::{Dashboard, serve};
 pub use source::DashboardSource;

@@ -83,7 +83,7 @@ fn main() -> Result<(), Error> {
     let class = attrs
         .iter()
         .fold(ClassDef::new("Tracked"), |c, n| c.attr(level(n)));
-    let node = |me: &Address, peer: &Address| -> Result<Node, Error> {
+    let node = |me: &Address, peer: &Address| -> Result<Node, slate_ici::Error> {
         let board = Arc::new(Board::builder().address(me.clone()).build());
         board.define(class.clone())?;
         let t = Arc::new(Endpoint {

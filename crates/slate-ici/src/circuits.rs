@@ -51,7 +51,7 @@ pub const ACK_GAP_GRACE: Duration = Duration::from_secs(1);
 /// use slate_wire::PlanStep;
 ///
 /// let net = SimNet::new(7);
-/// let start = |text: &str| -> Result<(Engine, PlanCircuits), Box<dyn std::error::Error>> {
+/// let start = |text: &str| -> Result<(Engine, PlanCircuits), slate_ici::Error> {
 ///     let address = Address::new(text)?;
 ///     let board = Arc::new(Board::builder().clock(net.clock()).address(address.clone()).build());
 ///     let engine = Engine::new(&board);
@@ -69,7 +69,7 @@ pub const ACK_GAP_GRACE: Duration = Duration::from_secs(1);
 /// let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
 /// assert_eq!(steps, [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]);
 /// assert_eq!(cell_engine.status("hot").map(|s| s.fired), Some(0));
-/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// # Ok::<(), slate_ici::Error>(())
 /// ```
 #[derive(Clone)]
 pub struct PlanCircuits {

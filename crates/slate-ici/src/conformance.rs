@@ -12,13 +12,17 @@
 //! ```
 //!
 //! Addresses used: `conf/r1/a`, `conf/r1/b` (one robot) and `conf/r2/c` (another).
+//!
+//! Compiled only with the crate's `testing` feature: the suite and [`SimFactory`] are
+//! test support for transport implementations, not part of the ICI's API.
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use parking_lot::Mutex;
 use slate_model::Address;
 
-use crate::{Handler, LinkKind, MsgKind, SendError, Transport};
+use crate::{Handler, LinkKind, MsgKind, SendError, SimNet, SimTransport, Transport};
 
 /// Makes endpoints on one fresh network and lets it run.
 pub trait TransportFactory {
@@ -347,4 +351,36 @@ macro_rules! transport_conformance {
             }
         )*
     };
+}
+
+/// The conformance suite's factory for the simulator: a fresh clean network per test;
+/// waits are bounded by 30 s of virtual time, settling is 1 s.
+pub struct SimFactory {
+    /// The network.
+    pub net: SimNet,
+}
+
+impl SimFactory {
+    /// A factory over a new network with this seed.
+    pub fn new(seed: u64) -> Self {
+        SimFactory {
+            net: SimNet::new(seed),
+        }
+    }
+}
+
+impl TransportFactory for SimFactory {
+    type Transport = SimTransport;
+
+    fn join(&mut self, address: &Address) -> Arc<SimTransport> {
+        self.net.join(address)
+    }
+
+    fn run_until(&mut self, done: &mut dyn FnMut() -> bool) -> bool {
+        self.net.run_until(done, Duration::from_secs(30))
+    }
+
+    fn settle(&mut self) {
+        self.net.run_for(Duration::from_secs(1));
+    }
 }

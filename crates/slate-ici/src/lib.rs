@@ -17,8 +17,8 @@
 //!
 //! [`SimNet`] is a deterministic network simulator (virtual time, seeded loss,
 //! duplication, reordering, delay, partitions, bandwidth caps, killed nodes) on which
-//! whole teams run reproducibly; [`conformance`] is the test suite every transport
-//! passes.
+//! whole teams run reproducibly. The test suite every transport passes is the
+//! `conformance` module, compiled with the `testing` feature only.
 //!
 //! ```
 //! use std::sync::Arc;
@@ -28,7 +28,7 @@
 //!
 //! let net = SimNet::new(1);
 //! let vehicle = ClassDef::new("Vehicle").attr(AttrDecl::new("speed", ValueType::Real));
-//! let start = |text: &str| -> Result<(Arc<Board>, Ici), Box<dyn std::error::Error>> {
+//! let start = |text: &str| -> Result<(Arc<Board>, Ici), slate_ici::Error> {
 //!     let address = Address::new(text)?;
 //!     let board = Arc::new(Board::builder().clock(net.clock()).address(address.clone()).build());
 //!     board.define(vehicle.clone())?;
@@ -44,25 +44,26 @@
 //! nav.write("gsr", "speed", 2.5)?;
 //! net.run_for(Duration::from_millis(500));
 //! assert_eq!(base.read("gsr", "speed")?.value.as_f64(), Some(2.5));
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! # Ok::<(), slate_ici::Error>(())
 //! ```
 //!
 //! The protocol, the simulator's model and the counters are described in `docs/ici.md`.
 #![warn(missing_docs)]
 
 mod circuits;
+#[cfg(feature = "testing")]
 pub mod conformance;
+mod error;
 mod ici;
 mod sim;
 mod transport;
 
 pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
+pub use error::Error;
 pub use ici::{
     CatchUpStats, ClassSet, Ici, IciConfig, IciStats, Liveliness, LivelinessStats, MODULE_CLASS,
     MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, StartError, module_class,
     module_object_name,
 };
-pub use sim::{
-    LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimFactory, SimNet, SimStats, SimTransport,
-};
+pub use sim::{LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport};
 pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};

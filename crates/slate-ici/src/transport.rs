@@ -279,7 +279,7 @@ pub trait Handler: Send + Sync {
 
 /// Moves ICI messages between modules.
 ///
-/// Contract (checked by [`crate::conformance`]):
+/// Contract (checked by the `conformance` suite, built with the `testing` feature):
 /// - [`publish`](Transport::publish) is best effort: a message reaches each live peer on
 ///   that kind of link once, or not at all, or twice, in any order.
 /// - [`send`](Transport::send) is reliable: messages to one peer arrive once and in order

@@ -97,7 +97,7 @@ pub fn world_tour() -> Result<String, Box<dyn std::error::Error>> {
     Ok(out)
 }
 
-fn define_classes(board: &Board) -> Result<(), Box<dyn std::error::Error>> {
+fn define_classes(board: &Board) -> Result<(), slate_model::Error> {
     board.define(
         ClassDef::new("Vehicle")
             .attr(AttrDecl::new("position", ValueType::Vector(2)).unit("m"))
@@ -128,7 +128,7 @@ fn define_classes(board: &Board) -> Result<(), Box<dyn std::error::Error>> {
     Ok(())
 }
 
-fn attach_functions(board: &Board) -> Result<(), Box<dyn std::error::Error>> {
+fn attach_functions(board: &Board) -> Result<(), slate_model::Error> {
     // Derived on read: the obstacle's absolute position from the observer's pose and the
     // obstacle's range and bearing; accuracy combines both.
     board.on_read("Obstacle", "position", |call| {

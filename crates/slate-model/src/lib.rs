@@ -25,7 +25,7 @@
 //! // An instance's own value wins over its class's.
 //! board.write("r2", "clearance", Update::new(0.5).accuracy(0.05).confidence(0.8))?;
 //! assert_eq!(board.read("r2", "clearance")?.confidence, 0.8);
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! # Ok::<(), slate_model::Error>(())
 //! ```
 #![warn(missing_docs)]
 
@@ -38,7 +38,9 @@ mod class_tree;
 mod clock;
 mod error;
 mod id;
+pub mod memo;
 mod packet;
+mod umbrella;
 mod value;
 
 pub use active::{ActiveFn, Call, CallToken, FnError, FnRef, Trigger};
@@ -61,6 +63,7 @@ pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
     WriteError,
 };
-pub use id::{AttrId, Key, NameMemo, ObjectId};
+pub use id::{AttrId, Key, ObjectId};
 pub use packet::{Packet, Update, ValueError, check_quality};
+pub use umbrella::Error;
 pub use value::{Value, ValueType};

@@ -122,3 +122,92 @@ pub enum ObserveError {
     #[error("{0}")]
     Start(#[from] StartError),
 }
+
+/// Any error a program running nodes meets: a config, a start, an observer, the ICI, a
+/// board operation or a `.slate` load, folded into one so that a function doing several
+/// of them returns one type. Each variant holds the precise error unchanged and displays
+/// as it does.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A config file cannot be used.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A node did not start.
+    #[error(transparent)]
+    Start(#[from] StartError),
+    /// An observer did not join.
+    #[error(transparent)]
+    Observe(#[from] ObserveError),
+    /// A board operation failed (every board error, through [`slate_model::Error`]).
+    #[error(transparent)]
+    Model(#[from] slate_model::Error),
+    /// A `.slate` source did not load.
+    #[error(transparent)]
+    Load(#[from] slate_plans::LoadError),
+    /// The ICI, a plan circuit, the transport or the codec refused (through
+    /// [`slate_ici::Error`]).
+    #[error(transparent)]
+    Ici(#[from] slate_ici::Error),
+}
+
+/// `From` for each error `$variant` folds, through its own umbrella, so `?` folds it
+/// directly.
+macro_rules! fold_errors {
+    ($variant:ident: $($error:ty),* $(,)?) => {
+        $(
+            impl From<$error> for Error {
+                fn from(error: $error) -> Self {
+                    Error::$variant(error.into())
+                }
+            }
+        )*
+    };
+}
+
+fold_errors!(Model:
+    slate_model::AddressError,
+    slate_model::BatchError,
+    slate_model::ChainError,
+    slate_model::ClockDriftError,
+    slate_model::ClockError,
+    slate_model::CreateError,
+    slate_model::DefineError,
+    slate_model::DeleteError,
+    slate_model::FnError,
+    slate_model::LookupError,
+    slate_model::ReadError,
+    slate_model::ValueError,
+    slate_model::WriteError,
+);
+
+fold_errors!(Ici:
+    slate_ici::StartError,
+    slate_ici::SendRawError,
+    slate_ici::SendPlanError,
+    slate_ici::SendError,
+    slate_wire::EncodeError,
+    slate_wire::DecodeError,
+);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use slate_model::Address;
+
+    #[test]
+    fn a_board_error_folds_into_model_and_displays_unchanged() {
+        let parse = || -> Result<Address, Error> { Ok(Address::new("not an address")?) };
+        let folded = parse().unwrap_err();
+        let Error::Model(slate_model::Error::Address(inner)) = &folded else {
+            panic!("an address error folds into Model(Address): {folded:?}");
+        };
+        assert_eq!(folded.to_string(), inner.to_string());
+    }
+
+    #[test]
+    fn a_transport_error_folds_into_ici() {
+        let send = || -> Result<(), Error> { Err(slate_ici::SendError::Closed)? };
+        assert!(matches!(send(), Err(Error::Ici(slate_ici::Error::Send(_)))));
+    }
+}

@@ -16,7 +16,7 @@
 //!
 //! const WORLD: &str = "class Vehicle { speed: real = 0.0; }";
 //! let net = SimNet::new(1);
-//! let start = |address: &str| -> Result<Node, Box<dyn std::error::Error>> {
+//! let start = |address: &str| -> Result<Node, slate_node::Error> {
 //!     let address = Address::new(address)?;
 //!     Ok(Node::builder(address.clone())
 //!         .transport(net.join(&address))
@@ -35,7 +35,7 @@
 //! assert_eq!(base.board().read("gsr", "speed")?.value.as_f64(), Some(2.5));
 //! nav.close();
 //! base.close();
-//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! # Ok::<(), slate_node::Error>(())
 //! ```
 //!
 //! [`observe`] joins a live Zenoh team as a short-lived observer (the CLI's `get`, `put`,
@@ -53,7 +53,7 @@ mod timers;
 mod view;
 
 pub use config::{NodeConfig, class_set};
-pub use error::{ConfigError, ObserveError, StartError};
+pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};

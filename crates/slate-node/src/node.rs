@@ -53,7 +53,7 @@ enum Source {
 ///     .start()?;
 /// node.board().write("gsr", "speed", 2.5)?;
 /// node.close();
-/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// # Ok::<(), slate_node::Error>(())
 /// ```
 pub struct NodeBuilder {
     address: Address,
@@ -268,7 +268,7 @@ struct Threads {
 /// let node = Node::start(&NodeConfig::read("module.toml".as_ref())?)?;
 /// println!("{} sees {:?}", node.address(), node.peers());
 /// node.close();
-/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// # Ok::<(), slate_node::Error>(())
 /// ```
 pub struct Node {
     board: Arc<Board>,

@@ -7,7 +7,8 @@ use std::hash::Hash;
 use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
-use slate_model::{Address, NameMemo, Timestamp};
+use slate_model::memo::NameMemo;
+use slate_model::{Address, Timestamp};
 
 use crate::names::Announce;
 use crate::schema::AttrSchema;

@@ -1,4 +1,5 @@
 //! The fuzzing entry point, shared by the property tests and a future libFuzzer target.
+//! Compiled only with the `testing` feature: it is test support, not part of the codec.
 
 use slate_model::{Address, AttrDecl, ClassDef, ValueType};
 

@@ -62,6 +62,7 @@ mod decoder;
 mod dictionary;
 mod encoder;
 mod error;
+#[cfg(feature = "testing")]
 mod fuzz;
 mod limits;
 mod message;
@@ -76,6 +77,7 @@ mod value;
 pub use decoder::Decoder;
 pub use encoder::Encoder;
 pub use error::{DecodeError, DecodeStats, EncodeError};
+#[cfg(feature = "testing")]
 pub use fuzz::{fuzz_classes, fuzz_decode, fuzz_source};
 pub use limits::{
     MAX_ELEMENTS, MAX_IDS, MAX_ITEMS, MAX_MESSAGE_BYTES, MAX_NAME_BYTES, MAX_SOURCES,

@@ -8,7 +8,8 @@ use std::time::Duration;
 
 use rustc_hash::FxHashMap;
 
-use slate_model::{Address, Board, Context, MergePolicy, NameMemo, Packet, Timestamp, Watch};
+use slate_model::memo::NameMemo;
+use slate_model::{Address, Board, Context, MergePolicy, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder, ObjectEntry};
 
 use super::classes::{Catalog, ClassSet, Lineage};

@@ -242,35 +242,3 @@ impl Transport for SimTransport {
         self.net.lock().close(self.index);
     }
 }
-
-/// The conformance suite's factory for the simulator: a fresh clean network per test;
-/// waits are bounded by 30 s of virtual time, settling is 1 s.
-pub struct SimFactory {
-    /// The network.
-    pub net: SimNet,
-}
-
-impl SimFactory {
-    /// A factory over a new network with this seed.
-    pub fn new(seed: u64) -> Self {
-        SimFactory {
-            net: SimNet::new(seed),
-        }
-    }
-}
-
-impl crate::conformance::TransportFactory for SimFactory {
-    type Transport = SimTransport;
-
-    fn join(&mut self, address: &Address) -> Arc<SimTransport> {
-        self.net.join(address)
-    }
-
-    fn run_until(&mut self, done: &mut dyn FnMut() -> bool) -> bool {
-        self.net.run_until(done, Duration::from_secs(30))
-    }
-
-    fn settle(&mut self) {
-        self.net.run_for(Duration::from_secs(1));
-    }
-}

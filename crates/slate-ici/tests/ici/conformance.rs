@@ -1,6 +1,6 @@
 //! The transport conformance suite, on the simulator.
 
-use slate_ici::SimFactory;
+use slate_ici::conformance::SimFactory;
 
 slate_ici::transport_conformance!(SimFactory::new(7));
 
