@@ -6,6 +6,8 @@
 mod errors;
 #[path = "live/multi.rs"]
 mod multi;
+#[path = "live/restart.rs"]
+mod restart;
 #[path = "live/team.rs"]
 mod team;
 #[path = "live/verbs.rs"]

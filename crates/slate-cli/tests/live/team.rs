@@ -229,6 +229,12 @@ impl NodeProc {
         read(&self.log)
     }
 
+    /// Kills it by pid with SIGKILL, as a crash would, and waits for it.
+    pub fn kill(mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
     /// Stops it by pid with SIGTERM and waits (SIGKILL after 10 s); returns its stdout.
     pub fn stop(mut self) -> (bool, String) {
         self.terminate()
@@ -335,6 +341,18 @@ impl Team {
         let node = NodeProc::start_exporting(&self.dir, address, extra, &connect, export);
         self.nodes.push(node);
         self.nodes.last().unwrap()
+    }
+
+    /// Kills the node at `address` (SIGKILL) and starts it again from the same files,
+    /// connected to the others.
+    pub fn kill_and_restart(&mut self, address: &str, extra: &str) -> &NodeProc {
+        let at = self
+            .nodes
+            .iter()
+            .position(|n| n.address == address)
+            .unwrap();
+        self.nodes.remove(at).kill();
+        self.add(address, extra)
     }
 
     /// The node at `address`.

@@ -199,12 +199,16 @@ impl Ici {
     }
 
     /// Does this board hold `peer`'s current state: a catch-up with it completed (since
-    /// it last restarted), and none is outstanding?
+    /// it last restarted), and none is outstanding? For an observer, also: `peer` has
+    /// answered its hello, so it knows to forget the observer as soon as it leaves (a
+    /// hello can be lost, and an observer may be done before it says hello again).
     pub fn is_caught_up_with(&self, peer: &Address) -> bool {
         let st = self.shared.state.lock();
-        st.peers
-            .get(peer)
-            .is_some_and(|p| p.caught_up && p.catch_up.is_none() && !p.failed)
+        let observer = st.config.observer;
+        st.peers.get(peer).is_some_and(|p| {
+            let heard = !observer || p.hello_unanswered.is_none();
+            p.caught_up && p.catch_up.is_none() && !p.failed && heard
+        })
     }
 
     /// The classes other modules define differently from this board, with the module:

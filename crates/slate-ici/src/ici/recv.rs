@@ -181,8 +181,11 @@ impl State {
             self.stats.rejects.stale += 1;
             return;
         }
+        // Replies say it too: an observer's own hello may be lost, and it may be gone
+        // before it says hello again.
+        self.peer(from).observer = hello.observer;
         if hello.reply {
-            // It heard this module's hello; what it says of itself came with its own.
+            // It heard this module's hello; what else it says of itself came with its own.
             self.peer(from).hello_unanswered = None;
             return;
         }
@@ -198,7 +201,6 @@ impl State {
         };
         p.incarnation = Some(hello.incarnation);
         p.interest = Some(hello.interest);
-        p.observer = hello.observer;
         if restarted {
             p.stream = Inbound::default();
             p.newest = None;

@@ -10,7 +10,7 @@ use super::filter::Due;
 use super::frame::{Frame, Hello};
 use super::ops::BoardOp;
 use super::ops::own_packet;
-use super::state::State;
+use super::state::{Peer, State};
 use crate::{LinkKind, MsgKind};
 
 impl State {
@@ -135,16 +135,19 @@ impl State {
         }
     }
 
-    /// Forgets the modules dead (and down) for longer than `forget_dead`, and observers
+    /// Forgets the modules dead (and gone) for longer than `forget_dead`, and observers
     /// as soon as they are: their `Module` object is deleted and their entry
     /// (incarnation, stream, names) dropped, so a board holds a bounded number of dead
-    /// modules however many came and went, and none that only looked.
+    /// modules however many came and went, and none that only looked. Gone: the
+    /// transport says it is down, or it has been silent past its link's timeout (a
+    /// message still in flight when it left shows it up again, and no down follows).
     fn forget_dead(&mut self) {
         let (now, after) = (self.now, self.config.forget_dead);
+        let silent = |p: &Peer| now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout;
         let gone: Vec<Address> = self
             .peers
             .iter()
-            .filter(|(_, p)| p.alive == Some(false) && !p.up)
+            .filter(|(_, p)| p.alive == Some(false) && (!p.up || silent(p)))
             .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
             .map(|(a, _)| a.clone())
             .collect();

@@ -475,3 +475,29 @@ fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
     assert_eq!(stats().answered, 2);
     assert!(answers.0.load(std::sync::atomic::Ordering::SeqCst) >= 2);
 }
+
+#[test]
+fn an_observer_whose_own_hello_was_lost_is_still_forgotten_once_gone() {
+    let mut team = Team::new(39);
+    team.add("t/r1/nav", open());
+    team.run(1.0);
+    let before = team.board("t/r1/nav").stats().objects;
+    let address = addr("t/r1/cli-1");
+    let board = Arc::new(
+        Board::builder()
+            .clock(team.net.clock())
+            .address(address.clone())
+            .build(),
+    );
+    let transport = Arc::new(LosesHellos {
+        inner: team.net.join(&address),
+        left: 1.into(),
+    });
+    let ici = Ici::new(board, transport, open().observer(true)).unwrap();
+    // It answers nav's hello (with a reply), and leaves before saying hello again.
+    team.run(0.1);
+    drop(ici);
+    team.net.kill(&address);
+    team.run(5.0);
+    assert_eq!(team.board("t/r1/nav").stats().objects, before);
+}

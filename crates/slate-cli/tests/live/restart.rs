@@ -1,0 +1,51 @@
+//! Modules that crash and come back, and observers that come and go: the team keeps what
+//! it knows, and the boards keep no trace of who only looked.
+
+use std::time::Duration;
+
+use crate::team::{NodeProc, Team, eventually};
+
+const NAV: &str = "object gsr : Vehicle context self { mode = \"patrol\"; }";
+
+#[test]
+fn a_module_killed_and_started_again_does_not_roll_the_team_back() {
+    let mut team = Team::new("restart");
+    team.add("t/r1/nav", NAV);
+    team.add("t/r2/loco", "");
+    team.wait_connected();
+    team.ok(&["put", "gsr.mode", "manual"]);
+    let loco = team.node("t/r2/loco");
+    assert!(loco.wait_value("gsr", "mode", "manual"), "{}", team.logs());
+    team.kill_and_restart("t/r1/nav", NAV);
+    team.wait_connected();
+    // The restarted module takes the team's value back instead of its file's.
+    let nav = team.node("t/r1/nav");
+    assert!(nav.wait_value("gsr", "mode", "manual"), "{}", team.logs());
+    let loco = team.node("t/r2/loco");
+    assert_eq!(loco.value("gsr", "mode").as_deref(), Some("manual"));
+    team.stop();
+}
+
+#[test]
+fn cli_calls_leave_no_module_objects_behind() {
+    let mut team = Team::new("observers");
+    team.add("t/r1/nav", NAV);
+    team.add("t/r2/loco", "");
+    team.wait_connected();
+    let modules = |node: &NodeProc| {
+        let snap = node.snapshot();
+        let objects = snap["objects"].as_array().cloned().unwrap_or_default();
+        objects.iter().filter(|o| o["class"] == "Module").count()
+    };
+    let before: Vec<usize> = team.nodes.iter().map(modules).collect();
+    for _ in 0..3 {
+        team.ok(&["get", "gsr"]);
+    }
+    // Each call was a module while it ran; once gone, no board keeps its object.
+    let gone = eventually(Duration::from_secs(10), || {
+        team.nodes.iter().map(modules).collect::<Vec<_>>() == before
+    });
+    let objects = team.nodes[0].snapshot()["objects"].to_string();
+    assert!(gone, "{before:?}: {objects}\n{}", team.logs());
+    team.stop();
+}
