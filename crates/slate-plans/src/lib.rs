@@ -74,14 +74,14 @@
 #![warn(missing_docs)]
 
 mod action;
+mod active;
 mod ast;
-mod compile;
+mod check;
 mod diagnostic;
 mod display;
 mod engine;
 mod env;
 mod eval;
-mod fns;
 mod index;
 mod lexer;
 mod load;

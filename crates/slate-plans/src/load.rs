@@ -9,15 +9,15 @@ use slate_model::{
 };
 
 use crate::action::Write;
+use crate::active::{Derived, Rule};
 use crate::ast::{
     ActionKind, ActiveFn as RuleDecl, AttributeDecl, ClassDecl, Expr, File, Item, ObjectDecl,
     PacketExpr, PlanDecl,
 };
-use crate::compile::{Checker, Locals, model_context};
+use crate::check::{Checker, Locals, model_context};
 use crate::diagnostic::{Diagnostic, Diagnostics, Span, Stage};
 use crate::engine::{CompiledPlan, Dep, Engine, Shared};
 use crate::eval::{Ctx, Env, Node, Obj};
-use crate::fns::{Derived, Rule};
 use crate::scope::Scope;
 
 /// What loading a file added to the board.
