@@ -101,5 +101,5 @@ pub use engine::{
 };
 pub use eval::{EvalError, MAX_OPS};
 pub use load::{LoadError, Loaded};
-pub use outbox::{Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
+pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 pub use parser::{MAX_NESTING, parse};
