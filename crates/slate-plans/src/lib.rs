@@ -90,9 +90,9 @@ mod parser;
 mod scope;
 
 pub use ast::{
-    Action, ActionKind, ActiveFn, Assignment, AttributeDecl, AttributeValue, BinaryOp, Bounds,
-    ClassDecl, Context, ContextSpec, Expr, ExprKind, File, Ident, Item, Literal, ObjectDecl, Order,
-    PacketExpr, Path, PlanDecl, PlanRef, Quantifier, QuantifierKind, ReportPolicy, StrLit, Type,
+    Action, ActionKind, Assignment, AttributeDecl, AttributeValue, BinaryOp, Bounds, ClassDecl,
+    ContextSpec, Expr, ExprKind, File, Ident, Item, Literal, ObjectDecl, Order, PacketExpr, Path,
+    PlanDecl, PlanRef, Quantifier, QuantifierKind, ReportPolicyDecl, RuleDecl, StrLit, Type,
     TypeRef, UnaryOp, Unit,
 };
 pub use diagnostic::{Diagnostic, Diagnostics, Severity, Span, Stage};

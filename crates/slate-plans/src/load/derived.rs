@@ -7,7 +7,7 @@ use std::sync::{Arc, Weak};
 use slate_model::{Board, Trigger};
 
 use crate::active::{Derived, Rule};
-use crate::ast::{ActiveFn as RuleDecl, AttributeDecl, ClassDecl, File};
+use crate::ast::{AttributeDecl, ClassDecl, File, RuleDecl};
 use crate::check::{Checker, Locals};
 use crate::engine::{Dep, Shared};
 use crate::eval::{Node, Obj};

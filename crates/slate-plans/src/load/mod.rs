@@ -307,7 +307,7 @@ fn compile_item(
 ) {
     match item {
         Item::Class(class) => {
-            for rule in &class.active_fns {
+            for rule in &class.rules {
                 out.fns.extend(rule_fn(
                     ck,
                     rule,
@@ -318,7 +318,7 @@ fn compile_item(
                 ));
             }
         }
-        Item::ActiveFn(rule) => out
+        Item::Rule(rule) => out
             .fns
             .extend(rule_fn(ck, rule, None, source, board, engine)),
         Item::Object(o) => {

@@ -7,7 +7,6 @@ use slate_model::{Board, NewObject, Update};
 
 use crate::action::Write;
 use crate::ast::ObjectDecl;
-use crate::check::model_context;
 use crate::diagnostic::{Diagnostics, Span};
 use crate::eval::{Ctx, Env, Node, Obj};
 
@@ -27,7 +26,7 @@ pub(super) fn create_objects(
     for (o, _) in &objects {
         let mut spec = NewObject::new(&o.class.name, &o.name.name);
         if let Some(c) = o.context {
-            spec = spec.context(model_context(c.context));
+            spec = spec.context(c.context);
         }
         if let Some(owner) = &o.owner {
             let addr = owner
