@@ -22,7 +22,7 @@ pub enum DemoError {
     },
     /// An ICI did not start.
     #[error("cannot start the ICI: {0}")]
-    Ici(#[from] slate_ici::StartError),
+    Ici(#[from] slate_ici::IciStartError),
     /// The dashboard could not be served.
     #[error("dashboard: {0}")]
     Dashboard(#[from] slate_dashboard::ServeError),

@@ -49,4 +49,4 @@ pub use slate_dashboard::Level;
 pub use snapshot::snapshot;
 pub use summary::{Summary, TargetOutcome};
 pub use team::{BASE, Team};
-pub use traffic::Traffic;
+pub use traffic::LinkRates;

@@ -18,7 +18,7 @@ use crate::net::{Network, NetworkKind, Pacer};
 use crate::observe::{Event, Observer, text};
 use crate::summary::{Summary, TargetOutcome};
 use crate::team::Team;
-use crate::traffic::{Traffic, by_kind};
+use crate::traffic::{LinkRates, by_kind};
 use crate::world::{Layout, World};
 
 /// World step, seconds.
@@ -53,7 +53,7 @@ pub struct Demo {
     /// What the observer saw.
     pub observer: Observer,
     /// What the links carried.
-    pub traffic: Traffic,
+    pub traffic: LinkRates,
     /// How long changes took to reach every board of the team view.
     pub propagation: Propagation,
     step: u64,
@@ -79,7 +79,7 @@ impl Demo {
         team.operator
             .plan(&layout, layout.targets.len(), return_after);
         Ok(Demo {
-            traffic: Traffic::new(config.team_link.budget_bps),
+            traffic: LinkRates::new(config.team_link.budget_bps),
             config,
             net,
             layout,

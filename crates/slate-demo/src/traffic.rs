@@ -17,9 +17,10 @@ use crate::team::Team;
 /// Bytes per (robot or `base`, link kind), cumulative.
 pub(crate) type Counts = BTreeMap<(String, LinkKind), u64>;
 
-/// Rates and peaks so far.
+/// Rates, peaks and radio backlogs of the demo's links so far (the transport's own
+/// per-link counts are the transport's `Traffic`).
 #[derive(Clone, Debug, Default)]
-pub struct Traffic {
+pub struct LinkRates {
     last: Counts,
     last_t: f64,
     budget_bps: f64,
@@ -39,12 +40,12 @@ pub struct Traffic {
     pub total: Counts,
 }
 
-impl Traffic {
+impl LinkRates {
     /// Accounting for radios of `budget_bps` bit/s.
-    pub fn new(budget_bps: u64) -> Traffic {
-        Traffic {
+    pub fn new(budget_bps: u64) -> LinkRates {
+        LinkRates {
             budget_bps: budget_bps.max(1) as f64,
-            ..Traffic::default()
+            ..LinkRates::default()
         }
     }
 

@@ -144,22 +144,13 @@ pub(crate) fn one_plan(file_name: &str, text: &str) -> Result<String, String> {
             "expected one `plan NAME { ... }`, found nothing",
         )),
         [Item::Plan(_), second, ..] => Err(shape(
-            item_span(second),
+            second.span(),
             "expected one plan and nothing else after it",
         )),
         [first, ..] => Err(shape(
-            item_span(first),
+            first.span(),
             "expected `plan NAME { ... }`: a circuit carries one plan, not classes, objects or rules",
         )),
-    }
-}
-
-fn item_span(item: &Item) -> Span {
-    match item {
-        Item::Class(c) => c.span,
-        Item::Object(o) => o.span,
-        Item::ActiveFn(f) => f.span,
-        Item::Plan(p) => p.span,
     }
 }
 

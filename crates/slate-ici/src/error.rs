@@ -8,7 +8,7 @@ use slate_model::{
 use slate_plans::LoadError;
 use slate_wire::{DecodeError, EncodeError};
 
-use crate::{SendError, SendPlanError, SendRawError, StartError};
+use crate::{IciStartError, SendError, SendPlanError, SendRawError};
 
 /// Any error of this crate, of the world model beneath it, of a `.slate` load or of the
 /// codec. Each variant holds the precise error unchanged and displays as it does.
@@ -29,7 +29,7 @@ pub enum Error {
     Decode(#[from] DecodeError),
     /// The ICI did not start ([`Ici::new`](crate::Ici::new)).
     #[error(transparent)]
-    Start(#[from] StartError),
+    Start(#[from] IciStartError),
     /// A raw message could not be sent ([`Ici::send_raw`](crate::Ici::send_raw)).
     #[error(transparent)]
     SendRaw(#[from] SendRawError),

@@ -61,8 +61,8 @@ mod transport;
 pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
 pub use error::Error;
 pub use ici::{
-    CatchUpStats, ClassSet, Ici, IciConfig, IciStats, Liveliness, LivelinessStats, MODULE_CLASS,
-    MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, StartError, module_class,
+    CatchUpStats, ClassSet, Ici, IciConfig, IciStartError, IciStats, Liveliness, LivelinessStats,
+    MODULE_CLASS, MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, module_class,
     module_object_name,
 };
 pub use sim::{LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport};

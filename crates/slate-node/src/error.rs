@@ -78,7 +78,7 @@ pub enum StartError {
     Open(#[from] slate_zenoh::OpenError),
     /// The ICI did not start.
     #[error("cannot start the ICI: {0}")]
-    Ici(#[from] slate_ici::StartError),
+    Ici(#[from] slate_ici::IciStartError),
     /// A `.slate` file cannot be read.
     #[error("cannot read {}: {error}", path.display())]
     ReadSource {
@@ -182,7 +182,7 @@ fold_errors!(Model:
 );
 
 fold_errors!(Ici:
-    slate_ici::StartError,
+    slate_ici::IciStartError,
     slate_ici::SendRawError,
     slate_ici::SendPlanError,
     slate_ici::SendError,

@@ -3,6 +3,8 @@
 //!
 //! `self` appears as an [`Ident`] named `self`: it is a keyword, so no declared name collides.
 
+use slate_model::Context;
+
 use crate::diagnostic::Span;
 
 /// A parsed `.slate` source: its items in source order.
@@ -29,10 +31,10 @@ impl File {
         })
     }
 
-    /// The top-level active functions, in source order.
-    pub fn active_fns(&self) -> impl Iterator<Item = &ActiveFn> {
+    /// The top-level rules (`on write` active functions), in source order.
+    pub fn rules(&self) -> impl Iterator<Item = &RuleDecl> {
         self.items.iter().filter_map(|item| match item {
-            Item::ActiveFn(active_fn) => Some(active_fn),
+            Item::Rule(rule) => Some(rule),
             _ => None,
         })
     }
@@ -58,7 +60,7 @@ pub enum Item {
     /// `object NAME : CLASS ... ;` or with a body.
     Object(ObjectDecl),
     /// `on write OWNER.ATTRIBUTE { ... }`
-    ActiveFn(ActiveFn),
+    Rule(RuleDecl),
     /// `plan NAME { ... }`
     Plan(PlanDecl),
 }
@@ -69,7 +71,7 @@ impl Item {
         match self {
             Item::Class(class) => class.span,
             Item::Object(object) => object.span,
-            Item::ActiveFn(active_fn) => active_fn.span,
+            Item::Rule(rule) => rule.span,
             Item::Plan(plan) => plan.span,
         }
     }
@@ -103,7 +105,7 @@ pub struct ClassDecl {
     /// Attribute declarations, in source order.
     pub attributes: Vec<AttributeDecl>,
     /// `on write ATTRIBUTE { ... }` rules declared in the class, in source order.
-    pub active_fns: Vec<ActiveFn>,
+    pub rules: Vec<RuleDecl>,
     /// The whole declaration.
     pub span: Span,
 }
@@ -128,7 +130,7 @@ pub struct AttributeDecl {
     /// `merge POLICY`: the name is validated by the checker.
     pub merge: Option<Ident>,
     /// `report ...`: when changes are sent to other boards.
-    pub report: Option<ReportPolicy>,
+    pub report: Option<ReportPolicyDecl>,
     /// The whole declaration, name to `;`.
     pub span: Span,
 }
@@ -188,9 +190,10 @@ pub struct PacketExpr {
     pub confidence: Option<Expr>,
 }
 
-/// `report` options of an attribute: when a change is worth sending.
+/// `report` options of an attribute as written: when a change is worth sending (the checker
+/// turns them into the model's `ReportPolicy`).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct ReportPolicy {
+pub struct ReportPolicyDecl {
     /// `every DURATION`: minimum interval between two reports.
     pub every: Option<Expr>,
     /// `heartbeat DURATION`: maximum interval between two reports.
@@ -220,17 +223,6 @@ pub struct ObjectDecl {
     pub span: Span,
 }
 
-/// The paper's three contexts of knowledge.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Context {
-    /// `self`: the robot itself (the paper's SELF).
-    Self_,
-    /// `surroundings`: the environment (SURROUNDINGS).
-    Surroundings,
-    /// `system`: the other robots, their perceptions and intentions (SYSTEM).
-    System,
-}
-
 /// A context as written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct ContextSpec {
@@ -251,12 +243,13 @@ pub struct AttributeValue {
     pub span: Span,
 }
 
-/// An active function: `on write ATTRIBUTE { actions }`, run after the attribute is written.
+/// A rule, the language's declarative active function: `on write ATTRIBUTE { actions }`, run
+/// after the attribute is written.
 ///
 /// In a class body `owner` is `None` (the enclosing class; `self` is the written instance); at
 /// top level it names a class or an object (`on write Vehicle.speed`, `on write gsr.speed`).
 #[derive(Debug, Clone, PartialEq)]
-pub struct ActiveFn {
+pub struct RuleDecl {
     /// The class or object whose attribute is watched; `None` inside a class.
     pub owner: Option<Ident>,
     /// The watched attribute.

@@ -6,7 +6,7 @@
 use std::fmt::{self, Display, Formatter};
 
 use crate::ast::{BinaryOp, UnaryOp};
-use crate::ast::{Context, Expr, ExprKind, Literal, Path, Quantifier, QuantifierKind, Type};
+use crate::ast::{Expr, ExprKind, Literal, Path, Quantifier, QuantifierKind, Type};
 
 impl Display for Expr {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
@@ -118,16 +118,6 @@ impl Display for Type {
             Type::Ref => f.write_str("ref"),
             Type::Vec(length) => write!(f, "vec<{length}>"),
         }
-    }
-}
-
-impl Display for Context {
-    fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Context::Self_ => "self",
-            Context::Surroundings => "surroundings",
-            Context::System => "system",
-        })
     }
 }
 

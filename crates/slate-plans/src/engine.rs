@@ -25,7 +25,7 @@ use crate::action::{Act, Effect, effects};
 use crate::env::SnapEnv;
 use crate::eval::{Ctx, Node, truthy};
 use crate::index::DepIndex;
-use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
+use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 
 /// Class of the objects that show plans on the board (built in on every board).
 pub use slate_model::PLAN_CLASS;
@@ -734,7 +734,7 @@ fn apply(
         match e {
             Effect::Report { targets, to } => {
                 let items = report_items(board, &targets);
-                outbox.send(Outgoing::Report(Report {
+                outbox.send(Outgoing::Report(ReportRequest {
                     origin: plan.to_owned(),
                     to,
                     items,

@@ -1,9 +1,45 @@
-//! The slate language front end: lexer, parser and diagnostics for `.slate` files, which declare
-//! classes, objects, active functions and plans (the production rules of the 1986 NOSC paper).
+//! The slate language and what runs it: the lexer and parser, the checker, the evaluator, the
+//! plan engine and the loader. A `.slate` file declares classes, objects, active functions and
+//! plans (the production rules of the 1986 NOSC paper); [`Engine::load`] checks a whole file
+//! against a [`Board`](slate_model::Board), applies it (or nothing of it, with every error
+//! found) and installs its plans, which the [`Engine`] then runs as the board changes.
 //!
-//! [`parse`] turns a source into a [`File`] syntax tree, or into [`Diagnostics`] listing every
-//! error found, each with a [`Span`] that [`Diagnostic::render`] shows under the source line.
-//! Names and types are not resolved here: that is the checker's job.
+//! ```
+//! use std::sync::Arc;
+//!
+//! use slate_model::{Board, Value};
+//! use slate_plans::{Engine, PlanState};
+//!
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let board = Arc::new(Board::new());
+//! let engine = Engine::new(&board);
+//! let loaded = engine.load(
+//!     "gsr.slate",
+//!     r#"
+//!     class Vehicle { speed: real [m/s] in 0 .. 50 = 0.0 accuracy 0.1; }
+//!     object gsr : Vehicle;
+//!     plan slow_down {
+//!         trigger: gsr.speed > 10.0;
+//!         action { set gsr.speed = 10.0 confidence 1.0; }
+//!     }
+//!     "#,
+//! )?;
+//! assert_eq!(loaded.plans, ["slow_down"]);
+//!
+//! board.write("gsr", "speed", 12.0)?; // the trigger rises: the plan fires
+//! assert_eq!(board.read("gsr", "speed")?.value, Value::Real(10.0));
+//! let status = engine.status("slow_down").expect("installed");
+//! assert_eq!((status.fired, status.state), (1, PlanState::Active));
+//!
+//! let error = engine.load("bad.slate", "object x : Nowhere;").unwrap_err();
+//! assert!(error.rendered.starts_with("bad.slate:1:12: error:"), "{error}");
+//! # Ok(())
+//! # }
+//! ```
+//!
+//! Underneath, [`parse`] turns a source into a [`File`] syntax tree, or into [`Diagnostics`]
+//! listing every error found, each with a [`Span`] that [`Diagnostic::render`] shows under the
+//! source line. Names and types are resolved by the checker, when a file is loaded.
 //!
 //! ```
 //! use slate_plans::{parse, ActionKind, Item};
@@ -33,18 +69,19 @@
 //! # }
 //! ```
 //!
-//! The language is described in `docs/language.md` at the repository root.
+//! The language is described in `docs/language.md` at the repository root; how the crate is laid
+//! out is in `src/README.md`.
 #![warn(missing_docs)]
 
 mod action;
+mod active;
 mod ast;
-mod compile;
+mod check;
 mod diagnostic;
 mod display;
 mod engine;
 mod env;
 mod eval;
-mod fns;
 mod index;
 mod lexer;
 mod load;
@@ -53,9 +90,9 @@ mod parser;
 mod scope;
 
 pub use ast::{
-    Action, ActionKind, ActiveFn, Assignment, AttributeDecl, AttributeValue, BinaryOp, Bounds,
-    ClassDecl, Context, ContextSpec, Expr, ExprKind, File, Ident, Item, Literal, ObjectDecl, Order,
-    PacketExpr, Path, PlanDecl, PlanRef, Quantifier, QuantifierKind, ReportPolicy, StrLit, Type,
+    Action, ActionKind, Assignment, AttributeDecl, AttributeValue, BinaryOp, Bounds, ClassDecl,
+    ContextSpec, Expr, ExprKind, File, Ident, Item, Literal, ObjectDecl, Order, PacketExpr, Path,
+    PlanDecl, PlanRef, Quantifier, QuantifierKind, ReportPolicyDecl, RuleDecl, StrLit, Type,
     TypeRef, UnaryOp, Unit,
 };
 pub use diagnostic::{Diagnostic, Diagnostics, Severity, Span, Stage};
@@ -64,5 +101,5 @@ pub use engine::{
 };
 pub use eval::{EvalError, MAX_OPS};
 pub use load::{LoadError, Loaded};
-pub use outbox::{Outgoing, PlanEvent, PlanMessage, Report, ReportItem};
+pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 pub use parser::{MAX_NESTING, parse};

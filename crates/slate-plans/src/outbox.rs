@@ -18,9 +18,10 @@ pub struct ReportItem {
     pub packet: Packet,
 }
 
-/// A report produced by a `report` action.
+/// What a `report` action asks the ICI to send: the assertions to put in a report (the
+/// paper's `Report`, which the ICI builds from this, is `slate_wire::Report`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Report {
+pub struct ReportRequest {
     /// The plan or rule that made it.
     pub origin: String,
     /// Destination; `None` means every interested board.
@@ -45,8 +46,8 @@ pub struct PlanMessage {
 /// Something for the ICI to send.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outgoing {
-    /// A report.
-    Report(Report),
+    /// A report to make.
+    Report(ReportRequest),
     /// A plan.
     Plan(PlanMessage),
 }

@@ -12,11 +12,10 @@ mod expr;
 mod object;
 mod plan;
 
-use crate::ast::{
-    AttributeValue, Context, ContextSpec, File, Ident, Item, PacketExpr, Path, StrLit,
-};
+use crate::ast::{AttributeValue, ContextSpec, File, Ident, Item, PacketExpr, Path, StrLit};
 use crate::diagnostic::{Diagnostic, Diagnostics, Span, Stage};
 use crate::lexer::{Keyword, Lexer, Token, TokenKind};
+use slate_model::Context;
 
 /// How deeply constructs may nest: in an expression, parentheses, brackets, call arguments,
 /// unary operators and quantifiers each add a level; separately, each plan sent inside a plan
@@ -126,7 +125,7 @@ impl<'s> Parser<'s> {
             TokenKind::Keyword(Keyword::Class) => self.class_decl().map(Item::Class),
             TokenKind::Keyword(Keyword::Object) => self.object_decl().map(Item::Object),
             TokenKind::Keyword(Keyword::Plan) => self.plan_decl().map(Item::Plan),
-            TokenKind::Keyword(Keyword::On) => self.top_active_fn().map(Item::ActiveFn),
+            TokenKind::Keyword(Keyword::On) => self.top_rule().map(Item::Rule),
             _ => Err(self.expected("`class`, `object`, `plan` or `on`")),
         }
     }

@@ -66,7 +66,7 @@ pub(crate) enum PlanEvent {
 /// Why an ICI could not start.
 #[non_exhaustive]
 #[derive(Debug, thiserror::Error)]
-pub enum StartError {
+pub enum IciStartError {
     /// The board and the transport must be the same module.
     #[error("the board is {board} but the transport is {transport}")]
     AddressMismatch {
@@ -135,9 +135,9 @@ impl Ici {
         board: Arc<Board>,
         transport: Arc<dyn Transport>,
         config: IciConfig,
-    ) -> Result<Ici, StartError> {
+    ) -> Result<Ici, IciStartError> {
         if board.address() != transport.address() {
-            return Err(StartError::AddressMismatch {
+            return Err(IciStartError::AddressMismatch {
                 board: board.address().clone(),
                 transport: transport.address().clone(),
             });

@@ -1,8 +1,8 @@
 //! Class declarations: attributes with their options, and `on write` rules.
 
 use super::{BlockKind, PResult, Parser};
-use crate::ast::{ActiveFn, AttributeDecl, Bounds, ClassDecl, Expr, Ident, PacketExpr};
-use crate::ast::{ReportPolicy, Type, TypeRef, Unit};
+use crate::ast::{AttributeDecl, Bounds, ClassDecl, Expr, Ident, PacketExpr, RuleDecl};
+use crate::ast::{ReportPolicyDecl, Type, TypeRef, Unit};
 use crate::diagnostic::Span;
 use crate::lexer::{Keyword, TokenKind};
 
@@ -14,7 +14,7 @@ enum AttrOption {
     Default(PacketExpr),
     Derived(PacketExpr),
     Merge(Ident),
-    Report(ReportPolicy),
+    Report(ReportPolicyDecl),
 }
 
 const TYPES: &str = "a type (`int`, `real`, `bool`, `string`, `ref` or `vec<N>`)";
@@ -29,11 +29,11 @@ impl Parser<'_> {
         } else {
             None
         };
-        let (mut attributes, mut active_fns) = (Vec::new(), Vec::new());
+        let (mut attributes, mut rules) = (Vec::new(), Vec::new());
         let what = format!("class `{}`", name.name);
         let end = self.block(&what, BlockKind::Class, |p| {
             if p.at_kw(Keyword::On) && !p.names_a_member() {
-                active_fns.push(p.class_active_fn()?);
+                rules.push(p.class_rule()?);
             } else {
                 attributes.push(p.attribute()?);
             }
@@ -43,13 +43,13 @@ impl Parser<'_> {
             name,
             parent,
             attributes,
-            active_fns,
+            rules,
             span: start.to(end),
         })
     }
 
     /// `on write ATTRIBUTE { actions }` inside a class.
-    fn class_active_fn(&mut self) -> PResult<ActiveFn> {
+    fn class_rule(&mut self) -> PResult<RuleDecl> {
         let start = self.on_write()?;
         let attribute = self.member_name("an attribute name after `on write`")?;
         if self.at(&TokenKind::Dot) {
@@ -61,7 +61,7 @@ impl Parser<'_> {
         }
         let what = format!("`on write {}`", attribute.name);
         let (actions, end) = self.action_block(&what)?;
-        Ok(ActiveFn {
+        Ok(RuleDecl {
             owner: None,
             attribute,
             actions,
@@ -250,11 +250,11 @@ impl Parser<'_> {
 
     /// `report` then one or more of `every EXPR`, `heartbeat EXPR`, `deadband EXPR`,
     /// `on_accuracy`, each once.
-    fn report_policy(&mut self, attribute: &str) -> PResult<ReportPolicy> {
+    fn report_policy(&mut self, attribute: &str) -> PResult<ReportPolicyDecl> {
         let start = self.bump().span;
-        let mut policy = ReportPolicy {
+        let mut policy = ReportPolicyDecl {
             span: start,
-            ..ReportPolicy::default()
+            ..ReportPolicyDecl::default()
         };
         let place = format!("in the `report` options of attribute `{attribute}`");
         while self.report_option(&mut policy, &place)? {}
@@ -266,7 +266,7 @@ impl Parser<'_> {
     }
 
     /// One report option; false if the current token is none.
-    fn report_option(&mut self, policy: &mut ReportPolicy, place: &str) -> PResult<bool> {
+    fn report_option(&mut self, policy: &mut ReportPolicyDecl, place: &str) -> PResult<bool> {
         let span = self.tok.span;
         let (slot, name) = match &self.tok.kind {
             TokenKind::Keyword(Keyword::Every) => (&mut policy.every, "every"),

@@ -1,7 +1,7 @@
 //! Objects and top-level active functions.
 
 use super::{PResult, Parser};
-use crate::ast::{ActiveFn, ObjectDecl};
+use crate::ast::{ObjectDecl, RuleDecl};
 use crate::diagnostic::Span;
 use crate::lexer::{Keyword, TokenKind};
 
@@ -63,7 +63,7 @@ impl Parser<'_> {
     }
 
     /// `on write OWNER.ATTRIBUTE { actions }` at top level.
-    pub(super) fn top_active_fn(&mut self) -> PResult<ActiveFn> {
+    pub(super) fn top_rule(&mut self) -> PResult<RuleDecl> {
         let start = self.on_write()?;
         let owner = self.ident("a class or object name after `on write`")?;
         if !self.at(&TokenKind::Dot) {
@@ -78,7 +78,7 @@ impl Parser<'_> {
         let attribute = self.member_name("an attribute name")?;
         let what = format!("`on write {}.{}`", owner.name, attribute.name);
         let (actions, end) = self.action_block(&what)?;
-        Ok(ActiveFn {
+        Ok(RuleDecl {
             owner: Some(owner),
             attribute,
             actions,

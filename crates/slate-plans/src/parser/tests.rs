@@ -347,7 +347,7 @@ fn keywords_that_start_items_can_still_name_attributes() {
         .map(|a| a.name.name.as_str())
         .collect();
     assert_eq!(names, ["plan", "on", "class"]);
-    assert_eq!(class.active_fns[0].attribute.name, "plan");
+    assert_eq!(class.rules[0].attribute.name, "plan");
     let Some(Item::Object(object)) = file.items.get(1) else {
         panic!("{file:?}")
     };

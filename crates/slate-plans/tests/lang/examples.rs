@@ -1,6 +1,7 @@
 //! The example files at the repository root parse, and say what they are meant to say.
 
-use slate_plans::{ActionKind, Context, ExprKind, File, PlanRef, QuantifierKind, parse};
+use slate_model::Context;
+use slate_plans::{ActionKind, ExprKind, File, PlanRef, QuantifierKind, parse};
 
 const GSR: &str = include_str!("../../../../examples/gsr.slate");
 
@@ -69,7 +70,7 @@ fn gsr_objects_are_the_robot_and_its_sensors_in_self_context() {
         ]
     );
     let rules: Vec<_> = file
-        .active_fns()
+        .rules()
         .map(|f| {
             format!(
                 "{}.{}",

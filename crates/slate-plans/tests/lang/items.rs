@@ -1,8 +1,9 @@
 //! One test per construct: classes, attributes, objects, active functions, plans and actions.
 
+use slate_model::Context;
 use slate_plans::{
-    Action, ActionKind, ActiveFn, AttributeDecl, ClassDecl, Context, Item, ObjectDecl, PlanDecl,
-    PlanRef, Span, Type,
+    Action, ActionKind, AttributeDecl, ClassDecl, Item, ObjectDecl, PlanDecl, PlanRef, RuleDecl,
+    Span, Type,
 };
 
 use super::{messages, only_item, parse_ok, text};
@@ -67,7 +68,7 @@ fn class_declares_attributes_with_types_and_parent() {
             ("abs_position", Type::Vec(2)),
         ]
     );
-    assert!(vehicle.active_fns.is_empty());
+    assert!(vehicle.rules.is_empty());
     assert_eq!(vehicle.span, Span::new(0, VEHICLE.len(), 1, 1));
 }
 
@@ -168,7 +169,7 @@ fn class_without_parent_and_with_a_write_rule() {
     let source = "class Sensor { status: string; on write status { report self.status; } }";
     let sensor = class(source);
     assert_eq!(sensor.parent, None);
-    let rule = &sensor.active_fns[0];
+    let rule = &sensor.rules[0];
     assert_eq!(
         (rule.owner.as_ref(), rule.attribute.name.as_str()),
         (None, "status")
@@ -233,9 +234,9 @@ fn object_without_body_or_options() {
     assert_eq!(swapped.context.map(|c| c.context), Some(Context::System));
 }
 
-fn top_rule(source: &str) -> ActiveFn {
+fn top_rule(source: &str) -> RuleDecl {
     match only_item(source) {
-        Item::ActiveFn(rule) => rule,
+        Item::Rule(rule) => rule,
         other => panic!("not an active function: {other:?}"),
     }
 }
@@ -503,7 +504,7 @@ fn items_keep_source_order() {
             Item::Plan(_) => "plan",
             Item::Class(_) => "class",
             Item::Object(_) => "object",
-            Item::ActiveFn(_) => "on",
+            Item::Rule(_) => "on",
         })
         .collect();
     assert_eq!(kinds, ["plan", "class", "object", "on"]);
@@ -516,5 +517,5 @@ fn items_keep_source_order() {
         ),
         (1, 1, 1)
     );
-    assert_eq!(file.active_fns().count(), 1);
+    assert_eq!(file.rules().count(), 1);
 }

@@ -10,7 +10,7 @@ use crate::action::{Act, Effect, effects};
 use crate::engine::{Shared, report_items};
 use crate::env::CallEnv;
 use crate::eval::{Ctx, Node};
-use crate::outbox::{Outgoing, PlanMessage, Report};
+use crate::outbox::{Outgoing, PlanMessage, ReportRequest};
 
 /// `attr: T derived = value [accuracy a] [confidence c]`.
 pub(crate) struct Derived {
@@ -115,7 +115,7 @@ impl Rule {
             match e {
                 Effect::Report { targets, to } => {
                     let items = report_items(&board, targets);
-                    engine.outbox.send(Outgoing::Report(Report {
+                    engine.outbox.send(Outgoing::Report(ReportRequest {
                         origin: self.name.clone(),
                         to: to.clone(),
                         items,

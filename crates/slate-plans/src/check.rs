@@ -710,7 +710,7 @@ impl<'s> Checker<'s> {
         &mut self,
         class: &Ident,
         name: &Ident,
-        context: Option<crate::ast::Context>,
+        context: Option<slate_model::Context>,
         values: &[crate::ast::AttributeValue],
         l: &mut Locals,
     ) -> Option<Act> {
@@ -758,7 +758,7 @@ impl<'s> Checker<'s> {
         Some(Act::Create {
             class: class.name.as_str().into(),
             name: name.name.as_str().into(),
-            context: context.map(model_context),
+            context,
             writes,
         })
     }
@@ -771,15 +771,6 @@ impl<'s> Checker<'s> {
                 None
             }
         }
-    }
-}
-
-/// Maps the language's context to the model's.
-pub(crate) fn model_context(c: crate::ast::Context) -> slate_model::Context {
-    match c {
-        crate::ast::Context::Self_ => slate_model::Context::Self_,
-        crate::ast::Context::Surroundings => slate_model::Context::Surroundings,
-        crate::ast::Context::System => slate_model::Context::System,
     }
 }
 

@@ -1,0 +1,168 @@
+//! Plans: a plan declaration compiled for the engine, and what its conditions read (derived
+//! attributes expanded into what they read).
+
+use std::collections::HashSet;
+
+use crate::ast::PlanDecl;
+use crate::check::{Checker, Locals};
+use crate::engine::{CompiledPlan, Dep};
+use crate::eval::{Node, Obj};
+use crate::scope::Scope;
+
+use super::DerivedDeps;
+use super::classes::constant;
+use super::derived::SELF;
+
+pub(super) fn compile_plan(
+    ck: &mut Checker<'_>,
+    p: &PlanDecl,
+    source: &str,
+    derived: &DerivedDeps,
+) -> Option<CompiledPlan> {
+    let before = ck.diags.len();
+    let mut l = Locals::default();
+    let initiation = p.initiation.as_ref().map(|e| ck.condition(e, &mut l));
+    let termination = p.termination.as_ref().map(|e| ck.condition(e, &mut l));
+    l.bound.clear();
+    let trigger = p.trigger.as_ref().map(|e| ck.condition(e, &mut l));
+    let every = p
+        .every
+        .as_ref()
+        .and_then(|e| constant(ck, e))
+        .and_then(|v| v.as_f64());
+    if every.is_some_and(|s| s <= 0.0) {
+        ck.error(
+            p.every.as_ref().map_or(p.span, |e| e.span),
+            "`every` needs a positive duration, like every 500ms",
+        );
+    }
+    let actions = ck.actions(&p.action, &mut l, source, true);
+    if ck.diags.len() > before {
+        return None;
+    }
+    let mut deps = Vec::new();
+    for n in [&initiation, &trigger, &termination].into_iter().flatten() {
+        plan_deps(n, &l, ck.scope, derived, &mut deps);
+    }
+    deps.sort_by(|a, b| format!("{a:?}").cmp(&format!("{b:?}")));
+    deps.dedup();
+    let text = source
+        .get(p.span.start..p.span.end)
+        .unwrap_or_default()
+        .to_owned();
+    Some(CompiledPlan {
+        name: p.name.name.as_str().into(),
+        initiation,
+        trigger,
+        termination,
+        every,
+        actions,
+        slots: l.slots,
+        changed_sites: l.changed_sites,
+        deps,
+        text,
+    })
+}
+
+/// What a plan's conditions read, with derived attributes expanded into what they read.
+fn plan_deps(node: &Node, l: &Locals, scope: &Scope, derived: &DerivedDeps, out: &mut Vec<Dep>) {
+    match node {
+        Node::Attr(a) => {
+            let (obj, attr) = (&a.0, &a.1);
+            let (dep, class) = match obj {
+                Obj::Named(o) => (
+                    Dep::Object(o.clone(), attr.clone()),
+                    scope
+                        .objects
+                        .get(&**o)
+                        .cloned()
+                        .or_else(|| Some(o.to_string())),
+                ),
+                Obj::Var(slot) => {
+                    let class = l
+                        .slot_classes
+                        .get(*slot)
+                        .cloned()
+                        .unwrap_or_else(|| "".into());
+                    (
+                        Dep::Class(class.clone(), attr.clone()),
+                        Some(class.to_string()),
+                    )
+                }
+                Obj::Deref(inner) => {
+                    plan_deps(inner, l, scope, derived, out);
+                    (Dep::Attr(attr.clone()), None)
+                }
+                Obj::This => return,
+            };
+            expand_derived(
+                &dep,
+                class.as_deref(),
+                attr,
+                scope,
+                derived,
+                out,
+                &mut HashSet::new(),
+            );
+            out.push(dep);
+        }
+        Node::Quant(q) => {
+            out.push(Dep::Members(q.class.clone()));
+            node.children()
+                .iter()
+                .for_each(|c| plan_deps(c, l, scope, derived, out));
+        }
+        n => n
+            .children()
+            .iter()
+            .for_each(|c| plan_deps(c, l, scope, derived, out)),
+    }
+}
+
+/// If `attr` is derived, adds what its expression reads, seen from `dep`'s object.
+fn expand_derived(
+    dep: &Dep,
+    class: Option<&str>,
+    attr: &str,
+    scope: &Scope,
+    derived: &DerivedDeps,
+    out: &mut Vec<Dep>,
+    seen: &mut HashSet<Dep>,
+) {
+    let declaring: Vec<String> = match class {
+        Some(c) => scope
+            .attr(c, attr)
+            .filter(|a| a.derived)
+            .map(|a| vec![a.class.clone()])
+            .unwrap_or_default(),
+        None => derived
+            .keys()
+            .filter(|(_, a)| a == attr)
+            .map(|(c, _)| c.clone())
+            .collect(),
+    };
+    for d in declaring {
+        for t in derived.get(&(d, attr.to_owned())).into_iter().flatten() {
+            let concrete = match (t, dep) {
+                (Dep::Object(o, x), Dep::Object(obj, _)) if &**o == SELF => {
+                    Dep::Object(obj.clone(), x.clone())
+                }
+                (Dep::Object(o, x), Dep::Class(c, _)) if &**o == SELF => {
+                    Dep::Class(c.clone(), x.clone())
+                }
+                (Dep::Object(o, x), Dep::Attr(_)) if &**o == SELF => Dep::Attr(x.clone()),
+                (other, _) => other.clone(),
+            };
+            // Each dependency is expanded once: derived attributes that read one another
+            // (even the same name through references) stay linear, not exponential.
+            if !seen.insert(concrete.clone()) {
+                continue;
+            }
+            if let Dep::Object(_, x) | Dep::Class(_, x) | Dep::Attr(x) = &concrete {
+                let x = x.clone();
+                expand_derived(&concrete, class, &x, scope, derived, out, seen);
+            }
+            out.push(concrete);
+        }
+    }
+}
