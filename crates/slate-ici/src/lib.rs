@@ -15,10 +15,11 @@
 //! accepted or rejected, initiated, triggered, terminated, cancelled, destination lost),
 //! and plans' `report` actions go out through [`Ici::report`].
 //!
-//! [`SimNet`] is a deterministic network simulator (virtual time, seeded loss,
-//! duplication, reordering, delay, partitions, bandwidth caps, killed nodes) on which
-//! whole teams run reproducibly. The test suite every transport passes is the
-//! `conformance` module, compiled with the `testing` feature only.
+//! The transport trait, its link and message kinds, and [`SimNet`], a deterministic
+//! network simulator (virtual time, seeded loss, duplication, reordering, delay,
+//! partitions, bandwidth caps, killed nodes) on which whole teams run reproducibly, live
+//! in `slate-transport` and are re-exported here. The test suite every transport passes
+//! is `slate_transport::conformance`, compiled with that crate's `testing` feature only.
 //!
 //! ```
 //! use std::sync::Arc;
@@ -51,12 +52,8 @@
 #![warn(missing_docs)]
 
 mod circuits;
-#[cfg(feature = "testing")]
-pub mod conformance;
 mod error;
 mod ici;
-mod sim;
-mod transport;
 
 pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
 pub use error::Error;
@@ -65,5 +62,7 @@ pub use ici::{
     MODULE_CLASS, MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError, module_class,
     module_object_name,
 };
-pub use sim::{LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport};
-pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};
+pub use slate_transport::{
+    Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng, SendError,
+    SimConfig, SimNet, SimStats, SimTransport, Traffic, Transport,
+};

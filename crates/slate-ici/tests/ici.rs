@@ -6,8 +6,6 @@ mod basics;
 mod circuits;
 #[path = "ici/common.rs"]
 mod common;
-#[path = "ici/conformance.rs"]
-mod conformance;
 #[path = "ici/determinism.rs"]
 mod determinism;
 #[path = "ici/faults.rs"]

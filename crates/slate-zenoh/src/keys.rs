@@ -11,8 +11,8 @@
 //! Address segments are letters, digits, `_` and `-` (checked by `Address`), so they never
 //! contain Zenoh's special characters.
 
-use slate_ici::LinkKind;
 use slate_model::Address;
+use slate_transport::LinkKind;
 
 const ROOT: &str = "slate";
 

@@ -1,6 +1,6 @@
 //! The ICI transport over Eclipse Zenoh.
 //!
-//! [`ZenohTransport`] implements [`slate_ici::Transport`]: publications per link kind,
+//! [`ZenohTransport`] implements [`slate_transport::Transport`]: publications per link kind,
 //! reliable direct sends, and liveliness tokens for peer up/down. By default a
 //! node runs in peer mode with explicit endpoints and no multicast scouting, so a team on
 //! one LAN needs no router; a team that spans networks connects its nodes to Zenoh routers.

@@ -7,8 +7,8 @@ use std::thread::JoinHandle;
 
 use parking_lot::{Mutex, RwLock};
 use rustc_hash::FxHashMap;
-use slate_ici::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 use slate_model::Address;
+use slate_transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 use zenoh::Wait;
 use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;

@@ -23,7 +23,7 @@ fn free_port() -> u16 {
         .expect("a free port")
 }
 
-impl slate_ici::conformance::TransportFactory for Loopback {
+impl slate_transport::conformance::TransportFactory for Loopback {
     type Transport = ZenohTransport;
 
     fn join(&mut self, address: &Address) -> Arc<ZenohTransport> {
@@ -53,4 +53,4 @@ impl slate_ici::conformance::TransportFactory for Loopback {
     }
 }
 
-slate_ici::transport_conformance!(Loopback::default());
+slate_transport::transport_conformance!(Loopback::default());

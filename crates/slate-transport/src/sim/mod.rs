@@ -28,7 +28,7 @@ use crate::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 /// A simulated network with virtual time and seeded faults.
 ///
 /// ```
-/// use slate_ici::{LinkKind, MsgKind, SimNet, Transport};
+/// use slate_transport::{LinkKind, MsgKind, SimNet, Transport};
 /// use slate_model::Address;
 /// use std::time::Duration;
 ///

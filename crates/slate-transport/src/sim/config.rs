@@ -5,7 +5,7 @@ use std::time::Duration;
 /// How one kind of link behaves. Probabilities are in `[0, 1]`.
 ///
 /// ```
-/// use slate_ici::LinkConfig;
+/// use slate_transport::LinkConfig;
 /// use std::time::Duration;
 /// // An acoustic-modem-like team link.
 /// let team = LinkConfig::clean()

@@ -3,18 +3,18 @@
 //! An implementation provides a [`TransportFactory`] (a fresh network per test) and
 //! instantiates the suite in its tests with [`transport_conformance!`](crate::transport_conformance),
 //! one `#[test]` per case, or calls [`run_all`]. The simulator's instantiation is in this
-//! crate's `tests/ici/conformance.rs`; a Zenoh transport does the same:
+//! crate's `tests/conformance.rs`; a Zenoh transport does the same:
 //!
 //! ```ignore
 //! mod conformance {
-//!     slate_ici::transport_conformance!(my_transport::Factory::new());
+//!     slate_transport::transport_conformance!(my_transport::Factory::new());
 //! }
 //! ```
 //!
 //! Addresses used: `conf/r1/a`, `conf/r1/b` (one robot) and `conf/r2/c` (another).
 //!
 //! Compiled only with the crate's `testing` feature: the suite and [`SimFactory`] are
-//! test support for transport implementations, not part of the ICI's API.
+//! test support for transport implementations, not part of the transport API.
 
 use std::sync::Arc;
 use std::time::Duration;
