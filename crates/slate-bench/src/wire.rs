@@ -25,9 +25,9 @@ use slate_wire::{Assertion, Encoder, Message, ObjectEntry, Report as WireReport,
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 
-use super::proxy::{Counts, Proxy};
-use super::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, update};
-use super::{Config, Report, Target, Unit, free_port, wait};
+use crate::proxy::{Counts, Proxy};
+use crate::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, update};
+use crate::{Config, Report, Target, Unit, free_port, wait};
 
 /// One hour after the epoch, at 10 reports a second: a sender in steady state.
 const HOUR_US: u64 = 3_600_000_000;
@@ -302,7 +302,7 @@ mod tests {
             sample_ms: 1,
         };
         let j = run(&cfg, &mut |_| {}).expect("the suite runs").json();
-        crate::bench::assert_reports(
+        crate::assert_reports(
             &j,
             &[
                 "bytes_per_update_single",

@@ -9,7 +9,7 @@ use std::time::Instant;
 use slate_model::{Board, Clock, Key};
 use slate_plans::Engine;
 
-use super::{Config, Report, measure, median};
+use crate::{Config, Report, measure, median};
 
 const WORLD: &str =
     "class Cell { v: real = 0.0; w: real = 0.0; }\nclass Obstacle { range: real = 100.0; }\n";

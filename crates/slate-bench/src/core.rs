@@ -14,7 +14,7 @@ use slate_model::{
     Address, AttrDecl, Board, ClassDef, Key, Packet, Timestamp, Update, Value, ValueType,
 };
 
-use super::{Config, Report, measure};
+use crate::{Config, Report, measure};
 
 const ATTRS: [&str; 8] = [
     "x", "y", "heading", "speed", "mode", "battery", "armed", "target",
