@@ -1,6 +1,5 @@
 //! The `slate` binary.
 
-mod bench;
 mod cli;
 mod command;
 mod logging;

@@ -1,5 +1,6 @@
 //! Runs the real `slate` binary.
 
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn slate(args: &[&str]) -> Output {
@@ -247,4 +248,51 @@ fn check_says_a_builtin_class_cannot_be_redefined() {
         "{err}"
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Asserts that a suite's JSON has each field, positive, and says whether its targets
+/// were met.
+fn assert_reports(j: &serde_json::Value, fields: &[&str]) {
+    for f in fields {
+        assert!(j[f].as_f64().is_some_and(|x| x > 0.0), "{f}: {}", j[f]);
+    }
+    assert!(j["targets_met"].is_boolean());
+}
+
+/// The `cli` suite runs `slate` processes, so it is tested here, where cargo has built
+/// the executable; a test binary cannot run verbs.
+#[test]
+fn the_cli_suite_reports_every_field() {
+    let cfg = slate_bench::Config {
+        samples: 3,
+        sample_ms: 1,
+    };
+    let slate = Path::new(env!("CARGO_BIN_EXE_slate"));
+    let j = slate_bench::cli::run_with(slate, &cfg, &mut |_| {})
+        .expect("the suite runs")
+        .json();
+    assert_reports(
+        &j,
+        &[
+            "process_start_ms",
+            "raw_zenoh_query_ms",
+            "process_start_plus_raw_zenoh_ms",
+            "get_round_trip_ms",
+            "get_round_trip_p90_ms",
+            "get_round_trip_ratio",
+            "get_round_trip_p90_ratio",
+            "get_round_trip_min_ms",
+            "get_round_trip_max_ms",
+            "process_start_p90_ms",
+            "raw_zenoh_query_p90_ms",
+            "raw_zenoh_query_replies",
+            "runs",
+        ],
+    );
+    assert!(j["get_round_trips_over_twice_the_median"].is_u64());
+    assert!(
+        j["get_command"]
+            .as_str()
+            .is_some_and(|c| c.starts_with("slate get"))
+    );
 }

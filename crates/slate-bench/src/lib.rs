@@ -1,5 +1,21 @@
-//! Benchmark programs: a small harness that reports the median time per operation over
-//! several samples, each against a baseline measured in the same run.
+//! slate's benchmark suites, run by `slate bench SUITE`: a small harness that reports the
+//! median time per operation over several samples, each against a baseline measured in
+//! the same run.
+//!
+//! The micro-benchmarks (`core`, `plans`, `wire`) measure one process's hot paths; the
+//! multi-process ones (`net`: two nodes over Zenoh on 127.0.0.1, `cli`: `slate get`
+//! against two `slate node` processes) need a loopback network, and `cli` needs the
+//! `slate` executable itself. The figures docs/performance.md cites come from these
+//! suites, so their row names and JSON fields are a contract with those docs.
+//!
+//! ```no_run
+//! use slate_bench::{Config, Suite};
+//!
+//! let cfg = Config { samples: 21, sample_ms: 5 };
+//! let report = slate_bench::run(Suite::Core, &cfg, &mut |step| eprintln!("{step}"))?;
+//! print!("{}", report.text());
+//! # Ok::<(), anyhow::Error>(())
+//! ```
 
 pub mod cli;
 pub mod core;
@@ -15,6 +31,34 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use serde_json::{Map, Value, json};
+
+/// A benchmark suite `slate bench` can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Suite {
+    /// The world model: reads, writes, batches, active functions, queries.
+    Core,
+    /// The plan engine: compiling plans, writes with plans installed, write to action.
+    Plans,
+    /// Bytes on the wire: per update, per batch, over a real Zenoh TCP link, per report.
+    Wire,
+    /// Two nodes over Zenoh on 127.0.0.1: write-to-visible latency and throughput.
+    Net,
+    /// `slate get` on a live two-node team of `slate node` processes, spawn to exit;
+    /// needs this process to be the `slate` executable.
+    Cli,
+}
+
+/// Runs `suite`; `progress` is told each step before it is measured.
+pub fn run(suite: Suite, cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
+    match suite {
+        Suite::Core => Ok(core::run(cfg, progress)),
+        Suite::Plans => Ok(plans::run(cfg, progress)),
+        Suite::Wire => wire::run(cfg, progress),
+        Suite::Net => net::run(cfg, progress),
+        Suite::Cli => cli::run(cfg, progress),
+    }
+}
 
 /// How long and how often to measure.
 #[derive(Clone, Copy, Debug)]
@@ -221,6 +265,33 @@ impl Report {
     /// Did every row meet each of its targets?
     pub fn targets_met(&self) -> bool {
         self.rows.iter().all(|r| r.targets.iter().all(|t| t.met(r)))
+    }
+
+    /// The report as `slate bench` prints it: the title, one line per row (figure, ratio
+    /// to its baseline, verdicts), then the facts.
+    pub fn text(&self) -> String {
+        let mut out = format!(
+            "{}\n\n{:<36} {:>15}  {}\n",
+            self.title, "figure", "value", "vs baseline"
+        );
+        for m in &self.rows {
+            let ratio = m
+                .baseline
+                .map_or(String::new(), |(name, ratio)| format!("{ratio:.2}x {name}"));
+            out.push_str(&format!(
+                "{:<36} {}  {ratio}{}\n",
+                m.name,
+                m.figure(),
+                m.verdicts()
+            ));
+        }
+        if !self.facts.is_empty() {
+            out.push('\n');
+        }
+        for (name, value) in &self.facts {
+            out.push_str(&format!("{name:<36} {value}\n"));
+        }
+        out
     }
 }
 

@@ -10,7 +10,7 @@ use slate_ici::{Ici, IciConfig, Rng};
 use slate_model::{Address, AttrDecl, Board, ClassDef, Update, ValueType};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 
-use super::wait;
+use crate::wait;
 
 /// Objects the sender writes.
 pub const OBJECTS: usize = 100;

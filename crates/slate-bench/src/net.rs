@@ -29,8 +29,8 @@ use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 use zenoh::sample::Locality;
 
-use super::zenoh_pair::{ATTRS, OBJECTS, Pair, update};
-use super::{Config, Report, Target, Unit, free_port, wait};
+use crate::zenoh_pair::{ATTRS, OBJECTS, Pair, update};
+use crate::{Config, Report, Target, Unit, free_port, wait};
 
 /// Throughput rounds of each kind (with three, one slow round of the machine's decided
 /// the median often enough to swing the ratio from 0.77 to 1.18 between runs).
@@ -109,7 +109,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
         "raw_zenoh_latency_p99_us",
         within,
     );
-    let ratio = |x: f64, base: f64| json!(super::round(x / base));
+    let ratio = |x: f64, base: f64| json!(crate::round(x / base));
     r.fact(
         "latency_p50_ratio_to_publisher",
         ratio(slate_p50, publisher_p50),
@@ -144,13 +144,13 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
     }
     let [rates, raw_rates, publisher_rates] = rates;
     let [count, raw_count, publisher_count] = counts;
-    let rate = super::median(rates);
+    let rate = crate::median(rates);
     r.add_in(
         "raw_zenoh_updates_per_sec",
-        super::median(raw_rates),
+        crate::median(raw_rates),
         Unit::PerSec,
     );
-    let publisher_rate = super::median(publisher_rates);
+    let publisher_rate = crate::median(publisher_rates);
     r.add_in(
         "raw_zenoh_publisher_updates_per_sec",
         publisher_rate,
@@ -179,7 +179,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Repor
 
 /// The `p`th percentile of durations, in microseconds.
 fn percentile(samples: &[Duration], p: f64) -> f64 {
-    super::percentile_secs(samples, p) * 1e6
+    crate::percentile_secs(samples, p) * 1e6
 }
 
 /// How long each throughput round runs: a third of a second by default (21 samples of
@@ -589,7 +589,7 @@ mod tests {
             sample_ms: 1,
         };
         let j = run(&cfg, &mut |_| {}).expect("the suite runs").json();
-        crate::bench::assert_reports(
+        crate::assert_reports(
             &j,
             &[
                 "latency_p50_us",

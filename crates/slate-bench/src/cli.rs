@@ -30,7 +30,7 @@ use anyhow::{Context as _, anyhow, bail, ensure};
 use serde_json::{Value, json};
 use zenoh::Wait;
 
-use super::{Config, Report, Unit, free_port, percentile_secs, round};
+use crate::{Config, Report, Unit, free_port, percentile_secs, round};
 
 /// The team's name, the owner of the object and the node the observers connect to.
 const TEAM: &str = "clibench";
@@ -468,59 +468,6 @@ fn zenoh_query(endpoint: &str) -> anyhow::Result<(Duration, usize)> {
     Ok((took, found.len()))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The `slate` binary cargo built next to this test binary (`target/PROFILE/slate`,
-    /// the test being `target/PROFILE/deps/slate-HASH`): a test binary cannot run verbs.
-    fn built_slate() -> PathBuf {
-        let test = std::env::current_exe().expect("the test executable");
-        let profile = test
-            .parent()
-            .and_then(Path::parent)
-            .expect("target/PROFILE");
-        let exe = profile.join(format!("slate{}", std::env::consts::EXE_SUFFIX));
-        assert!(
-            exe.is_file(),
-            "{} is missing: build it first (`cargo build -p slate-cli`, with `--release` for a release test)",
-            exe.display()
-        );
-        exe
-    }
-
-    #[test]
-    fn the_cli_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run_with(&built_slate(), &cfg, &mut |_| {})
-            .expect("the suite runs")
-            .json();
-        crate::bench::assert_reports(
-            &j,
-            &[
-                "process_start_ms",
-                "raw_zenoh_query_ms",
-                "process_start_plus_raw_zenoh_ms",
-                "get_round_trip_ms",
-                "get_round_trip_p90_ms",
-                "get_round_trip_ratio",
-                "get_round_trip_p90_ratio",
-                "get_round_trip_min_ms",
-                "get_round_trip_max_ms",
-                "process_start_p90_ms",
-                "raw_zenoh_query_p90_ms",
-                "raw_zenoh_query_replies",
-                "runs",
-            ],
-        );
-        assert!(j["get_round_trips_over_twice_the_median"].is_u64());
-        assert!(
-            j["get_command"]
-                .as_str()
-                .is_some_and(|c| c.starts_with("slate get"))
-        );
-    }
-}
+// The suite's own test, `the_cli_suite_reports_every_field`, lives in slate-cli's
+// tests/cli.rs: it needs the built `slate` executable, which cargo only guarantees to
+// integration tests of the crate that defines it (`CARGO_BIN_EXE_slate`).

@@ -9,12 +9,14 @@ use std::time::Instant;
 use slate_model::{Board, Clock, Key};
 use slate_plans::Engine;
 
-use super::{Config, Report, measure, median};
+use crate::{Config, Report, measure, median};
 
-const WORLD: &str =
+/// The classes every plan of the suite reads: `Cell` (`v`, `w`) and `Obstacle` (`range`).
+pub const WORLD: &str =
     "class Cell { v: real = 0.0; w: real = 0.0; }\nclass Obstacle { range: real = 100.0; }\n";
 
-fn engine() -> (Arc<Board>, Engine) {
+/// A board on a manual clock with its plan engine, [`WORLD`] loaded.
+pub fn engine() -> (Arc<Board>, Engine) {
     let board = Arc::new(Board::builder().clock(Clock::manual()).build());
     let engine = Engine::new(&board);
     engine.load("world.slate", WORLD).expect("world loads");
@@ -22,7 +24,7 @@ fn engine() -> (Arc<Board>, Engine) {
 }
 
 /// `n` cells and one plan per cell whose trigger never fires.
-fn unrelated(n: usize) -> String {
+pub fn unrelated(n: usize) -> String {
     let mut s = String::new();
     for i in 0..n {
         let _ = writeln!(s, "object c{i} : Cell;");

@@ -14,13 +14,17 @@ use slate_model::{
     Address, AttrDecl, Board, ClassDef, Key, Packet, Timestamp, Update, Value, ValueType,
 };
 
-use super::{Config, Report, measure};
+use crate::{Config, Report, measure};
 
-const ATTRS: [&str; 8] = [
+/// The attributes of `Vehicle`.
+pub const ATTRS: [&str; 8] = [
     "x", "y", "heading", "speed", "mode", "battery", "armed", "target",
 ];
 
-fn world(instances: usize) -> Board {
+/// The suite's board: `Vehicle` <- `GroundVehicle` <- `Gsr` with ten written `Gsr`s
+/// `v0`..`v9` (`mode` left unwritten, so a read of it resolves on `Vehicle`), a
+/// class-level `Vehicle.battery`, and `instances` `Obstacle`s `o0`.. for queries.
+pub fn world(instances: usize) -> Board {
     let b = Board::new();
     let vehicle = ATTRS.iter().fold(ClassDef::new("Vehicle"), |c, a| {
         let ty = match *a {
@@ -52,7 +56,8 @@ fn world(instances: usize) -> Board {
     b
 }
 
-fn packet() -> Packet {
+/// The packet the `HashMap` baselines store and clone.
+pub fn packet() -> Packet {
     Packet {
         value: Value::Real(1.0),
         accuracy: 0.1,

@@ -25,13 +25,14 @@ use slate_wire::{Assertion, Encoder, Message, ObjectEntry, Report as WireReport,
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 
-use super::proxy::{Counts, Proxy};
-use super::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, update};
-use super::{Config, Report, Target, Unit, free_port, wait};
+use crate::proxy::{Counts, Proxy};
+use crate::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, update};
+use crate::{Config, Report, Target, Unit, free_port, wait};
 
 /// One hour after the epoch, at 10 reports a second: a sender in steady state.
 const HOUR_US: u64 = 3_600_000_000;
-const SEQ: u64 = 36_000;
+/// The sequence number of a steady-state report (an hour of reports at 10 a second).
+pub const SEQ: u64 = 36_000;
 
 /// Runs the suite; `progress` is told each step.
 pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
@@ -143,19 +144,52 @@ fn mean(items: &[Assertion], size: impl Fn(&Assertion) -> usize) -> f64 {
     items.iter().map(size).sum::<usize>() as f64 / items.len() as f64
 }
 
+/// A sender's encoder in steady state, one hour after its epoch with every name
+/// announced, and the updates the codec figures encode. Deterministic: the same
+/// updates and bytes on every run.
+pub struct SteadySender {
+    /// The schema of the tracked objects and the robot.
+    pub schema: Schema,
+    /// The encoder, its dictionary holding every name below.
+    pub encoder: Encoder,
+    /// 100 updates of 100 tracked objects, spread over a second.
+    pub updates: Vec<Assertion>,
+    /// A robot pose: `x`, `y`, `heading`, `speed`.
+    pub pose: Vec<Assertion>,
+}
+
+impl SteadySender {
+    /// Announces the names (the tracked objects first, then the robot, whose id then
+    /// takes 7 bits, as in `docs/wire.md`) and draws the updates.
+    pub fn new() -> anyhow::Result<Self> {
+        let schema = Schema::new(&classes());
+        let mut encoder = Encoder::new(nav());
+        let mut rng = Rng::new(7);
+        encode(&mut encoder, 1, batch(0, &mut rng), &schema)?;
+        encode(&mut encoder, 2, pose(at(0)), &schema)?;
+        let updates = batch(HOUR_US, &mut rng);
+        let pose = pose(at(HOUR_US));
+        Ok(SteadySender {
+            schema,
+            encoder,
+            updates,
+            pose,
+        })
+    }
+
+    /// The report of `items` as the `seq`th message, encoded.
+    pub fn encode(&mut self, seq: u64, items: Vec<Assertion>) -> anyhow::Result<usize> {
+        encode(&mut self.encoder, seq, items, &self.schema)
+    }
+}
+
 fn codec(r: &mut Report) -> anyhow::Result<()> {
-    let schema = Schema::new(&classes());
-    let mut enc = Encoder::new(nav());
-    let mut rng = Rng::new(7);
-    // Announce the names: the tracked objects first, then the robot (its id takes 7
-    // bits, as in `docs/wire.md`).
-    encode(&mut enc, 1, batch(0, &mut rng), &schema)?;
-    encode(&mut enc, 2, pose(at(0)), &schema)?;
-    let updates = batch(HOUR_US, &mut rng);
-    let single = encode(&mut enc, SEQ, updates[..1].to_vec(), &schema)?;
-    let hundred = encode(&mut enc, SEQ + 1, updates.clone(), &schema)?;
-    let pose_items = pose(at(HOUR_US));
-    let pose_bytes = encode(&mut enc, SEQ + 2, pose_items.clone(), &schema)?;
+    let mut sender = SteadySender::new()?;
+    let updates = sender.updates.clone();
+    let single = sender.encode(SEQ, updates[..1].to_vec())?;
+    let hundred = sender.encode(SEQ + 1, updates.clone())?;
+    let pose_items = sender.pose.clone();
+    let pose_bytes = sender.encode(SEQ + 2, pose_items.clone())?;
 
     r.add_in(
         "json_bytes_per_update",
@@ -302,7 +336,7 @@ mod tests {
             sample_ms: 1,
         };
         let j = run(&cfg, &mut |_| {}).expect("the suite runs").json();
-        crate::bench::assert_reports(
+        crate::assert_reports(
             &j,
             &[
                 "bytes_per_update_single",

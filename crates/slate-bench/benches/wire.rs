@@ -1,0 +1,45 @@
+//! `cargo bench -p slate-bench --bench wire`: the time to encode the reports whose sizes
+//! `slate bench wire` prints, from the same steady-state sender, under divan's harness.
+
+use divan::Bencher;
+use slate_bench::wire::{SEQ, SteadySender};
+
+fn main() {
+    divan::main();
+}
+
+/// Encodes the first `n` of the sender's 100 updates as one report, repeatedly.
+fn encode_updates(bencher: Bencher, n: usize) {
+    let mut sender = SteadySender::new().expect("steady sender");
+    let items = sender.updates[..n].to_vec();
+    let mut seq = SEQ;
+    bencher
+        .with_inputs(|| items.clone())
+        .bench_local_values(|items| {
+            seq += 1;
+            sender.encode(seq, items).expect("encodes")
+        });
+}
+
+#[divan::bench]
+fn encode_single_update(bencher: Bencher) {
+    encode_updates(bencher, 1);
+}
+
+#[divan::bench]
+fn encode_batch100(bencher: Bencher) {
+    encode_updates(bencher, 100);
+}
+
+#[divan::bench]
+fn encode_pose(bencher: Bencher) {
+    let mut sender = SteadySender::new().expect("steady sender");
+    let pose = sender.pose.clone();
+    let mut seq = SEQ;
+    bencher
+        .with_inputs(|| pose.clone())
+        .bench_local_values(|items| {
+            seq += 1;
+            sender.encode(seq, items).expect("encodes")
+        });
+}
