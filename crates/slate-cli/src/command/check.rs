@@ -42,15 +42,20 @@ pub fn run(args: &CheckArgs, format: Format) -> anyhow::Result<ExitCode> {
 
 type Results = [(String, Result<slate_plans::Loaded, slate_plans::LoadError>)];
 
+/// `1 object`, `2 objects`.
+fn count(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
 fn print_text(results: &Results) {
     for (name, r) in results {
         match r {
             Ok(l) => println!(
-                "{name}: ok ({} classes, {} objects, {} rules, {} plans)",
-                l.classes.len(),
-                l.objects.len(),
-                l.rules,
-                l.plans.len()
+                "{name}: ok ({}, {}, {}, {})",
+                count(l.classes.len(), "class", "classes"),
+                count(l.objects.len(), "object", "objects"),
+                count(l.rules, "rule", "rules"),
+                count(l.plans.len(), "plan", "plans")
             ),
             Err(e) => eprintln!("{}", e.rendered),
         }

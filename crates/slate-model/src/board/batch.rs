@@ -138,13 +138,14 @@ impl<'b> Batch<'b> {
 }
 
 fn apply(txn: &mut Txn<'_>, board: &Board, index: usize, op: Op) -> Result<(), BatchError> {
-    let write = |txn: &mut Txn<'_>, target: Target<'_>, update, may_guarded: bool| {
+    let write = |txn: &mut Txn<'_>, target: Target<'_>, update, machinery: bool| {
         let failed = |source| BatchError::Write { index, source };
         let key = target.resolve(txn.state()).map_err(|m| failed(m.into()))?;
-        if !may_guarded {
-            super::refuse_guarded(txn.state(), key, &board.address).map_err(failed)?;
+        if machinery {
+            txn.write_guarded(key, update).map_err(failed)
+        } else {
+            txn.write(key, update).map_err(failed)
         }
-        txn.write(key, update).map_err(failed)
     };
     match op {
         Op::Write(o, a, u) => write(txn, Target::Names(&o, &a), u, false),

@@ -13,10 +13,16 @@ use std::sync::Arc;
 use super::MAX_NESTED_FUNCTIONS;
 use crate::{ChainError, Key, Trigger};
 
+/// One access whose active functions are running: key, trigger, object and attribute.
+type Step = (Key, Trigger, Arc<str>, Arc<str>);
+
 /// The accesses (key and trigger) whose active functions are running, outermost first.
+/// Shared: a chain is cloned for every function it runs (the thread's record of running
+/// chains, tokens), and only extended by [`Chain::with`]; the empty chain of every access
+/// outside a function allocates nothing.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Chain {
-    steps: Vec<(Key, Trigger, Arc<str>, Arc<str>)>,
+    steps: Option<Arc<[Step]>>,
 }
 
 impl Chain {
@@ -32,7 +38,7 @@ impl Chain {
         names: impl FnOnce() -> (Arc<str>, Arc<str>),
     ) -> Result<(), ChainError> {
         let nested = nested_in_this_thread();
-        if self.steps.is_empty() && nested < MAX_NESTED_FUNCTIONS {
+        if self.steps().is_empty() && nested < MAX_NESTED_FUNCTIONS {
             return Ok(());
         }
         let (object, attr) = names();
@@ -44,18 +50,18 @@ impl Chain {
             });
         }
         if let Some(start) = self
-            .steps
+            .steps()
             .iter()
             .position(|(k, t, ..)| *k == key && *t == trigger)
         {
-            let mut path: Vec<String> = self.steps[start..]
+            let mut path: Vec<String> = self.steps()[start..]
                 .iter()
                 .map(|(_, _, o, a)| format!("{o}.{a}"))
                 .collect();
             path.push(format!("{object}.{attr}"));
             return Err(ChainError::Cycle { path });
         }
-        if self.steps.len() > limit {
+        if self.steps().len() > limit {
             return Err(ChainError::DepthLimit {
                 limit,
                 object: object.to_string(),
@@ -67,9 +73,17 @@ impl Chain {
 
     /// This chain with one more step.
     pub fn with(&self, key: Key, trigger: Trigger, object: &Arc<str>, attr: &Arc<str>) -> Chain {
-        let mut steps = self.steps.clone();
+        let mut steps = Vec::with_capacity(self.steps().len() + 1);
+        steps.extend(self.steps().iter().cloned());
         steps.push((key, trigger, object.clone(), attr.clone()));
-        Chain { steps }
+        Chain {
+            steps: Some(steps.into()),
+        }
+    }
+
+    /// The steps, outermost first.
+    fn steps(&self) -> &[Step] {
+        self.steps.as_deref().unwrap_or_default()
     }
 }
 
@@ -84,7 +98,7 @@ impl Chain {
     /// empty (the access came through a `Call`), else the chain of the innermost active
     /// function of `board` running in this thread, else none.
     pub fn or_running(&self, board: u64) -> Cow<'_, Chain> {
-        if !self.steps.is_empty() {
+        if !self.steps().is_empty() {
             return Cow::Borrowed(self);
         }
         RUNNING.with_borrow(|running| {
@@ -102,7 +116,7 @@ fn nested_in_this_thread() -> usize {
     RUNNING.with_borrow(|running| {
         running
             .iter()
-            .filter(|(_, chain)| !chain.steps.is_empty())
+            .filter(|(_, chain)| !chain.steps().is_empty())
             .count()
     })
 }

@@ -90,27 +90,6 @@ impl Target<'_> {
     }
 }
 
-/// Refuses a plain local write to a guarded attribute ([`AttrDecl::guarded`]) of an
-/// object this board keeps (`me` owns it, or it is a class). On another module's object the
-/// write is a request to that module's machinery, which answers it (a node's engine cancels
-/// a plan whose copy was written `cancelled`, and restores any other state). A key that does
-/// not resolve is left to the write to report.
-pub(crate) fn refuse_guarded(st: &State, key: Key, me: &Address) -> Result<(), WriteError> {
-    let Ok((entity, _, decl)) = st.decl(key) else {
-        return Ok(());
-    };
-    let kept_here = entity.instance().is_none_or(|i| i.owner == *me);
-    if !(decl.decl.guarded && kept_here) {
-        return Ok(());
-    }
-    Err(WriteError::Guarded {
-        object: st
-            .name(key.object)
-            .map_or_else(|| "?".into(), |n| n.to_string()),
-        attr: decl.decl.name.clone(),
-    })
-}
-
 /// How to create an object: class, name, context, owner.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NewObject {
@@ -516,7 +495,6 @@ impl Board {
                     st.attr_name(key.attr),
                 )
             };
-            refuse_guarded(&inner.state, key, &self.address)?;
             if let Err(cut) = chain.admit(key, Trigger::Write, self.max_depth, names) {
                 drop(inner);
                 self.report(BoardEvent::ChainCut(cut.clone()));

@@ -111,6 +111,11 @@ struct Slot {
 pub(crate) enum Origin {
     /// A write made on this board (`write`, a batch, an active function).
     Own,
+    /// A write of the machinery that keeps guarded attributes ([`AttrDecl::guarded`]),
+    /// such as the plan engine's: an own write that may also write them.
+    ///
+    /// [`AttrDecl::guarded`]: crate::AttrDecl::guarded
+    Machinery,
     /// A received packet that won its merge.
     Merged,
 }
@@ -406,8 +411,11 @@ impl State {
         stamp: Option<Timestamp>,
         origin: Origin,
     ) -> Result<Packet, WriteError> {
-        let (_, _, decl) = self.decl(key)?;
+        let (e, _, decl) = self.decl(key)?;
         let d = &decl.decl;
+        if origin == Origin::Own {
+            refuse_guarded(e, d, me, || self.name_or_stale(key.object))?;
+        }
         let invalid = |source| WriteError::Invalid {
             object: self.name_or_stale(key.object),
             attr: d.name.clone(),
@@ -431,8 +439,8 @@ impl State {
                 .unwrap_or_else(|| stamp.unwrap_or_else(|| clock.now())),
             source: update.source.unwrap_or_else(|| me.clone()),
         };
-        if origin == Origin::Own {
-            self.admit_own(key, &packet, stamped, clock)?;
+        if origin != Origin::Merged {
+            self.admit_own(e, d, key, &packet, stamped, clock)?;
         }
         if stamped {
             // A merged packet too far ahead was refused by its merge; one taken before
@@ -455,15 +463,16 @@ impl State {
     /// `(timestamp, source)` than the packet the object holds (receivers keep that one).
     fn admit_own(
         &self,
+        e: &Entity,
+        decl: &AttrDecl,
         key: Key,
         packet: &Packet,
         stamped: bool,
         clock: &Clock,
     ) -> Result<(), WriteError> {
         use crate::MergePolicy;
-        let (e, _, decl) = self.decl(key)?;
-        let names = || (self.name_or_stale(key.object), decl.decl.name.clone());
-        if decl.decl.merge == MergePolicy::Owned
+        let names = || (self.name_or_stale(key.object), decl.name.clone());
+        if decl.merge == MergePolicy::Owned
             && let Some(i) = e.instance().filter(|i| i.owner != packet.source)
         {
             let (object, attr) = names();
@@ -489,7 +498,7 @@ impl State {
         }
         match e.own(key.attr).map(|s| &s.packet) {
             Some(held)
-                if decl.decl.merge != MergePolicy::Fused
+                if decl.merge != MergePolicy::Fused
                     && (packet.timestamp, &packet.source) < (held.timestamp, &held.source) =>
             {
                 let (object, attr) = names();
@@ -968,4 +977,24 @@ fn describe_difference(old: &ClassDef, new: &ClassDef) -> Option<String> {
         .iter()
         .find(|b| !old.attrs.iter().any(|a| a.name == b.name))
         .map(|b| format!("the new definition adds attribute {}", b.name))
+}
+
+/// Refuses a plain local write to a guarded attribute ([`AttrDecl::guarded`]) of an
+/// object this board keeps (`me` owns it, or it is a class). On another module's object the
+/// write is a request to that module's machinery, which answers it (a node's engine cancels
+/// a plan whose copy was written `cancelled`, and restores any other state).
+fn refuse_guarded(
+    e: &Entity,
+    decl: &AttrDecl,
+    me: &Address,
+    object: impl FnOnce() -> String,
+) -> Result<(), WriteError> {
+    let kept_here = e.instance().is_none_or(|i| i.owner == *me);
+    if !(decl.guarded && kept_here) {
+        return Ok(());
+    }
+    Err(WriteError::Guarded {
+        object: object(),
+        attr: decl.name.clone(),
+    })
 }

@@ -93,6 +93,11 @@ impl<'s> Txn<'s> {
         self.store(key, update, Origin::Own)
     }
 
+    /// An own write that may write guarded attributes (see [`Origin::Machinery`]).
+    pub fn write_guarded(&mut self, key: Key, update: Update) -> Result<(), WriteError> {
+        self.store(key, update, Origin::Machinery)
+    }
+
     /// Stores a received packet that won its merge.
     pub fn merge(&mut self, key: Key, packet: Packet) -> Result<(), WriteError> {
         self.store(key, Update::from(packet), Origin::Merged)
