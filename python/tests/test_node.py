@@ -217,3 +217,31 @@ def test_a_class_two_nodes_define_differently_is_an_event_on_both() -> None:
     conflict = next(e for e in seen["nav"] if e.kind == "class_conflict")
     assert conflict.object == "Sonar" and conflict.source == "t/r2/loco"
     assert "defined differently" in (conflict.error or "")
+
+
+def test_packets_from_a_module_whose_clock_is_years_ahead_are_refused_and_reported() -> None:
+    endpoint = free_endpoint()
+    ahead = slate.Clock("manual")
+    ahead.set(time.time() + 3 * 365 * 86400.0)
+    nav_board = slate.Board(clock=ahead, address="t/r1/nav")
+    nav_board.load(WORLD + "object gsr : Vehicle context self;")
+    loco_board = slate.Board(address="t/r2/loco")
+    loco_board.load(WORLD)
+    events = loco_board.events(timeout=0.0)
+    with (
+        slate.Node("t/r1/nav", nav_board, listen=[endpoint], export=["Thing"]),
+        slate.Node("t/r2/loco", loco_board, connect=[endpoint], export=["Thing"]),
+    ):
+        seen: list[slate.Event] = []
+
+        def refused() -> bool:
+            nav_board.write("gsr", "speed", 3.0)
+            seen.extend(events.drain())
+            return any(e.kind == "future_stamp" for e in seen)
+
+        assert eventually(refused), seen
+        # Loco holds no packet from the future, which would freeze the value.
+        if "gsr" in loco_board:
+            assert loco_board.read("gsr", "speed").timestamp < time.time() + 1.0
+    event = next(e for e in seen if e.kind == "future_stamp")
+    assert event.source == "t/r1/nav" and event.attr == "speed"
