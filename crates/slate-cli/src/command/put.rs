@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
 use serde_json::json;
-use slate_model::{MergePolicy, Update};
+use slate_model::{Update, WriteError};
 use slate_node::Node;
 use slate_node::inspect::{Classes, parse_value};
 
@@ -55,12 +55,6 @@ fn put(
             "{object} ({class}) has no attribute {attr:?} (it has: {have})"
         ));
     };
-    if decl.merge == MergePolicy::Owned && !info.is_class {
-        return failed(format!(
-            "{object}.{attr} is `owned`: only its owner {} may write it",
-            info.owner
-        ));
-    }
     let value = parse_value(&args.value, decl.ty).map_err(anyhow::Error::msg)?;
     let mut update = Update::new(value);
     if let Some(a) = args.accuracy {
@@ -70,9 +64,16 @@ fn put(
         update = update.confidence(c);
     }
     let before = progress(node);
-    let revision = board
-        .write(object, attr, update)
-        .with_context(|| format!("cannot write {object}.{attr}"))?;
+    // A malformed value is bad input (exit 2); a write the board refuses because no module
+    // would take it (a non-owner's write to an `owned` attribute, a guarded one) is a
+    // refusal (exit 1).
+    let revision = match board.write(object, attr, update) {
+        Ok(revision) => revision,
+        Err(e @ WriteError::Invalid { .. }) => {
+            return Err(anyhow::Error::new(e).context(format!("cannot write {object}.{attr}")));
+        }
+        Err(e) => return failed(format!("cannot write {object}.{attr}: {e}")),
+    };
     let sent = wait_sent(node, before);
     let packet = board.read(object, attr)?;
     linger(node);

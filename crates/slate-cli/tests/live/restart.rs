@@ -49,3 +49,23 @@ fn cli_calls_leave_no_module_objects_behind() {
     assert!(gone, "{before:?}: {objects}\n{}", team.logs());
     team.stop();
 }
+
+#[test]
+fn put_of_an_owned_attribute_by_anyone_but_its_owner_is_refused_in_one_line() {
+    let mut team = Team::new("owned");
+    team.add(
+        "t/r1/nav",
+        "class Beacon { level: real merge owned; }\nobject b : Beacon { level = 1.0; }",
+    );
+    team.wait_connected();
+    let out = team.slate(&["put", "b.level", "2.0"]);
+    assert_eq!(out.status.code(), Some(1), "{}", crate::team::show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("owned by t/r1/nav"), "{err}");
+    assert_eq!(
+        team.node("t/r1/nav").value("b", "level").as_deref(),
+        Some("1.0")
+    );
+    team.stop();
+}
