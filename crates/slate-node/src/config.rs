@@ -74,6 +74,8 @@ const ICI: &[&str] = &[
     "catch_up_retry",
     "max_report_items",
     "max_tombstones",
+    "max_sources",
+    "forget_dead",
 ];
 
 const CLASSES: &str =
@@ -227,6 +229,12 @@ fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     }
     if let Some(n) = t.count("max_tombstones")? {
         ici.max_tombstones = n;
+    }
+    if let Some(n) = t.count("max_sources")? {
+        ici.max_sources = n;
+    }
+    if let Some(d) = t.duration("forget_dead")? {
+        ici.forget_dead = d;
     }
     t.finish()
 }

@@ -22,7 +22,8 @@ use crate::{
 /// [`stats`](Decoder::stats). A names section whose epoch differs from the one known
 /// for that source means the source restarted: its old dictionary is dropped.
 ///
-/// At most [`MAX_SOURCES`] dictionaries are kept. A new source that finds the table full
+/// At most [`MAX_SOURCES`] dictionaries are kept (or the bound given to
+/// [`with_max_sources`](Decoder::with_max_sources)). A new source that finds the table full
 /// takes the slot of the source heard least recently (short-lived modules, like the
 /// CLI's observers, come and go): that is counted ([`DecodeStats::evicted`]) and named
 /// once by [`take_evicted`](Decoder::take_evicted); the evicted source's next message
@@ -35,6 +36,8 @@ pub struct Decoder {
     clock: u64,
     /// The source last evicted, until taken.
     evicted: Option<Address>,
+    /// How many dictionaries it keeps; `None`: [`MAX_SOURCES`].
+    max_sources: Option<usize>,
     stats: DecodeStats,
 }
 
@@ -50,6 +53,14 @@ impl Decoder {
     /// A decoder that knows no source yet.
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// A decoder that keeps at most `max` sources' dictionaries (at least one).
+    pub fn with_max_sources(max: usize) -> Self {
+        Decoder {
+            max_sources: Some(max.max(1)),
+            ..Self::default()
+        }
     }
 
     /// Decodes one message from `from`. Values are unpacked against `schema`, which must
@@ -147,7 +158,8 @@ impl Decoder {
 
     /// Applies a decoded names section, making room for a new source if needed.
     fn apply(&mut self, from: &Address, section: Section) {
-        if !self.sources.contains_key(from) && self.sources.len() >= MAX_SOURCES {
+        let max = self.max_sources.unwrap_or(MAX_SOURCES);
+        if !self.sources.contains_key(from) && self.sources.len() >= max {
             self.evict_least_recent();
         }
         let heard = self.sources.entry(from.clone()).or_default();

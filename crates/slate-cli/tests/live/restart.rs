@@ -69,3 +69,17 @@ fn put_of_an_owned_attribute_by_anyone_but_its_owner_is_refused_in_one_line() {
     );
     team.stop();
 }
+
+#[test]
+fn a_node_hears_every_cli_call_after_more_of_them_than_its_source_table_holds() {
+    let mut team = Team::new("sources");
+    team.add_with_ici("t/r1/nav", NAV, "max_sources = 2");
+    team.wait_connected();
+    // Each call is a new source; the node must hear the last as it heard the first.
+    for speed in ["1.0", "2.0", "3.0", "4.0", "5.0"] {
+        team.ok(&["put", "gsr.speed", speed]);
+    }
+    let nav = team.node("t/r1/nav");
+    assert!(nav.wait_value("gsr", "speed", "5.0"), "{}", team.logs());
+    team.stop();
+}

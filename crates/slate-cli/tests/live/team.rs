@@ -142,6 +142,18 @@ impl NodeProc {
         connect: &[String],
         export: &str,
     ) -> NodeProc {
+        NodeProc::start_with(dir, address, extra, connect, export, "")
+    }
+
+    /// [`NodeProc::start_exporting`] with more `[ici]` settings (TOML lines).
+    pub fn start_with(
+        dir: &Path,
+        address: &str,
+        extra: &str,
+        connect: &[String],
+        export: &str,
+        ici: &str,
+    ) -> NodeProc {
         let stem = address.replace('/', "_");
         std::fs::write(dir.join("world.slate"), WORLD).unwrap();
         std::fs::write(dir.join(format!("{stem}.slate")), extra).unwrap();
@@ -149,7 +161,7 @@ impl NodeProc {
         let dashboard = format!("127.0.0.1:{}", free_port());
         let connect: Vec<String> = connect.iter().map(|c| format!("{c:?}")).collect();
         let config = format!(
-            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [{export}]\ndashboard = \"{dashboard}\"\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n",
+            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [{export}]\ndashboard = \"{dashboard}\"\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n{ici}\n",
             connect.join(", ")
         );
         let path = dir.join(format!("{stem}.toml"));
@@ -339,6 +351,14 @@ impl Team {
     pub fn add_exporting(&mut self, address: &str, extra: &str, export: &str) -> &NodeProc {
         let connect: Vec<String> = self.nodes.iter().map(|n| n.endpoint.clone()).collect();
         let node = NodeProc::start_exporting(&self.dir, address, extra, &connect, export);
+        self.nodes.push(node);
+        self.nodes.last().unwrap()
+    }
+
+    /// Starts one more node with more `[ici]` settings (TOML lines).
+    pub fn add_with_ici(&mut self, address: &str, extra: &str, ici: &str) -> &NodeProc {
+        let connect: Vec<String> = self.nodes.iter().map(|n| n.endpoint.clone()).collect();
+        let node = NodeProc::start_with(&self.dir, address, extra, &connect, "\"Thing\"", ici);
         self.nodes.push(node);
         self.nodes.last().unwrap()
     }

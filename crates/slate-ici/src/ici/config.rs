@@ -55,6 +55,10 @@ pub struct IciConfig {
     /// not grow the board without bound (default 10 min). It is found again, like any
     /// new module, if it comes back.
     pub forget_dead: Duration,
+    /// The most sources whose name dictionaries the decoder keeps (default 4096,
+    /// `slate_wire::MAX_SOURCES`); past it, the one heard least recently gives up its
+    /// slot (and is asked for its names again if it is still alive).
+    pub max_sources: usize,
     /// This module is a short-lived observer (the CLI's `get`, `put`, `ls`...): its
     /// hellos say so, and the boards it meets forget it as soon as it leaves instead of
     /// after `forget_dead`, so it leaves no trace (default false).
@@ -80,6 +84,7 @@ impl Default for IciConfig {
             max_report_items: 128,
             max_tombstones: 4096,
             forget_dead: Duration::from_secs(600),
+            max_sources: slate_wire::MAX_SOURCES,
             observer: false,
         }
     }

@@ -117,10 +117,10 @@ impl State {
         if self.peers.get(&gone).is_some_and(|p| p.alive == Some(true)) {
             tracing::warn!(
                 evicted = %gone,
-                max = slate_wire::MAX_SOURCES,
+                max = self.config.max_sources,
                 "more live modules than the decoder holds names for: the one heard least \
                  recently must announce its names again (fewer modules per team, or raise \
-                 slate_wire::MAX_SOURCES)"
+                 the ICI's max_sources)"
             );
         }
     }

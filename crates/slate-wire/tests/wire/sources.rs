@@ -67,3 +67,17 @@ fn the_source_heard_least_recently_gives_up_its_slot_and_is_named() {
     );
     assert_eq!(decoder.stats().evicted, 1);
 }
+
+#[test]
+fn a_decoder_given_a_smaller_table_keeps_that_many_sources() {
+    let schema = schema();
+    let mut decoder = Decoder::with_max_sources(3);
+    for i in 0..10 {
+        let from = source(i);
+        let bytes = Encoder::new(from.clone())
+            .encode(&pose_of(&from, 1), &schema)
+            .unwrap();
+        assert!(decoder.decode(&from, &bytes, &schema).is_ok(), "source {i}");
+    }
+    assert_eq!(decoder.stats().evicted, 7);
+}
