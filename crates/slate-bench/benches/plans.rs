@@ -5,7 +5,7 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use divan::Bencher;
-use slate_bench::plans::{WORLD, engine, unrelated};
+use slate_bench::plans::{DEPENDENT, WORLD, acting, crowd, engine, unrelated};
 use slate_model::{Board, Clock, Key};
 use slate_plans::Engine;
 
@@ -30,8 +30,6 @@ fn write_loop(bencher: Bencher, plans: &[&str]) {
     });
 }
 
-const DEPENDENT: &str = "plan dep { trigger: x.v > 1000000.0; action { set x.w = 1.0; } }";
-
 #[divan::bench]
 fn write_no_plans(bencher: Bencher) {
     write_loop(bencher, &[]);
@@ -50,14 +48,7 @@ fn write_1_dependent_10k_unrelated(bencher: Bencher) {
 /// A pair of writes, one making `act`'s trigger true (the action runs) and one false.
 #[divan::bench]
 fn write_to_action_pair(bencher: Bencher) {
-    let (board, engine) = engine();
-    engine
-        .load(
-            "a.slate",
-            "object x : Cell;\nplan act { trigger: x.v > 0.5; action { set x.w = x.v; } }",
-        )
-        .expect("act");
-    let key = board.key("x", "v").expect("key");
+    let (board, _engine, key) = acting();
     bencher.bench_local(|| {
         drop(black_box(board.write_key(key, 1.0)));
         board.write_key(key, 0.0)
@@ -66,16 +57,7 @@ fn write_to_action_pair(bencher: Bencher) {
 
 #[divan::bench]
 fn quantifier_10k(bencher: Bencher) {
-    let (board, engine) = engine();
-    let mut batch = board.batch();
-    for i in 0..10_000 {
-        batch.create("Obstacle", &format!("o{i}"));
-    }
-    batch.commit().expect("10k obstacles");
-    engine
-        .load("q.slate", "object x : Cell;\nplan crowd { trigger: (count o: Obstacle where o.range < 5.0) > 20000; action { set x.w = 1.0; } }")
-        .expect("crowd");
-    let key = board.key("o5", "range").expect("key");
+    let (board, _engine, key) = crowd();
     let mut v = 50.0;
     bencher.bench_local(|| {
         v = if v >= 90.0 { 50.0 } else { v + 1.0 };

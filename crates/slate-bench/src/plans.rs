@@ -23,6 +23,39 @@ pub fn engine() -> (Arc<Board>, Engine) {
     (board, engine)
 }
 
+/// A plan on `x.v` whose trigger stays false over the suite's writes.
+pub const DEPENDENT: &str = "plan dep { trigger: x.v > 1000000.0; action { set x.w = 1.0; } }";
+
+/// [`engine`] with the object `x` and the plan `act`, which fires when `x.v` goes above
+/// 0.5 and copies it to `x.w`; the key of `x.v`.
+pub fn acting() -> (Arc<Board>, Engine, Key) {
+    let (board, engine) = engine();
+    engine
+        .load(
+            "a.slate",
+            "object x : Cell;\nplan act { trigger: x.v > 0.5; action { set x.w = x.v; } }",
+        )
+        .expect("act");
+    let key = board.key("x", "v").expect("key");
+    (board, engine, key)
+}
+
+/// [`engine`] with 10 000 obstacles and the plan `crowd`, whose trigger counts them; the
+/// key of `o5.range`, which the quantifier reads.
+pub fn crowd() -> (Arc<Board>, Engine, Key) {
+    let (board, engine) = engine();
+    let mut batch = board.batch();
+    for i in 0..10_000 {
+        batch.create("Obstacle", &format!("o{i}"));
+    }
+    batch.commit().expect("10k obstacles");
+    engine
+        .load("q.slate", "object x : Cell;\nplan crowd { trigger: (count o: Obstacle where o.range < 5.0) > 20000; action { set x.w = 1.0; } }")
+        .expect("crowd");
+    let key = board.key("o5", "range").expect("key");
+    (board, engine, key)
+}
+
 /// `n` cells and one plan per cell whose trigger never fires.
 pub fn unrelated(n: usize) -> String {
     let mut s = String::new();
@@ -80,12 +113,7 @@ fn writes(cfg: &Config, r: &mut Report) {
     engine.load("x.slate", "object x : Cell;").expect("x");
     let key = board.key("x", "v").expect("key");
     r.add("write_no_plans_ns", write_loop(cfg, &board, key));
-    engine
-        .load(
-            "dep.slate",
-            "plan dep { trigger: x.v > 1000000.0; action { set x.w = 1.0; } }",
-        )
-        .expect("dep");
+    engine.load("dep.slate", DEPENDENT).expect("dep");
     r.compare(
         "write_1_dependent_ns",
         write_loop(cfg, &board, key),
@@ -109,14 +137,7 @@ fn writes(cfg: &Config, r: &mut Report) {
 /// between firing and not firing, minus the writes that do not fire (same plan, values
 /// that keep the trigger false).
 fn write_to_action(cfg: &Config, r: &mut Report) {
-    let (board, engine) = engine();
-    engine
-        .load(
-            "a.slate",
-            "object x : Cell;\nplan act { trigger: x.v > 0.5; action { set x.w = x.v; } }",
-        )
-        .expect("act");
-    let key = board.key("x", "v").expect("key");
+    let (board, engine, key) = acting();
     let mut on = false;
     let pair = measure(cfg, || {
         on = !on;
@@ -139,16 +160,7 @@ fn write_to_action(cfg: &Config, r: &mut Report) {
 }
 
 fn quantifier(cfg: &Config, r: &mut Report) {
-    let (board, engine) = engine();
-    let mut batch = board.batch();
-    for i in 0..10_000 {
-        batch.create("Obstacle", &format!("o{i}"));
-    }
-    batch.commit().expect("10k obstacles");
-    engine
-        .load("q.slate", "object x : Cell;\nplan crowd { trigger: (count o: Obstacle where o.range < 5.0) > 20000; action { set x.w = 1.0; } }")
-        .expect("crowd");
-    let key = board.key("o5", "range").expect("key");
+    let (board, _engine, key) = crowd();
     let mut v = 50.0;
     let ns = measure(cfg, || {
         v = if v >= 90.0 { 50.0 } else { v + 1.0 };

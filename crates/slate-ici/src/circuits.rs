@@ -154,12 +154,10 @@ pub(crate) fn one_plan(file_name: &str, text: &str) -> Result<String, String> {
     }
 }
 
-/// Terminal steps: nothing follows them on a circuit.
+/// Steps that close a circuit: the final ones ([`PlanStep::is_final`]) but a lost
+/// destination, which may come back (the origin then sends the plan again).
 pub(crate) fn closes(step: &PlanStep) -> bool {
-    matches!(
-        step,
-        PlanStep::Terminated | PlanStep::Cancelled | PlanStep::Rejected { .. }
-    )
+    step.is_final() && !matches!(step, PlanStep::DestinationLost)
 }
 
 pub(crate) struct Inner {

@@ -205,11 +205,16 @@ impl AttrDecl {
         accuracy: Option<f64>,
         confidence: Option<f64>,
     ) -> Result<(), ValueError> {
-        let (acc, conf) = self
-            .default
-            .as_ref()
-            .map_or((0.0, 1.0), |p| (p.accuracy, p.confidence));
+        let (acc, conf) = self.default_quality();
         crate::packet::check_quality(accuracy.unwrap_or(acc), confidence.unwrap_or(conf))
+    }
+
+    /// The accuracy and confidence a write that leaves them out gets: the declared
+    /// default packet's, else 0 and 1.
+    pub fn default_quality(&self) -> (f64, f64) {
+        self.default
+            .as_ref()
+            .map_or((0.0, 1.0), |p| (p.accuracy, p.confidence))
     }
 }
 

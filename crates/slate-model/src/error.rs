@@ -270,18 +270,6 @@ pub enum BatchError {
     /// Batches may not be committed inside a snapshot.
     #[error("writes are not allowed inside a snapshot")]
     ReadOnly,
-    /// The attribute is guarded: only the machinery that declared it writes it (a
-    /// `Plan`'s fields are the plan engine's).
-    #[error(
-        "{object}.{attr} is written only by the machinery that keeps it (a Plan's fields by \
-         its plan engine: cancel a plan through the engine, e.g. `slate plan cancel`)"
-    )]
-    Guarded {
-        /// Object name.
-        object: String,
-        /// Attribute name.
-        attr: String,
-    },
 }
 
 /// Error of [`Board::watch`](crate::Board::watch) and active-function attachment.

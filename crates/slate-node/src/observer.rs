@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use slate_ici::{ClassSet, IciConfig, Transport};
 use slate_model::Address;
-use slate_zenoh::{Mode, ZenohConfig, ZenohTransport, keys};
+use slate_zenoh::{Mode, OpenError, ZenohConfig, ZenohTransport, keys};
 use zenoh::Wait;
 
 use crate::error::{ObserveError, StartError};
@@ -80,10 +80,7 @@ pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
         .ici(ici)
         .start()
         .map_err(|e| match e {
-            StartError::Open(_) => ObserveError::NoModules {
-                endpoints: options.connect.join(", "),
-                seconds: options.wait.as_secs_f64(),
-            },
+            StartError::Open(open) => unreachable_unless_malformed(open, options),
             other => ObserveError::Start(other),
         })?;
     // Other observers too, so that a `put` reaches a live `watch` (an observer killed
@@ -134,6 +131,18 @@ pub fn is_observer(address: &Address) -> bool {
     address.module().starts_with(OBSERVER_PREFIX)
 }
 
+/// Why the observer's session did not open: a client that reaches no node fails to open,
+/// which says nobody answered; a malformed endpoint says so itself.
+fn unreachable_unless_malformed(e: OpenError, options: &ObserverOptions) -> ObserveError {
+    match e {
+        OpenError::Endpoint(_) => ObserveError::Open(e),
+        _ => ObserveError::NoModules {
+            endpoints: options.connect.join(", "),
+            seconds: options.wait.as_secs_f64(),
+        },
+    }
+}
+
 /// The slate modules alive on the Zenoh network reachable through `connect`, of every
 /// team, found by their liveliness tokens within `wait`.
 pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>, ObserveError> {
@@ -144,9 +153,13 @@ pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>,
         endpoints: connect.join(", "),
         seconds: wait.as_secs_f64(),
     };
-    // A client that reaches no node fails to open.
-    let probe = ZenohTransport::open(probe_address.clone(), &zenoh_config(connect))
-        .map_err(|_| unreachable())?;
+    // A client that reaches no node fails to open; a malformed endpoint is no such case.
+    let probe = ZenohTransport::open(probe_address.clone(), &zenoh_config(connect)).map_err(
+        |e| match e {
+            OpenError::Endpoint(_) => ObserveError::Open(e),
+            _ => unreachable(),
+        },
+    )?;
     let mut found = BTreeSet::new();
     while found.is_empty() && Instant::now() < deadline {
         let left = deadline.saturating_duration_since(Instant::now());

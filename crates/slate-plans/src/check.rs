@@ -504,7 +504,7 @@ impl<'s> Checker<'s> {
     fn attr_type(&mut self, base: &Base, f: &Ident) -> Option<Ty> {
         match &base.class {
             Some(class) => match self.scope.attr(class, &f.name) {
-                Some(a) => Some(Ty::of(a.ty)),
+                Some(a) => Some(Ty::of(a.decl.ty)),
                 None => {
                     self.error(f.span, format!("class {class} has no attribute {}", f.name));
                     None

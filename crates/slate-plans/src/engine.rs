@@ -260,7 +260,7 @@ impl Engine {
             }
             st.plans[idx].state = PlanState::Cancelled;
         }
-        write_plan(&board, name, "state", PlanState::Cancelled.name());
+        let _ = write_plan(&board, name, "state", PlanState::Cancelled.name());
         self.shared.outbox.event(PlanEvent::Cancelled {
             plan: name.to_owned(),
         });
@@ -270,27 +270,16 @@ impl Engine {
     /// Records who sent a plan in its object's `origin` (a guarded field: the ICI that
     /// received the plan tells the engine, which writes it).
     pub fn set_origin(&self, plan: &str, origin: &str) -> Result<(), slate_model::BatchError> {
-        let board = self.board().ok_or_else(|| slate_model::BatchError::Write {
-            index: 0,
-            source: slate_model::WriteError::UnknownObject(plan.to_owned()),
-        })?;
-        let mut batch = board.batch();
-        batch.write_guarded(plan, "origin", origin);
-        batch.commit().map(|_| ())
+        let board = self.board().ok_or_else(|| unknown_plan(plan))?;
+        write_plan(&board, plan, "origin", origin)
     }
 
     /// Writes a plan's state back on its object from the engine's own (after a copy of it
     /// was written by another module: only the engine says what state a plan is in).
     pub fn restore_state(&self, plan: &str) -> Result<(), slate_model::BatchError> {
-        let unknown = || slate_model::BatchError::Write {
-            index: 0,
-            source: slate_model::WriteError::UnknownObject(plan.to_owned()),
-        };
-        let state = self.status(plan).ok_or_else(unknown)?.state;
-        let board = self.board().ok_or_else(unknown)?;
-        let mut batch = board.batch();
-        batch.write_guarded(plan, "state", state.name());
-        batch.commit().map(|_| ())
+        let state = self.status(plan).ok_or_else(|| unknown_plan(plan))?.state;
+        let board = self.board().ok_or_else(|| unknown_plan(plan))?;
+        write_plan(&board, plan, "state", state.name())
     }
 
     /// Runs the plans whose deadlines have passed (a manual clock does this by itself when
@@ -311,13 +300,19 @@ impl Engine {
             .unwrap_or_else(|_| std::thread::spawn(|| ()))
     }
 
+    /// Why `name` cannot name a new plan: an object or class of the board, or a plan of
+    /// this engine, has it already. `None` when it is free.
+    pub(crate) fn name_taken(&self, board: &Board, name: &str) -> Option<String> {
+        let exists = self.shared.state.lock().by_name.contains_key(name);
+        (exists || board.info(name).is_some()).then(|| {
+            format!("{name} already exists on this board; plan names must be unique object names")
+        })
+    }
+
     pub(crate) fn install(&self, plan: CompiledPlan, board: &Board) -> Result<(), String> {
         let name = plan.name.clone();
-        let exists = self.shared.state.lock().by_name.contains_key(&name);
-        if exists || board.info(&name).is_some() {
-            return Err(format!(
-                "{name} already exists on this board; plan names must be unique object names"
-            ));
+        if let Some(taken) = self.name_taken(board, &name) {
+            return Err(taken);
         }
         let mut batch = board.batch();
         batch
@@ -363,10 +358,23 @@ impl Engine {
 }
 
 /// Writes one of a plan object's fields: they are guarded, the engine's alone.
-fn write_plan(board: &Board, plan: &str, attr: &str, value: &str) {
+fn write_plan(
+    board: &Board,
+    plan: &str,
+    attr: &str,
+    value: &str,
+) -> Result<(), slate_model::BatchError> {
     let mut batch = board.batch();
     batch.write_guarded(plan, attr, value);
-    let _ = batch.commit();
+    batch.commit().map(|_| ())
+}
+
+/// The error of a plan the engine does not hold (or whose board is gone).
+fn unknown_plan(plan: &str) -> slate_model::BatchError {
+    slate_model::BatchError::Write {
+        index: 0,
+        source: slate_model::WriteError::UnknownObject(plan.to_owned()),
+    }
 }
 
 struct Hook(Weak<Shared>);
@@ -520,11 +528,11 @@ impl Shared {
             self.outbox.event(e.clone());
         }
         if let Some(state) = outcome.new_state {
-            write_plan(board, &name, "state", state.name());
+            let _ = write_plan(board, &name, "state", state.name());
         }
         if let Some(error) = &outcome.eval_error {
             st.plans[idx].last_error = Some(error.clone());
-            write_plan(board, &name, "last_error", error.as_str());
+            let _ = write_plan(board, &name, "last_error", error.as_str());
         }
         if let Some(effects) = outcome.effects {
             self.act(st, idx, effects, board);
@@ -560,7 +568,9 @@ impl Shared {
         rt.last_error = result.as_ref().err().cloned();
         match &result {
             Ok(()) => rt.fired = progress.fired,
-            Err(e) => write_plan(board, &name, "last_error", e.as_str()),
+            Err(e) => {
+                let _ = write_plan(board, &name, "last_error", e.as_str());
+            }
         }
         let fired = rt.fired;
         if self.outbox.has_event_subscribers() {

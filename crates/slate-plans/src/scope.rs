@@ -8,7 +8,6 @@ use slate_model::{AttrDecl, Board, ClassDef, ClassTree, THING, ValueType};
 /// One attribute as the checker sees it.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct AttrInfo {
-    pub ty: ValueType,
     /// The class that declares it.
     pub class: String,
     /// Is it computed on read?
@@ -64,10 +63,16 @@ impl Scope {
         self.refresh(&def.name);
     }
 
-    /// Marks `class.attr` as derived (computed on read), for `class` and its subclasses.
-    pub fn mark_derived(&mut self, class: &str, attr: &str) {
-        self.derived.insert((class.to_owned(), attr.to_owned()));
-        self.refresh(class);
+    /// Marks each `(class, attr)` as derived (computed on read), for the class and its
+    /// subclasses, recomputing the flattened attributes once for all of them.
+    pub fn mark_derived<'a>(&mut self, marks: impl IntoIterator<Item = (&'a str, &'a str)>) {
+        let before = self.derived.len();
+        for (class, attr) in marks {
+            self.derived.insert((class.to_owned(), attr.to_owned()));
+        }
+        if self.derived.len() > before {
+            self.refresh(THING);
+        }
     }
 
     /// Recomputes the flattened attributes of `class` and of every class below it.
@@ -90,7 +95,6 @@ impl Scope {
             .declarations(class)
             .map(|(declaring, a)| {
                 let info = AttrInfo {
-                    ty: a.ty,
                     class: declaring.name.clone(),
                     derived: self
                         .derived
@@ -114,7 +118,7 @@ impl Scope {
             .classes
             .values()
             .filter_map(|c| c.attrs.get(attr))
-            .map(|a| a.ty);
+            .map(|a| a.decl.ty);
         let Some(first) = types.next() else {
             return Err(format!("no class declares an attribute {attr}"));
         };
@@ -139,7 +143,7 @@ mod tests {
         board.define(ClassDef::new("Vehicle").attr(speed)).unwrap();
         let mut scope = Scope::from_board(&board);
         assert!(scope.classes.contains_key(THING) && scope.classes.contains_key("Plan"));
-        scope.mark_derived("Vehicle", "speed");
+        scope.mark_derived([("Vehicle", "speed")]);
         let gsr = ClassDef::new("Gsr")
             .parent("Vehicle")
             .attr(AttrDecl::new("mode", ValueType::Str));

@@ -291,11 +291,9 @@ fn write_kind(e: &WriteError) -> Kind {
         WriteError::UnknownAttribute { .. } => Kind::UnknownAttribute,
         WriteError::Invalid { source, .. } => invalid_kind(source),
         WriteError::Chain(_) => Kind::Chain,
-        // Refused because every other board would refuse the packet: a non-owner's write
-        // to an `owned` attribute, a stamp older than the stored packet or too far ahead.
-        WriteError::NotOwner { .. }
-        | WriteError::Superseded { .. }
-        | WriteError::FromTheFuture { .. } => Kind::Write,
+        // Refused because every other board would refuse the packet (a non-owner's write
+        // to an `owned` attribute, a stamp older than the stored packet or too far ahead),
+        // a guarded attribute, and what later versions add.
         _ => Kind::Write,
     }
 }

@@ -279,7 +279,6 @@ pub(crate) fn to_update(
     })
 }
 
-/// Seconds since the Unix epoch as a timestamp.
 /// A timestamp given in seconds: finite, not negative, and no later than a stamp holds
 /// ([`MAX_TIME`], in 2112), never saturated.
 pub(crate) fn to_timestamp(py: Python<'_>, seconds: f64) -> PyResult<Timestamp> {

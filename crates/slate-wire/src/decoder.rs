@@ -29,15 +29,15 @@ use crate::{
 /// once by [`take_evicted`](Decoder::take_evicted); the evicted source's next message
 /// that uses its names is refused as [`DecodeError::UnknownName`], which asks it to
 /// announce them again. A new source is never refused for want of room.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Decoder {
     sources: FxHashMap<Address, Heard>,
     /// Counts the messages decoded: the "time" of [`Heard::last`].
     clock: u64,
     /// The source last evicted, until taken.
     evicted: Option<Address>,
-    /// How many dictionaries it keeps; `None`: [`MAX_SOURCES`].
-    max_sources: Option<usize>,
+    /// How many dictionaries it keeps.
+    max_sources: usize,
     stats: DecodeStats,
 }
 
@@ -49,6 +49,12 @@ struct Heard {
     last: u64,
 }
 
+impl Default for Decoder {
+    fn default() -> Self {
+        Decoder::with_max_sources(MAX_SOURCES)
+    }
+}
+
 impl Decoder {
     /// A decoder that knows no source yet.
     pub fn new() -> Self {
@@ -58,8 +64,11 @@ impl Decoder {
     /// A decoder that keeps at most `max` sources' dictionaries (at least one).
     pub fn with_max_sources(max: usize) -> Self {
         Decoder {
-            max_sources: Some(max.max(1)),
-            ..Self::default()
+            sources: FxHashMap::default(),
+            clock: 0,
+            evicted: None,
+            max_sources: max.max(1),
+            stats: DecodeStats::default(),
         }
     }
 
@@ -158,8 +167,7 @@ impl Decoder {
 
     /// Applies a decoded names section, making room for a new source if needed.
     fn apply(&mut self, from: &Address, section: Section) {
-        let max = self.max_sources.unwrap_or(MAX_SOURCES);
-        if !self.sources.contains_key(from) && self.sources.len() >= max {
+        if !self.sources.contains_key(from) && self.sources.len() >= self.max_sources {
             self.evict_least_recent();
         }
         let heard = self.sources.entry(from.clone()).or_default();

@@ -43,8 +43,9 @@ impl PlanStep {
         }
     }
 
-    /// Is this the last step a circuit will see? After a rejection, termination,
-    /// cancellation or a lost destination the destination sends nothing more.
+    /// Does this step end the plan's progress as its origin shows it? After a rejection,
+    /// termination or cancellation nothing follows; after a lost destination nothing
+    /// follows unless the destination comes back (its circuit stays open for that).
     pub fn is_final(&self) -> bool {
         matches!(
             self,

@@ -165,7 +165,7 @@ pub struct ZenohTransport {
 impl ZenohTransport {
     /// Opens a Zenoh session for `address` and declares its subscriptions and liveliness.
     pub fn open(address: Address, config: &ZenohConfig) -> Result<Arc<ZenohTransport>, OpenError> {
-        let zerr = |e: zenoh::Error| OpenError::Zenoh(crate::endpoint::error_text(&e.to_string()));
+        let zerr = |e: zenoh::Error| OpenError::Zenoh(zenoh_text(&e));
         let session = zenoh::open(config.to_zenoh()?).wait().map_err(zerr)?;
         let inner = Arc::new(Inner {
             address,
@@ -407,7 +407,7 @@ impl Inner {
         publisher
             .put(payload.to_vec())
             .wait()
-            .map_err(|e| SendError::Failed(crate::endpoint::error_text(&e.to_string())))?;
+            .map_err(send_failed)?;
         self.stats.lock().sent(link, kind, payload.len());
         Ok(())
     }
@@ -480,7 +480,7 @@ impl Inner {
             // This session's own subscriptions drop what it sends: do not route it there.
             .allowed_destination(Locality::Remote)
             .wait()
-            .map_err(|e| SendError::Failed(crate::endpoint::error_text(&e.to_string())))?;
+            .map_err(send_failed)?;
         let publisher = Arc::new(publisher);
         self.publishers.lock().insert(dest, publisher.clone());
         Ok(publisher)
@@ -546,6 +546,16 @@ impl Drop for ZenohTransport {
     fn drop(&mut self) {
         self.close();
     }
+}
+
+/// Zenoh's message of `e`, without the source locations it appends.
+fn zenoh_text(e: &zenoh::Error) -> String {
+    crate::endpoint::error_text(&e.to_string())
+}
+
+/// A put Zenoh refused.
+fn send_failed(e: zenoh::Error) -> SendError {
+    SendError::Failed(zenoh_text(&e))
 }
 
 #[cfg(test)]

@@ -8,17 +8,15 @@ use anyhow::Context as _;
 use crossbeam_channel::Receiver;
 use serde_json::{Value as Json, json};
 use slate_model::{Address, Board, Packet, Value};
-use slate_node::{Node, ObserverOptions, inspect::Classes, is_observer, observe};
+use slate_node::{Node, ObserveError, ObserverOptions, inspect::Classes, is_observer, observe};
+use slate_zenoh::OpenError;
 
 use crate::cli::LiveArgs;
 use crate::command::failed;
 
-/// Joins the team as an observer and waits for its catch-up. The arguments are checked
-/// first: a malformed endpoint is named at once, not reported as unreachable.
+/// Joins the team as an observer and waits for its catch-up. A malformed endpoint is
+/// named as the `--connect` it came from, not reported as unreachable.
 pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
-    for endpoint in &live.connect {
-        slate_zenoh::check_endpoint(endpoint).context("--connect")?;
-    }
     let address = live
         .address
         .as_deref()
@@ -39,7 +37,12 @@ pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
         address,
         wait,
     };
-    Ok(observe(&options)?)
+    observe(&options).map_err(|e| match e {
+        ObserveError::Open(OpenError::Endpoint(bad)) => {
+            anyhow::Error::new(bad).context("--connect")
+        }
+        other => other.into(),
+    })
 }
 
 /// Fires once on SIGINT (Ctrl-C) or SIGTERM. The handler is installed on first use.
@@ -155,8 +158,7 @@ pub fn team_of(board: &Board) -> String {
 /// Seconds since the packet was written; `None` for a packet that claims no time (a
 /// declared default, an initial value from a file: an age of 0 would read as fresh).
 fn age(board: &Board, p: &Packet) -> Option<f64> {
-    p.has_time()
-        .then(|| board.clock().age(p.timestamp).as_secs_f64())
+    p.age(board.clock()).map(|d| d.as_secs_f64())
 }
 
 /// A value as JSON: numbers, booleans, strings, arrays; a reference as `{"ref": name}`;

@@ -14,7 +14,7 @@ use slate_wire::{Assertion, CatchUpRequest, Message, ObjectEntry, Report};
 use super::classes::ClassSet;
 use super::frame::{Frame, Listed, ObjectList};
 use super::module::MODULE_CLASS;
-use super::state::{Origin, Request, State};
+use super::state::{Origin, Peer, Request, State};
 use crate::{LinkKind, MsgKind};
 
 /// Class definitions per `Classes` message.
@@ -77,9 +77,13 @@ impl State {
     /// ([`State::deferred_answers`]): a peer that asks again and again, or never reads
     /// what it asked for, costs one current state per interval, not one per request.
     pub fn on_request(&mut self, from: &Address, req: CatchUpRequest) {
-        let (now, interval) = (self.now, self.answer_interval(from));
-        let p = self.peer(from);
-        if p.answered.is_some_and(|t| now.saturating_sub(t) < interval) {
+        let now = self.now;
+        if self
+            .peers
+            .get(from)
+            .is_some_and(|p| self.answered_lately(p))
+        {
+            let p = self.peer(from);
             p.deferred = Some(match p.deferred {
                 Some(d) => CatchUpRequest {
                     have_seq: d.have_seq.min(req.have_seq),
@@ -91,39 +95,31 @@ impl State {
             self.stats.catch_up.deferred += 1;
             return;
         }
-        p.answered = Some(now);
+        self.peer(from).answered = Some(now);
         self.answer(from, req);
     }
 
-    /// The shortest time between two answers to `peer`.
-    fn answer_interval(&self, peer: &Address) -> std::time::Duration {
-        self.config
-            .link(LinkKind::between(&self.me, peer))
-            .heartbeat
+    /// Did this module answer `p` less than their link's heartbeat interval ago?
+    fn answered_lately(&self, p: &Peer) -> bool {
+        let interval = self.config.link(p.link).heartbeat;
+        p.answered
+            .is_some_and(|t| self.now.saturating_sub(t) < interval)
     }
 
     /// Answers the requests that waited for their peer's interval to pass.
     pub fn deferred_answers(&mut self) {
-        let now = self.now;
         let due: Vec<Address> = self
             .peers
             .iter()
-            .filter(|(_, p)| p.deferred.is_some())
+            .filter(|(_, p)| p.deferred.is_some() && !self.answered_lately(p))
             .map(|(a, _)| a.clone())
             .collect();
+        let now = self.now;
         for peer in due {
-            let interval = self.answer_interval(&peer);
-            let Some(p) = self.peers.get_mut(&peer) else {
-                continue;
-            };
-            if p.answered.is_some_and(|t| now.saturating_sub(t) < interval) {
-                continue;
-            }
-            let Some(req) = p.deferred.take() else {
-                continue;
-            };
+            let p = self.peer(&peer);
+            let req = p.deferred.take();
             p.answered = Some(now);
-            if p.up {
+            if let Some(req) = req.filter(|_| p.up) {
                 self.answer(&peer, req);
             }
         }

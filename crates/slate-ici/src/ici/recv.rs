@@ -315,7 +315,7 @@ impl State {
     /// writes alike.
     pub fn before_incarnation(&self, from: &Address, stamp: Timestamp) -> bool {
         let incarnation = self.peers.get(from).and_then(|p| p.incarnation);
-        incarnation.is_some_and(|i| stamp != Timestamp::ZERO && stamp.raw() < i)
+        incarnation.is_some_and(|i| super::state::predates(stamp, i))
     }
 
     /// An object its owner says exists: create it if this board models it and holds

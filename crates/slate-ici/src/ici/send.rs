@@ -137,7 +137,7 @@ impl State {
     /// from files are stamped `Timestamp::ZERO` (they claim no time, so that they lose
     /// to whatever the team wrote since): they are.
     fn of_this_incarnation(&self, stamp: Timestamp) -> bool {
-        stamp == Timestamp::ZERO || stamp.raw() >= self.incarnation
+        !super::state::predates(stamp, self.incarnation)
     }
 
     /// A packet this module wrote: the item to send now, if any.

@@ -315,3 +315,10 @@ impl State {
         }
     }
 }
+
+/// Was something stamped `stamp` made before the incarnation that began at `incarnation`?
+/// Never `Timestamp::ZERO`, the stamp of initial values from files, which every
+/// incarnation writes alike.
+pub(crate) fn predates(stamp: Timestamp, incarnation: u64) -> bool {
+    stamp != Timestamp::ZERO && stamp.raw() < incarnation
+}

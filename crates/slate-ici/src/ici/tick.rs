@@ -120,14 +120,17 @@ impl State {
         }
     }
 
+    /// Has `p` been silent past its link's timeout?
+    fn silent(&self, p: &Peer) -> bool {
+        self.now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout
+    }
+
     /// Peers silent past their link's timeout are dead.
     fn timeouts(&mut self) {
-        let now = self.now;
         let dead: Vec<Address> = self
             .peers
             .iter()
-            .filter(|(_, p)| p.alive == Some(true))
-            .filter(|(_, p)| now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout)
+            .filter(|(_, p)| p.alive == Some(true) && self.silent(p))
             .map(|(a, _)| a.clone())
             .collect();
         for peer in dead {
@@ -143,17 +146,16 @@ impl State {
     /// message still in flight when it left shows it up again, and no down follows).
     fn forget_dead(&mut self) {
         let (now, after) = (self.now, self.config.forget_dead);
-        let silent = |p: &Peer| now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout;
         let gone: Vec<Address> = self
             .peers
             .iter()
-            .filter(|(_, p)| p.alive == Some(false) && (!p.up || silent(p)))
+            .filter(|(_, p)| p.alive == Some(false) && (!p.up || self.silent(p)))
             .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
             .map(|(a, _)| a.clone())
             .collect();
+        // Its names left the decoder when it was lost.
         for peer in gone {
             self.peers.remove(&peer);
-            self.decoder.forget(&peer);
             self.stats.liveliness.forgotten += 1;
             self.ops.push(BoardOp::ForgetModule(peer));
         }

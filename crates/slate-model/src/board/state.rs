@@ -422,10 +422,7 @@ impl State {
             source,
         };
         check_value(&update.value, d.ty, d.bounds).map_err(invalid)?;
-        let (acc, conf) = d
-            .default
-            .as_ref()
-            .map_or((0.0, 1.0), |p| (p.accuracy, p.confidence));
+        let (acc, conf) = d.default_quality();
         let accuracy = update.accuracy.unwrap_or(acc);
         let confidence = update.confidence.unwrap_or(conf);
         check_quality(accuracy, confidence).map_err(invalid)?;

@@ -28,34 +28,28 @@ pub(super) fn class_def(
     for a in &class.attributes {
         def = def.attr(attr_decl(ck, a));
     }
-    if slate_model::is_builtin(&def.name)
-        && board
-            .class_def(&def.name)
-            .is_none_or(|existing| existing != def)
-    {
-        ck.error(
-            class.name.span,
-            format!(
-                "{} is a built-in class (every board has it, as the language docs list); \
-                 choose another name",
-                def.name
-            ),
-        );
-        return None;
+    // The same definition again is fine; a new one must not take a built-in's name.
+    let accepted = match board.class_def(&def.name) {
+        Some(existing) => existing == def,
+        None => !slate_model::is_builtin(&def.name),
+    };
+    if accepted {
+        return Some(def);
     }
-    if let Some(existing) = board.class_def(&def.name)
-        && existing != def
-    {
-        ck.error(
-            class.name.span,
-            format!(
-                "class {} is already defined differently on this board",
-                def.name
-            ),
-        );
-        return None;
-    }
-    Some(def)
+    let message = if slate_model::is_builtin(&def.name) {
+        format!(
+            "{} is a built-in class (every board has it, as the language docs list); \
+             choose another name",
+            def.name
+        )
+    } else {
+        format!(
+            "class {} is already defined differently on this board",
+            def.name
+        )
+    };
+    ck.error(class.name.span, message);
+    None
 }
 
 fn attr_decl(ck: &mut Checker<'_>, a: &AttributeDecl) -> AttrDecl {
@@ -97,7 +91,10 @@ fn attr_decl(ck: &mut Checker<'_>, a: &AttributeDecl) -> AttrDecl {
             .and_then(|e| constant(ck, e))
             .and_then(|v| v.as_f64())
             .unwrap_or(1.0);
-        if value.value_type() != Some(ty) {
+        if value.value_type() == Some(ty) {
+            // `d` has no default yet: the packet is checked against bounds alone.
+            check_packet(ck, &d, p, &value, Some(acc), Some(conf));
+        } else {
             ck.error(
                 p.value.span,
                 format!(
@@ -105,11 +102,6 @@ fn attr_decl(ck: &mut Checker<'_>, a: &AttributeDecl) -> AttrDecl {
                     a.name.name
                 ),
             );
-        }
-        if value.value_type() == Some(ty) {
-            let mut probe = d.clone();
-            probe.default = None;
-            check_packet(ck, &probe, p, &value, Some(acc), Some(conf));
         }
         d = d.default_packet(value, acc, conf);
     }

@@ -29,7 +29,7 @@ pub(super) fn derived_fn(
     let declared = ck
         .scope
         .attr(&class.name.name, &a.name.name)
-        .map(|i| i.ty)?;
+        .map(|i| i.decl.ty)?;
     if !ty.fits(declared) {
         ck.error(
             p.value.span,

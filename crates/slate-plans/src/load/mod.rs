@@ -210,17 +210,8 @@ fn free_plan_names(
     board: &Board,
     plans: &[CompiledPlan],
 ) -> Result<(), Diagnostics> {
-    let taken = plans
-        .iter()
-        .find(|p| board.info(&p.name).is_some() || engine.status(&p.name).is_some());
-    match taken {
-        Some(p) => Err(one(
-            Span::default(),
-            format!(
-                "{} already exists on this board; plan names must be unique object names",
-                p.name
-            ),
-        )),
+    match plans.iter().find_map(|p| engine.name_taken(board, &p.name)) {
+        Some(taken) => Err(one(Span::default(), taken)),
         None => Ok(()),
     }
 }
@@ -291,9 +282,11 @@ fn compile(
 }
 
 fn mark_derived(scope: &mut Scope, derived: &DerivedDeps) {
-    for ((class, attr), _) in derived.iter() {
-        scope.mark_derived(class, attr);
-    }
+    scope.mark_derived(
+        derived
+            .iter()
+            .map(|((class, attr), _)| (class.as_ref(), attr.as_ref())),
+    );
 }
 
 fn compile_item(
