@@ -115,16 +115,10 @@ impl Demo {
         }
     }
 
-    /// Lets the network run for [`DT`]. On the system clock (Zenoh) the ICIs' and
-    /// engines' timers are run by hand (on the simulator the clock runs them).
+    /// Lets the network run for [`DT`] (on the system clock, Zenoh, each node's timer
+    /// thread runs its ICI's and engine's timers; on the simulator the clock runs them).
     fn advance(&self) {
         self.net.advance(Duration::from_secs_f64(DT));
-        if !self.net.is_virtual() {
-            for m in self.team.alive_modules() {
-                m.ici.tick();
-                m.engine.tick();
-            }
-        }
     }
 
     fn maybe_fault(&mut self) {
@@ -143,7 +137,7 @@ impl Demo {
 
     /// The console's mission phase.
     pub fn mission_phase(&self) -> String {
-        text(&self.team.console().board, "mission", "phase")
+        text(self.team.console().node.board(), "mission", "phase")
     }
 
     /// Is the mission over (complete, or out of time)?
@@ -183,7 +177,7 @@ impl Demo {
     }
 
     fn summary(&self, mission_seconds: f64, lag: Option<f64>, left: Option<String>) -> Summary {
-        let console = &self.team.console().board;
+        let console = self.team.console().node.board();
         let targets: Vec<TargetOutcome> = self
             .world
             .targets
@@ -257,7 +251,7 @@ impl Demo {
             .team
             .modules
             .iter()
-            .flat_map(|m| m.circuits.sent())
+            .flat_map(|m| m.node.circuits().sent())
             .collect();
         let has = |f: &dyn Fn(&PlanStep) -> bool| {
             circuits.iter().filter(|c| c.steps.iter().any(f)).count()
@@ -271,7 +265,7 @@ impl Demo {
 
     /// A one-line status.
     pub fn status_line(&self) -> String {
-        let console = &self.team.console().board;
+        let console = self.team.console().node.board();
         let found = self.observer.found.len();
         let alive = self.team.dead.iter().filter(|d| !**d).count();
         let team = self.traffic.team_bps();

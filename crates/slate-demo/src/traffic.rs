@@ -117,7 +117,7 @@ fn counts(net: &Network, team: &Team) -> Counts {
     } else {
         for m in &team.modules {
             for link in LinkKind::ALL {
-                let sent = m.ici.stats().link(link).sent_bytes;
+                let sent = m.node.ici().stats().link(link).sent_bytes;
                 *out.entry((m.robot.clone(), link)).or_default() += sent;
             }
         }
@@ -129,7 +129,7 @@ fn counts(net: &Network, team: &Team) -> Counts {
 pub(crate) fn by_kind(team: &Team, link: LinkKind) -> BTreeMap<MsgKind, u64> {
     let mut out = BTreeMap::new();
     for m in &team.modules {
-        for ((l, kind), t) in m.ici.stats().traffic {
+        for ((l, kind), t) in m.node.ici().stats().traffic {
             if l == link && t.sent_bytes > 0 {
                 *out.entry(kind).or_default() += t.sent_bytes;
             }
