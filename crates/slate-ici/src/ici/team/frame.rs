@@ -1,0 +1,1 @@
+//! Being built: see docs/team-protocol.md, section 4.
