@@ -268,9 +268,10 @@ impl Outer {
         Some(true)
     }
 
-    /// Is `seq` held already? Position 0 does not exist: held, so dropped.
+    /// Is `seq` held already? Position 0 does not exist: held, so dropped. A position
+    /// beyond the window is not looked up: its slot belongs to another position.
     fn holds(&mut self, seq: u64) -> bool {
-        seq <= self.have || self.window.contains(seq)
+        seq <= self.have || (seq - self.have <= WINDOW_SPAN && self.window.contains(seq))
     }
 
     /// Take the fresh position `seq`; true when it made the gap too large (`have`
@@ -762,6 +763,16 @@ mod tests {
         let heard = o.receive(TAG, WINDOW_SPAN + 1, T0);
         assert!(matches!(heard, Heard::Fresh(c) if c.ask_state));
         assert_eq!(o.have(), WINDOW_SPAN + 1);
+    }
+
+    #[test]
+    fn a_frame_far_ahead_is_not_mistaken_for_one_held_in_its_slot() {
+        let mut o = outer();
+        o.receive(TAG, 5, T0);
+        let ring = WINDOW_WORDS as u64 * WORD_BITS;
+        let heard = o.receive(TAG, 5 + ring, T0);
+        assert!(matches!(heard, Heard::Fresh(c) if c.ask_state));
+        assert_eq!(o.have(), 5 + ring);
     }
 
     #[test]
