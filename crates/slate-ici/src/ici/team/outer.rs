@@ -968,12 +968,100 @@ mod tests {
         assert_eq!(from_ranges, missing);
     }
 
+    /// One part of a position in the generated streams below.
+    #[derive(Clone, Debug)]
+    struct Spec {
+        message: usize,
+        cont: bool,
+        more: bool,
+        bytes: Vec<u8>,
+    }
+
+    /// Lay messages (member = index % 30, `pieces` fragments each) out over positions
+    /// as a gateway may: a head (MORE) is the last part of a position, which may also
+    /// hold whole messages and the tail (CONT) of the message before; a middle piece
+    /// is a position alone.
+    fn lay_out(messages: &[(Vec<u8>, usize)], share: &[bool]) -> Vec<Vec<Spec>> {
+        let mut positions: Vec<Vec<Spec>> = vec![Vec::new()];
+        for (i, (bytes, pieces)) in messages.iter().enumerate() {
+            let cuts: Vec<&[u8]> = bytes.chunks(bytes.len().div_ceil(*pieces).max(1)).collect();
+            for (k, chunk) in cuts.iter().enumerate() {
+                let (cont, more) = (k > 0, k + 1 < cuts.len());
+                let open = positions
+                    .last()
+                    .is_some_and(|p| p.last().is_none_or(|s| !s.more));
+                if cont || !open || !share[i] {
+                    positions.push(Vec::new());
+                }
+                let spec = Spec {
+                    message: i,
+                    cont,
+                    more,
+                    bytes: chunk.to_vec(),
+                };
+                if let Some(p) = positions.last_mut() {
+                    p.push(spec);
+                }
+            }
+        }
+        positions.retain(|p| !p.is_empty());
+        positions
+    }
+
+    /// Deliver the positions in `order`, skipping the `lost` ones; the messages out,
+    /// by index, in the order they came whole.
+    fn deliver(positions: &[Vec<Spec>], order: &[usize], lost: &[bool]) -> Vec<(usize, Vec<u8>)> {
+        let mut o = Outer::new(TAG, WINDOW_SPAN);
+        let mut out = Vec::new();
+        for &at in order.iter().filter(|&&at| !lost[at]) {
+            let seq = at as u64 + 1;
+            assert_eq!(o.receive(TAG, seq, T0), fresh());
+            for s in &positions[at] {
+                let member = (s.message % 30) as u8;
+                let whole = if s.cont || s.more {
+                    o.fragment(seq, part(member, s.cont, s.more, &s.bytes))
+                        .map(|m| m.bytes)
+                } else {
+                    Some(s.bytes.clone())
+                };
+                out.extend(whole.map(|b| (s.message, b)));
+            }
+        }
+        out
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(500))]
 
         #[test]
         fn the_window_agrees_with_a_set(seqs in prop::collection::vec(1u64..=600, 0..400)) {
             check_against_a_set(&seqs);
+        }
+
+        /// Every message all of whose positions arrive comes out once, whole, whatever
+        /// the order; none with a lost position does.
+        #[test]
+        fn fragmented_messages_come_out_whole_once_in_any_order(
+            messages in prop::collection::vec(
+                (prop::collection::vec(any::<u8>(), 1..40), 1usize..5), 1..15),
+            share in prop::collection::vec(any::<bool>(), 15),
+            keys in prop::collection::vec(any::<u32>(), 80),
+            lost in prop::collection::vec(prop::bool::weighted(0.1), 80),
+        ) {
+            let positions = lay_out(&messages, &share);
+            let mut order: Vec<usize> = (0..positions.len()).collect();
+            order.sort_by_key(|&at| keys[at]);
+            let got = deliver(&positions, &order, &lost);
+            let arrived = |m: usize| positions.iter().enumerate()
+                .all(|(at, p)| !lost[at] || p.iter().all(|s| s.message != m));
+            let mut expected: Vec<usize> = (0..messages.len()).filter(|&m| arrived(m)).collect();
+            let mut indices: Vec<usize> = got.iter().map(|(m, _)| *m).collect();
+            indices.sort_unstable();
+            expected.sort_unstable();
+            prop_assert_eq!(indices, expected);
+            for (m, bytes) in got {
+                prop_assert_eq!(&bytes, &messages[m].0);
+            }
         }
 
         #[test]
