@@ -54,6 +54,10 @@ pub(crate) struct Change {
     /// position heard and what lay between is lost for the robot stream. Ask the
     /// members' state (2.6, case b) rather than NACK the positions.
     pub ask_state: bool,
+    /// Positions newly known to be missing, as `(from, n)`: those between the highest
+    /// position known before and the one heard (for the NACK scheduler's
+    /// `gap_found`). `None` when nothing new is missing, or after a jump.
+    pub revealed: Option<(u64, u64)>,
 }
 
 /// A part that is a fragment of a longer message (CONT or MORE set, 2.2).
@@ -138,23 +142,25 @@ impl Outer {
         let Some(restarted) = self.epoch(tag) else {
             return Heard::Retired;
         };
-        let mut change = Change {
-            restarted,
-            ask_state: false,
-        };
         if self.holds(seq) {
             self.counts.duplicates += 1;
             return Heard::Duplicate;
         }
         self.fragments.collect(self.have, &mut self.counts);
-        change.ask_state = self.take(seq, now);
-        Heard::Fresh(change)
+        let known = self.want;
+        let ask_state = self.take(seq, now);
+        Heard::Fresh(Change {
+            restarted,
+            ask_state,
+            revealed: between(known + 1, seq - 1).filter(|_| !ask_state),
+        })
     }
 
     /// A heartbeat of the epoch `tag` says the stream is at `seq`. `None` when it is of
     /// the retired epoch (ignored).
     pub fn announce(&mut self, tag: u16, seq: u64, now: Duration) -> Option<Change> {
         let restarted = self.epoch(tag)?;
+        let known = self.want;
         self.want = self.want.max(seq);
         let ask_state = self.jump_if_too_large();
         if !ask_state {
@@ -163,6 +169,7 @@ impl Outer {
         Some(Change {
             restarted,
             ask_state,
+            revealed: between(known + 1, seq).filter(|_| !ask_state),
         })
     }
 
@@ -434,6 +441,11 @@ impl Window {
     }
 }
 
+/// `first ..= last` as `(from, n)`, if it is not empty.
+fn between(first: u64, last: u64) -> Option<(u64, u64)> {
+    (first <= last).then(|| (first, last - first + 1))
+}
+
 /// Append `(from, n)`, joined to the last range when they touch (across a word).
 fn push_range(out: &mut Vec<(u64, u64)>, from: u64, n: u64) {
     match out.last_mut() {
@@ -680,10 +692,32 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_past_want_reveals_the_positions_between_once() {
+        let mut o = outer();
+        let revealed = |h: Heard| match h {
+            Heard::Fresh(c) => c.revealed,
+            _ => None,
+        };
+        assert_eq!(revealed(o.receive(TAG, 4, T0)), Some((1, 3)));
+        assert_eq!(revealed(o.receive(TAG, 2, T0)), None, "below want");
+        assert_eq!(revealed(o.receive(TAG, 5, T0)), None, "next to want");
+        assert_eq!(revealed(o.receive(TAG, 9, T0)), Some((6, 3)));
+        assert_eq!(
+            revealed(o.receive(TAG, 200, T0)),
+            None,
+            "a jump reveals nothing"
+        );
+    }
+
+    #[test]
     fn a_heartbeat_above_have_reveals_a_lost_tail() {
         let mut o = outer();
         o.receive(TAG, 1, T0);
-        assert_eq!(o.announce(TAG, 3, secs(2)), Some(Change::default()));
+        let tail = Change {
+            revealed: Some((2, 2)),
+            ..Change::default()
+        };
+        assert_eq!(o.announce(TAG, 3, secs(2)), Some(tail));
         assert_eq!(o.missing_ranges(), vec![(2, 2)]);
         assert_eq!(o.gap_since(), Some(secs(2)));
         assert_eq!(o.announce(TAG, 1, secs(3)), Some(Change::default()));
@@ -706,7 +740,7 @@ mod tests {
         o.fragment(3, part(0, false, true, b"ab"));
         let restarted = Change {
             restarted: true,
-            ask_state: false,
+            ..Change::default()
         };
         assert_eq!(o.receive(7, 1, T0), Heard::Fresh(restarted));
         assert_eq!((o.tag(), o.have()), (7, 1));
@@ -734,8 +768,8 @@ mod tests {
         assert_eq!(o.missing(), MAX_NACK, "64 missing: still NACKed");
         let heard = o.receive(TAG, 1 + MAX_NACK + 3, secs(1));
         let jumped = Change {
-            restarted: false,
             ask_state: true,
+            ..Change::default()
         };
         assert_eq!(heard, Heard::Fresh(jumped));
         assert_eq!((o.have(), o.has_gap(), o.gap_since()), (68, false, None));
@@ -948,16 +982,26 @@ mod tests {
     }
 
     /// The same positions through a `BTreeSet` model: same duplicates, same `have`,
-    /// same missing ranges, whatever the order (no jumps: the limit is the window).
+    /// same missing ranges, whatever the order (no jumps: the limit is the window);
+    /// every position missing was revealed once, when it went missing.
     fn check_against_a_set(seqs: &[u64]) {
         let mut o = Outer::new(TAG, WINDOW_SPAN);
         let mut got = BTreeSet::new();
+        let mut revealed = BTreeSet::new();
         for &seq in seqs {
             let heard = o.receive(TAG, seq, T0);
-            assert_eq!(heard == fresh(), got.insert(seq), "position {seq}");
+            assert_eq!(matches!(heard, Heard::Fresh(_)), got.insert(seq), "{seq}");
+            if let Heard::Fresh(Change {
+                revealed: Some((from, n)),
+                ..
+            }) = heard
+            {
+                assert!((from..from + n).all(|s| revealed.insert(s)), "once");
+            }
         }
-        let have = (1..).find(|s| !got.contains(s)).unwrap_or(1) - 1;
         let want = got.last().copied().unwrap_or(0);
+        assert!((1..=want).all(|s| got.contains(&s) || revealed.contains(&s)));
+        let have = (1..).find(|s| !got.contains(s)).unwrap_or(1) - 1;
         let missing: Vec<u64> = (have + 1..=want).filter(|s| !got.contains(s)).collect();
         let from_ranges: Vec<u64> = o
             .missing_ranges()
@@ -1015,7 +1059,7 @@ mod tests {
         let mut out = Vec::new();
         for &at in order.iter().filter(|&&at| !lost[at]) {
             let seq = at as u64 + 1;
-            assert_eq!(o.receive(TAG, seq, T0), fresh());
+            assert!(matches!(o.receive(TAG, seq, T0), Heard::Fresh(_)));
             for s in &positions[at] {
                 let member = (s.message % 30) as u8;
                 let whole = if s.cont || s.more {
