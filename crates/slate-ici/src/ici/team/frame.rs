@@ -238,6 +238,24 @@ impl TeamRepair {
         };
         Span { from: self.from, n }
     }
+
+    /// The repair's length once encoded, without encoding it (to split at the MTU).
+    pub fn encoded_len(&self) -> usize {
+        let span = self.span();
+        let head = 1 + var_len(span.from) + var_len(span.n) + 1;
+        match &self.content {
+            RepairContent::Replay(bodies) => {
+                head + bodies.iter().map(|b| body_len(b)).sum::<usize>()
+            }
+            RepairContent::Difference { parts, .. } => head + parts_len(parts),
+        }
+    }
+}
+
+/// Bytes of a replay body: its length, then its parts.
+fn body_len(parts: &[Part]) -> usize {
+    let len = parts_len(parts);
+    var_len(len as u64) + len
 }
 
 /// A member as its robot's hello lists it; its index is its place in the list.
@@ -1805,6 +1823,12 @@ mod tests {
         fn a_data_frames_encoded_len_is_its_length(seq in any::<u64>(), parts in parts()) {
             let f = TeamFrame { seq, parts };
             prop_assert_eq!(f.encoded_len(), TeamMsg::Frame(f.clone()).encode().len());
+        }
+
+        #[test]
+        fn a_repairs_encoded_len_is_its_length(msg in repair()) {
+            let TeamMsg::Repair(r) = &msg else { unreachable!("repair() makes repairs") };
+            prop_assert_eq!(r.encoded_len(), msg.encode().len());
         }
 
         #[test]
