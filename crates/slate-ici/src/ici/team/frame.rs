@@ -110,9 +110,9 @@ pub(crate) struct Span {
 }
 
 impl Span {
-    /// One past the last position.
+    /// One past the last position (saturating, for a span built against the invariant).
     pub fn end(self) -> u64 {
-        self.from + self.n
+        self.from.saturating_add(self.n)
     }
 }
 
@@ -159,17 +159,9 @@ impl Part {
 
     /// Bytes this part takes in a frame, `last` when it ends the frame (no length).
     pub fn encoded_len(&self, last: bool) -> usize {
-        let addressed = if matches!(self.of, PartOf::Addressed { .. }) {
-            4
-        } else {
-            0
-        };
-        let len = if last {
-            0
-        } else {
-            var_len(self.bytes.len() as u64)
-        };
-        1 + addressed + len + self.bytes.len()
+        let addressed = usize::from(matches!(self.of, PartOf::Addressed { .. }));
+        let len = usize::from(!last) * var_len(self.bytes.len() as u64);
+        1 + 4 * addressed + len + self.bytes.len()
     }
 
     /// Can this part be a frame's only part in single-part form (header `0x2m`)?
@@ -1359,6 +1351,7 @@ mod tests {
             },
         };
         assert_eq!(whole.span(), range(10, 30));
+        assert_eq!(whole.span().end(), 40);
     }
 
     #[test]
