@@ -14,7 +14,7 @@
 //! polls the actions to carry out. Random back-offs come from a seeded [`Rng`] (the
 //! simulator's xoshiro256**), so one seed replays one run.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
 
 use slate_transport::Rng;
@@ -648,6 +648,144 @@ impl NackScheduler {
     }
 }
 
+// ----- the source gateway -----
+
+/// The source gateway's repair timing and bounds (docs/team-protocol.md 2.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct RepairTiming {
+    /// How long NACKs are gathered, from the first, before one repair of their union.
+    pub repair_gather: Duration,
+    /// Positions repaired this recently are not repaired again: the NACKs still coming
+    /// for them were sent before the repair was heard (NORM's holdoff).
+    pub repair_holdoff: Duration,
+    /// The most ranges one repair gathers: a NACK entry that would add more is dropped
+    /// (its sender NACKs again after `repair_wait`).
+    pub max_ranges: usize,
+    /// The most positions one repair gathers, likewise. Receivers NACK at most
+    /// `max_nack_frames` positions a stream, so this allows a few receivers' worth.
+    pub max_positions: u64,
+    /// The most repaired ranges remembered for the holdoff, oldest forgotten first:
+    /// forgetting one early costs at worst one repair too many.
+    pub max_recent: usize,
+}
+
+impl RepairTiming {
+    /// The radio preset.
+    pub fn radio() -> Self {
+        RepairTiming {
+            repair_gather: Duration::from_millis(50),
+            repair_holdoff: Duration::from_millis(300),
+            max_ranges: 32,
+            max_positions: 256,
+            max_recent: 64,
+        }
+    }
+
+    /// The acoustic preset: longer windows, and a repair of at most 64 positions.
+    pub fn acoustic() -> Self {
+        RepairTiming {
+            repair_gather: Duration::from_secs(1),
+            repair_holdoff: Duration::from_secs(4),
+            max_ranges: 8,
+            max_positions: 64,
+            max_recent: 16,
+        }
+    }
+}
+
+/// A source gateway's repair scheduler for its own robot stream: which positions were
+/// NACKed, when to repair them, and which were repaired too recently to repeat.
+///
+/// Bounds: the gathered set holds at most `max_ranges` ranges and `max_positions`
+/// positions, the holdoff memory at most `max_recent` ranges.
+#[derive(Debug)]
+pub(crate) struct RepairScheduler {
+    timing: RepairTiming,
+    /// Positions NACKed in the open gathering window.
+    asked: Spans,
+    /// When the open window closes (`None`: no window open, nothing asked).
+    closes: Option<Duration>,
+    /// Ranges repaired lately, oldest first, with the time their repair was handed out.
+    recent: VecDeque<(Duration, SeqRange)>,
+}
+
+impl RepairScheduler {
+    /// A scheduler with nothing asked.
+    pub fn new(timing: RepairTiming) -> Self {
+        RepairScheduler {
+            timing,
+            asked: Spans::default(),
+            closes: None,
+            recent: VecDeque::new(),
+        }
+    }
+
+    /// A NACK entry for our stream asked for `range` at `now`; `head` is the last
+    /// position we sent. Positions past `head` (never sent) and positions repaired
+    /// within `repair_holdoff` are ignored; the rest join the gathering window, which
+    /// the first of them opens.
+    pub fn nack_heard(&mut self, range: SeqRange, head: u64, now: Duration) {
+        self.forget_old(now);
+        let Some(range) = range.up_to(head) else {
+            return;
+        };
+        let mut wanted = Spans::default();
+        wanted.insert(range);
+        self.recent.iter().for_each(|(_, r)| wanted.remove(*r));
+        wanted.iter().for_each(|r| self.gather(r));
+        if !self.asked.is_empty() && self.closes.is_none() {
+            self.closes = Some(now + self.timing.repair_gather);
+        }
+    }
+
+    /// The repair due at `now`, if the gathering window has closed: the union of the
+    /// positions asked, in order. They are then held off for `repair_holdoff`. The
+    /// caller repairs each range from its history (or says `Gone` for what it lost).
+    pub fn poll(&mut self, now: Duration) -> Option<Vec<SeqRange>> {
+        if self.closes.is_none_or(|t| t > now) {
+            return None;
+        }
+        self.closes = None;
+        let repair: Vec<SeqRange> = std::mem::take(&mut self.asked).iter().collect();
+        repair.iter().for_each(|r| self.remember(now, *r));
+        Some(repair)
+    }
+
+    /// When `poll` next has a repair to give, if a window is open.
+    pub fn next_due(&self) -> Option<Duration> {
+        self.closes
+    }
+
+    /// Adds `range` to the window unless that would pass the window's bounds.
+    fn gather(&mut self, range: SeqRange) {
+        let mut next = self.asked.clone();
+        next.insert(range);
+        if next.len() <= self.timing.max_ranges && next.positions() <= self.timing.max_positions {
+            self.asked = next;
+        }
+    }
+
+    /// Holds `range` off from `now`, forgetting the oldest range past `max_recent`.
+    fn remember(&mut self, now: Duration, range: SeqRange) {
+        self.recent.push_back((now, range));
+        while self.recent.len() > self.timing.max_recent {
+            self.recent.pop_front();
+        }
+    }
+
+    /// Forgets the repairs older than `repair_holdoff`.
+    fn forget_old(&mut self, now: Duration) {
+        let holdoff = self.timing.repair_holdoff;
+        while self
+            .recent
+            .front()
+            .is_some_and(|(at, _)| now.saturating_sub(*at) >= holdoff)
+        {
+            self.recent.pop_front();
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1045,6 +1183,127 @@ mod tests {
         ) {
             let seeds: Vec<u64> = (0..receivers as u64).map(|i| seed.wrapping_add(i)).collect();
             prop_assert_eq!(nacks_among(&seeds, r(3, 4)), 1);
+        }
+    }
+
+    // ----- the source gateway -----
+
+    fn source() -> RepairScheduler {
+        RepairScheduler::new(RepairTiming::radio())
+    }
+
+    fn ranges(repair: Option<Vec<SeqRange>>) -> Vec<(u64, u64)> {
+        let repair = repair.expect("a repair is due");
+        repair.iter().map(|x| (x.first(), x.last())).collect()
+    }
+
+    #[test]
+    fn nacks_heard_within_the_gather_window_make_one_repair_of_their_union() {
+        let mut s = source();
+        s.nack_heard(r(5, 6), 100, ms(0));
+        s.nack_heard(r(6, 8), 100, ms(20));
+        s.nack_heard(r(12, 12), 100, ms(40));
+        assert_eq!(
+            s.next_due(),
+            Some(ms(50)),
+            "the window opened with the first"
+        );
+        assert_eq!(s.poll(ms(49)), None);
+        assert_eq!(ranges(s.poll(ms(50))), vec![(5, 8), (12, 12)]);
+        assert_eq!(s.poll(ms(60)), None);
+        assert_eq!(s.next_due(), None);
+    }
+
+    #[test]
+    fn a_late_nack_within_the_holdoff_is_dropped() {
+        let mut s = source();
+        s.nack_heard(r(5, 5), 100, ms(0));
+        assert_eq!(ranges(s.poll(ms(50))), vec![(5, 5)]);
+        s.nack_heard(r(5, 5), 100, ms(200));
+        assert_eq!(s.next_due(), None, "nothing asked");
+        s.nack_heard(r(4, 6), 100, ms(340));
+        assert_eq!(ranges(s.poll(ms(390))), vec![(4, 4), (6, 6)]);
+    }
+
+    #[test]
+    fn a_nack_after_the_holdoff_is_repaired_again() {
+        let mut s = source();
+        s.nack_heard(r(5, 5), 100, ms(0));
+        assert_eq!(ranges(s.poll(ms(50))), vec![(5, 5)]);
+        s.nack_heard(r(5, 5), 100, ms(350));
+        assert_eq!(ranges(s.poll(ms(400))), vec![(5, 5)]);
+    }
+
+    #[test]
+    fn positions_past_the_head_are_not_repaired() {
+        let mut s = source();
+        s.nack_heard(r(11, 12), 10, ms(0));
+        assert_eq!(s.next_due(), None);
+        s.nack_heard(r(9, 20), 10, ms(0));
+        assert_eq!(ranges(s.poll(ms(50))), vec![(9, 10)]);
+    }
+
+    #[test]
+    fn the_gathered_repair_is_bounded_in_ranges_and_positions() {
+        let mut s = source();
+        let cap = RepairTiming::radio().max_ranges as u64;
+        (1..=cap + 5).for_each(|i| s.nack_heard(r(2 * i, 2 * i), 1000, ms(0)));
+        assert_eq!(s.poll(ms(50)).map(|v| v.len() as u64), Some(cap));
+        s.nack_heard(r(1, 100_000), 1_000_000, ms(500));
+        s.nack_heard(r(300, 300 + 255), 1_000_000, ms(500));
+        assert_eq!(
+            ranges(s.poll(ms(550))),
+            vec![(300, 555)],
+            "the huge one dropped"
+        );
+    }
+
+    #[test]
+    fn the_holdoff_memory_is_bounded_and_forgets_the_oldest_first() {
+        let timing = RepairTiming {
+            max_recent: 2,
+            ..RepairTiming::radio()
+        };
+        let mut s = RepairScheduler::new(timing);
+        for (i, at) in [(1, 0), (2, 50), (3, 100)] {
+            s.nack_heard(r(i, i), 100, ms(at));
+            assert_eq!(ranges(s.poll(ms(at + 50))), vec![(i, i)]);
+        }
+        s.nack_heard(r(1, 3), 100, ms(160));
+        assert_eq!(ranges(s.poll(ms(210))), vec![(1, 1)], "2 and 3 held off");
+    }
+
+    proptest! {
+        #[test]
+        fn a_repair_holds_only_positions_asked_sent_and_not_just_repaired(
+            nacks in proptest::collection::vec((0u64..2000, small_range()), 1..30)
+        ) {
+            let head = 30;
+            let mut nacks = nacks;
+            nacks.sort_by_key(|n| n.0);
+            let mut s = source();
+            let (mut asked, mut last_repair) = (BTreeSet::new(), BTreeMap::new());
+            let mut check = |s: &mut RepairScheduler, now: Duration, asked: &mut BTreeSet<u64>| {
+                let Some(repair) = s.poll(now) else { return Ok(()) };
+                for p in repair.iter().flat_map(|x| x.first()..=x.last()) {
+                    prop_assert!(p <= head && asked.contains(&p), "{p} not asked");
+                    let held = last_repair.insert(p, now).is_some_and(|t| now - t < ms(300));
+                    prop_assert!(!held, "{p} repaired twice within the holdoff");
+                }
+                asked.clear();
+                Ok(())
+            };
+            for (at, range) in nacks {
+                let now = ms(at);
+                while let Some(due) = s.next_due().filter(|t| *t <= now) {
+                    check(&mut s, due, &mut asked)?;
+                }
+                asked.extend(range.first()..=range.last());
+                s.nack_heard(range, head, now);
+            }
+            while let Some(due) = s.next_due() {
+                check(&mut s, due, &mut asked)?;
+            }
         }
     }
 
