@@ -152,16 +152,6 @@ impl Spans {
             .map(|(&first, &last)| SeqRange { first, last })
     }
 
-    /// The parts of the set inside `range`, in order.
-    pub fn within(&self, range: SeqRange) -> impl Iterator<Item = SeqRange> + '_ {
-        let before = self.by_first.range(..range.first).next_back();
-        let from = before.filter(|(_, l)| **l >= range.first).map(|(f, _)| *f);
-        let start = from.unwrap_or(range.first);
-        self.by_first
-            .range(start..=range.last)
-            .filter_map(move |(&f, &l)| SeqRange::new(f.max(range.first), l.min(range.last)))
-    }
-
     /// How many ranges.
     pub fn len(&self) -> usize {
         self.by_first.len()
@@ -175,11 +165,6 @@ impl Spans {
     /// How many positions, saturating.
     pub fn positions(&self) -> u64 {
         self.iter().fold(0, |sum, r| sum.saturating_add(r.n()))
-    }
-
-    /// The highest position, if any.
-    pub fn last(&self) -> Option<u64> {
-        self.by_first.last_key_value().map(|(_, l)| *l)
     }
 }
 
@@ -366,14 +351,9 @@ struct Missing {
 }
 
 impl Missing {
-    /// Adds the positions of `range` not already pending, with a fresh timer.
+    /// Adds the positions of `range` not already pending, with a fresh timer due at `due`.
     fn add(&mut self, range: SeqRange, due: Duration) {
-        let mut holes = Spans::default();
-        holes.insert(range);
-        self.by_first
-            .iter()
-            .for_each(|(f, p)| holes.remove(p.range(*f)));
-        for hole in holes.iter() {
+        for hole in self.holes(range).iter() {
             let phase = Phase::Backoff { due };
             let pending = Pending {
                 last: hole.last,
@@ -385,14 +365,14 @@ impl Missing {
         self.coalesce();
     }
 
-    /// Are any of `range`'s positions not pending yet?
-    fn lacks_any(&self, range: SeqRange) -> bool {
+    /// The positions of `range` not pending yet.
+    fn holes(&self, range: SeqRange) -> Spans {
         let mut holes = Spans::default();
         holes.insert(range);
         self.by_first
             .iter()
             .for_each(|(f, p)| holes.remove(p.range(*f)));
-        !holes.is_empty()
+        holes
     }
 
     /// Positions of `range` were received: they are no longer missing.
@@ -517,7 +497,7 @@ impl NackScheduler {
     /// NACKed at `now + gap_grace + U(0, nack_backoff)`.
     pub fn gap_found(&mut self, tag: StreamTag, missing: SeqRange, now: Duration) {
         let stream = self.streams.entry(tag).or_default();
-        if stream.lacks_any(missing) {
+        if !stream.holes(missing).is_empty() {
             let due = now + self.timing.gap_grace + self.rng.duration(self.timing.nack_backoff);
             stream.add(missing, due);
         }
@@ -828,7 +808,7 @@ mod tests {
         assert_eq!(listed(&s), vec![(5, 22)]);
         let s = spans(&[(5, 7), (9, 9)]);
         assert_eq!(listed(&s), vec![(5, 7), (9, 9)], "a hole of one stays");
-        assert_eq!((s.len(), s.positions(), s.last()), (2, 4, Some(9)));
+        assert_eq!((s.len(), s.positions()), (2, 4));
     }
 
     #[test]
@@ -840,15 +820,7 @@ mod tests {
         s.remove(r(2, 11));
         assert_eq!(listed(&s), vec![(1, 1), (12, 12)]);
         s.remove(r(1, 12));
-        assert!(s.is_empty() && s.last().is_none());
-    }
-
-    #[test]
-    fn the_part_of_a_set_within_a_range_is_clipped_to_it() {
-        let s = spans(&[(1, 3), (5, 8), (10, 12)]);
-        let got: Vec<_> = s.within(r(2, 10)).map(|x| (x.first(), x.last())).collect();
-        assert_eq!(got, vec![(2, 3), (5, 8), (10, 10)]);
-        assert_eq!(s.within(r(4, 4)).count(), 0);
+        assert!(s.is_empty() && s.positions() == 0);
     }
 
     fn small_range() -> impl Strategy<Value = SeqRange> {
