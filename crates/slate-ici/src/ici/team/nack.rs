@@ -1279,6 +1279,106 @@ mod tests {
         }
     }
 
+    // ----- both ends -----
+
+    /// What travels between the schedulers in `Team`.
+    enum Heard {
+        Nack(Vec<MissingRange>),
+        Repair(Vec<SeqRange>),
+    }
+
+    /// Receivers of one source's stream and the source, on a link where everything
+    /// takes `delay` to arrive; counts what is sent.
+    struct Team {
+        receivers: Vec<NackScheduler>,
+        source: RepairScheduler,
+        delay: Duration,
+        air: Vec<(Duration, Heard)>,
+        nacks: usize,
+        repairs: usize,
+    }
+
+    impl Team {
+        /// Delivers what has arrived by `now`.
+        fn deliver(&mut self, now: Duration) {
+            let (arrived, left) = std::mem::take(&mut self.air)
+                .into_iter()
+                .partition(|x| x.0 <= now);
+            self.air = left;
+            for (_, heard) in arrived {
+                match heard {
+                    Heard::Nack(e) => e.iter().for_each(|m| self.nack_heard(*m, now)),
+                    Heard::Repair(rs) => rs
+                        .iter()
+                        .for_each(|x| self.receivers.iter_mut().for_each(|s| s.received(TAG, *x))),
+                }
+            }
+        }
+
+        fn nack_heard(&mut self, m: MissingRange, now: Duration) {
+            self.source.nack_heard(m.range, 10, now);
+            self.receivers
+                .iter_mut()
+                .for_each(|s| s.nack_heard(m.tag, m.range, now));
+        }
+
+        /// One step at `now`: each receiver in turn, then the source, each hearing what
+        /// arrived before it acts (with no delay, what the previous one sent).
+        fn step(&mut self, now: Duration) {
+            for i in 0..self.receivers.len() {
+                self.deliver(now);
+                self.receivers[i].tick(now);
+                while let Some(NackAction::Nack(e)) = self.receivers[i].poll() {
+                    self.nacks += 1;
+                    self.air.push((now + self.delay, Heard::Nack(e)));
+                }
+            }
+            self.deliver(now);
+            if let Some(repair) = self.source.poll(now) {
+                self.repairs += 1;
+                self.air.push((now + self.delay, Heard::Repair(repair)));
+            }
+        }
+    }
+
+    /// The receivers (one per seed) lose frame 7 at time 0; steps of 1 ms for 5 s.
+    /// Returns the NACKs and repairs sent, and whether every receiver got the frame.
+    fn one_loss_among(seeds: &[u64], delay: Duration) -> (usize, usize, bool) {
+        let receivers = seeds.iter().map(|s| receiver(*s)).collect();
+        let mut team = Team {
+            receivers,
+            source: source(),
+            delay,
+            air: Vec::new(),
+            nacks: 0,
+            repairs: 0,
+        };
+        team.receivers
+            .iter_mut()
+            .for_each(|s| s.gap_found(TAG, r(7, 7), ms(0)));
+        (0..5000).for_each(|t| team.step(ms(t)));
+        let healed = team.receivers.iter().all(|s| s.missing(TAG).is_empty());
+        (team.nacks, team.repairs, healed)
+    }
+
+    #[test]
+    fn one_loss_heard_by_many_receivers_costs_about_one_nack_and_one_repair() {
+        for seed in 0..20 {
+            let seeds: Vec<u64> = (0..8).map(|i| 100 * seed + i).collect();
+            let (nacks, repairs, healed) = one_loss_among(&seeds, ms(0));
+            assert_eq!(
+                (nacks, repairs, healed),
+                (1, 1, true),
+                "seed {seed}, no delay"
+            );
+            let (nacks, repairs, healed) = one_loss_among(&seeds, ms(30));
+            assert!(
+                nacks <= 3 && repairs == 1 && healed,
+                "seed {seed}: {nacks} NACKs, {repairs} repairs"
+            );
+        }
+    }
+
     proptest! {
         #[test]
         fn spans_hold_exactly_the_positions_of_a_set(
