@@ -79,7 +79,7 @@ fn deleting_an_object_deletes_every_copy() {
     for n in ["t/r1/planner", "t/r2/nav"] {
         assert!(team.board(n).info("boulder").is_none(), "{n}");
     }
-    assert!(team.node("t/r2/nav").ici.stats().merges.deleted >= 1);
+    assert!(team.member("t/r2/nav").ici.stats().merges.deleted >= 1);
 }
 
 #[test]
@@ -212,7 +212,7 @@ fn a_board_lacking_a_class_asks_for_it_and_gets_the_values() {
     let other = team.board("t/r2/nav");
     assert_eq!(other.class_def("Sonar"), Some(sonar));
     assert_eq!(other.read("s1", "ping").unwrap().value.as_f64(), Some(0.25));
-    assert!(team.node("t/r1/nav").ici.stats().catch_up.classes_sent >= 1);
+    assert!(team.member("t/r1/nav").ici.stats().catch_up.classes_sent >= 1);
 }
 
 #[test]
@@ -232,7 +232,7 @@ fn a_class_defined_differently_is_refused_and_counted_not_merged() {
     nav.create("Sonar", "s1").unwrap();
     nav.write("s1", "ping", 0.25).unwrap();
     team.run(5.0);
-    let other = team.node("t/r2/nav");
+    let other = team.member("t/r2/nav");
     assert_eq!(other.board.class_def("Sonar"), Some(b));
     assert!(other.board.info("s1").is_none());
     let stats = other.ici.stats();
@@ -248,7 +248,7 @@ fn the_robot_link_carries_intra_robot_traffic_and_the_team_link_the_rest() {
     nav.create("Vehicle", "gsr").unwrap();
     nav.write("gsr", "speed", 1.0).unwrap();
     team.run(0.5);
-    let stats = team.node("t/r1/nav").ici.stats();
+    let stats = team.member("t/r1/nav").ici.stats();
     assert_eq!(stats.get(LinkKind::Robot, MsgKind::Report).sent_msgs, 1);
     assert_eq!(stats.get(LinkKind::Team, MsgKind::Report).sent_msgs, 1);
     let sim = team.net.stats();
@@ -273,7 +273,14 @@ fn interest_defaults_to_everything_and_export_to_nothing() {
     team.run(1.0);
     assert!(team.board("t/r1/cam").info("gsr").is_some());
     assert!(team.board("t/r2/nav").info("gsr").is_none());
-    assert!(team.node("t/r1/nav").ici.stats().reports.suppressed_export >= 1);
+    assert!(
+        team.member("t/r1/nav")
+            .ici
+            .stats()
+            .reports
+            .suppressed_export
+            >= 1
+    );
 }
 
 /// The `ClassConflict` events a board reported so far.
@@ -314,6 +321,6 @@ fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
     let sonar = || "Sonar".to_owned();
     assert_eq!(conflicts(&other_events), [(sonar(), "t/r1/nav".to_owned())]);
     assert_eq!(conflicts(&nav_events), [(sonar(), "t/r2/nav".to_owned())]);
-    let listed = team.node("t/r1/nav").ici.class_conflicts();
+    let listed = team.member("t/r1/nav").ici.class_conflicts();
     assert_eq!(listed, [(sonar(), addr("t/r2/nav"))]);
 }

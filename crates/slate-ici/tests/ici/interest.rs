@@ -22,7 +22,7 @@ fn nothing_is_sent_that_no_board_models() {
         sensor.write("imu", "sample", f64::from(i)).unwrap();
         team.run(0.05);
     }
-    let stats = team.node("t/r1/sensor").ici.stats();
+    let stats = team.member("t/r1/sensor").ici.stats();
     for link in LinkKind::ALL {
         assert_eq!(stats.get(link, MsgKind::Report).sent_msgs, 0, "{link}");
         assert_eq!(stats.get(link, MsgKind::Lifecycle).sent_msgs, 0, "{link}");
@@ -54,7 +54,7 @@ fn a_board_gets_the_classes_it_models_and_not_the_others() {
     );
     assert!(console.info("boulder").is_none());
     assert!(
-        team.node("t/r1/nav")
+        team.member("t/r1/nav")
             .ici
             .stats()
             .reports
@@ -108,7 +108,7 @@ fn the_export_policy_keeps_raw_data_on_the_robot() {
     );
     assert_eq!(base.read("gsr", "speed").unwrap().value.as_f64(), Some(9.0));
     assert!(base.info("imu").is_none(), "raw data crossed the team link");
-    let stats = team.node("t/r1/sensor").ici.stats();
+    let stats = team.member("t/r1/sensor").ici.stats();
     assert!(stats.reports.suppressed_export >= 10);
     let robot = stats.get(LinkKind::Robot, MsgKind::Report).sent_bytes;
     let team_link = stats.get(LinkKind::Team, MsgKind::Report).sent_bytes;
@@ -125,7 +125,7 @@ fn a_board_that_starts_modelling_a_class_catches_up_with_it() {
     nav.create("Rock", "boulder").unwrap();
     nav.write("boulder", "x", 4.0).unwrap();
     team.run(0.5);
-    let console = team.node("t/r1/console");
+    let console = team.member("t/r1/console");
     assert!(console.board.info("boulder").is_none());
     console.ici.set_interest(ClassSet::none().class("Tracked"));
     team.run(0.5);
@@ -151,10 +151,10 @@ fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
         console.read("gsr", "speed").unwrap().value.as_f64(),
         Some(2.0)
     );
-    let uninterested = || team.node("t/r1/console").ici.stats().rejects.uninterested;
+    let uninterested = || team.member("t/r1/console").ici.stats().rejects.uninterested;
     let before = uninterested();
     // The console stops modelling vehicles while a report of one is on its way.
-    team.node("t/r1/console")
+    team.member("t/r1/console")
         .ici
         .set_interest(ClassSet::none().class("Rock"));
     nav.write("gsr", "speed", 3.0).unwrap();

@@ -28,9 +28,9 @@ fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
     team.add("t/r2/nav", open());
     team.run(0.5);
     let (tx, rx) = crossbeam_channel::unbounded();
-    team.node("t/r2/nav").ici.set_plan_handler(Arc::new(tx));
+    team.member("t/r2/nav").ici.set_plan_handler(Arc::new(tx));
     let recorder = Arc::new(Recorder::default());
-    team.node("t/r1/planner")
+    team.member("t/r1/planner")
         .ici
         .set_plan_handler(recorder.clone());
     let plan = Message::Plan(Plan {
@@ -40,7 +40,7 @@ fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
         to: addr("t/r2/nav"),
         origin: addr("t/r1/planner"),
     });
-    team.node("t/r1/planner")
+    team.member("t/r1/planner")
         .ici
         .send_raw(&addr("t/r2/nav"), &plan)
         .unwrap();
@@ -51,13 +51,13 @@ fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
         seq: 1,
         step: PlanStep::Accepted,
     });
-    team.node("t/r2/nav")
+    team.member("t/r2/nav")
         .ici
         .send_raw(&addr("t/r1/planner"), &ack)
         .unwrap();
     team.run(0.5);
     assert!(recorder.0.lock().iter().any(|m| m.contains("Accepted")));
-    let stats = team.node("t/r1/planner").ici.stats();
+    let stats = team.member("t/r1/planner").ici.stats();
     assert_eq!(stats.get(LinkKind::Team, MsgKind::Plan).sent_msgs, 1);
 }
 
@@ -68,7 +68,7 @@ fn the_plan_handler_hears_a_destination_die() {
     team.add("t/r2/nav", open());
     team.run(0.5);
     let recorder = Arc::new(Recorder::default());
-    team.node("t/r1/planner")
+    team.member("t/r1/planner")
         .ici
         .set_plan_handler(recorder.clone());
     team.net.kill(&addr("t/r2/nav"));
@@ -87,7 +87,7 @@ fn only_plan_messages_go_raw() {
     team.add("t/r1/planner", open());
     let req = Message::CatchUpRequest(CatchUpRequest::default());
     let err = team
-        .node("t/r1/planner")
+        .member("t/r1/planner")
         .ici
         .send_raw(&addr("t/r2/nav"), &req)
         .unwrap_err();

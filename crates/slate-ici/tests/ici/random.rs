@@ -50,16 +50,16 @@ fn run(seed: u64) {
     let mut team = Team::grid(seed, mix.link, 3, 2);
     team.run(0.5);
     workload(&team, &mut rng, 20, 0.05);
-    let victim = team.nodes[rng.below(6) as usize].address.clone();
+    let victim = team.members[rng.below(6) as usize].address.clone();
     if mix.partition {
         let robot: Vec<_> = team
-            .nodes
+            .members
             .iter()
             .map(|n| n.address.clone())
             .filter(|a| a.robot() == victim.robot())
             .collect();
         let rest: Vec<_> = team
-            .nodes
+            .members
             .iter()
             .map(|n| n.address.clone())
             .filter(|a| a.robot() != victim.robot())
