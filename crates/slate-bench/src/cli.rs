@@ -469,5 +469,5 @@ fn zenoh_query(endpoint: &str) -> anyhow::Result<(Duration, usize)> {
 }
 
 // The suite's own test, `the_cli_suite_reports_every_field`, lives in slate-cli's
-// tests/cli.rs: it needs the built `slate` executable, which cargo only guarantees to
+// tests/cli/offline.rs: it needs the built `slate` executable, which cargo only guarantees to
 // integration tests of the crate that defines it (`CARGO_BIN_EXE_slate`).

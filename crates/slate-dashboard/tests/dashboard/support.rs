@@ -2,13 +2,13 @@
 
 use std::io::{Read, Write};
 use std::net::{SocketAddr, TcpStream};
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use serde_json::{Value, json};
 use slate_dashboard::{Dashboard, DashboardSource};
+pub use slate_testing::{target_dir, within};
 
 /// Socket timeouts: generous, only there so a broken server fails a test instead of hanging it.
 pub const IO_TIMEOUT: Duration = Duration::from_secs(10);
@@ -71,21 +71,4 @@ pub fn http_get(addr: SocketAddr, path: &str) -> Response {
         head: head.to_owned(),
         body: body.to_owned(),
     }
-}
-
-/// Runs `f` on its own thread and fails the test if it takes longer than `limit`.
-pub fn within<T: Send + 'static>(limit: Duration, f: impl FnOnce() -> T + Send + 'static) -> T {
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(f());
-    });
-    rx.recv_timeout(limit)
-        .unwrap_or_else(|_| panic!("did not finish within {limit:?}"))
-}
-
-/// The cargo target directory this test binary was built into (`target/`).
-pub fn target_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("current exe");
-    // <target>/<profile>/deps/<test binary>
-    exe.ancestors().nth(3).expect("target dir").to_path_buf()
 }

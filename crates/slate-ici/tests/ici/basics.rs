@@ -3,7 +3,7 @@
 use slate_ici::{IciConfig, LinkKind, MsgKind};
 use slate_model::{AttrDecl, BoardEvent, ClassDef, Context, NewObject, Update, Value, ValueType};
 
-use crate::common::{Team, addr, classes, open};
+use crate::support::{Team, addr, classes, open};
 
 fn pair() -> Team {
     let mut team = Team::new(1);

@@ -14,7 +14,7 @@ use slate_model::{Address, Board};
 use slate_plans::{Engine, PlanState};
 use slate_wire::{Message, Plan, PlanAck, PlanStep};
 
-use crate::common::{addr, secs};
+use crate::support::{addr, secs};
 
 /// A part on a welding cell: the destination's world.
 const CELL: &str = "

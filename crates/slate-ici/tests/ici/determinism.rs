@@ -2,7 +2,7 @@
 
 use slate_ici::{IciStats, LinkConfig, Rng, SimConfig, SimStats};
 
-use crate::common::{Team, secs, workload};
+use crate::support::{Team, secs, workload};
 
 fn scenario(seed: u64) -> (SimStats, Vec<IciStats>, Vec<String>) {
     let team_link = LinkConfig::clean()

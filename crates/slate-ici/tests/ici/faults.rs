@@ -6,7 +6,7 @@ use std::sync::Arc;
 use slate_ici::{Ici, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
 use slate_model::{Board, Context, NewObject, Timestamp, Update, Value};
 
-use crate::common::{Member, Team, addr, classes, open, secs, workload};
+use crate::support::{Member, Team, addr, classes, open, secs, workload};
 
 /// 3 robots × 2 modules on links with these faults, some random work, then the boards
 /// must agree (faults still on).
@@ -94,7 +94,7 @@ fn boards_converge_after_a_partition_heals() {
     team.net.partition(&r0, &rest);
     workload(&team, &mut rng, 100, 0.05);
     assert!(
-        crate::common::divergence(&team.members).is_some(),
+        crate::support::divergence(&team.members).is_some(),
         "the partition made a difference"
     );
     team.net.heal();
@@ -136,7 +136,7 @@ fn a_killed_module_is_dead_on_every_other_board_and_alive_again_when_back() {
     team.run(1.0);
     let victim = addr("t/r1/m1");
     let name = module_object_name(&victim);
-    let alive = |n: &crate::common::Member| n.board.read(&name, "alive").map(|p| p.value).ok();
+    let alive = |n: &crate::support::Member| n.board.read(&name, "alive").map(|p| p.value).ok();
     for n in team.members.iter().filter(|n| n.address != victim) {
         assert_eq!(alive(n), Some(Value::Bool(true)), "{}", n.address);
     }
@@ -251,7 +251,7 @@ fn a_lost_hello_is_said_again_until_answered() {
                 .address(address.clone())
                 .build(),
         );
-        for def in crate::common::classes() {
+        for def in crate::support::classes() {
             board.define(def).unwrap();
         }
         let transport = Arc::new(LosesHellos {

@@ -5,7 +5,7 @@ use std::time::Duration;
 use slate_ici::{LinkKind, MsgKind};
 use slate_model::{AttrDecl, ClassDef, ReportPolicy, ValueType};
 
-use crate::common::{Team, classes, open};
+use crate::support::{Team, classes, open};
 
 fn with_policy(policy: ReportPolicy) -> Team {
     let mut defs = classes();

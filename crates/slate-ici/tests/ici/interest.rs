@@ -3,7 +3,7 @@
 use slate_ici::{ClassSet, IciConfig, LinkKind, MsgKind};
 use slate_model::{Context, NewObject};
 
-use crate::common::{Team, open};
+use crate::support::{Team, open};
 
 fn vehicles_only() -> IciConfig {
     open().interest(ClassSet::none().class("Vehicle"))

@@ -3,7 +3,7 @@
 use slate_ici::{LinkConfig, SimConfig};
 use slate_model::{Update, Value};
 
-use crate::common::{Team, divergence, open, secs};
+use crate::support::{Team, divergence, open, secs};
 
 fn trio(seed: u64, config: SimConfig) -> Team {
     let mut team = Team::with(seed, config);

@@ -7,7 +7,7 @@ use std::time::Duration;
 use slate_ici::{Ici, SimConfig};
 use slate_model::{Board, BoardEvent, Clock, Timestamp, Update, WriteError};
 
-use crate::common::{Team, addr, classes, open};
+use crate::support::{Team, addr, classes, open};
 
 fn pair(seed: u64) -> Team {
     let mut team = Team::with(seed, SimConfig::default());

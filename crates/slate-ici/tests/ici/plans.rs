@@ -6,7 +6,7 @@ use slate_ici::{LinkKind, MsgKind, PlanHandler, SendRawError};
 use slate_model::Address;
 use slate_wire::{CatchUpRequest, Message, Plan, PlanAck, PlanStep};
 
-use crate::common::{Team, addr, open};
+use crate::support::{Team, addr, open};
 
 #[derive(Default)]
 struct Recorder(parking_lot::Mutex<Vec<String>>);

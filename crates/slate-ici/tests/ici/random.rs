@@ -3,7 +3,7 @@
 
 use slate_ici::{LinkConfig, Rng, SimConfig};
 
-use crate::common::{Team, open, secs, workload};
+use crate::support::{Team, open, secs, workload};
 
 /// The faults of one run, drawn from its seed.
 #[derive(Debug)]

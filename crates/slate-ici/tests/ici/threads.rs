@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use slate_ici::{Ici, SimConfig, SimNet, SimTransport};
 use slate_model::Board;
 
-use crate::common::{Team, secs};
+use crate::support::{Team, secs};
 
 #[test]
 fn ici_and_the_simulator_are_send_and_sync() {
@@ -71,7 +71,7 @@ fn the_last_own_write_survives_normalisation_on_another_thread() {
     use slate_ici::IciConfig;
     use slate_model::{AttrDecl, ClassDef, Update, ValueType};
     let net = SimNet::new(51);
-    let address = crate::common::addr("t/r1/a");
+    let address = crate::support::addr("t/r1/a");
     let board = Arc::new(Board::builder().address(address.clone()).build());
     let decl = AttrDecl::new("v", ValueType::Real)
         .bounds(0.0, 1000.0)

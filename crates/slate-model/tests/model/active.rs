@@ -6,7 +6,7 @@ use slate_model::{
     ValueType, WriteError,
 };
 
-use super::world::board;
+use crate::support::board;
 
 fn counter() -> (Arc<AtomicUsize>, impl Fn() -> usize) {
     let c = Arc::new(AtomicUsize::new(0));

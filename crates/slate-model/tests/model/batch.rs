@@ -4,7 +4,7 @@ use std::thread;
 
 use slate_model::{BatchError, ChangeItem, Filter, ReadError, Update, Value, WriteError};
 
-use super::world::board;
+use crate::support::board;
 
 #[test]
 fn a_failing_batch_applies_nothing() {

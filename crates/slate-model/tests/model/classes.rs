@@ -3,7 +3,7 @@ use slate_model::{
     ReadError, Value, ValueType,
 };
 
-use super::world::board;
+use crate::support::board;
 
 #[test]
 fn inheritance_through_three_levels_with_class_level_values() {

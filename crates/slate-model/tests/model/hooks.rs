@@ -3,7 +3,7 @@ use std::sync::Arc;
 use parking_lot_free::Recorder;
 use slate_model::{Board, ChangeHook, TouchKind, Touched};
 
-use super::world::board;
+use crate::support::board;
 
 /// Records every call: (revision, touched).
 mod parking_lot_free {

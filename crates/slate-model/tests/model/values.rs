@@ -2,7 +2,7 @@ use std::time::Duration;
 
 use slate_model::{Address, Clock, Update, Value, ValueError, ValueType, WriteError};
 
-use super::world::board;
+use crate::support::board;
 
 fn invalid(e: WriteError) -> ValueError {
     match e {

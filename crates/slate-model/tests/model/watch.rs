@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use slate_model::{ChangeItem, Filter, LookupError};
 
-use super::world::board;
+use crate::support::board;
 
 fn writes(change: &slate_model::Change) -> Vec<String> {
     change

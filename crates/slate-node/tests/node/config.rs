@@ -13,7 +13,7 @@ fn dir(name: &str) -> PathBuf {
 #[test]
 fn files_named_by_the_config_are_loaded_relative_to_it() {
     let d = dir("files");
-    std::fs::write(d.join("world.slate"), super::common::WORLD).unwrap();
+    std::fs::write(d.join("world.slate"), crate::support::WORLD).unwrap();
     std::fs::write(d.join("gsr.slate"), "object gsr : Vehicle context self;").unwrap();
     std::fs::write(
         d.join("m.toml"),

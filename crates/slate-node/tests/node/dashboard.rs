@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use slate_ici::SimNet;
 
-use super::common::{WORLD, addr, eventually};
+use crate::support::{WORLD, addr, eventually};
 use slate_node::Node;
 
 fn get(url: &str, path: &str) -> String {

@@ -2,7 +2,7 @@
 
 use slate_plans::{Diagnostic, Span, Stage, parse};
 
-use super::messages;
+use crate::support::messages;
 
 /// Lines joined with newlines, so that expected renderings line up in the test source.
 fn lines(lines: &[&str]) -> String {

@@ -1,16 +1,9 @@
 //! Loading is all-or-nothing: a file with any error applies nothing, and every error
 //! carries the position of what is wrong.
 
-use std::sync::Arc;
+use slate_plans::LoadError;
 
-use slate_model::{Board, Clock};
-use slate_plans::{Engine, LoadError};
-
-fn engine() -> (Arc<Board>, Engine) {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
-    (board, engine)
-}
+use crate::support::engine;
 
 /// The (line, column, message) of each diagnostic.
 fn positions(e: &LoadError) -> Vec<(u32, u32, String)> {

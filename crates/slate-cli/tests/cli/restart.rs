@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use crate::team::{NodeProc, Team, eventually};
+use crate::support::{NodeProc, Team, eventually};
 
 const NAV: &str = "object gsr : Vehicle context self { mode = \"patrol\"; }";
 
@@ -59,7 +59,7 @@ fn put_of_an_owned_attribute_by_anyone_but_its_owner_is_refused_in_one_line() {
     );
     team.wait_connected();
     let out = team.slate(&["put", "b.level", "2.0"]);
-    assert_eq!(out.status.code(), Some(1), "{}", crate::team::show(&out));
+    assert_eq!(out.status.code(), Some(1), "{}", crate::support::show(&out));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("owned by t/r1/nav"), "{err}");

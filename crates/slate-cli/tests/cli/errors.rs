@@ -1,7 +1,7 @@
 //! Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit. And every
 //! verb explains itself with an example.
 
-use crate::team::{Team, free_port, show, slate, temp_dir};
+use crate::support::{Team, free_port, show, slate, temp_dir};
 
 fn one_line_error(out: &std::process::Output, code: i32, says: &str) {
     let err = String::from_utf8_lossy(&out.stderr);

@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use crate::team::{Team, eventually, show};
+use crate::support::{Team, eventually, show};
 
 #[test]
 fn two_nodes_exchange_reports_both_ways_and_stop_cleanly() {

@@ -9,9 +9,7 @@ use slate_model::{
     Update, Value, ValueType,
 };
 
-pub fn addr(text: &str) -> Address {
-    Address::new(text).unwrap()
-}
+pub use slate_testing::addr;
 
 pub fn secs(s: f64) -> Duration {
     Duration::from_secs_f64(s)

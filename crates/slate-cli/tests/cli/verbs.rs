@@ -5,7 +5,7 @@ use std::io::{BufRead, BufReader};
 use std::process::Stdio;
 use std::time::Duration;
 
-use crate::team::{Guard, Team, show, wait_output};
+use crate::support::{Guard, Team, show, wait_output};
 
 const NAV: &str = "object gsr : Vehicle context self { position = [10.0, 20.0] accuracy 0.5; }\nobject rock : Obstacle { position = [15.0, 22.0]; range = 5.4; }";
 
@@ -187,7 +187,7 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
     };
     let loco = team.node("t/r2/loco");
     assert!(
-        crate::team::eventually(Duration::from_secs(15), || loco
+        crate::support::eventually(Duration::from_secs(15), || loco
             .value("gsr", "mode")
             .as_deref()
             == Some("slow")),

@@ -1,41 +1,15 @@
 //! A team of `slate node` processes on loopback, and running `slate` with a time limit.
 
+pub use slate_testing::{WORLD, eventually, free_port, temp_dir};
+
 use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// The classes every node loads.
-pub const WORLD: &str = r#"
-class Vehicle {
-    position: vec<2> [m] = [0.0, 0.0] accuracy 1.0;
-    speed: real [m/s] in 0 .. 10 = 0.0;
-    mode: string = "auto";
-}
-class Obstacle { position: vec<2> [m]; range: real [m]; }
-"#;
-
 /// Longest any one `slate` command may take.
 const COMMAND_LIMIT: Duration = Duration::from_secs(30);
-
-/// A free TCP port on 127.0.0.1 (the listener is dropped before use).
-pub fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
-
-/// A fresh temporary folder.
-pub fn temp_dir(name: &str) -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let d = std::env::temp_dir().join(format!("slate-live-{name}-{}-{nanos}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn command() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_slate"));
@@ -303,18 +277,6 @@ fn first_line(child: &mut Child, limit: Duration) -> String {
         }
         Err(_) => String::new(),
     }
-}
-
-/// Polls `done` until it holds or `limit` passes.
-pub fn eventually(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
-    let deadline = Instant::now() + limit;
-    while Instant::now() < deadline {
-        if done() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    done()
 }
 
 /// A team of node processes; each connects to the ones started before it. One team
