@@ -183,11 +183,7 @@ mod tests {
 
     #[test]
     fn the_core_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).json();
+        let j = run(&crate::TINY, &mut |_| {}).json();
         for f in [
             "read_ns",
             "read_inherited_ns",

@@ -358,6 +358,13 @@ pub fn percentile_secs(samples: &[Duration], p: f64) -> f64 {
     secs.get(rank).copied().unwrap_or(f64::NAN)
 }
 
+/// The smallest measurement a test of a suite needs: three samples of a millisecond.
+#[cfg(test)]
+const TINY: Config = Config {
+    samples: 3,
+    sample_ms: 1,
+};
+
 /// Asserts that a suite's JSON has each field, positive, and says whether its targets
 /// were met.
 #[cfg(test)]
@@ -421,10 +428,7 @@ mod tests {
 
     #[test]
     fn measure_reports_a_positive_median() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
+        let cfg = crate::TINY;
         let mut n = 0u64;
         let ns = measure(&cfg, || n = black_box(n + 1));
         assert!(ns > 0.0 && ns.is_finite());

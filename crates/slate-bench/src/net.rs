@@ -584,11 +584,9 @@ mod tests {
 
     #[test]
     fn the_net_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).expect("the suite runs").json();
+        let j = run(&crate::TINY, &mut |_| {})
+            .expect("the suite runs")
+            .json();
         crate::assert_reports(
             &j,
             &[

@@ -175,11 +175,7 @@ mod tests {
 
     #[test]
     fn the_plans_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).json();
+        let j = run(&crate::TINY, &mut |_| {}).json();
         for f in [
             "compile_1000_plans_ms",
             "write_no_plans_ns",
