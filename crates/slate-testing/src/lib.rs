@@ -7,7 +7,9 @@
 //! Every wait here is bounded and returns or panics with what it waited for; none
 //! asserts how long anything took.
 
-use std::net::TcpListener;
+use std::fmt::Display;
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream, ToSocketAddrs};
 use std::path::PathBuf;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
@@ -25,6 +27,9 @@ class Vehicle {
 }
 class Obstacle { position: vec<2> [m]; range: real [m]; }
 "#;
+
+/// How long [`http_get`] waits to connect, and for each read.
+const HTTP_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// How often [`eventually`] looks again.
 const POLL: Duration = Duration::from_millis(10);
@@ -102,4 +107,74 @@ pub fn assert_no_console_errors(page: &mut Page, chromium: &Chromium) {
         "console errors: {errors:#?}\nchromium log:\n{}",
         chromium.log_tail()
     );
+}
+
+/// One HTTP response, as read off the socket.
+pub struct Response {
+    /// The status code.
+    pub status: u16,
+    /// The status line and the headers.
+    pub head: String,
+    /// Everything after the head.
+    pub body: String,
+}
+
+impl Response {
+    /// The value of `name` in the headers (case-insensitive), if present.
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.head.lines().find_map(|line| {
+            let (key, value) = line.split_once(':')?;
+            key.eq_ignore_ascii_case(name).then(|| value.trim())
+        })
+    }
+
+    /// The body as JSON; fails the test, showing the body, if it is not.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::from_str(&self.body).unwrap_or_else(|e| panic!("{e}: {}", self.body))
+    }
+}
+
+/// `GET path` over HTTP/1.1 with `Connection: close` from `server` (a socket address,
+/// or a URL such as `http://127.0.0.1:8080/`); the servers tested send lengths, not chunks.
+pub fn http_get(server: impl Display, path: &str) -> Response {
+    let url = server.to_string();
+    let host = url.trim_start_matches("http://").trim_end_matches('/');
+    let addr = host.to_socket_addrs().ok().and_then(|mut a| a.next());
+    let addr = addr.unwrap_or_else(|| panic!("{host} is not a socket address"));
+    let mut stream = TcpStream::connect_timeout(&addr, HTTP_TIMEOUT).expect("connect");
+    stream.set_read_timeout(Some(HTTP_TIMEOUT)).unwrap();
+    let request = format!("GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n");
+    stream.write_all(request.as_bytes()).unwrap();
+    let mut raw = String::new();
+    stream.read_to_string(&mut raw).expect("read response");
+    parse_response(&raw)
+}
+
+/// Splits a whole HTTP response into status, head and body.
+fn parse_response(raw: &str) -> Response {
+    let (head, body) = raw.split_once("\r\n\r\n").expect("response has a head");
+    let status = head.split(' ').nth(1).and_then(|s| s.parse().ok());
+    Response {
+        status: status.expect("status code"),
+        head: head.to_owned(),
+        body: body.to_owned(),
+    }
+}
+
+/// The first entry of the JSON array `list` whose `key` is `value` (`None` if there is
+/// none, or `list` is not an array): how the tests pick a class, plan or object out of
+/// a snapshot or a verb's JSON.
+pub fn entry<'j>(
+    list: &'j serde_json::Value,
+    key: &str,
+    value: &str,
+) -> Option<&'j serde_json::Value> {
+    list.as_array()?.iter().find(|e| e[key] == value)
+}
+
+/// The text `key` of each entry of the JSON array `list` that has one (none if `list` is
+/// not an array): the names of the classes, objects or plans in a snapshot.
+pub fn keys<'j>(list: &'j serde_json::Value, key: &str) -> Vec<&'j str> {
+    let entries = list.as_array().map_or(&[][..], Vec::as_slice);
+    entries.iter().filter_map(|e| e[key].as_str()).collect()
 }

@@ -1,7 +1,7 @@
 //! Verbs that need no team, run as the real `slate` binary: `check`, `bench`, `help`, and
 //! argument errors.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Output;
 
 use crate::support::{slate, temp_dir};
@@ -144,10 +144,11 @@ fn check_accepts_the_gsr_example_and_exits_zero() {
 
 #[test]
 fn check_reports_every_error_with_a_caret_and_exits_one() {
-    let dir = temp_dir("check");
-    let bad = dir.join("bad.slate");
-    std::fs::write(&bad, "class V { speed: real; }\nobject v : V;\nplan p { trigger: v.sped > 1.0; action { set v.speed = \"x\"; } }\n").unwrap();
-    let out = slate(&["check", bad.to_str().unwrap()]);
+    let (dir, bad, out) = check(
+        "check",
+        "bad.slate",
+        "class V { speed: real; }\nobject v : V;\nplan p { trigger: v.sped > 1.0; action { set v.speed = \"x\"; } }\n",
+    );
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -192,14 +193,11 @@ fn check_accepts_the_demo_files_that_together_form_a_module() {
 
 #[test]
 fn check_accepts_a_plan_over_the_builtin_module_class() {
-    let dir = temp_dir("check-builtin");
-    let file = dir.join("watch.slate");
-    std::fs::write(
-        &file,
+    let (dir, _, out) = check(
+        "check-builtin",
+        "watch.slate",
         "plan watch { trigger: any m: Module where not m.alive; action { } }\n",
-    )
-    .unwrap();
-    let out = slate(&["check", file.to_str().unwrap()]);
+    );
     assert!(
         out.status.success(),
         "{}",
@@ -229,10 +227,7 @@ fn a_load_error_says_error_once_and_keeps_its_caret() {
 
 #[test]
 fn check_says_a_builtin_class_cannot_be_redefined() {
-    let dir = temp_dir("check-thing");
-    let file = dir.join("thing.slate");
-    std::fs::write(&file, "class Thing { x: real; }\n").unwrap();
-    let out = slate(&["check", file.to_str().unwrap()]);
+    let (dir, _, out) = check("check-thing", "thing.slate", "class Thing { x: real; }\n");
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -240,6 +235,16 @@ fn check_says_a_builtin_class_cannot_be_redefined() {
         "{err}"
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Writes `source` as `file` in a new temporary folder named after `dir` and runs
+/// `slate check` on it: the folder, the file, and what `slate` did.
+fn check(dir: &str, file: &str, source: &str) -> (PathBuf, PathBuf, Output) {
+    let dir = temp_dir(dir);
+    let path = dir.join(file);
+    std::fs::write(&path, source).unwrap();
+    let out = slate(&["check", path.to_str().unwrap()]);
+    (dir, path, out)
 }
 
 /// Asserts that a suite's JSON has each field, positive, and says whether its targets

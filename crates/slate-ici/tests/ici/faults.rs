@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use slate_ici::{Ici, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
-use slate_model::{Board, Context, NewObject, Timestamp, Update, Value};
+use slate_model::{Context, NewObject, Timestamp, Update, Value};
 
 use crate::support::{Member, Team, addr, classes, open, secs, workload};
 
@@ -245,15 +245,7 @@ fn a_lost_hello_is_said_again_until_answered() {
     let mut nodes = Vec::new();
     for a in ["t/r1/a", "t/r1/b"] {
         let address = addr(a);
-        let board = Arc::new(
-            slate_model::Board::builder()
-                .clock(team.net.clock())
-                .address(address.clone())
-                .build(),
-        );
-        for def in crate::support::classes() {
-            board.define(def).unwrap();
-        }
+        let board = team.board_at(&address, &classes());
         let transport = Arc::new(LosesHellos {
             inner: team.net.join(&address),
             left: 1.into(),
@@ -279,23 +271,14 @@ fn a_lost_hello_is_said_again_until_answered() {
 /// `Timestamp::ZERO`), before the ICI starts.
 fn start_from_files(team: &mut Team, address: &str, speed: f64) {
     let address = addr(address);
-    let board = Arc::new(
-        Board::builder()
-            .clock(team.net.clock())
-            .address(address.clone())
-            .build(),
-    );
-    for def in classes() {
-        board.define(def).unwrap();
-    }
+    let board = team.board_at(&address, &classes());
     board
         .create_with(NewObject::new("Vehicle", "gsr").context(Context::Self_))
         .unwrap();
     let initial = Update::new(speed).timestamp(Timestamp::ZERO);
     board.write("gsr", "speed", initial).unwrap();
     let ici = Ici::new(board.clone(), team.net.join(&address), open()).unwrap();
-    team.members.retain(|n| n.address != address);
-    team.members.push(Member {
+    team.put(Member {
         address,
         board,
         ici,
@@ -397,9 +380,7 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
 
 #[test]
 fn observers_leave_no_module_object_once_they_are_gone() {
-    let mut team = Team::new(37);
-    team.add("t/r1/nav", open());
-    team.add("t/r2/loco", open());
+    let mut team = Team::of(37, [("t/r1/nav", open()), ("t/r2/loco", open())]);
     team.run(1.0);
     let objects = |team: &Team, n: &str| team.board(n).stats().objects;
     let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
@@ -450,8 +431,7 @@ impl slate_ici::Handler for Answers {
 fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
     use slate_ici::{MsgKind, Transport};
     use slate_wire::{CatchUpRequest, Encoder, Message, Schema};
-    let mut team = Team::new(38);
-    team.add("t/r1/nav", open());
+    let team = Team::of(38, [("t/r1/nav", open())]);
     team.board("t/r1/nav").create("Vehicle", "v1").unwrap();
     team.board("t/r1/nav").write("v1", "speed", 2.0).unwrap();
     let flood = team.net.join(&addr("t/r1/flood"));
@@ -478,17 +458,11 @@ fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
 
 #[test]
 fn an_observer_whose_own_hello_was_lost_is_still_forgotten_once_gone() {
-    let mut team = Team::new(39);
-    team.add("t/r1/nav", open());
+    let team = Team::of(39, [("t/r1/nav", open())]);
     team.run(1.0);
     let before = team.board("t/r1/nav").stats().objects;
     let address = addr("t/r1/cli-1");
-    let board = Arc::new(
-        Board::builder()
-            .clock(team.net.clock())
-            .address(address.clone())
-            .build(),
-    );
+    let board = team.board_at(&address, &[]);
     let transport = Arc::new(LosesHellos {
         inner: team.net.join(&address),
         left: 1.into(),

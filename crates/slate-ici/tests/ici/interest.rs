@@ -11,10 +11,14 @@ fn vehicles_only() -> IciConfig {
 
 #[test]
 fn nothing_is_sent_that_no_board_models() {
-    let mut team = Team::new(6);
-    team.add("t/r1/sensor", open().interest(ClassSet::none()));
-    team.add("t/r1/console", vehicles_only());
-    team.add("t/r2/base", vehicles_only());
+    let team = Team::of(
+        6,
+        [
+            ("t/r1/sensor", open().interest(ClassSet::none())),
+            ("t/r1/console", vehicles_only()),
+            ("t/r2/base", vehicles_only()),
+        ],
+    );
     team.run(0.5);
     let sensor = team.board("t/r1/sensor");
     sensor.create("Raw", "imu").unwrap();
@@ -37,9 +41,7 @@ fn nothing_is_sent_that_no_board_models() {
 
 #[test]
 fn a_board_gets_the_classes_it_models_and_not_the_others() {
-    let mut team = Team::new(7);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/console", vehicles_only());
+    let team = Team::of(7, [("t/r1/nav", open()), ("t/r1/console", vehicles_only())]);
     team.run(0.5);
     let nav = team.board("t/r1/nav");
     nav.create("Vehicle", "gsr").unwrap();
@@ -65,8 +67,7 @@ fn a_board_gets_the_classes_it_models_and_not_the_others() {
 
 #[test]
 fn interest_by_context_uses_the_context_on_the_receiving_board() {
-    let mut team = Team::new(8);
-    team.add("t/r1/nav", open());
+    let mut team = Team::of(8, [("t/r1/nav", open())]);
     team.add(
         "t/r2/nav",
         open().interest(ClassSet::none().class_in("Vehicle", &[Context::System])),
@@ -117,9 +118,13 @@ fn the_export_policy_keeps_raw_data_on_the_robot() {
 
 #[test]
 fn a_board_that_starts_modelling_a_class_catches_up_with_it() {
-    let mut team = Team::new(10);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/console", open().interest(ClassSet::none()));
+    let team = Team::of(
+        10,
+        [
+            ("t/r1/nav", open()),
+            ("t/r1/console", open().interest(ClassSet::none())),
+        ],
+    );
     team.run(0.5);
     let nav = team.board("t/r1/nav");
     nav.create("Rock", "boulder").unwrap();
@@ -137,9 +142,7 @@ fn a_board_that_starts_modelling_a_class_catches_up_with_it() {
 
 #[test]
 fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
-    let mut team = Team::new(8);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/console", open());
+    let team = Team::of(8, [("t/r1/nav", open()), ("t/r1/console", open())]);
     team.run(0.5);
     let (nav, console) = (team.board("t/r1/nav"), team.board("t/r1/console"));
     nav.create("Vehicle", "gsr").unwrap();

@@ -23,9 +23,7 @@ impl PlanHandler for Recorder {
 
 #[test]
 fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
-    let mut team = Team::new(40);
-    team.add("t/r1/planner", open());
-    team.add("t/r2/nav", open());
+    let team = Team::of(40, [("t/r1/planner", open()), ("t/r2/nav", open())]);
     team.run(0.5);
     let (tx, rx) = crossbeam_channel::unbounded();
     team.member("t/r2/nav").ici.set_plan_handler(Arc::new(tx));
@@ -63,9 +61,7 @@ fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
 
 #[test]
 fn the_plan_handler_hears_a_destination_die() {
-    let mut team = Team::new(41);
-    team.add("t/r1/planner", open());
-    team.add("t/r2/nav", open());
+    let team = Team::of(41, [("t/r1/planner", open()), ("t/r2/nav", open())]);
     team.run(0.5);
     let recorder = Arc::new(Recorder::default());
     team.member("t/r1/planner")
@@ -83,8 +79,7 @@ fn the_plan_handler_hears_a_destination_die() {
 
 #[test]
 fn only_plan_messages_go_raw() {
-    let mut team = Team::new(42);
-    team.add("t/r1/planner", open());
+    let team = Team::of(42, [("t/r1/planner", open())]);
     let req = Message::CatchUpRequest(CatchUpRequest::default());
     let err = team
         .member("t/r1/planner")

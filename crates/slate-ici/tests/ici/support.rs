@@ -61,6 +61,15 @@ impl Team {
         }
     }
 
+    /// A team of the modules `members` (address and config), with the test classes.
+    pub fn of<'a>(seed: u64, members: impl IntoIterator<Item = (&'a str, IciConfig)>) -> Self {
+        let mut team = Team::new(seed);
+        for (address, config) in members {
+            team.add(address, config);
+        }
+        team
+    }
+
     /// A team of `robots` × `modules`, everyone interested in everything and exporting
     /// everything: `t/r{i}/m{j}`.
     pub fn grid(seed: u64, config: SimConfig, robots: usize, modules: usize) -> Self {
@@ -80,24 +89,34 @@ impl Team {
 
     pub fn add_with(&mut self, address: &str, config: IciConfig, defs: &[ClassDef]) -> &Member {
         let address = addr(address);
-        let board = Arc::new(
-            Board::builder()
-                .clock(self.net.clock())
-                .address(address.clone())
-                .build(),
-        );
-        for def in defs {
-            board.define(def.clone()).unwrap();
-        }
+        let board = self.board_at(&address, defs);
         let transport = self.net.join(&address);
         let ici = Ici::new(board.clone(), transport, config.clone()).unwrap();
-        self.members.retain(|n| n.address != address);
-        self.members.push(Member {
+        self.put(Member {
             address,
             board,
             ici,
             config,
-        });
+        })
+    }
+
+    /// A new board at `address` on the network's clock, with `defs` defined; not yet a
+    /// member.
+    pub fn board_at(&self, address: &Address, defs: &[ClassDef]) -> Arc<Board> {
+        let board = Board::builder()
+            .clock(self.net.clock())
+            .address(address.clone())
+            .build();
+        for def in defs {
+            board.define(def.clone()).unwrap();
+        }
+        Arc::new(board)
+    }
+
+    /// Makes `member` part of the team, in place of any member at its address.
+    pub fn put(&mut self, member: Member) -> &Member {
+        self.members.retain(|n| n.address != member.address);
+        self.members.push(member);
         self.members.last().unwrap()
     }
 

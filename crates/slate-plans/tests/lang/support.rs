@@ -36,3 +36,12 @@ pub fn engine() -> (Arc<Board>, Engine) {
     let engine = Engine::new(&board);
     (board, engine)
 }
+
+/// An engine on a fresh board that has loaded `source` as `file`, and the board.
+pub fn loaded(file: &str, source: &str) -> (Arc<Board>, Engine) {
+    let (board, engine) = engine();
+    engine
+        .load(file, source)
+        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    (board, engine)
+}
