@@ -30,7 +30,7 @@ use anyhow::{Context as _, anyhow, bail, ensure};
 use serde_json::{Value, json};
 use zenoh::Wait;
 
-use crate::{Config, Report, Unit, free_port, percentile_secs, round};
+use crate::{Config, Figures, Unit, free_port, percentile_secs, round};
 
 /// The team's name, the owner of the object and the node the observers connect to.
 const TEAM: &str = "clibench";
@@ -52,7 +52,7 @@ const RUN_LIMIT: Duration = Duration::from_secs(30);
 const WARM_UP: usize = 3;
 
 /// Runs the suite with this executable as `slate`; `progress` is told each step.
-pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
     let exe = std::env::current_exe().context("cannot find the slate executable")?;
     run_with(&exe, cfg, progress)
 }
@@ -62,9 +62,9 @@ pub fn run_with(
     exe: &Path,
     cfg: &Config,
     progress: &mut dyn FnMut(&str),
-) -> anyhow::Result<Report> {
+) -> anyhow::Result<Figures> {
     let runs = cfg.samples.max(3);
-    let mut r = Report::new(
+    let mut r = Figures::new(
         "slate bench cli: `slate get` on a live two-node team (processes on 127.0.0.1), spawn to exit, vs process start and a raw Zenoh query (same run)",
     );
     progress("starting two slate nodes");
@@ -469,5 +469,5 @@ fn zenoh_query(endpoint: &str) -> anyhow::Result<(Duration, usize)> {
 }
 
 // The suite's own test, `the_cli_suite_reports_every_field`, lives in slate-cli's
-// tests/cli.rs: it needs the built `slate` executable, which cargo only guarantees to
+// tests/cli/offline.rs: it needs the built `slate` executable, which cargo only guarantees to
 // integration tests of the crate that defines it (`CARGO_BIN_EXE_slate`).

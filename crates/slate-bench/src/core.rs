@@ -14,7 +14,7 @@ use slate_model::{
     Address, AttrDecl, Board, ClassDef, Key, Packet, Timestamp, Update, Value, ValueType,
 };
 
-use crate::{Config, Report, measure};
+use crate::{Config, Figures, measure};
 
 /// The attributes of `Vehicle`.
 pub const ATTRS: [&str; 8] = [
@@ -68,8 +68,9 @@ pub fn packet() -> Packet {
 }
 
 /// Runs the suite; `progress` is told each step.
-pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Report {
-    let mut r = Report::new("slate bench core: world model (Board) vs HashMap<(u32, u32), Packet>");
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Figures {
+    let mut r =
+        Figures::new("slate bench core: world model (Board) vs HashMap<(u32, u32), Packet>");
     progress("baselines");
     baselines(cfg, &mut r);
     let b = world(10_000);
@@ -93,7 +94,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Report {
     r
 }
 
-fn baselines(cfg: &Config, r: &mut Report) {
+fn baselines(cfg: &Config, r: &mut Figures) {
     let mut map: HashMap<(u32, u32), Packet> = HashMap::new();
     for o in 0..10u32 {
         for a in 0..8u32 {
@@ -116,7 +117,7 @@ fn baselines(cfg: &Config, r: &mut Report) {
     );
 }
 
-fn reads(cfg: &Config, r: &mut Report, b: &Board, own: Key, inherited: Key) {
+fn reads(cfg: &Config, r: &mut Figures, b: &Board, own: Key, inherited: Key) {
     r.compare(
         "read_ns",
         measure(cfg, || drop(black_box(b.read_key(own)))),
@@ -129,7 +130,7 @@ fn reads(cfg: &Config, r: &mut Report, b: &Board, own: Key, inherited: Key) {
     r.compare("read_by_name_ns", ns, "hashmap_get_ns", None);
 }
 
-fn writes(cfg: &Config, r: &mut Report, b: &Board, own: Key) {
+fn writes(cfg: &Config, r: &mut Figures, b: &Board, own: Key) {
     let mut v = 0.0;
     let mut next = || {
         v = if v >= 49.0 { 0.0 } else { v + 1.0 };
@@ -158,7 +159,7 @@ fn writes(cfg: &Config, r: &mut Report, b: &Board, own: Key) {
     r.compare("batch10_ns", ns, "hashmap_insert_ns", None);
 }
 
-fn active_fn(cfg: &Config, r: &mut Report, b: &Board) {
+fn active_fn(cfg: &Config, r: &mut Figures, b: &Board) {
     let count = Arc::new(AtomicU64::new(0));
     let c = count.clone();
     b.on_write("v9", "heading", move |_| {
@@ -182,11 +183,7 @@ mod tests {
 
     #[test]
     fn the_core_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).json();
+        let j = run(&crate::TINY, &mut |_| {}).json();
         for f in [
             "read_ns",
             "read_inherited_ns",

@@ -34,23 +34,27 @@ use serde_json::{Map, Value, json};
 
 /// A benchmark suite `slate bench` can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[non_exhaustive]
 pub enum Suite {
     /// The world model: reads, writes, batches, active functions, queries.
     Core,
     /// The plan engine: compiling plans, writes with plans installed, write to action.
     Plans,
-    /// Bytes on the wire: per update, per batch, over a real Zenoh TCP link, per report.
+    /// Bytes on the wire: per update (one, a batch, over a real Zenoh TCP link) and per
+    /// pose report, against JSON and a naive binary struct.
     Wire,
-    /// Two nodes over Zenoh on 127.0.0.1: write-to-visible latency and throughput.
+    /// Two nodes over Zenoh on 127.0.0.1: write-to-visible latency and updates per
+    /// second, against raw Zenoh puts of the same size.
     Net,
-    /// `slate get` on a live two-node team of `slate node` processes, spawn to exit;
-    /// needs this process to be the `slate` executable.
+    /// `slate get` on a live two-node team (`slate node` processes on 127.0.0.1), spawn
+    /// to exit, against starting a process and a raw Zenoh session and query; needs this
+    /// process to be the `slate` executable.
     Cli,
 }
 
 /// Runs `suite`; `progress` is told each step before it is measured.
-pub fn run(suite: Suite, cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
+pub fn run(suite: Suite, cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
     match suite {
         Suite::Core => Ok(core::run(cfg, progress)),
         Suite::Plans => Ok(plans::run(cfg, progress)),
@@ -157,9 +161,9 @@ pub struct Row {
     pub targets: Vec<Target>,
 }
 
-/// The result of a suite.
+/// The figures a suite measured (named apart from the paper's report, which `slate_wire::Report` carries).
 #[derive(Clone, Debug)]
-pub struct Report {
+pub struct Figures {
     /// Suite title.
     pub title: String,
     /// Rows, baselines included.
@@ -168,10 +172,10 @@ pub struct Report {
     pub facts: Vec<(&'static str, Value)>,
 }
 
-impl Report {
+impl Figures {
     /// A new empty report.
     pub fn new(title: &str) -> Self {
-        Report {
+        Figures {
             title: title.to_owned(),
             rows: Vec::new(),
             facts: Vec::new(),
@@ -354,6 +358,13 @@ pub fn percentile_secs(samples: &[Duration], p: f64) -> f64 {
     secs.get(rank).copied().unwrap_or(f64::NAN)
 }
 
+/// The smallest measurement a test of a suite needs: three samples of a millisecond.
+#[cfg(test)]
+const TINY: Config = Config {
+    samples: 3,
+    sample_ms: 1,
+};
+
 /// Asserts that a suite's JSON has each field, positive, and says whether its targets
 /// were met.
 #[cfg(test)]
@@ -403,7 +414,7 @@ mod tests {
 
     #[test]
     fn ratios_and_targets_are_computed_against_the_named_baseline() {
-        let mut r = Report::new("t");
+        let mut r = Figures::new("t");
         r.add("base_ns", 10.0);
         r.compare("fast_ns", 15.0, "base_ns", Some(2.0));
         assert!(r.targets_met());
@@ -417,10 +428,7 @@ mod tests {
 
     #[test]
     fn measure_reports_a_positive_median() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
+        let cfg = crate::TINY;
         let mut n = 0u64;
         let ns = measure(&cfg, || n = black_box(n + 1));
         assert!(ns > 0.0 && ns.is_finite());

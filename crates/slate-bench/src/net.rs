@@ -30,7 +30,7 @@ use zenoh::qos::CongestionControl;
 use zenoh::sample::Locality;
 
 use crate::zenoh_pair::{ATTRS, OBJECTS, Pair, update};
-use crate::{Config, Report, Target, Unit, free_port, wait};
+use crate::{Config, Figures, Target, Unit, free_port, wait};
 
 /// Throughput rounds of each kind (with three, one slow round of the machine's decided
 /// the median often enough to swing the ratio from 0.77 to 1.18 between runs).
@@ -54,8 +54,8 @@ const KINDS: [Kind; 3] = [
 const PROBE_GAP: Duration = Duration::from_micros(200);
 
 /// Runs the suite; `progress` is told each step.
-pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
-    let mut r = Report::new(
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
+    let mut r = Figures::new(
         "slate bench net: two nodes over Zenoh on 127.0.0.1 vs raw Zenoh puts (same sessions, same run)",
     );
     progress("opening two Zenoh sessions");
@@ -584,11 +584,9 @@ mod tests {
 
     #[test]
     fn the_net_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).expect("the suite runs").json();
+        let j = run(&crate::TINY, &mut |_| {})
+            .expect("the suite runs")
+            .json();
         crate::assert_reports(
             &j,
             &[

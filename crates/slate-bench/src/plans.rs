@@ -9,7 +9,7 @@ use std::time::Instant;
 use slate_model::{Board, Clock, Key};
 use slate_plans::Engine;
 
-use crate::{Config, Report, measure, median};
+use crate::{Config, Figures, measure, median};
 
 /// The classes every plan of the suite reads: `Cell` (`v`, `w`) and `Obstacle` (`range`).
 pub const WORLD: &str =
@@ -70,9 +70,9 @@ pub fn unrelated(n: usize) -> String {
 }
 
 /// Runs the suite; `progress` is told each step.
-pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Report {
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> Figures {
     let mut r =
-        Report::new("slate bench plans: plan engine (write costs vs the same write with no plan)");
+        Figures::new("slate bench plans: plan engine (write costs vs the same write with no plan)");
     progress("compiling 1000 plans");
     r.add("compile_1000_plans_ms", compile_1000(cfg));
     progress("writes");
@@ -108,7 +108,7 @@ fn write_loop(cfg: &Config, board: &Board, key: Key) -> f64 {
     })
 }
 
-fn writes(cfg: &Config, r: &mut Report) {
+fn writes(cfg: &Config, r: &mut Figures) {
     let (board, engine) = engine();
     engine.load("x.slate", "object x : Cell;").expect("x");
     let key = board.key("x", "v").expect("key");
@@ -136,7 +136,7 @@ fn writes(cfg: &Config, r: &mut Report) {
 /// its action (all synchronous, in the writer's thread). Measured as writes alternating
 /// between firing and not firing, minus the writes that do not fire (same plan, values
 /// that keep the trigger false).
-fn write_to_action(cfg: &Config, r: &mut Report) {
+fn write_to_action(cfg: &Config, r: &mut Figures) {
     let (board, engine, key) = acting();
     let mut on = false;
     let pair = measure(cfg, || {
@@ -159,7 +159,7 @@ fn write_to_action(cfg: &Config, r: &mut Report) {
     r.add("write_to_action_ns", pair - quiet);
 }
 
-fn quantifier(cfg: &Config, r: &mut Report) {
+fn quantifier(cfg: &Config, r: &mut Figures) {
     let (board, _engine, key) = crowd();
     let mut v = 50.0;
     let ns = measure(cfg, || {
@@ -175,11 +175,7 @@ mod tests {
 
     #[test]
     fn the_plans_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).json();
+        let j = run(&crate::TINY, &mut |_| {}).json();
         for f in [
             "compile_1000_plans_ms",
             "write_no_plans_ns",

@@ -27,7 +27,7 @@ use zenoh::qos::CongestionControl;
 
 use crate::proxy::{Counts, Proxy};
 use crate::zenoh_pair::{ATTRS, OBJECTS, Pair, classes, update};
-use crate::{Config, Report, Target, Unit, free_port, wait};
+use crate::{Config, Figures, Target, Unit, free_port, wait};
 
 /// One hour after the epoch, at 10 reports a second: a sender in steady state.
 const HOUR_US: u64 = 3_600_000_000;
@@ -35,8 +35,8 @@ const HOUR_US: u64 = 3_600_000_000;
 pub const SEQ: u64 = 36_000;
 
 /// Runs the suite; `progress` is told each step.
-pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Report> {
-    let mut r = Report::new(
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
+    let mut r = Figures::new(
         "slate bench wire: bytes per update vs JSON and a naive struct (same updates, same run)",
     );
     progress("codec sizes");
@@ -183,7 +183,7 @@ impl SteadySender {
     }
 }
 
-fn codec(r: &mut Report) -> anyhow::Result<()> {
+fn codec(r: &mut Figures) -> anyhow::Result<()> {
     let mut sender = SteadySender::new()?;
     let updates = sender.updates.clone();
     let single = sender.encode(SEQ, updates[..1].to_vec())?;
@@ -231,7 +231,7 @@ fn codec(r: &mut Report) -> anyhow::Result<()> {
 }
 
 /// Updates committed in batches of 100, paced so that Zenoh's queues never drop.
-fn zenoh_tcp(cfg: &Config, r: &mut Report) -> anyhow::Result<()> {
+fn zenoh_tcp(cfg: &Config, r: &mut Figures) -> anyhow::Result<()> {
     let b_port = free_port()?;
     let proxy = Proxy::start(SocketAddr::from(([127, 0, 0, 1], b_port)))?;
     let pair = Pair::open("wirebench", b_port, proxy.port)?;
@@ -331,11 +331,9 @@ mod tests {
 
     #[test]
     fn the_wire_suite_reports_every_field() {
-        let cfg = Config {
-            samples: 3,
-            sample_ms: 1,
-        };
-        let j = run(&cfg, &mut |_| {}).expect("the suite runs").json();
+        let j = run(&crate::TINY, &mut |_| {})
+            .expect("the suite runs")
+            .json();
         crate::assert_reports(
             &j,
             &[

@@ -138,7 +138,7 @@ pub struct CheckArgs {
 pub struct BenchArgs {
     /// Which benchmark suite to run.
     #[arg(value_enum)]
-    pub suite: Suite,
+    pub suite: slate_bench::Suite,
 
     /// Samples per measurement; the median is reported.
     #[arg(long, default_value_t = 21, allow_negative_numbers = true, value_parser = clap::value_parser!(u32).range(3..=1001))]
@@ -147,24 +147,6 @@ pub struct BenchArgs {
     /// Target duration of one sample, in milliseconds.
     #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub sample_ms: u64,
-}
-
-/// Benchmark suites.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum Suite {
-    /// The world model: reads, writes, batches, active functions, queries.
-    Core,
-    /// The plan engine: compiling plans, writes with plans installed, write to action.
-    Plans,
-    /// Bytes on the wire: per update (one, a batch, over a real Zenoh TCP link) and per
-    /// pose report, against JSON and a naive binary struct.
-    Wire,
-    /// Two nodes over Zenoh on 127.0.0.1: write-to-visible latency and updates per
-    /// second, against raw Zenoh puts of the same size.
-    Net,
-    /// `slate get` on a live two-node team (`slate node` processes on 127.0.0.1), spawn
-    /// to exit, against starting a process and a raw Zenoh session and query.
-    Cli,
 }
 
 /// Where the live verbs join the team.

@@ -1,8 +1,14 @@
-//! Integration tests of the demo, one module per area (in `demo/`).
+//! Integration tests of the demo: one binary, one module per area in `tests/demo/`.
 
-mod demo {
-    pub mod browser;
-    pub mod files;
-    pub mod mission;
-    pub mod support;
-}
+// The dashboard of a running demo in headless Chromium: robots, values, plans, no errors.
+#[path = "demo/browser.rs"]
+mod browser;
+// The demo's `.slate` files load where they are meant to, and so does every plan sent.
+#[path = "demo/files.rs"]
+mod files;
+// The mission end to end on the simulator, with fixed seeds.
+#[path = "demo/mission.rs"]
+mod mission;
+// Shared helpers: fast configurations (and the shared timeout guard).
+#[path = "demo/support.rs"]
+mod support;

@@ -64,6 +64,6 @@ pub use error::{
     WriteError,
 };
 pub use id::{AttrId, Key, ObjectId};
-pub use packet::{Packet, Update, ValueError, check_quality};
+pub use packet::{Packet, Update, ValueError, check_quality, check_value};
 pub use umbrella::Error;
 pub use value::{Value, ValueType};

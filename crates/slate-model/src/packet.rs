@@ -191,8 +191,10 @@ pub fn check_quality(accuracy: f64, confidence: f64) -> Result<(), ValueError> {
     Ok(())
 }
 
-/// Checks a value against a declared type and optional bounds.
-pub(crate) fn check_value(
+/// Checks a value against a declared type and optional bounds: the type, finiteness,
+/// and (for numbers and every component of a vector) the bounds. What every write
+/// checks; the codec checks what it encodes with it too.
+pub fn check_value(
     value: &Value,
     ty: ValueType,
     bounds: Option<(f64, f64)>,

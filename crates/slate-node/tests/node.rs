@@ -1,11 +1,17 @@
-//! Integration tests of slate-node: nodes on the simulator (`sim`), the dashboard a node
-//! serves (`dashboard`), configs and start errors (`config`), a node's ICI over Zenoh
-//! beside a peer that never reads (`slow_reader`).
+//! Integration tests of slate-node: one binary, one module per area in `tests/node/`.
 
-mod node {
-    pub mod common;
-    mod config;
-    mod dashboard;
-    mod sim;
-    mod slow_reader;
-}
+// Starting from a config file, and the errors of a bad one.
+#[path = "node/config.rs"]
+mod config;
+// The dashboard a node serves: its snapshot follows docs/dashboard.md.
+#[path = "node/dashboard.rs"]
+mod dashboard;
+// Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
+#[path = "node/sim.rs"]
+mod sim;
+// A peer that never reads what it is sent must not stall a node (real Zenoh, loopback).
+#[path = "node/slow_reader.rs"]
+mod slow_reader;
+// A team of nodes on one simulated network (the helper module).
+#[path = "node/support.rs"]
+mod support;

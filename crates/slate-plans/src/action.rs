@@ -5,16 +5,16 @@ use std::sync::Arc;
 
 use slate_model::{Address, Context, Key, NewObject, Update, Value};
 
-use crate::eval::{Ctx, EvalError, KeyCache, Node, Obj, object_name};
+use crate::eval::{CompiledExpr, Ctx, EvalError, KeyCache, Obj, object_name};
 
 /// `set OBJ.ATTR = value [accuracy a] [confidence c]`.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Write {
     pub obj: Obj,
     pub attr: Arc<str>,
-    pub value: Node,
-    pub accuracy: Option<Node>,
-    pub confidence: Option<Node>,
+    pub value: CompiledExpr,
+    pub accuracy: Option<CompiledExpr>,
+    pub confidence: Option<CompiledExpr>,
     /// The attribute is real: integers are written as reals.
     pub real: bool,
     /// The board handle of a named target.
@@ -41,7 +41,7 @@ pub(crate) enum Act {
         context: Option<Context>,
         writes: Vec<Write>,
     },
-    Delete(Node),
+    Delete(CompiledExpr),
 }
 
 /// What running actions will do, in order.
@@ -140,7 +140,7 @@ fn write(w: &Write, cx: &mut Ctx<'_>) -> Result<Effect, EvalError> {
     Ok(Effect::Write(object, w.attr.clone(), update, key))
 }
 
-fn number(n: &Option<Node>, cx: &mut Ctx<'_>) -> Result<Option<f64>, EvalError> {
+fn number(n: &Option<CompiledExpr>, cx: &mut Ctx<'_>) -> Result<Option<f64>, EvalError> {
     match n {
         None => Ok(None),
         Some(n) => Ok(n.eval(cx)?.as_f64()),

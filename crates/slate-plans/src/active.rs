@@ -9,15 +9,15 @@ use slate_model::{ActiveFn, Call, Clock, FnError, Timestamp, Value};
 use crate::action::{Act, Effect, effects};
 use crate::engine::{Shared, report_items};
 use crate::env::CallEnv;
-use crate::eval::{Ctx, Node};
+use crate::eval::{CompiledExpr, Ctx};
 use crate::outbox::{Outgoing, PlanMessage, ReportRequest};
 
 /// `attr: T derived = value [accuracy a] [confidence c]`.
 pub(crate) struct Derived {
     pub name: String,
-    pub value: Node,
-    pub accuracy: Option<Node>,
-    pub confidence: Option<Node>,
+    pub value: CompiledExpr,
+    pub accuracy: Option<CompiledExpr>,
+    pub confidence: Option<CompiledExpr>,
     pub slots: usize,
     pub real: bool,
     pub clock: Clock,

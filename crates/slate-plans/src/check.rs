@@ -12,7 +12,7 @@ use crate::ast::{
     QuantifierKind, UnaryOp,
 };
 use crate::diagnostic::{Diagnostic, Span, Stage};
-use crate::eval::{Arith, Builtin, Cmp, Field, KeyCache, Node, Obj, Quant, QuantKind};
+use crate::eval::{Arith, Builtin, Cmp, CompiledExpr, Field, KeyCache, Obj, Quant, QuantKind};
 use crate::scope::Scope;
 
 /// The static type of an expression. `Unknown` follows an error (and checks nothing more).
@@ -106,7 +106,7 @@ impl<'s> Checker<'s> {
     }
 
     /// Compiles a condition: it must be a boolean.
-    pub fn condition(&mut self, e: &Expr, l: &mut Locals) -> Node {
+    pub fn condition(&mut self, e: &Expr, l: &mut Locals) -> CompiledExpr {
         let (node, ty) = self.expr(e, l);
         if !matches!(ty, Ty::Bool | Ty::Unknown) {
             self.error(
@@ -121,7 +121,7 @@ impl<'s> Checker<'s> {
     }
 
     /// Compiles an expression that must be a number (durations are seconds).
-    pub fn number(&mut self, e: &Expr, l: &mut Locals) -> Node {
+    pub fn number(&mut self, e: &Expr, l: &mut Locals) -> CompiledExpr {
         let (node, ty) = self.expr(e, l);
         if !ty.is_num() {
             self.error(e.span, format!("expected a number, found {}", ty.name()));
@@ -129,7 +129,7 @@ impl<'s> Checker<'s> {
         node
     }
 
-    pub fn expr(&mut self, e: &Expr, l: &mut Locals) -> (Node, Ty) {
+    pub fn expr(&mut self, e: &Expr, l: &mut Locals) -> (CompiledExpr, Ty) {
         match &e.kind {
             ExprKind::Literal(lit) => literal(lit),
             ExprKind::Vector(items) => self.vector(items, l),
@@ -141,13 +141,13 @@ impl<'s> Checker<'s> {
         }
     }
 
-    fn vector(&mut self, items: &[Expr], l: &mut Locals) -> (Node, Ty) {
+    fn vector(&mut self, items: &[Expr], l: &mut Locals) -> (CompiledExpr, Ty) {
         let nodes = items.iter().map(|i| self.number(i, l)).collect::<Vec<_>>();
         let n = u16::try_from(nodes.len()).unwrap_or(u16::MAX);
-        (Node::Vector(nodes), Ty::Vec(n))
+        (CompiledExpr::Vector(nodes), Ty::Vec(n))
     }
 
-    fn unary(&mut self, op: UnaryOp, inner: &Expr, l: &mut Locals) -> (Node, Ty) {
+    fn unary(&mut self, op: UnaryOp, inner: &Expr, l: &mut Locals) -> (CompiledExpr, Ty) {
         let (node, ty) = self.expr(inner, l);
         match op {
             UnaryOp::Not => {
@@ -157,13 +157,13 @@ impl<'s> Checker<'s> {
                         format!("`not` needs true or false, found {}", ty.name()),
                     );
                 }
-                (Node::Not(Box::new(node)), Ty::Bool)
+                (CompiledExpr::Not(Box::new(node)), Ty::Bool)
             }
             UnaryOp::Neg => {
                 if !(ty.is_num() || matches!(ty, Ty::Vec(_))) {
                     self.error(inner.span, format!("cannot negate {}", ty.name()));
                 }
-                (Node::Neg(Box::new(node)), ty)
+                (CompiledExpr::Neg(Box::new(node)), ty)
             }
         }
     }
@@ -175,7 +175,7 @@ impl<'s> Checker<'s> {
         b: &Expr,
         span: Span,
         l: &mut Locals,
-    ) -> (Node, Ty) {
+    ) -> (CompiledExpr, Ty) {
         let (na, ta) = self.expr(a, l);
         let (nb, tb) = self.expr(b, l);
         let pair = Box::new((na, nb));
@@ -191,9 +191,9 @@ impl<'s> Checker<'s> {
                 }
                 (
                     if op == BinaryOp::And {
-                        Node::And(pair)
+                        CompiledExpr::And(pair)
                     } else {
-                        Node::Or(pair)
+                        CompiledExpr::Or(pair)
                     },
                     Ty::Bool,
                 )
@@ -206,7 +206,7 @@ impl<'s> Checker<'s> {
                     );
                 }
                 (
-                    Node::Cmp(if op == BinaryOp::Eq { Cmp::Eq } else { Cmp::Ne }, pair),
+                    CompiledExpr::Cmp(if op == BinaryOp::Eq { Cmp::Eq } else { Cmp::Ne }, pair),
                     Ty::Bool,
                 )
             }
@@ -223,7 +223,7 @@ impl<'s> Checker<'s> {
                         ),
                     );
                 }
-                (Node::Cmp(cmp_op(op), pair), Ty::Bool)
+                (CompiledExpr::Cmp(cmp_op(op), pair), Ty::Bool)
             }
             _ => {
                 let ty = arith_type(op, ta, tb);
@@ -238,12 +238,15 @@ impl<'s> Checker<'s> {
                         ),
                     );
                 }
-                (Node::Arith(arith_op(op), pair), ty.unwrap_or(Ty::Unknown))
+                (
+                    CompiledExpr::Arith(arith_op(op), pair),
+                    ty.unwrap_or(Ty::Unknown),
+                )
             }
         }
     }
 
-    fn quantifier(&mut self, q: &Quantifier, l: &mut Locals) -> (Node, Ty) {
+    fn quantifier(&mut self, q: &Quantifier, l: &mut Locals) -> (CompiledExpr, Ty) {
         if !self.scope.classes.contains_key(&q.class.name) {
             self.error(q.class.span, format!("unknown class {}", q.class.name));
         }
@@ -290,7 +293,7 @@ impl<'s> Checker<'s> {
             );
         }
         (
-            Node::Quant(Box::new(Quant {
+            CompiledExpr::Quant(Box::new(Quant {
                 kind,
                 slot,
                 class,
@@ -307,13 +310,13 @@ impl<'s> Checker<'s> {
             || self.scope.classes.contains_key(name)
     }
 
-    fn call(&mut self, f: &Ident, args: &[Expr], span: Span, l: &mut Locals) -> (Node, Ty) {
+    fn call(&mut self, f: &Ident, args: &[Expr], span: Span, l: &mut Locals) -> (CompiledExpr, Ty) {
         let Some((builtin, arity)) = builtin(&f.name) else {
             self.error(
                 f.span,
                 format!("unknown function {}(); known: {}", f.name, BUILTIN_NAMES),
             );
-            return (Node::Const(Value::None), Ty::Unknown);
+            return (CompiledExpr::Const(Value::None), Ty::Unknown);
         };
         if !arity.contains(&args.len()) {
             let want = if arity.start() == arity.end() {
@@ -325,7 +328,7 @@ impl<'s> Checker<'s> {
                 span,
                 format!("{}() takes {want} argument(s), got {}", f.name, args.len()),
             );
-            return (Node::Const(Value::None), Ty::Unknown);
+            return (CompiledExpr::Const(Value::None), Ty::Unknown);
         }
         match builtin {
             Builtin::Age => self.age(args, l),
@@ -334,20 +337,20 @@ impl<'s> Checker<'s> {
         }
     }
 
-    fn age(&mut self, args: &[Expr], l: &mut Locals) -> (Node, Ty) {
+    fn age(&mut self, args: &[Expr], l: &mut Locals) -> (CompiledExpr, Ty) {
         let (node, _) = self.expr(&args[0], l);
-        if !matches!(&node, Node::Attr(a) if a.2 == Field::Value) {
+        if !matches!(&node, CompiledExpr::Attr(a) if a.2 == Field::Value) {
             self.error(
                 args[0].span,
                 "age() takes an attribute, like age(gsr.position)",
             );
         }
-        (Node::Call(Builtin::Age, vec![node]), Ty::Real)
+        (CompiledExpr::Call(Builtin::Age, vec![node]), Ty::Real)
     }
 
-    fn changed(&mut self, args: &[Expr], l: &mut Locals) -> (Node, Ty) {
+    fn changed(&mut self, args: &[Expr], l: &mut Locals) -> (CompiledExpr, Ty) {
         let (node, _) = self.expr(&args[0], l);
-        if !matches!(&node, Node::Attr(_)) {
+        if !matches!(&node, CompiledExpr::Attr(_)) {
             self.error(
                 args[0].span,
                 "changed() takes an attribute, like changed(gsr.position, 0.5)",
@@ -356,17 +359,23 @@ impl<'s> Checker<'s> {
         let deadband = args
             .get(1)
             .map(|d| self.number(d, l))
-            .unwrap_or(Node::Const(Value::Real(0.0)));
+            .unwrap_or(CompiledExpr::Const(Value::Real(0.0)));
         let site = l.changed_sites;
         l.changed_sites += 1;
         (
-            Node::Call(Builtin::Changed(site), vec![node, deadband]),
+            CompiledExpr::Call(Builtin::Changed(site), vec![node, deadband]),
             Ty::Bool,
         )
     }
 
-    fn math_call(&mut self, f: Builtin, name: &str, args: &[Expr], l: &mut Locals) -> (Node, Ty) {
-        let compiled: Vec<(Node, Ty)> = args.iter().map(|a| self.expr(a, l)).collect();
+    fn math_call(
+        &mut self,
+        f: Builtin,
+        name: &str,
+        args: &[Expr],
+        l: &mut Locals,
+    ) -> (CompiledExpr, Ty) {
+        let compiled: Vec<(CompiledExpr, Ty)> = args.iter().map(|a| self.expr(a, l)).collect();
         let tys: Vec<Ty> = compiled.iter().map(|c| c.1).collect();
         let result = call_type(f, &tys);
         if result.is_none() {
@@ -377,25 +386,25 @@ impl<'s> Checker<'s> {
             );
         }
         (
-            Node::Call(f, compiled.into_iter().map(|c| c.0).collect()),
+            CompiledExpr::Call(f, compiled.into_iter().map(|c| c.0).collect()),
             result.unwrap_or(Ty::Unknown),
         )
     }
 
     // ----- paths -----
 
-    fn path_expr(&mut self, e: &Expr, l: &mut Locals) -> (Node, Ty) {
+    fn path_expr(&mut self, e: &Expr, l: &mut Locals) -> (CompiledExpr, Ty) {
         match flatten(e) {
             Some((root, fields)) => self.resolve(root, &fields, l),
             None => {
                 self.error(e.span, "expected a name or an attribute path");
-                (Node::Const(Value::None), Ty::Unknown)
+                (CompiledExpr::Const(Value::None), Ty::Unknown)
             }
         }
     }
 
     /// Compiles a path given as root name and fields.
-    pub fn path(&mut self, p: &Path, l: &mut Locals) -> (Node, Ty) {
+    pub fn path(&mut self, p: &Path, l: &mut Locals) -> (CompiledExpr, Ty) {
         let fields: Vec<&Ident> = p.fields.iter().collect();
         self.resolve(&p.root, &fields, l)
     }
@@ -450,20 +459,20 @@ impl<'s> Checker<'s> {
         }
     }
 
-    fn resolve(&mut self, root: &Ident, fields: &[&Ident], l: &mut Locals) -> (Node, Ty) {
-        let unknown = (Node::Const(Value::None), Ty::Unknown);
+    fn resolve(&mut self, root: &Ident, fields: &[&Ident], l: &mut Locals) -> (CompiledExpr, Ty) {
+        let unknown = (CompiledExpr::Const(Value::None), Ty::Unknown);
         let Some(mut base) = self.base(root, l) else {
             return unknown;
         };
         let mut i = 0;
         loop {
             let Some(f) = fields.get(i) else {
-                return (Node::Token(base.obj), Ty::Ref);
+                return (CompiledExpr::Token(base.obj), Ty::Ref);
             };
             let Some(ty) = self.attr_type(&base, f) else {
                 return unknown;
             };
-            let attr = Node::Attr(Box::new((
+            let attr = CompiledExpr::Attr(Box::new((
                 base.obj,
                 f.name.as_str().into(),
                 Field::Value,
@@ -476,11 +485,11 @@ impl<'s> Checker<'s> {
                 if let Some(extra) = fields.get(i + 2) {
                     self.error(extra.span, format!("nothing follows .{}", next.name));
                 }
-                let Node::Attr(mut a) = attr else {
+                let CompiledExpr::Attr(mut a) = attr else {
                     return unknown;
                 };
                 a.2 = field;
-                return (Node::Attr(a), fty);
+                return (CompiledExpr::Attr(a), fty);
             }
             if ty != Ty::Ref {
                 self.error(
@@ -593,8 +602,8 @@ impl<'s> Checker<'s> {
         };
         let before = self.diags.len();
         let obj = match self.resolve(&target.root, &prefix.iter().collect::<Vec<_>>(), l) {
-            (Node::Token(obj), _) => obj,
-            (node @ Node::Attr(_), Ty::Ref) => Obj::Deref(Box::new(node)),
+            (CompiledExpr::Token(obj), _) => obj,
+            (node @ CompiledExpr::Attr(_), Ty::Ref) => Obj::Deref(Box::new(node)),
             _ => {
                 if self.diags.len() == before {
                     self.error(
@@ -674,9 +683,9 @@ impl<'s> Checker<'s> {
 
     fn report_target(&mut self, t: &Path, l: &mut Locals) -> Option<(Obj, Option<Arc<str>>)> {
         match self.path(t, l) {
-            (Node::Token(obj), _) => Some((obj, None)),
-            (Node::Attr(a), _) if a.2 == Field::Value => Some((a.0, Some(a.1))),
-            (Node::Const(_), Ty::Unknown) => None,
+            (CompiledExpr::Token(obj), _) => Some((obj, None)),
+            (CompiledExpr::Attr(a), _) if a.2 == Field::Value => Some((a.0, Some(a.1))),
+            (CompiledExpr::Const(_), Ty::Unknown) => None,
             _ => {
                 self.error(t.span, "report needs an object or an object's attribute");
                 None
@@ -810,7 +819,7 @@ fn packet_field(name: &str) -> Option<(Field, Ty)> {
     })
 }
 
-fn literal(lit: &Literal) -> (Node, Ty) {
+fn literal(lit: &Literal) -> (CompiledExpr, Ty) {
     let (v, t) = match lit {
         Literal::Int(i) => (Value::Int(*i), Ty::Int),
         Literal::Real(x) | Literal::Duration(x) => (Value::Real(*x), Ty::Real),
@@ -818,7 +827,7 @@ fn literal(lit: &Literal) -> (Node, Ty) {
         Literal::Bool(b) => (Value::Bool(*b), Ty::Bool),
         Literal::None => (Value::None, Ty::None),
     };
-    (Node::Const(v), t)
+    (CompiledExpr::Const(v), t)
 }
 
 fn comparable(a: Ty, b: Ty) -> bool {

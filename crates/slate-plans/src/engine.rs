@@ -23,7 +23,7 @@ use smallvec::SmallVec;
 
 use crate::action::{Act, Effect, effects};
 use crate::env::SnapEnv;
-use crate::eval::{Ctx, Node, truthy};
+use crate::eval::{CompiledExpr, Ctx, truthy};
 use crate::index::DepIndex;
 use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 
@@ -55,9 +55,9 @@ pub(crate) enum Dep {
 #[derive(Clone, Debug)]
 pub(crate) struct CompiledPlan {
     pub name: Arc<str>,
-    pub initiation: Option<Node>,
-    pub trigger: Option<Node>,
-    pub termination: Option<Node>,
+    pub initiation: Option<CompiledExpr>,
+    pub trigger: Option<CompiledExpr>,
+    pub termination: Option<CompiledExpr>,
     pub every: Option<f64>,
     pub actions: Vec<Act>,
     pub slots: usize,
@@ -604,14 +604,15 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
     let name = &plan.name;
     let baseline = rt.baseline.clone();
     let mut cx = Ctx::new(env, plan.slots, &baseline);
-    let check = |node: &Option<Node>, absent: bool, cx: &mut Ctx<'_>, out: &mut Outcome| match node
-    {
-        None => absent,
-        Some(n) => n.eval(cx).map(|v| truthy(&v)).unwrap_or_else(|e| {
-            out.eval_error = Some(e.to_string());
-            false
-        }),
-    };
+    let check =
+        |node: &Option<CompiledExpr>, absent: bool, cx: &mut Ctx<'_>, out: &mut Outcome| match node
+        {
+            None => absent,
+            Some(n) => n.eval(cx).map(|v| truthy(&v)).unwrap_or_else(|e| {
+                out.eval_error = Some(e.to_string());
+                false
+            }),
+        };
     if check(&plan.termination, false, &mut cx, &mut out) {
         rt.state = PlanState::Terminated;
         out.new_state = Some(PlanState::Terminated);

@@ -116,7 +116,7 @@ pub(crate) enum Obj {
     /// `self`: the object an active function runs for.
     This,
     /// The object a reference-valued expression names.
-    Deref(Box<Node>),
+    Deref(Box<CompiledExpr>),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,44 +171,47 @@ pub(crate) struct Quant {
     pub kind: QuantKind,
     pub slot: usize,
     pub class: Arc<str>,
-    pub filter: Option<Node>,
-    pub order: Option<(Node, bool)>,
+    pub filter: Option<CompiledExpr>,
+    pub order: Option<(CompiledExpr, bool)>,
 }
 
 /// An attribute read: whose, which, which packet field, and the cached handle.
-pub(crate) type AttrNode = (Obj, Arc<str>, Field, KeyCache);
+pub(crate) type AttrRead = (Obj, Arc<str>, Field, KeyCache);
 
 /// A compiled expression.
 #[derive(Clone, Debug, PartialEq)]
-pub(crate) enum Node {
+pub(crate) enum CompiledExpr {
     Const(Value),
     Attr(Box<(Obj, Arc<str>, Field, KeyCache)>),
     /// The object itself, as a reference value.
     Token(Obj),
-    Vector(Vec<Node>),
-    Not(Box<Node>),
-    Neg(Box<Node>),
-    And(Box<(Node, Node)>),
-    Or(Box<(Node, Node)>),
-    Arith(Arith, Box<(Node, Node)>),
-    Cmp(Cmp, Box<(Node, Node)>),
-    Call(Builtin, Vec<Node>),
+    Vector(Vec<CompiledExpr>),
+    Not(Box<CompiledExpr>),
+    Neg(Box<CompiledExpr>),
+    And(Box<(CompiledExpr, CompiledExpr)>),
+    Or(Box<(CompiledExpr, CompiledExpr)>),
+    Arith(Arith, Box<(CompiledExpr, CompiledExpr)>),
+    Cmp(Cmp, Box<(CompiledExpr, CompiledExpr)>),
+    Call(Builtin, Vec<CompiledExpr>),
     Quant(Box<Quant>),
 }
 
-impl Node {
+impl CompiledExpr {
     /// The nodes directly below this one.
-    pub fn children(&self) -> Vec<&Node> {
+    pub fn children(&self) -> Vec<&CompiledExpr> {
         match self {
-            Node::Const(_) => Vec::new(),
-            Node::Attr(a) => obj_children(&a.0),
-            Node::Token(o) => obj_children(o),
-            Node::Vector(items) | Node::Call(_, items) => items.iter().collect(),
-            Node::Not(n) | Node::Neg(n) => vec![n],
-            Node::And(ab) | Node::Or(ab) | Node::Arith(_, ab) | Node::Cmp(_, ab) => {
+            CompiledExpr::Const(_) => Vec::new(),
+            CompiledExpr::Attr(a) => obj_children(&a.0),
+            CompiledExpr::Token(o) => obj_children(o),
+            CompiledExpr::Vector(items) | CompiledExpr::Call(_, items) => items.iter().collect(),
+            CompiledExpr::Not(n) | CompiledExpr::Neg(n) => vec![n],
+            CompiledExpr::And(ab)
+            | CompiledExpr::Or(ab)
+            | CompiledExpr::Arith(_, ab)
+            | CompiledExpr::Cmp(_, ab) => {
                 vec![&ab.0, &ab.1]
             }
-            Node::Quant(q) => q
+            CompiledExpr::Quant(q) => q
                 .filter
                 .iter()
                 .chain(q.order.as_ref().map(|o| &o.0))
@@ -217,7 +220,7 @@ impl Node {
     }
 }
 
-fn obj_children(o: &Obj) -> Vec<&Node> {
+fn obj_children(o: &Obj) -> Vec<&CompiledExpr> {
     match o {
         Obj::Deref(n) => vec![n],
         _ => Vec::new(),
@@ -298,30 +301,30 @@ pub(crate) fn truthy(v: &Value) -> bool {
     matches!(v, Value::Bool(true))
 }
 
-impl Node {
+impl CompiledExpr {
     /// Evaluates the node.
     pub fn eval(&self, cx: &mut Ctx<'_>) -> Result<Value, EvalError> {
         cx.step()?;
         match self {
-            Node::Const(v) => Ok(v.clone()),
-            Node::Attr(a) => Ok(read_field(cx, a)?.unwrap_or(Value::None)),
-            Node::Token(obj) => Ok(object_name(cx, obj)?.map_or(Value::None, Value::Ref)),
-            Node::Vector(items) => vector(cx, items),
-            Node::Not(n) => Ok(match n.eval(cx)? {
+            CompiledExpr::Const(v) => Ok(v.clone()),
+            CompiledExpr::Attr(a) => Ok(read_field(cx, a)?.unwrap_or(Value::None)),
+            CompiledExpr::Token(obj) => Ok(object_name(cx, obj)?.map_or(Value::None, Value::Ref)),
+            CompiledExpr::Vector(items) => vector(cx, items),
+            CompiledExpr::Not(n) => Ok(match n.eval(cx)? {
                 Value::Bool(b) => Value::Bool(!b),
                 _ => Value::None,
             }),
-            Node::Neg(n) => Ok(negate(n.eval(cx)?)),
-            Node::And(ab) => Ok(Value::Bool(
+            CompiledExpr::Neg(n) => Ok(negate(n.eval(cx)?)),
+            CompiledExpr::And(ab) => Ok(Value::Bool(
                 truthy(&ab.0.eval(cx)?) && truthy(&ab.1.eval(cx)?),
             )),
-            Node::Or(ab) => Ok(Value::Bool(
+            CompiledExpr::Or(ab) => Ok(Value::Bool(
                 truthy(&ab.0.eval(cx)?) || truthy(&ab.1.eval(cx)?),
             )),
-            Node::Arith(op, ab) => arith(*op, ab.0.eval(cx)?, ab.1.eval(cx)?),
-            Node::Cmp(op, ab) => compare(cx, *op, &ab.0, &ab.1),
-            Node::Call(f, args) => call(cx, *f, args),
-            Node::Quant(q) => quantify(cx, q),
+            CompiledExpr::Arith(op, ab) => arith(*op, ab.0.eval(cx)?, ab.1.eval(cx)?),
+            CompiledExpr::Cmp(op, ab) => compare(cx, *op, &ab.0, &ab.1),
+            CompiledExpr::Call(f, args) => call(cx, *f, args),
+            CompiledExpr::Quant(q) => quantify(cx, q),
         }
     }
 }
@@ -345,7 +348,7 @@ pub(crate) fn object_name(cx: &mut Ctx<'_>, obj: &Obj) -> Result<Option<Arc<str>
 }
 
 /// Reads an attribute's packet (`None` if unknown or unbound).
-pub(crate) fn read_packet(cx: &mut Ctx<'_>, a: &AttrNode) -> Result<Option<Packet>, EvalError> {
+pub(crate) fn read_packet(cx: &mut Ctx<'_>, a: &AttrRead) -> Result<Option<Packet>, EvalError> {
     let (obj, attr, _, cache) = a;
     let packet = match obj {
         Obj::Named(name) => cx.env.read_cached(name, attr, cache),
@@ -360,7 +363,7 @@ pub(crate) fn read_packet(cx: &mut Ctx<'_>, a: &AttrNode) -> Result<Option<Packe
     Ok(packet)
 }
 
-fn read_field(cx: &mut Ctx<'_>, a: &AttrNode) -> Result<Option<Value>, EvalError> {
+fn read_field(cx: &mut Ctx<'_>, a: &AttrRead) -> Result<Option<Value>, EvalError> {
     let field = a.2;
     Ok(read_packet(cx, a)?.map(|p| match field {
         Field::Value => p.value,
@@ -371,7 +374,7 @@ fn read_field(cx: &mut Ctx<'_>, a: &AttrNode) -> Result<Option<Value>, EvalError
     }))
 }
 
-fn vector(cx: &mut Ctx<'_>, items: &[Node]) -> Result<Value, EvalError> {
+fn vector(cx: &mut Ctx<'_>, items: &[CompiledExpr]) -> Result<Value, EvalError> {
     let mut out = Vec::with_capacity(items.len());
     for item in items {
         match item.eval(cx)?.as_f64() {
@@ -449,7 +452,12 @@ fn real_arith(op: Arith, x: f64, y: f64) -> Result<f64, EvalError> {
 }
 
 /// Compares; also notes when a time condition (`age(x) > 2s`, `now() >= t`) will flip.
-fn compare(cx: &mut Ctx<'_>, op: Cmp, a: &Node, b: &Node) -> Result<Value, EvalError> {
+fn compare(
+    cx: &mut Ctx<'_>,
+    op: Cmp,
+    a: &CompiledExpr,
+    b: &CompiledExpr,
+) -> Result<Value, EvalError> {
     let outer = std::mem::replace(&mut cx.unanchored_time, false);
     let va = a.eval(cx)?;
     let time_in_a = std::mem::replace(&mut cx.unanchored_time, false);
@@ -476,7 +484,7 @@ fn compare(cx: &mut Ctx<'_>, op: Cmp, a: &Node, b: &Node) -> Result<Value, EvalE
 
 /// If `timed` is `age(x)` or `now()` and `other` a number k, notes the moment the
 /// comparison flips (when the time expression equals k) and returns true.
-fn anchor(cx: &mut Ctx<'_>, timed: &Node, other: &Value) -> Result<bool, EvalError> {
+fn anchor(cx: &mut Ctx<'_>, timed: &CompiledExpr, other: &Value) -> Result<bool, EvalError> {
     match (time_base(cx, timed)?, other.as_f64()) {
         (Some(base), Some(k)) => {
             cx.note_deadline(base + k);
@@ -487,11 +495,11 @@ fn anchor(cx: &mut Ctx<'_>, timed: &Node, other: &Value) -> Result<bool, EvalErr
 }
 
 /// For `age(x)` the timestamp of x (it equals k at base + k); for `now()` zero.
-fn time_base(cx: &mut Ctx<'_>, node: &Node) -> Result<Option<f64>, EvalError> {
+fn time_base(cx: &mut Ctx<'_>, node: &CompiledExpr) -> Result<Option<f64>, EvalError> {
     Ok(match node {
-        Node::Call(Builtin::Now, _) => Some(0.0),
-        Node::Call(Builtin::Age, args) => match args.first() {
-            Some(Node::Attr(a)) => read_packet(cx, a)?.map(|p| p.timestamp.as_secs_f64()),
+        CompiledExpr::Call(Builtin::Now, _) => Some(0.0),
+        CompiledExpr::Call(Builtin::Age, args) => match args.first() {
+            Some(CompiledExpr::Attr(a)) => read_packet(cx, a)?.map(|p| p.timestamp.as_secs_f64()),
             _ => None,
         },
         _ => None,
@@ -506,7 +514,7 @@ fn ordering(x: &Value, y: &Value) -> Option<std::cmp::Ordering> {
     }
 }
 
-fn call(cx: &mut Ctx<'_>, f: Builtin, args: &[Node]) -> Result<Value, EvalError> {
+fn call(cx: &mut Ctx<'_>, f: Builtin, args: &[CompiledExpr]) -> Result<Value, EvalError> {
     match f {
         Builtin::Age => age(cx, args),
         Builtin::Now => {
@@ -528,9 +536,9 @@ fn call(cx: &mut Ctx<'_>, f: Builtin, args: &[Node]) -> Result<Value, EvalError>
     }
 }
 
-fn age(cx: &mut Ctx<'_>, args: &[Node]) -> Result<Value, EvalError> {
+fn age(cx: &mut Ctx<'_>, args: &[CompiledExpr]) -> Result<Value, EvalError> {
     cx.unanchored_time = true;
-    let Some(Node::Attr(a)) = args.first() else {
+    let Some(CompiledExpr::Attr(a)) = args.first() else {
         return Ok(Value::None);
     };
     let Some(p) = read_packet(cx, a)? else {
@@ -542,7 +550,7 @@ fn age(cx: &mut Ctx<'_>, args: &[Node]) -> Result<Value, EvalError> {
     Ok(Value::Real(cx.now() - p.timestamp.as_secs_f64()))
 }
 
-fn changed(cx: &mut Ctx<'_>, site: usize, args: &[Node]) -> Result<Value, EvalError> {
+fn changed(cx: &mut Ctx<'_>, site: usize, args: &[CompiledExpr]) -> Result<Value, EvalError> {
     let current = match args.first() {
         Some(n) => n.eval(cx)?,
         None => Value::None,

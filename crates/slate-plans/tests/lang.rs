@@ -1,48 +1,33 @@
 //! Integration tests of the slate language front end, through the public API only: one test
 //! binary, one module per area in `tests/lang/`.
 
+// The checker: names, types, arities, quantifiers and cycles, with positions.
 #[path = "lang/checker.rs"]
 mod checker;
+// Errors: duplicates, several errors per file, and the exact rendered text of diagnostics.
 #[path = "lang/errors.rs"]
 mod errors;
+// The example files at the repository root parse, and say what they are meant to say.
 #[path = "lang/examples.rs"]
 mod examples;
+// Expression forms: literals, names and paths, calls, vectors, quantifiers.
 #[path = "lang/expressions.rs"]
 mod expressions;
+// The parser never panics, and every diagnostic points inside the source.
 #[path = "lang/fuzz.rs"]
 mod fuzz;
+// The paper's Ground Surveillance Robot (`examples/gsr.slate`) loaded and run.
 #[path = "lang/gsr_run.rs"]
 mod gsr_run;
+// One test per construct: classes, attributes, objects, active functions, plans and actions.
 #[path = "lang/items.rs"]
 mod items;
+// Loading is all-or-nothing: a file with any error applies nothing.
 #[path = "lang/load.rs"]
 mod load;
+// The plan engine: the truth table of initiation, trigger and termination.
 #[path = "lang/plans.rs"]
 mod plans;
-
-use slate_plans::{Diagnostics, Expr, File, Item, parse};
-
-/// Parses `source`, failing the test with the rendered diagnostics if it does not parse.
-pub fn parse_ok(source: &str) -> File {
-    parse(source).unwrap_or_else(|errors: Diagnostics| panic!("{}", errors.render("test", source)))
-}
-
-/// The messages of every diagnostic of `source`, failing the test if it parses.
-pub fn messages(source: &str) -> Vec<String> {
-    match parse(source) {
-        Ok(file) => panic!("unexpectedly parsed: {file:?}"),
-        Err(errors) => errors.into_iter().map(|d| d.message).collect(),
-    }
-}
-
-/// The only item of `source`.
-pub fn only_item(source: &str) -> Item {
-    let mut items = parse_ok(source).items;
-    assert_eq!(items.len(), 1, "{items:?}");
-    items.remove(0)
-}
-
-/// An optional expression as fully parenthesized text.
-pub fn text(expr: Option<&Expr>) -> Option<String> {
-    expr.map(ToString::to_string)
-}
+// Helpers the area modules share: parsing, and an engine on a fresh board.
+#[path = "lang/support.rs"]
+mod support;

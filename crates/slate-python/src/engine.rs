@@ -291,11 +291,7 @@ impl Outbox {
         }
     }
 
-    fn next_message(
-        &self,
-        py: Python<'_>,
-        timeout: Option<Duration>,
-    ) -> PyResult<Option<Py<PyAny>>> {
+    fn next_item(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Py<PyAny>>> {
         let Some(rx) = self.rx.lock().clone() else {
             return Ok(None);
         };
@@ -304,52 +300,18 @@ impl Outbox {
             .map(|m| outgoing_to_py(py, m))
             .transpose()
     }
-}
-
-#[pymethods]
-impl Outbox {
-    /// The next message, waiting at most `timeout` seconds (`None`: the subscription's
-    /// own timeout); `None` if nothing came.
-    #[pyo3(signature = (timeout=None))]
-    fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<Py<PyAny>>> {
-        let timeout = stream::timeout(timeout)?.or(self.timeout);
-        self.next_message(py, timeout)
-    }
 
     /// Messages already waiting, without blocking.
-    fn drain(&self, py: Python<'_>) -> PyResult<Vec<Py<PyAny>>> {
+    fn waiting(&self, py: Python<'_>) -> PyResult<Vec<Py<PyAny>>> {
         let Some(rx) = self.rx.lock().clone() else {
             return Ok(Vec::new());
         };
         rx.try_iter().map(|m| outgoing_to_py(py, m)).collect()
     }
 
-    /// Unsubscribes; iteration ends.
-    fn close(&self) {
+    fn unsubscribe(&self) {
         self.rx.lock().take();
     }
-
-    fn __iter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    fn __next__(&self, py: Python<'_>) -> PyResult<Option<Py<PyAny>>> {
-        self.next_message(py, self.timeout)
-    }
-
-    fn __enter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
-    fn __exit__(
-        &self,
-        exc_type: Option<&Bound<'_, PyAny>>,
-        exc_value: Option<&Bound<'_, PyAny>>,
-        traceback: Option<&Bound<'_, PyAny>>,
-    ) -> bool {
-        let _ = (exc_type, exc_value, traceback);
-        self.close();
-        false
-    }
 }
+
+stream::subscription_methods!(Outbox, Py<PyAny>, {});

@@ -185,7 +185,7 @@ impl Events {
         }
     }
 
-    fn next_event(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Event>> {
+    fn next_item(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Event>> {
         let Some(source) = self.source.lock().clone() else {
             return Ok(None);
         };
@@ -195,55 +195,21 @@ impl Events {
             Source::Plans(rx) => stream::next_from(py, rx, timeout, &alive)?.map(Event::from),
         })
     }
-}
-
-#[pymethods]
-impl Events {
-    /// The next event, waiting at most `timeout` seconds (`None`: the subscription's own
-    /// timeout); `None` if nothing came.
-    #[pyo3(signature = (timeout=None))]
-    fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<Event>> {
-        let timeout = stream::timeout(timeout)?.or(self.timeout);
-        self.next_event(py, timeout)
-    }
 
     /// Events already waiting, without blocking.
-    fn drain(&self) -> Vec<Event> {
+    fn waiting(&self, _py: Python<'_>) -> PyResult<Vec<Event>> {
         let Some(source) = self.source.lock().clone() else {
-            return Vec::new();
+            return Ok(Vec::new());
         };
-        match source.as_ref() {
+        Ok(match source.as_ref() {
             Source::Board(rx) => rx.try_iter().map(Event::from).collect(),
             Source::Plans(rx) => rx.try_iter().map(Event::from).collect(),
-        }
+        })
     }
 
-    /// Unsubscribes; iteration ends.
-    fn close(&self) {
+    fn unsubscribe(&self) {
         self.source.lock().take();
     }
-
-    fn __iter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    fn __next__(&self, py: Python<'_>) -> PyResult<Option<Event>> {
-        self.next_event(py, self.timeout)
-    }
-
-    fn __enter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
-    fn __exit__(
-        &self,
-        exc_type: Option<&Bound<'_, PyAny>>,
-        exc_value: Option<&Bound<'_, PyAny>>,
-        traceback: Option<&Bound<'_, PyAny>>,
-    ) -> bool {
-        let _ = (exc_type, exc_value, traceback);
-        self.close();
-        false
-    }
 }
+
+stream::subscription_methods!(Events, Event, {});

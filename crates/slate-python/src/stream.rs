@@ -56,3 +56,60 @@ pub(crate) fn next_from<T: Send>(
 ) -> PyResult<Option<T>> {
     next(py, timeout, alive, |slice| rx.recv_timeout(slice))
 }
+
+/// The Python methods every subscription class shares (`Events`, `Watch`, `Outbox`):
+/// `get`, `drain`, `close`, iteration (each step waits for the next item, with the
+/// class's own timeout) and the context-manager protocol (leaving closes). The class
+/// provides `next_item(py, timeout)`, `waiting(py)`, `unsubscribe()` and a `timeout`
+/// field; `{ ... }` adds the class's own methods to the same `#[pymethods]` block.
+macro_rules! subscription_methods {
+    ($class:ty, $item:ty, { $($own:tt)* }) => {
+        #[pyo3::pymethods]
+        impl $class {
+            /// The next item, waiting at most `timeout` seconds (`None`: the
+            /// subscription's own timeout); `None` if nothing came.
+            #[pyo3(signature = (timeout=None))]
+            fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<$item>> {
+                let timeout = $crate::stream::timeout(timeout)?.or(self.timeout);
+                self.next_item(py, timeout)
+            }
+
+            /// Items already waiting, without blocking.
+            fn drain(&self, py: Python<'_>) -> PyResult<Vec<$item>> {
+                self.waiting(py)
+            }
+
+            /// Unsubscribes; iteration ends.
+            fn close(&self) {
+                self.unsubscribe();
+            }
+
+            fn __iter__(slf: Py<Self>) -> Py<Self> {
+                slf
+            }
+
+            fn __next__(&self, py: Python<'_>) -> PyResult<Option<$item>> {
+                self.next_item(py, self.timeout)
+            }
+
+            fn __enter__(slf: Py<Self>) -> Py<Self> {
+                slf
+            }
+
+            #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
+            fn __exit__(
+                &self,
+                exc_type: Option<&Bound<'_, PyAny>>,
+                exc_value: Option<&Bound<'_, PyAny>>,
+                traceback: Option<&Bound<'_, PyAny>>,
+            ) -> bool {
+                let _ = (exc_type, exc_value, traceback);
+                self.unsubscribe();
+                false
+            }
+
+            $($own)*
+        }
+    };
+}
+pub(crate) use subscription_methods;

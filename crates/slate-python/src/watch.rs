@@ -37,7 +37,7 @@ impl PyWatch {
         self.inner.lock().clone()
     }
 
-    fn next_change(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Change>> {
+    fn next_item(&self, py: Python<'_>, timeout: Option<Duration>) -> PyResult<Option<Change>> {
         let Some(watch) = self.watch() else {
             return Ok(None);
         };
@@ -47,20 +47,9 @@ impl PyWatch {
         })?;
         change.map(|c| Change::new(py, c)).transpose()
     }
-}
-
-#[pymethods]
-impl PyWatch {
-    /// The next change, waiting at most `timeout` seconds (`None`: the watch's own
-    /// timeout, given to `Board.watch`); `None` if nothing came.
-    #[pyo3(signature = (timeout=None))]
-    fn get(&self, py: Python<'_>, timeout: Option<f64>) -> PyResult<Option<Change>> {
-        let timeout = stream::timeout(timeout)?.or(self.timeout);
-        self.next_change(py, timeout)
-    }
 
     /// Changes already waiting, without blocking.
-    fn drain(&self, py: Python<'_>) -> PyResult<Vec<Change>> {
+    fn waiting(&self, py: Python<'_>) -> PyResult<Vec<Change>> {
         let Some(watch) = self.watch() else {
             return Ok(Vec::new());
         };
@@ -69,41 +58,18 @@ impl PyWatch {
             .collect()
     }
 
+    fn unsubscribe(&self) {
+        self.inner.lock().take();
+    }
+}
+
+stream::subscription_methods!(PyWatch, Change, {
     /// Number of changes waiting.
     #[getter]
     fn pending(&self) -> usize {
         self.inner.lock().as_ref().map_or(0, |w| w.pending())
     }
-
-    /// Unsubscribes; iteration ends.
-    fn close(&self) {
-        self.inner.lock().take();
-    }
-
-    fn __iter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    fn __next__(&self, py: Python<'_>) -> PyResult<Option<Change>> {
-        self.next_change(py, self.timeout)
-    }
-
-    fn __enter__(slf: Py<Self>) -> Py<Self> {
-        slf
-    }
-
-    #[pyo3(signature = (exc_type=None, exc_value=None, traceback=None))]
-    fn __exit__(
-        &self,
-        exc_type: Option<&Bound<'_, PyAny>>,
-        exc_value: Option<&Bound<'_, PyAny>>,
-        traceback: Option<&Bound<'_, PyAny>>,
-    ) -> bool {
-        let _ = (exc_type, exc_value, traceback);
-        self.close();
-        false
-    }
-}
+});
 
 /// The changes one revision made (a write, or a whole batch) that match a watch.
 #[pyclass(module = "slate", name = "Change", frozen)]

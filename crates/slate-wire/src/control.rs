@@ -113,25 +113,7 @@ mod tests {
 
     #[test]
     fn every_plan_step_roundtrips() {
-        let steps = [
-            PlanStep::Received,
-            PlanStep::Accepted,
-            PlanStep::Rejected {
-                reason: "no such class".into(),
-            },
-            PlanStep::Initiated,
-            PlanStep::Triggered {
-                ok: true,
-                detail: String::new(),
-            },
-            PlanStep::Triggered {
-                ok: false,
-                detail: "depth".into(),
-            },
-            PlanStep::Terminated,
-            PlanStep::Cancelled,
-            PlanStep::DestinationLost,
-        ];
+        let steps = crate::step::tests::every_step();
         for (seq, step) in steps.into_iter().enumerate() {
             let ack = PlanAck {
                 circuit: 9,

@@ -92,10 +92,11 @@ impl fmt::Display for PlanStep {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn every_step() -> Vec<PlanStep> {
+    /// Every kind of step, with and without details; the codec's tests use it too.
+    pub(crate) fn every_step() -> Vec<PlanStep> {
         vec![
             PlanStep::Received,
             PlanStep::Accepted,

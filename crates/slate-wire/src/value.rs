@@ -186,27 +186,20 @@ pub(crate) fn read_tagged(r: &mut BitReader) -> Result<Value, DecodeError> {
     })
 }
 
-/// Checks that a value can be written for a declaration: its type, finiteness, bounds,
-/// and the wire's length limits for text. `Value::None` is always allowed.
+/// Checks that a value can be written for a declaration: its type, finiteness, bounds
+/// (as the board checks them), and the wire's length limits for text. `Value::None` is
+/// always allowed.
 pub(crate) fn check_value(value: &Value, decl: &AttrDecl) -> Result<(), ValueError> {
     if value.is_none() {
         return Ok(());
     }
-    if value.value_type() != Some(decl.ty) || too_long(value) {
+    if too_long(value) {
         return Err(ValueError::WrongType {
             expected: decl.ty,
             found: value.clone(),
         });
     }
-    let reals: &[f64] = match value {
-        Value::Real(x) => std::slice::from_ref(x),
-        Value::Vector(v) => v,
-        _ => &[],
-    };
-    if reals.iter().any(|x| !x.is_finite()) {
-        return Err(ValueError::NotFinite(value.clone()));
-    }
-    check_bounds(value, reals, decl.bounds)
+    slate_model::check_value(value, decl.ty, decl.bounds)
 }
 
 /// Text longer than the wire carries.
@@ -216,28 +209,6 @@ fn too_long(value: &Value) -> bool {
         Value::Ref(s) => s.len() > MAX_NAME_BYTES,
         _ => false,
     }
-}
-
-fn check_bounds(
-    value: &Value,
-    reals: &[f64],
-    bounds: Option<(f64, f64)>,
-) -> Result<(), ValueError> {
-    let Some((min, max)) = bounds else {
-        return Ok(());
-    };
-    let outside = match value {
-        Value::Int(i) => !(min..=max).contains(&(*i as f64)),
-        _ => reals.iter().any(|x| !(min..=max).contains(x)),
-    };
-    if outside {
-        return Err(ValueError::OutOfBounds {
-            value: value.clone(),
-            min,
-            max,
-        });
-    }
-    Ok(())
 }
 
 /// Checks the accuracy (finite, `>= 0`) and confidence (`[0, 1]`) fields.

@@ -1,11 +1,11 @@
 //! The transport conformance suite, over real Zenoh sessions on 127.0.0.1.
 
-use std::net::TcpListener;
 use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, Instant};
 
 use slate_model::Address;
+use slate_testing::free_port;
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 
 /// A fresh Zenoh network per test: every endpoint listens on its own loopback port and
@@ -13,14 +13,6 @@ use slate_zenoh::{ZenohConfig, ZenohTransport};
 #[derive(Default)]
 pub struct Loopback {
     endpoints: Vec<String>,
-}
-
-/// A free TCP port on 127.0.0.1 (the OS picks it; the listener is dropped before use).
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
 }
 
 impl slate_transport::conformance::TransportFactory for Loopback {

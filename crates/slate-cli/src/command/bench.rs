@@ -3,7 +3,7 @@
 
 use std::process::ExitCode;
 
-use crate::cli::{BenchArgs, Format, Suite};
+use crate::cli::{BenchArgs, Format};
 
 /// Runs the suite and prints the report as text or JSON.
 pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
@@ -16,7 +16,7 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
             "slate: warning: this is a debug build; run `cargo run --release -p slate-cli -- bench ...` for real figures"
         );
     }
-    let report = slate_bench::run(args.suite.into(), &cfg, &mut |step| {
+    let report = slate_bench::run(args.suite, &cfg, &mut |step| {
         eprintln!("  measuring {step} ...")
     })?;
     match format {
@@ -24,16 +24,4 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
         Format::Text => print!("{}", report.text()),
     }
     Ok(ExitCode::SUCCESS)
-}
-
-impl From<Suite> for slate_bench::Suite {
-    fn from(suite: Suite) -> Self {
-        match suite {
-            Suite::Core => slate_bench::Suite::Core,
-            Suite::Plans => slate_bench::Suite::Plans,
-            Suite::Wire => slate_bench::Suite::Wire,
-            Suite::Net => slate_bench::Suite::Net,
-            Suite::Cli => slate_bench::Suite::Cli,
-        }
-    }
 }

@@ -17,12 +17,7 @@ use crate::command::failed;
 /// Joins the team as an observer and waits for its catch-up. A malformed endpoint is
 /// named as the `--connect` it came from, not reported as unreachable.
 pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
-    let address = live
-        .address
-        .as_deref()
-        .map(Address::new)
-        .transpose()
-        .context("--as")?;
+    let address = optional_address(live.address.as_deref(), "--as")?;
     let wait = Duration::try_from_secs_f64(live.wait)
         .ok()
         .filter(|w| !w.is_zero())
@@ -253,6 +248,12 @@ pub fn print_line(j: &Json) -> anyhow::Result<()> {
     writeln!(out, "{}", serde_json::to_string(j)?)?;
     out.flush()?;
     Ok(())
+}
+
+/// The address an optional flag gives, if it was given; a bad one is an error that names
+/// the flag.
+pub fn optional_address(text: Option<&str>, flag: &'static str) -> anyhow::Result<Option<Address>> {
+    text.map(Address::new).transpose().context(flag)
 }
 
 #[cfg(test)]

@@ -15,7 +15,8 @@ use slate_wire::PlanStep;
 use crate::cli::{Format, PlanCancelArgs, PlanLsArgs, PlanSendArgs};
 use crate::command::failed;
 use crate::command::live::{
-    export_note, interrupted, join, print_json, print_line, seen_through_export_json, team_of,
+    export_note, interrupted, join, optional_address, print_json, print_line,
+    seen_through_export_json, team_of,
 };
 
 /// How long a cancellation waits for its confirmation.
@@ -230,12 +231,7 @@ fn row(board: &Board, info: &ObjectInfo) -> PlanRow {
 /// Cancels a plan by writing `cancelled` to its state; the node running it cancels it
 /// and confirms by writing the state itself.
 pub fn cancel(args: &PlanCancelArgs, format: Format) -> anyhow::Result<ExitCode> {
-    let on = args
-        .on
-        .as_deref()
-        .map(Address::new)
-        .transpose()
-        .context("--on")?;
+    let on = optional_address(args.on.as_deref(), "--on")?;
     let node = join(&args.live)?;
     let result = cancel_on(&node, &args.name, on.as_ref(), format);
     node.close();

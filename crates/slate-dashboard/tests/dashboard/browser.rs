@@ -13,7 +13,9 @@ use serde_json::{Value, json};
 use slate_cdp::{Chromium, Page, chromium};
 use slate_dashboard::SampleTeam;
 
-use crate::support::{serve_local, target_dir};
+use slate_testing::screenshot_without_errors;
+
+use crate::support::serve_local;
 
 /// How long any one wait in this test may take before it fails.
 const WAIT: Duration = Duration::from_secs(20);
@@ -125,15 +127,7 @@ fn browser_shows_a_moving_team_without_console_errors() {
     page.navigate(&url);
     page.wait_text("robot-count", |t| t == "3");
     std::thread::sleep(Duration::from_millis(2500));
-    let shot = target_dir().join("dashboard.png");
-    page.screenshot(&shot);
-
-    let errors = page.console_errors();
-    assert!(
-        errors.is_empty(),
-        "console errors: {errors:#?}\nchromium log:\n{}",
-        chromium.log_tail()
-    );
+    let shot = screenshot_without_errors(&mut page, &chromium, "dashboard.png");
     eprintln!(
         "browser test passed in {:.1?}; screenshot at {}",
         started.elapsed(),

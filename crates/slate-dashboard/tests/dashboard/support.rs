@@ -1,14 +1,13 @@
-//! Helpers shared by the test modules: a tiny HTTP client, sources, timeouts.
+//! Helpers shared by the test modules: sources, timeouts (and the shared HTTP client).
 
-use std::io::{Read, Write};
-use std::net::{SocketAddr, TcpStream};
-use std::path::PathBuf;
+use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use serde_json::{Value, json};
+use serde_json::json;
 use slate_dashboard::{Dashboard, DashboardSource};
+pub use slate_testing::{http_get, target_dir, within};
 
 /// Socket timeouts: generous, only there so a broken server fails a test instead of hanging it.
 pub const IO_TIMEOUT: Duration = Duration::from_secs(10);
@@ -26,66 +25,4 @@ pub fn counting_source() -> Arc<dyn DashboardSource> {
         json!({"title": "counting", "time": n as f64, "status": "running",
                "map": {"items": [{"id": "r1", "kind": "robot", "x": n as f64, "y": 0.0}]}})
     })
-}
-
-/// One HTTP response, as read off the socket.
-pub struct Response {
-    pub status: u16,
-    pub head: String,
-    pub body: String,
-}
-
-impl Response {
-    /// The value of `name` in the headers (case-insensitive), if present.
-    pub fn header(&self, name: &str) -> Option<&str> {
-        self.head.lines().find_map(|line| {
-            let (key, value) = line.split_once(':')?;
-            key.eq_ignore_ascii_case(name).then(|| value.trim())
-        })
-    }
-
-    pub fn json(&self) -> Value {
-        serde_json::from_str(&self.body).expect("body is JSON")
-    }
-}
-
-/// `GET path` over HTTP/1.1 with `Connection: close`; the server sends lengths, not chunks.
-pub fn http_get(addr: SocketAddr, path: &str) -> Response {
-    let mut stream = TcpStream::connect_timeout(&addr, IO_TIMEOUT).expect("connect");
-    stream.set_read_timeout(Some(IO_TIMEOUT)).unwrap();
-    write!(
-        stream,
-        "GET {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut raw = String::new();
-    stream.read_to_string(&mut raw).expect("read response");
-    let (head, body) = raw.split_once("\r\n\r\n").expect("response has a head");
-    let status = head
-        .split(' ')
-        .nth(1)
-        .and_then(|s| s.parse().ok())
-        .expect("status code");
-    Response {
-        status,
-        head: head.to_owned(),
-        body: body.to_owned(),
-    }
-}
-
-/// Runs `f` on its own thread and fails the test if it takes longer than `limit`.
-pub fn within<T: Send + 'static>(limit: Duration, f: impl FnOnce() -> T + Send + 'static) -> T {
-    let (tx, rx) = std::sync::mpsc::channel();
-    std::thread::spawn(move || {
-        let _ = tx.send(f());
-    });
-    rx.recv_timeout(limit)
-        .unwrap_or_else(|_| panic!("did not finish within {limit:?}"))
-}
-
-/// The cargo target directory this test binary was built into (`target/`).
-pub fn target_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("current exe");
-    // <target>/<profile>/deps/<test binary>
-    exe.ancestors().nth(3).expect("target dir").to_path_buf()
 }

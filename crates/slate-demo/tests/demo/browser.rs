@@ -12,8 +12,7 @@ use std::time::Duration;
 
 use slate_cdp::{Chromium, Page, chromium};
 use slate_demo::{DemoConfig, Progress, run};
-
-use super::support::target_dir;
+use slate_testing::screenshot_without_errors;
 
 /// How long any one wait in this test may take before it fails.
 const WAIT: Duration = Duration::from_secs(30);
@@ -76,14 +75,7 @@ fn the_dashboard_shows_the_team_at_work_without_console_errors() {
     assert!(summary.contains("2/3"), "the dead robot shows: {summary}");
     let later_items = page.text("item-count");
     assert!(!later_items.is_empty() && items != "0");
-    let shot = target_dir().join("demo-dashboard.png");
-    page.screenshot(&shot);
-    let errors = page.console_errors();
-    assert!(
-        errors.is_empty(),
-        "console errors: {errors:#?}\nchromium log:\n{}",
-        chromium.log_tail()
-    );
+    let shot = screenshot_without_errors(&mut page, &chromium, "demo-dashboard.png");
     drop(chromium);
     let summary = demo.join().expect("the demo thread").expect("the demo ran");
     assert_eq!(summary.duplicate_investigations, 0);

@@ -7,7 +7,7 @@ use std::time::Duration;
 use slate_demo::{Demo, Role, Summary, run};
 use slate_model::Context;
 
-use super::support::{config, within};
+use crate::support::{config, within};
 
 /// A guard against hangs (a debug build runs one mission in about 10 s).
 const LIMIT: Duration = Duration::from_secs(300);

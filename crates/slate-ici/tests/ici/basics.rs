@@ -3,13 +3,17 @@
 use slate_ici::{IciConfig, LinkKind, MsgKind};
 use slate_model::{AttrDecl, BoardEvent, ClassDef, Context, NewObject, Update, Value, ValueType};
 
-use crate::common::{Team, addr, classes, open};
+use crate::support::{Team, addr, classes, open};
 
 fn pair() -> Team {
-    let mut team = Team::new(1);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/planner", open());
-    team.add("t/r2/nav", open());
+    let team = Team::of(
+        1,
+        [
+            ("t/r1/nav", open()),
+            ("t/r1/planner", open()),
+            ("t/r2/nav", open()),
+        ],
+    );
     team.run(0.5);
     team
 }
@@ -79,7 +83,7 @@ fn deleting_an_object_deletes_every_copy() {
     for n in ["t/r1/planner", "t/r2/nav"] {
         assert!(team.board(n).info("boulder").is_none(), "{n}");
     }
-    assert!(team.node("t/r2/nav").ici.stats().merges.deleted >= 1);
+    assert!(team.member("t/r2/nav").ici.stats().merges.deleted >= 1);
 }
 
 #[test]
@@ -108,9 +112,7 @@ fn an_object_made_again_under_its_old_name_reports_its_new_class_and_context() {
 #[test]
 fn an_object_made_again_in_its_old_class_is_not_lost_with_the_old_one() {
     for seed in 0..20 {
-        let mut team = Team::new(seed);
-        team.add("t/r1/nav", open());
-        team.add("t/r2/nav", open());
+        let team = Team::of(seed, [("t/r1/nav", open()), ("t/r2/nav", open())]);
         team.run(0.5);
         let nav = team.board("t/r1/nav");
         nav.create("Tracked", "thing").unwrap();
@@ -200,9 +202,7 @@ fn class_level_values_reach_every_board() {
 fn a_board_lacking_a_class_asks_for_it_and_gets_the_values() {
     let mut team = Team::new(2);
     let sonar = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
-    let mut with_sonar = classes();
-    with_sonar.push(sonar.clone());
-    team.add_with("t/r1/nav", open(), &with_sonar);
+    team.add_with("t/r1/nav", open(), &classes_and(&sonar));
     team.add("t/r2/nav", open());
     team.run(0.5);
     let nav = team.board("t/r1/nav");
@@ -212,27 +212,18 @@ fn a_board_lacking_a_class_asks_for_it_and_gets_the_values() {
     let other = team.board("t/r2/nav");
     assert_eq!(other.class_def("Sonar"), Some(sonar));
     assert_eq!(other.read("s1", "ping").unwrap().value.as_f64(), Some(0.25));
-    assert!(team.node("t/r1/nav").ici.stats().catch_up.classes_sent >= 1);
+    assert!(team.member("t/r1/nav").ici.stats().catch_up.classes_sent >= 1);
 }
 
 #[test]
 fn a_class_defined_differently_is_refused_and_counted_not_merged() {
-    let mut team = Team::new(3);
-    let a = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
-    let b = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Int));
-    let with = |d: &ClassDef| {
-        let mut v = classes();
-        v.push(d.clone());
-        v
-    };
-    team.add_with("t/r1/nav", open(), &with(&a));
-    team.add_with("t/r2/nav", open(), &with(&b));
+    let (team, b) = sonar_conflict(3);
     team.run(0.5);
     let nav = team.board("t/r1/nav");
     nav.create("Sonar", "s1").unwrap();
     nav.write("s1", "ping", 0.25).unwrap();
     team.run(5.0);
-    let other = team.node("t/r2/nav");
+    let other = team.member("t/r2/nav");
     assert_eq!(other.board.class_def("Sonar"), Some(b));
     assert!(other.board.info("s1").is_none());
     let stats = other.ici.stats();
@@ -248,7 +239,7 @@ fn the_robot_link_carries_intra_robot_traffic_and_the_team_link_the_rest() {
     nav.create("Vehicle", "gsr").unwrap();
     nav.write("gsr", "speed", 1.0).unwrap();
     team.run(0.5);
-    let stats = team.node("t/r1/nav").ici.stats();
+    let stats = team.member("t/r1/nav").ici.stats();
     assert_eq!(stats.get(LinkKind::Robot, MsgKind::Report).sent_msgs, 1);
     assert_eq!(stats.get(LinkKind::Team, MsgKind::Report).sent_msgs, 1);
     let sim = team.net.stats();
@@ -262,10 +253,14 @@ fn interest_defaults_to_everything_and_export_to_nothing() {
     let config = IciConfig::default();
     assert!(config.interest.is_all());
     assert!(config.export.is_empty());
-    let mut team = Team::new(4);
-    team.add("t/r1/nav", config.clone());
-    team.add("t/r1/cam", config.clone());
-    team.add("t/r2/nav", config);
+    let team = Team::of(
+        4,
+        [
+            ("t/r1/nav", config.clone()),
+            ("t/r1/cam", config.clone()),
+            ("t/r2/nav", config),
+        ],
+    );
     team.run(0.5);
     let nav = team.board("t/r1/nav");
     nav.create("Vehicle", "gsr").unwrap();
@@ -273,7 +268,14 @@ fn interest_defaults_to_everything_and_export_to_nothing() {
     team.run(1.0);
     assert!(team.board("t/r1/cam").info("gsr").is_some());
     assert!(team.board("t/r2/nav").info("gsr").is_none());
-    assert!(team.node("t/r1/nav").ici.stats().reports.suppressed_export >= 1);
+    assert!(
+        team.member("t/r1/nav")
+            .ici
+            .stats()
+            .reports
+            .suppressed_export
+            >= 1
+    );
 }
 
 /// The `ClassConflict` events a board reported so far.
@@ -289,16 +291,7 @@ fn conflicts(events: &crossbeam_channel::Receiver<BoardEvent>) -> Vec<(String, S
 
 #[test]
 fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
-    let mut team = Team::new(33);
-    let a = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
-    let b = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Int));
-    let with = |d: &ClassDef| {
-        let mut v = classes();
-        v.push(d.clone());
-        v
-    };
-    team.add_with("t/r1/nav", open(), &with(&a));
-    team.add_with("t/r2/nav", open(), &with(&b));
+    let (team, _) = sonar_conflict(33);
     let (nav_events, other_events) = (
         team.board("t/r1/nav").events(),
         team.board("t/r2/nav").events(),
@@ -314,6 +307,24 @@ fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
     let sonar = || "Sonar".to_owned();
     assert_eq!(conflicts(&other_events), [(sonar(), "t/r1/nav".to_owned())]);
     assert_eq!(conflicts(&nav_events), [(sonar(), "t/r2/nav".to_owned())]);
-    let listed = team.node("t/r1/nav").ici.class_conflicts();
+    let listed = team.member("t/r1/nav").ici.class_conflicts();
     assert_eq!(listed, [(sonar(), addr("t/r2/nav"))]);
+}
+
+/// The test classes and `extra`.
+fn classes_and(extra: &ClassDef) -> Vec<ClassDef> {
+    let mut defs = classes();
+    defs.push(extra.clone());
+    defs
+}
+
+/// t/r1/nav and t/r2/nav defining `Sonar` differently (`ping` a real on r1, an integer
+/// on r2), not yet run; r2's definition is returned.
+fn sonar_conflict(seed: u64) -> (Team, ClassDef) {
+    let sonar = |ty| ClassDef::new("Sonar").attr(AttrDecl::new("ping", ty));
+    let (a, b) = (sonar(ValueType::Real), sonar(ValueType::Int));
+    let mut team = Team::new(seed);
+    team.add_with("t/r1/nav", open(), &classes_and(&a));
+    team.add_with("t/r2/nav", open(), &classes_and(&b));
+    (team, b)
 }

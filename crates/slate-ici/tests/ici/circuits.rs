@@ -14,7 +14,7 @@ use slate_model::{Address, Board};
 use slate_plans::{Engine, PlanState};
 use slate_wire::{Message, Plan, PlanAck, PlanStep};
 
-use crate::common::{addr, secs};
+use crate::support::{addr, secs};
 
 /// A part on a welding cell: the destination's world.
 const CELL: &str = "
@@ -71,6 +71,16 @@ fn module_on(
     }
 }
 
+/// A planner (t/r1/planner, no classes) and the welding cell (t/r2/cell) on a new
+/// network of `seed`, half a second after they start.
+fn planner_and_cell(seed: u64) -> (SimNet, Module, Module) {
+    let net = SimNet::new(seed);
+    let origin = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    (net, origin, cell)
+}
+
 /// Everything exported; the team link's liveliness slow enough that 30% loss never
 /// makes a module look dead.
 fn config() -> IciConfig {
@@ -80,6 +90,20 @@ fn config() -> IciConfig {
 }
 
 /// Runs until the handle has `n` steps (collected into `got`), at most `max` seconds.
+/// Sends `plan` from `origin` to `to` and runs until its first three steps came back
+/// (received, accepted, initiated); the handle and those steps.
+fn send_until_initiated(
+    net: &SimNet,
+    origin: &Module,
+    to: &str,
+    plan: &str,
+) -> (PlanHandle, Vec<PlanStep>) {
+    let h = origin.circuits.send(&addr(to), plan).unwrap();
+    let mut got = Vec::new();
+    wait_steps(net, &h, &mut got, 3, 5.0);
+    (h, got)
+}
+
 fn wait_steps(net: &SimNet, h: &PlanHandle, got: &mut Vec<PlanStep>, n: usize, max: f64) {
     net.run_until(
         || {
@@ -258,10 +282,7 @@ fn every_step_arrives_once_in_order_under_loss_duplication_and_reordering() {
 
 #[test]
 fn a_rejected_plan_says_why_with_line_and_column() {
-    let net = SimNet::new(61);
-    let origin = module(&net, "t/r1/planner", "");
-    let cell = module(&net, "t/r2/cell", CELL);
-    net.run_for(secs(0.5));
+    let (net, origin, cell) = planner_and_cell(61);
     let to = addr("t/r2/cell");
 
     // Names are checked by the destination, against its board.
@@ -336,10 +357,7 @@ fn a_rejected_plan_says_why_with_line_and_column() {
 
 #[test]
 fn a_plan_whose_name_is_taken_is_rejected_not_renamed() {
-    let net = SimNet::new(62);
-    let origin = module(&net, "t/r1/planner", "");
-    let cell = module(&net, "t/r2/cell", CELL);
-    net.run_for(secs(0.5));
+    let (net, origin, cell) = planner_and_cell(62);
     let to = addr("t/r2/cell");
     let first = origin.circuits.send(&to, WELD).unwrap();
     let second = origin.circuits.send(&to, WELD).unwrap();
@@ -359,13 +377,8 @@ fn a_plan_whose_name_is_taken_is_rejected_not_renamed() {
 
 #[test]
 fn the_origin_cancels_a_plan_it_sent() {
-    let net = SimNet::new(63);
-    let origin = module(&net, "t/r1/planner", "");
-    let cell = module(&net, "t/r2/cell", CELL);
-    net.run_for(secs(0.5));
-    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
-    let mut got = Vec::new();
-    wait_steps(&net, &h, &mut got, 3, 5.0);
+    let (net, origin, cell) = planner_and_cell(63);
+    let (h, mut got) = send_until_initiated(&net, &origin, "t/r2/cell", WELD);
     origin.circuits.cancel(h.circuit).unwrap();
     wait_steps(&net, &h, &mut got, 4, 5.0);
     assert_eq!(got[3], PlanStep::Cancelled);
@@ -394,13 +407,8 @@ fn the_origin_cancels_a_plan_it_sent() {
 
 #[test]
 fn a_partitioned_destination_is_lost_and_its_acks_resume_after_the_heal() {
-    let net = SimNet::new(64);
-    let origin = module(&net, "t/r1/planner", "");
-    let cell = module(&net, "t/r2/cell", CELL);
-    net.run_for(secs(0.5));
-    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
-    let mut got = Vec::new();
-    wait_steps(&net, &h, &mut got, 3, 5.0);
+    let (net, origin, cell) = planner_and_cell(64);
+    let (h, mut got) = send_until_initiated(&net, &origin, "t/r2/cell", WELD);
 
     net.partition(&[addr("t/r1/planner")], &[addr("t/r2/cell")]);
     wait_steps(&net, &h, &mut got, 4, 10.0);
@@ -443,9 +451,7 @@ fn a_plan_decomposes_into_sub_plans_on_their_own_circuits() {
             send plan track_seam { trigger: seam.found == true; action { set seam.tracking = true; } } to "t/cell/seam";
         }
     }"#;
-    let h = planner.circuits.send(&addr("t/cell/exec"), weld).unwrap();
-    let mut got = Vec::new();
-    wait_steps(&net, &h, &mut got, 3, 5.0);
+    let (h, mut got) = send_until_initiated(&net, &planner, "t/cell/exec", weld);
     exec.board.write("part", "ready", true).unwrap();
     wait_steps(&net, &h, &mut got, 4, 5.0);
     assert!(triggered(true)(&got[3]), "{got:?}");

@@ -2,7 +2,7 @@
 
 use slate_ici::{IciStats, LinkConfig, Rng, SimConfig, SimStats};
 
-use crate::common::{Team, secs, workload};
+use crate::support::{Team, secs, workload};
 
 fn scenario(seed: u64) -> (SimStats, Vec<IciStats>, Vec<String>) {
     let team_link = LinkConfig::clean()
@@ -19,8 +19,8 @@ fn scenario(seed: u64) -> (SimStats, Vec<IciStats>, Vec<String>) {
     team.run(0.5);
     workload(&team, &mut Rng::new(seed), 100, 0.05);
     team.run(10.0);
-    let stats = team.nodes.iter().map(|n| n.ici.stats()).collect();
-    let dumps = team.nodes.iter().map(|n| n.board.dump()).collect();
+    let stats = team.members.iter().map(|n| n.ici.stats()).collect();
+    let dumps = team.members.iter().map(|n| n.board.dump()).collect();
     (team.net.stats(), stats, dumps)
 }
 

@@ -4,9 +4,9 @@
 use std::sync::Arc;
 
 use slate_ici::{Ici, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
-use slate_model::{Board, Context, NewObject, Timestamp, Update, Value};
+use slate_model::{Context, NewObject, Timestamp, Update, Value};
 
-use crate::common::{Node, Team, addr, classes, open, secs, workload};
+use crate::support::{Member, Team, addr, classes, open, secs, workload};
 
 /// 3 robots × 2 modules on links with these faults, some random work, then the boards
 /// must agree (faults still on).
@@ -42,7 +42,7 @@ fn boards_converge_with_30_percent_loss() {
 fn boards_converge_with_50_percent_loss() {
     let team = converge_under(23, LinkConfig::clean().loss(0.5));
     let requested: u64 = team
-        .nodes
+        .members
         .iter()
         .map(|n| n.ici.stats().catch_up.completed)
         .sum();
@@ -53,7 +53,7 @@ fn boards_converge_with_50_percent_loss() {
 fn boards_converge_with_duplication() {
     let team = converge_under(24, LinkConfig::clean().duplicate(0.5));
     let dups: u64 = team
-        .nodes
+        .members
         .iter()
         .map(|n| n.ici.stats().rejects.duplicates)
         .sum();
@@ -84,7 +84,7 @@ fn boards_converge_after_a_partition_heals() {
     team.run(0.5);
     let r0 = [addr("t/r0/m0"), addr("t/r0/m1")];
     let rest: Vec<_> = team
-        .nodes
+        .members
         .iter()
         .map(|n| n.address.clone())
         .filter(|a| !r0.contains(a))
@@ -94,7 +94,7 @@ fn boards_converge_after_a_partition_heals() {
     team.net.partition(&r0, &rest);
     workload(&team, &mut rng, 100, 0.05);
     assert!(
-        crate::common::divergence(&team.nodes).is_some(),
+        crate::support::divergence(&team.members).is_some(),
         "the partition made a difference"
     );
     team.net.heal();
@@ -108,7 +108,7 @@ fn a_late_joiner_catches_up_with_the_current_state() {
     workload(&team, &mut Rng::new(28), 100, 0.05);
     team.add("t/r2/late", open());
     team.assert_converges(30);
-    let late = team.node("t/r2/late").ici.stats();
+    let late = team.member("t/r2/late").ici.stats();
     assert!(late.catch_up.completed >= 4, "{:?}", late.catch_up);
 }
 
@@ -123,7 +123,7 @@ fn a_restarted_module_catches_up_and_is_caught_up_with() {
     workload(&team, &mut rng, 60, 0.05);
     team.assert_converges(30);
     let restarts: u64 = team
-        .nodes
+        .members
         .iter()
         .map(|n| n.ici.stats().liveliness.restarts)
         .sum();
@@ -136,19 +136,19 @@ fn a_killed_module_is_dead_on_every_other_board_and_alive_again_when_back() {
     team.run(1.0);
     let victim = addr("t/r1/m1");
     let name = module_object_name(&victim);
-    let alive = |n: &crate::common::Node| n.board.read(&name, "alive").map(|p| p.value).ok();
-    for n in team.nodes.iter().filter(|n| n.address != victim) {
+    let alive = |n: &crate::support::Member| n.board.read(&name, "alive").map(|p| p.value).ok();
+    for n in team.members.iter().filter(|n| n.address != victim) {
         assert_eq!(alive(n), Some(Value::Bool(true)), "{}", n.address);
     }
     team.net.kill(&victim);
     team.run(6.0);
-    for n in team.nodes.iter().filter(|n| n.address != victim) {
+    for n in team.members.iter().filter(|n| n.address != victim) {
         assert_eq!(alive(n), Some(Value::Bool(false)), "{}", n.address);
         assert!(n.ici.stats().liveliness.lost >= 1);
     }
     team.net.revive(&victim);
     team.run(2.0);
-    for n in team.nodes.iter().filter(|n| n.address != victim) {
+    for n in team.members.iter().filter(|n| n.address != victim) {
         assert_eq!(alive(n), Some(Value::Bool(true)), "{}", n.address);
     }
 }
@@ -245,15 +245,7 @@ fn a_lost_hello_is_said_again_until_answered() {
     let mut nodes = Vec::new();
     for a in ["t/r1/a", "t/r1/b"] {
         let address = addr(a);
-        let board = Arc::new(
-            slate_model::Board::builder()
-                .clock(team.net.clock())
-                .address(address.clone())
-                .build(),
-        );
-        for def in crate::common::classes() {
-            board.define(def).unwrap();
-        }
+        let board = team.board_at(&address, &classes());
         let transport = Arc::new(LosesHellos {
             inner: team.net.join(&address),
             left: 1.into(),
@@ -279,23 +271,14 @@ fn a_lost_hello_is_said_again_until_answered() {
 /// `Timestamp::ZERO`), before the ICI starts.
 fn start_from_files(team: &mut Team, address: &str, speed: f64) {
     let address = addr(address);
-    let board = Arc::new(
-        Board::builder()
-            .clock(team.net.clock())
-            .address(address.clone())
-            .build(),
-    );
-    for def in classes() {
-        board.define(def).unwrap();
-    }
+    let board = team.board_at(&address, &classes());
     board
         .create_with(NewObject::new("Vehicle", "gsr").context(Context::Self_))
         .unwrap();
     let initial = Update::new(speed).timestamp(Timestamp::ZERO);
     board.write("gsr", "speed", initial).unwrap();
     let ici = Ici::new(board.clone(), team.net.join(&address), open()).unwrap();
-    team.nodes.retain(|n| n.address != address);
-    team.nodes.push(Node {
+    team.put(Member {
         address,
         board,
         ici,
@@ -331,7 +314,7 @@ fn a_restarted_module_leaves_the_team_its_newer_values_and_gets_them_back() {
     team.run(1.0);
     assert_eq!(speed(&team, "t/r1/nav"), Some(5.0));
     team.net.kill(&addr("t/r2/operator"));
-    team.nodes.retain(|n| n.address != addr("t/r2/operator"));
+    team.members.retain(|n| n.address != addr("t/r2/operator"));
     team.run(0.3);
     team.net.kill(&addr("t/r1/nav"));
     team.run(0.3);
@@ -355,10 +338,10 @@ fn initial_values_written_while_running_reach_the_team_and_are_not_stale() {
         speed(&team, "t/r1/m0"),
         Some(2.0),
         "{:?} {:?}",
-        team.node("t/r1/m0").ici.stats(),
-        team.node("t/r0/m0").ici.stats().reports
+        team.member("t/r1/m0").ici.stats(),
+        team.member("t/r0/m0").ici.stats().reports
     );
-    let stats = team.node("t/r1/m0").ici.stats();
+    let stats = team.member("t/r1/m0").ici.stats();
     assert_eq!(stats.rejects.stale, 0, "{:?}", stats.rejects);
 }
 
@@ -376,7 +359,7 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
         team.add(&cli, open());
         team.run(0.5);
         team.net.kill(&addr(&cli));
-        team.nodes.retain(|n| n.address != addr(&cli));
+        team.members.retain(|n| n.address != addr(&cli));
         team.run(0.5);
     }
     assert!(
@@ -397,9 +380,7 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
 
 #[test]
 fn observers_leave_no_module_object_once_they_are_gone() {
-    let mut team = Team::new(37);
-    team.add("t/r1/nav", open());
-    team.add("t/r2/loco", open());
+    let mut team = Team::of(37, [("t/r1/nav", open()), ("t/r2/loco", open())]);
     team.run(1.0);
     let objects = |team: &Team, n: &str| team.board(n).stats().objects;
     let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
@@ -408,7 +389,7 @@ fn observers_leave_no_module_object_once_they_are_gone() {
         team.add(&cli, open().observer(true));
         team.run(0.5);
         team.net.kill(&addr(&cli));
-        team.nodes.retain(|n| n.address != addr(&cli));
+        team.members.retain(|n| n.address != addr(&cli));
         team.run(0.5);
     }
     // Well within the default forget_dead (10 min): a module would still be there.
@@ -421,7 +402,7 @@ fn observers_leave_no_module_object_once_they_are_gone() {
     team.add("t/r1/vision", open());
     team.run(0.5);
     team.net.kill(&addr("t/r1/vision"));
-    team.nodes.retain(|n| n.address != addr("t/r1/vision"));
+    team.members.retain(|n| n.address != addr("t/r1/vision"));
     team.run(5.0);
     let vision = module_object_name(&addr("t/r1/vision"));
     let alive = team
@@ -450,8 +431,7 @@ impl slate_ici::Handler for Answers {
 fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
     use slate_ici::{MsgKind, Transport};
     use slate_wire::{CatchUpRequest, Encoder, Message, Schema};
-    let mut team = Team::new(38);
-    team.add("t/r1/nav", open());
+    let team = Team::of(38, [("t/r1/nav", open())]);
     team.board("t/r1/nav").create("Vehicle", "v1").unwrap();
     team.board("t/r1/nav").write("v1", "speed", 2.0).unwrap();
     let flood = team.net.join(&addr("t/r1/flood"));
@@ -468,7 +448,7 @@ fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
             .unwrap();
     }
     team.run(0.1);
-    let stats = || team.node("t/r1/nav").ici.stats().catch_up;
+    let stats = || team.member("t/r1/nav").ici.stats().catch_up;
     assert_eq!((stats().answered, stats().deferred), (1, 19));
     // The nineteen that waited, merged, are answered once the interval is over.
     team.run(1.0);
@@ -478,17 +458,11 @@ fn a_module_asking_again_and_again_gets_one_current_state_per_interval() {
 
 #[test]
 fn an_observer_whose_own_hello_was_lost_is_still_forgotten_once_gone() {
-    let mut team = Team::new(39);
-    team.add("t/r1/nav", open());
+    let team = Team::of(39, [("t/r1/nav", open())]);
     team.run(1.0);
     let before = team.board("t/r1/nav").stats().objects;
     let address = addr("t/r1/cli-1");
-    let board = Arc::new(
-        Board::builder()
-            .clock(team.net.clock())
-            .address(address.clone())
-            .build(),
-    );
+    let board = team.board_at(&address, &[]);
     let transport = Arc::new(LosesHellos {
         inner: team.net.join(&address),
         left: 1.into(),

@@ -5,7 +5,7 @@ use std::time::Duration;
 use slate_ici::{LinkKind, MsgKind};
 use slate_model::{AttrDecl, ClassDef, ReportPolicy, ValueType};
 
-use crate::common::{Team, classes, open};
+use crate::support::{Team, classes, open};
 
 fn with_policy(policy: ReportPolicy) -> Team {
     let mut defs = classes();
@@ -44,7 +44,7 @@ fn the_final_value_inside_a_min_interval_is_delivered_at_the_trailing_edge() {
         Some(10.0),
         "the final value was lost"
     );
-    let stats = team.node("t/r1/sensor").ici.stats();
+    let stats = team.member("t/r1/sensor").ici.stats();
     assert_eq!(stats.reports.trailing, 1);
     assert_eq!(
         stats.get(LinkKind::Robot, MsgKind::Report).sent_msgs,
@@ -121,7 +121,7 @@ fn an_attribute_heartbeat_repeats_the_value_when_nothing_changes() {
         .write("tank", "level", 3.0)
         .unwrap();
     team.run(5.05);
-    let stats = team.node("t/r1/sensor").ici.stats();
+    let stats = team.member("t/r1/sensor").ici.stats();
     assert_eq!(stats.reports.heartbeats, 5);
     assert_eq!(level(&team, "t/r1/console"), Some(3.0));
 }
@@ -142,5 +142,5 @@ fn a_lost_final_report_is_recovered_through_the_module_heartbeat() {
     assert_eq!(level(&team, "t/r1/console"), Some(1.0));
     team.run(2.0);
     assert_eq!(level(&team, "t/r1/console"), Some(2.0));
-    assert!(team.node("t/r1/console").ici.stats().catch_up.completed >= 1);
+    assert!(team.member("t/r1/console").ici.stats().catch_up.completed >= 1);
 }

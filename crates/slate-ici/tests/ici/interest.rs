@@ -3,7 +3,7 @@
 use slate_ici::{ClassSet, IciConfig, LinkKind, MsgKind};
 use slate_model::{Context, NewObject};
 
-use crate::common::{Team, open};
+use crate::support::{Team, open};
 
 fn vehicles_only() -> IciConfig {
     open().interest(ClassSet::none().class("Vehicle"))
@@ -11,10 +11,14 @@ fn vehicles_only() -> IciConfig {
 
 #[test]
 fn nothing_is_sent_that_no_board_models() {
-    let mut team = Team::new(6);
-    team.add("t/r1/sensor", open().interest(ClassSet::none()));
-    team.add("t/r1/console", vehicles_only());
-    team.add("t/r2/base", vehicles_only());
+    let team = Team::of(
+        6,
+        [
+            ("t/r1/sensor", open().interest(ClassSet::none())),
+            ("t/r1/console", vehicles_only()),
+            ("t/r2/base", vehicles_only()),
+        ],
+    );
     team.run(0.5);
     let sensor = team.board("t/r1/sensor");
     sensor.create("Raw", "imu").unwrap();
@@ -22,7 +26,7 @@ fn nothing_is_sent_that_no_board_models() {
         sensor.write("imu", "sample", f64::from(i)).unwrap();
         team.run(0.05);
     }
-    let stats = team.node("t/r1/sensor").ici.stats();
+    let stats = team.member("t/r1/sensor").ici.stats();
     for link in LinkKind::ALL {
         assert_eq!(stats.get(link, MsgKind::Report).sent_msgs, 0, "{link}");
         assert_eq!(stats.get(link, MsgKind::Lifecycle).sent_msgs, 0, "{link}");
@@ -37,9 +41,7 @@ fn nothing_is_sent_that_no_board_models() {
 
 #[test]
 fn a_board_gets_the_classes_it_models_and_not_the_others() {
-    let mut team = Team::new(7);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/console", vehicles_only());
+    let team = Team::of(7, [("t/r1/nav", open()), ("t/r1/console", vehicles_only())]);
     team.run(0.5);
     let nav = team.board("t/r1/nav");
     nav.create("Vehicle", "gsr").unwrap();
@@ -54,7 +56,7 @@ fn a_board_gets_the_classes_it_models_and_not_the_others() {
     );
     assert!(console.info("boulder").is_none());
     assert!(
-        team.node("t/r1/nav")
+        team.member("t/r1/nav")
             .ici
             .stats()
             .reports
@@ -65,8 +67,7 @@ fn a_board_gets_the_classes_it_models_and_not_the_others() {
 
 #[test]
 fn interest_by_context_uses_the_context_on_the_receiving_board() {
-    let mut team = Team::new(8);
-    team.add("t/r1/nav", open());
+    let mut team = Team::of(8, [("t/r1/nav", open())]);
     team.add(
         "t/r2/nav",
         open().interest(ClassSet::none().class_in("Vehicle", &[Context::System])),
@@ -108,7 +109,7 @@ fn the_export_policy_keeps_raw_data_on_the_robot() {
     );
     assert_eq!(base.read("gsr", "speed").unwrap().value.as_f64(), Some(9.0));
     assert!(base.info("imu").is_none(), "raw data crossed the team link");
-    let stats = team.node("t/r1/sensor").ici.stats();
+    let stats = team.member("t/r1/sensor").ici.stats();
     assert!(stats.reports.suppressed_export >= 10);
     let robot = stats.get(LinkKind::Robot, MsgKind::Report).sent_bytes;
     let team_link = stats.get(LinkKind::Team, MsgKind::Report).sent_bytes;
@@ -117,15 +118,19 @@ fn the_export_policy_keeps_raw_data_on_the_robot() {
 
 #[test]
 fn a_board_that_starts_modelling_a_class_catches_up_with_it() {
-    let mut team = Team::new(10);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/console", open().interest(ClassSet::none()));
+    let team = Team::of(
+        10,
+        [
+            ("t/r1/nav", open()),
+            ("t/r1/console", open().interest(ClassSet::none())),
+        ],
+    );
     team.run(0.5);
     let nav = team.board("t/r1/nav");
     nav.create("Rock", "boulder").unwrap();
     nav.write("boulder", "x", 4.0).unwrap();
     team.run(0.5);
-    let console = team.node("t/r1/console");
+    let console = team.member("t/r1/console");
     assert!(console.board.info("boulder").is_none());
     console.ici.set_interest(ClassSet::none().class("Tracked"));
     team.run(0.5);
@@ -137,9 +142,7 @@ fn a_board_that_starts_modelling_a_class_catches_up_with_it() {
 
 #[test]
 fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
-    let mut team = Team::new(8);
-    team.add("t/r1/nav", open());
-    team.add("t/r1/console", open());
+    let team = Team::of(8, [("t/r1/nav", open()), ("t/r1/console", open())]);
     team.run(0.5);
     let (nav, console) = (team.board("t/r1/nav"), team.board("t/r1/console"));
     nav.create("Vehicle", "gsr").unwrap();
@@ -151,10 +154,10 @@ fn a_report_in_flight_when_the_interest_changes_is_not_merged() {
         console.read("gsr", "speed").unwrap().value.as_f64(),
         Some(2.0)
     );
-    let uninterested = || team.node("t/r1/console").ici.stats().rejects.uninterested;
+    let uninterested = || team.member("t/r1/console").ici.stats().rejects.uninterested;
     let before = uninterested();
     // The console stops modelling vehicles while a report of one is on its way.
-    team.node("t/r1/console")
+    team.member("t/r1/console")
         .ici
         .set_interest(ClassSet::none().class("Rock"));
     nav.write("gsr", "speed", 3.0).unwrap();

@@ -3,7 +3,7 @@
 use slate_ici::{LinkConfig, SimConfig};
 use slate_model::{Update, Value};
 
-use crate::common::{Team, divergence, open, secs};
+use crate::support::{Team, divergence, open, secs};
 
 fn trio(seed: u64, config: SimConfig) -> Team {
     let mut team = Team::with(seed, config);
@@ -25,7 +25,7 @@ fn owned_attributes_take_writes_from_the_owner_only() {
     assert!(team.board("t/r2/nav").write("gsr", "heading", 2.0).is_err());
     team.run(0.5);
     for at in ["t/r1/nav", "t/r2/nav", "t/r3/nav"] {
-        let node = team.node(at);
+        let node = team.member(at);
         assert_eq!(
             node.board.read("gsr", "heading").unwrap().value.as_f64(),
             Some(1.0),
@@ -61,7 +61,7 @@ fn the_most_confident_packet_wins_on_every_board() {
     write("t/r2/nav", 2.0, 0.9);
     write("t/r3/nav", 3.0, 0.4);
     team.run(1.0);
-    assert_eq!(divergence(&team.nodes), None);
+    assert_eq!(divergence(&team.members), None);
     let p = team.board("t/r3/nav").read("boulder", "seen").unwrap();
     assert_eq!(
         p.value.as_f64(),
@@ -130,7 +130,7 @@ fn a_module_reports_its_own_estimate_never_the_fusion() {
         .write("t1", "range", Update::new(20.0).accuracy(1.0))
         .unwrap();
     team.run(1.0);
-    let before = team.node("t/r3/nav").ici.stats().merges.fused;
+    let before = team.member("t/r3/nav").ici.stats().merges.fused;
     // r1 writing its estimate again: still counted once.
     team.board("t/r1/nav")
         .write("t1", "range", Update::new(10.0).accuracy(1.0))
@@ -139,5 +139,5 @@ fn a_module_reports_its_own_estimate_never_the_fusion() {
     let p = team.board("t/r3/nav").read("t1", "range").unwrap();
     assert_eq!(p.value, Value::Real(15.0));
     assert!((p.accuracy - 0.5f64.sqrt()).abs() < 0.05, "{p:?}");
-    assert!(team.node("t/r3/nav").ici.stats().merges.fused <= before + 1);
+    assert!(team.member("t/r3/nav").ici.stats().merges.fused <= before + 1);
 }

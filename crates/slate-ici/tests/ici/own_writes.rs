@@ -7,7 +7,7 @@ use std::time::Duration;
 use slate_ici::{Ici, SimConfig};
 use slate_model::{Board, BoardEvent, Clock, Timestamp, Update, WriteError};
 
-use crate::common::{Team, addr, classes, open};
+use crate::support::{Team, addr, classes, open};
 
 fn pair(seed: u64) -> Team {
     let mut team = Team::with(seed, SimConfig::default());
@@ -90,7 +90,7 @@ fn a_packet_from_a_module_whose_clock_is_years_ahead_is_refused_counted_and_repo
     a.write("o", "x", 2.0).unwrap();
     team.run(1.0);
     assert_eq!(b.read("o", "x").unwrap().value.as_f64(), Some(2.0));
-    assert!(team.node("t/r2/nav").ici.stats().rejects.future >= 1);
+    assert!(team.member("t/r2/nav").ici.stats().rejects.future >= 1);
     let got: Vec<BoardEvent> = events.try_iter().collect();
     assert!(
         got.iter().any(
@@ -98,5 +98,5 @@ fn a_packet_from_a_module_whose_clock_is_years_ahead_is_refused_counted_and_repo
         ),
         "{got:?}"
     );
-    team.nodes.retain(|n| n.address.as_str() != "t/r9/nav");
+    team.members.retain(|n| n.address.as_str() != "t/r9/nav");
 }

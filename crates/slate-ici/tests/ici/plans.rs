@@ -6,7 +6,7 @@ use slate_ici::{LinkKind, MsgKind, PlanHandler, SendRawError};
 use slate_model::Address;
 use slate_wire::{CatchUpRequest, Message, Plan, PlanAck, PlanStep};
 
-use crate::common::{Team, addr, open};
+use crate::support::{Team, addr, open};
 
 #[derive(Default)]
 struct Recorder(parking_lot::Mutex<Vec<String>>);
@@ -23,14 +23,12 @@ impl PlanHandler for Recorder {
 
 #[test]
 fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
-    let mut team = Team::new(40);
-    team.add("t/r1/planner", open());
-    team.add("t/r2/nav", open());
+    let team = Team::of(40, [("t/r1/planner", open()), ("t/r2/nav", open())]);
     team.run(0.5);
     let (tx, rx) = crossbeam_channel::unbounded();
-    team.node("t/r2/nav").ici.set_plan_handler(Arc::new(tx));
+    team.member("t/r2/nav").ici.set_plan_handler(Arc::new(tx));
     let recorder = Arc::new(Recorder::default());
-    team.node("t/r1/planner")
+    team.member("t/r1/planner")
         .ici
         .set_plan_handler(recorder.clone());
     let plan = Message::Plan(Plan {
@@ -40,7 +38,7 @@ fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
         to: addr("t/r2/nav"),
         origin: addr("t/r1/planner"),
     });
-    team.node("t/r1/planner")
+    team.member("t/r1/planner")
         .ici
         .send_raw(&addr("t/r2/nav"), &plan)
         .unwrap();
@@ -51,24 +49,22 @@ fn plans_and_acks_travel_raw_and_reach_the_plan_handler() {
         seq: 1,
         step: PlanStep::Accepted,
     });
-    team.node("t/r2/nav")
+    team.member("t/r2/nav")
         .ici
         .send_raw(&addr("t/r1/planner"), &ack)
         .unwrap();
     team.run(0.5);
     assert!(recorder.0.lock().iter().any(|m| m.contains("Accepted")));
-    let stats = team.node("t/r1/planner").ici.stats();
+    let stats = team.member("t/r1/planner").ici.stats();
     assert_eq!(stats.get(LinkKind::Team, MsgKind::Plan).sent_msgs, 1);
 }
 
 #[test]
 fn the_plan_handler_hears_a_destination_die() {
-    let mut team = Team::new(41);
-    team.add("t/r1/planner", open());
-    team.add("t/r2/nav", open());
+    let team = Team::of(41, [("t/r1/planner", open()), ("t/r2/nav", open())]);
     team.run(0.5);
     let recorder = Arc::new(Recorder::default());
-    team.node("t/r1/planner")
+    team.member("t/r1/planner")
         .ici
         .set_plan_handler(recorder.clone());
     team.net.kill(&addr("t/r2/nav"));
@@ -83,11 +79,10 @@ fn the_plan_handler_hears_a_destination_die() {
 
 #[test]
 fn only_plan_messages_go_raw() {
-    let mut team = Team::new(42);
-    team.add("t/r1/planner", open());
+    let team = Team::of(42, [("t/r1/planner", open())]);
     let req = Message::CatchUpRequest(CatchUpRequest::default());
     let err = team
-        .node("t/r1/planner")
+        .member("t/r1/planner")
         .ici
         .send_raw(&addr("t/r2/nav"), &req)
         .unwrap_err();

@@ -3,7 +3,7 @@
 
 use slate_ici::{LinkConfig, Rng, SimConfig};
 
-use crate::common::{Team, open, secs, workload};
+use crate::support::{Team, open, secs, workload};
 
 /// The faults of one run, drawn from its seed.
 #[derive(Debug)]
@@ -50,16 +50,16 @@ fn run(seed: u64) {
     let mut team = Team::grid(seed, mix.link, 3, 2);
     team.run(0.5);
     workload(&team, &mut rng, 20, 0.05);
-    let victim = team.nodes[rng.below(6) as usize].address.clone();
+    let victim = team.members[rng.below(6) as usize].address.clone();
     if mix.partition {
         let robot: Vec<_> = team
-            .nodes
+            .members
             .iter()
             .map(|n| n.address.clone())
             .filter(|a| a.robot() == victim.robot())
             .collect();
         let rest: Vec<_> = team
-            .nodes
+            .members
             .iter()
             .map(|n| n.address.clone())
             .filter(|a| a.robot() != victim.robot())
@@ -81,24 +81,23 @@ fn run(seed: u64) {
     }
 }
 
-#[test]
-fn random_faults_converge_seeds_0_to_49() {
-    (0..50).for_each(run);
+/// One test per range of seeds, so that the ranges run in parallel.
+macro_rules! converge_seeds {
+    ($($test:ident: $seeds:expr;)*) => {
+        $(
+            #[test]
+            fn $test() {
+                ($seeds).for_each(run);
+            }
+        )*
+    };
 }
 
-#[test]
-fn random_faults_converge_seeds_50_to_99() {
-    (50..100).for_each(run);
-}
-
-#[test]
-fn random_faults_converge_seeds_100_to_149() {
-    (100..150).for_each(run);
-}
-
-#[test]
-fn random_faults_converge_seeds_150_to_199() {
-    (150..200).for_each(run);
+converge_seeds! {
+    random_faults_converge_seeds_0_to_49: 0..50;
+    random_faults_converge_seeds_50_to_99: 50..100;
+    random_faults_converge_seeds_100_to_149: 100..150;
+    random_faults_converge_seeds_150_to_199: 150..200;
 }
 
 /// Replays the seeds `SEED` (to `SEED_TO`, exclusive) when set, to reproduce a failure

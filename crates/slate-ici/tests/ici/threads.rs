@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use slate_ici::{Ici, SimConfig, SimNet, SimTransport};
 use slate_model::Board;
 
-use crate::common::{Team, secs};
+use crate::support::{Team, secs};
 
 #[test]
 fn ici_and_the_simulator_are_send_and_sync() {
@@ -21,13 +21,13 @@ fn ici_and_the_simulator_are_send_and_sync() {
 fn writers_on_other_threads_while_the_network_runs() {
     let team = Team::grid(50, SimConfig::default(), 2, 2);
     team.run(0.5);
-    for n in &team.nodes {
+    for n in &team.members {
         let name = format!("rock_{}_{}", n.address.robot(), n.address.module());
         n.board.create("Rock", &name).unwrap();
     }
     let done = Arc::new(AtomicBool::new(false));
     let boards: Vec<(Arc<Board>, String)> = team
-        .nodes
+        .members
         .iter()
         .map(|n| {
             let own = format!("rock_{}_{}", n.address.robot(), n.address.module());
@@ -54,9 +54,9 @@ fn writers_on_other_threads_while_the_network_runs() {
     });
     assert!(done.load(Ordering::SeqCst));
     team.assert_converges(30);
-    for n in &team.nodes {
+    for n in &team.members {
         let own = format!("rock_{}_{}", n.address.robot(), n.address.module());
-        for other in &team.nodes {
+        for other in &team.members {
             let x = other.board.read(&own, "x").unwrap().value.as_f64();
             assert_eq!(x, Some(299.0), "{own} on {}", other.address);
         }
@@ -71,7 +71,7 @@ fn the_last_own_write_survives_normalisation_on_another_thread() {
     use slate_ici::IciConfig;
     use slate_model::{AttrDecl, ClassDef, Update, ValueType};
     let net = SimNet::new(51);
-    let address = crate::common::addr("t/r1/a");
+    let address = crate::support::addr("t/r1/a");
     let board = Arc::new(Board::builder().address(address.clone()).build());
     let decl = AttrDecl::new("v", ValueType::Real)
         .bounds(0.0, 1000.0)

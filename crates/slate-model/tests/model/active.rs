@@ -6,7 +6,7 @@ use slate_model::{
     ValueType, WriteError,
 };
 
-use super::world::board;
+use crate::support::{board, with_vehicle};
 
 fn counter() -> (Arc<AtomicUsize>, impl Fn() -> usize) {
     let c = Arc::new(AtomicUsize::new(0));
@@ -19,8 +19,7 @@ fn counter() -> (Arc<AtomicUsize>, impl Fn() -> usize) {
 
 #[test]
 fn on_write_runs_after_the_packet_is_stored_and_sees_the_previous_one() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.write("v", "speed", 1.0).unwrap();
     b.on_write("Vehicle", "speed", |call| {
         let now = call.read(call.object(), "speed")?;
@@ -43,8 +42,7 @@ fn on_write_runs_after_the_packet_is_stored_and_sees_the_previous_one() {
 
 #[test]
 fn on_read_computes_the_value_returned_without_storing_it() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.write("v", "speed", Update::new(2.0).confidence(1.0))
         .unwrap();
     // Extrapolate: report twice the stored speed, with lower confidence.
@@ -133,8 +131,7 @@ fn functions_run_in_order_inherited_first_then_own() {
 
 #[test]
 fn a_failing_function_is_isolated_and_reported() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let events = b.events();
     let (ran, ran_count) = counter();
     b.on_write("Vehicle", "speed", |_| Err(FnError::from("sensor offline")))
@@ -242,8 +239,7 @@ fn chains_are_cut_at_the_depth_limit() {
 
 #[test]
 fn a_cycle_is_reported_and_does_not_loop() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.on_write("Vehicle", "speed", |call| {
         call.write(call.object(), "wheels", 4)?;
         Ok(())
@@ -279,8 +275,7 @@ fn cycle_cut(events: &crossbeam_channel::Receiver<BoardEvent>) -> Option<Vec<Str
 
 #[test]
 fn functions_may_read_and_write_the_board_without_deadlock() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.create("Obstacle", "o").unwrap();
     b.on_read("Obstacle", "range", |call| {
         // A read function that reads another object, queries, and writes (allowed live).
@@ -371,8 +366,7 @@ fn a_token_carries_the_chain_to_accesses_made_outside_the_call() {
 
 #[test]
 fn functions_run_inside_a_snapshot_get_no_token() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let (tx, rx) = std::sync::mpsc::channel();
     b.on_read("Vehicle", "mode", move |call| {
         let _ = tx.send(call.token().is_some());

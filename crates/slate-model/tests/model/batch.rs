@@ -4,12 +4,11 @@ use std::thread;
 
 use slate_model::{BatchError, ChangeItem, Filter, ReadError, Update, Value, WriteError};
 
-use super::world::board;
+use crate::support::{board, with_vehicle};
 
 #[test]
 fn a_failing_batch_applies_nothing() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.write("v", "speed", 1.0).unwrap();
     let rev = b.revision();
     let mut batch = b.batch();
@@ -41,8 +40,7 @@ fn a_failing_batch_applies_nothing() {
 
 #[test]
 fn a_batch_is_one_revision_and_one_notification() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let watch = b.watch(Filter::all()).unwrap();
     let rev = b.revision();
     let mut batch = b.batch();
@@ -62,8 +60,7 @@ fn a_batch_is_one_revision_and_one_notification() {
 
 #[test]
 fn delete_and_recreate_in_one_batch() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.write("v", "speed", 9.0).unwrap();
     let mut batch = b.batch();
     batch.delete("v").create("Vehicle", "v");
@@ -129,8 +126,7 @@ fn no_reader_ever_sees_half_a_batch() {
 
 #[test]
 fn batch_writes_validate_like_single_writes() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let mut batch = b.batch();
     batch.write("v", "speed", Update::new(1.0).confidence(-0.5));
     assert!(matches!(

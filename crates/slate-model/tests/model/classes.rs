@@ -3,7 +3,7 @@ use slate_model::{
     ReadError, Value, ValueType,
 };
 
-use super::world::board;
+use crate::support::{board, with_vehicle};
 
 #[test]
 fn inheritance_through_three_levels_with_class_level_values() {
@@ -52,8 +52,7 @@ fn a_class_level_write_changes_what_every_instance_reads() {
 
 #[test]
 fn unwritten_attribute_without_default_reads_none() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let p = b.read("v", "position").unwrap();
     assert_eq!(p.value, Value::None);
     assert_eq!(p.confidence, 0.0);

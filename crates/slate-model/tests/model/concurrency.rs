@@ -9,7 +9,7 @@ use std::time::Duration;
 use crossbeam_channel::bounded;
 use slate_model::{Board, Value};
 
-use super::world::board;
+use crate::support::board;
 
 /// Runs `f` on a thread and fails the test if it has not finished within `limit`
 /// (a deadlock guard: the test asserts completion, never a duration).

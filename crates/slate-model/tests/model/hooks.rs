@@ -3,7 +3,7 @@ use std::sync::Arc;
 use parking_lot_free::Recorder;
 use slate_model::{Board, ChangeHook, TouchKind, Touched};
 
-use super::world::board;
+use crate::support::{board, with_vehicle};
 
 /// Records every call: (revision, touched).
 mod parking_lot_free {
@@ -104,8 +104,7 @@ impl ChangeHook for Echo {
 
 #[test]
 fn hooks_may_write_the_board() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.add_hook(Arc::new(Echo));
     b.write("v", "speed", 6.0).unwrap();
     assert_eq!(
@@ -128,8 +127,7 @@ impl ChangeHook for SpeedFromWheels {
 
 #[test]
 fn a_hook_called_inside_an_active_function_starts_its_own_chain() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     // speed's function writes wheels; the hook then writes speed: not a cycle of
     // active functions (a hook bounds its own recursion).
     b.on_write("Vehicle", "speed", |call| {

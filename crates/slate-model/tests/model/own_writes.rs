@@ -4,13 +4,10 @@
 use std::time::Duration;
 
 use slate_model::{
-    Address, AttrDecl, Board, BoardEvent, ChainError, ClassDef, Clock, MANUAL_EPOCH, MergePolicy,
-    Merged, NewObject, Packet, Timestamp, Update, Value, ValueType, WriteError,
+    AttrDecl, Board, BoardEvent, ChainError, ClassDef, Clock, MANUAL_EPOCH, MergePolicy, Merged,
+    NewObject, Packet, Timestamp, Update, Value, ValueType, WriteError,
 };
-
-fn addr(text: &str) -> Address {
-    Address::new(text).unwrap()
-}
+use slate_testing::addr;
 
 /// A board at `me`, with `t: Track` owned by `team/r1/nav`.
 fn board_at(me: &str) -> Board {

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use proptest::prelude::*;
 use slate_model::{Board, Clock, Update, Value};
 
-use super::world::board;
+use crate::support::board;
 
 const OBJECTS: [&str; 5] = ["a", "b", "c", "d", "e"];
 const CLASSES: [&str; 5] = ["Vehicle", "GroundVehicle", "Gsr", "Obstacle", "Thing"];

@@ -2,7 +2,7 @@ use std::time::Duration;
 
 use slate_model::{Address, Clock, Update, Value, ValueError, ValueType, WriteError};
 
-use super::world::board;
+use crate::support::{board, with_vehicle};
 
 fn invalid(e: WriteError) -> ValueError {
     match e {
@@ -13,8 +13,7 @@ fn invalid(e: WriteError) -> ValueError {
 
 #[test]
 fn a_write_of_the_wrong_type_is_an_error_and_changes_nothing() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     b.write("v", "speed", 1.5).unwrap();
     let before = b.revision();
     let e = invalid(b.write("v", "speed", 2).unwrap_err());
@@ -43,8 +42,7 @@ fn a_write_of_the_wrong_type_is_an_error_and_changes_nothing() {
 
 #[test]
 fn out_of_range_packets_are_errors_not_clamps() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     assert!(matches!(
         invalid(b.write("v", "speed", 51.0).unwrap_err()),
         ValueError::OutOfBounds { .. }
@@ -102,8 +100,7 @@ fn unknown_names_are_errors_that_say_what() {
 
 #[test]
 fn writes_are_stamped_and_sourced_and_fill_defaults() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let t0 = b.clock().now();
     b.clock().advance(Duration::from_secs(1)).unwrap();
     b.write("v", "speed", 2.0).unwrap();
@@ -123,8 +120,7 @@ fn writes_are_stamped_and_sourced_and_fill_defaults() {
 
 #[test]
 fn a_given_timestamp_and_source_are_kept_and_merged_into_the_clock() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let remote_clock = Clock::manual();
     remote_clock.advance(Duration::from_millis(200)).unwrap();
     let ts = remote_clock.now();

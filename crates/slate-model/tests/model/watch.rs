@@ -4,7 +4,7 @@ use std::time::Duration;
 
 use slate_model::{ChangeItem, Filter, LookupError};
 
-use super::world::board;
+use crate::support::{board, with_vehicle};
 
 fn writes(change: &slate_model::Change) -> Vec<String> {
     change
@@ -67,8 +67,7 @@ fn watching_unknown_names_is_an_error() {
 
 #[test]
 fn notifications_arrive_in_revision_order_with_revisions() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let w = b.watch(Filter::object("v")).unwrap();
     let revs: Vec<u64> = (0..10)
         .map(|i| b.write("v", "wheels", i).unwrap())
@@ -115,8 +114,7 @@ fn a_writer_can_wait_until_a_reader_has_seen_its_write() {
 
 #[test]
 fn dropping_a_watch_unsubscribes() {
-    let b = board();
-    b.create("Vehicle", "v").unwrap();
+    let b = with_vehicle();
     let w = b.watch(Filter::all()).unwrap();
     drop(w);
     b.write("v", "speed", 1.0).unwrap(); // must not fail or block on the dropped receiver

@@ -1,42 +1,34 @@
 //! The dashboard a node serves: its snapshot follows docs/dashboard.md.
 
-use std::io::{Read, Write};
-use std::net::TcpStream;
 use std::time::Duration;
 
 use slate_ici::SimNet;
 
-use super::common::{WORLD, addr, eventually};
+use crate::support::{WORLD, addr, eventually};
 use slate_node::Node;
+use slate_testing::{entry, http_get, keys};
 
-fn get(url: &str, path: &str) -> String {
-    let host = url.trim_start_matches("http://").trim_end_matches('/');
-    let mut s = TcpStream::connect(host).unwrap();
-    s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut out = String::new();
-    s.read_to_string(&mut out).unwrap();
-    out.split_once("\r\n\r\n")
-        .map(|(_, b)| b.to_owned())
-        .unwrap_or_default()
+/// t/r1/nav on `net`, loading [`WORLD`] and `objects`, serving its dashboard on a free
+/// loopback port.
+fn nav_serving(net: &SimNet, objects: &str) -> Node {
+    let a = addr("t/r1/nav");
+    Node::builder(a.clone())
+        .transport(net.join(&a))
+        .clock(net.clock())
+        .source("w.slate", WORLD)
+        .source("o.slate", objects)
+        .dashboard("127.0.0.1:0".parse().unwrap())
+        .start()
+        .unwrap()
 }
 
 #[test]
 fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
     let net = SimNet::new(9);
-    let a = addr("t/r1/nav");
-    let nav = Node::builder(a.clone())
-        .transport(net.join(&a))
-        .clock(net.clock())
-        .source("w.slate", WORLD)
-        .source("o.slate", "object gsr : Vehicle context self { position = [3.0, 4.0] accuracy 0.5; }\nobject rock : Obstacle { position = [5.0, 6.0]; }\nplan p { trigger: gsr.speed > 1.0; action { set gsr.mode = \"go\"; } }")
-        .dashboard("127.0.0.1:0".parse().unwrap())
-        .start()
-        .unwrap();
+    let nav = nav_serving(
+        &net,
+        "object gsr : Vehicle context self { position = [3.0, 4.0] accuracy 0.5; }\nobject rock : Obstacle { position = [5.0, 6.0]; }\nplan p { trigger: gsr.speed > 1.0; action { set gsr.mode = \"go\"; } }",
+    );
     let b = addr("t/r1/loco");
     let _loco = Node::builder(b.clone())
         .transport(net.join(&b))
@@ -50,7 +42,7 @@ fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
         .iter()
         .any(|e| e.text == "peer t/r1/loco up")));
     let url = nav.dashboard_url().expect("serves a dashboard");
-    let j: serde_json::Value = serde_json::from_str(&get(&url, "/api/snapshot")).unwrap();
+    let j: serde_json::Value = http_get(&url, "/api/snapshot").json();
     assert_eq!(j["title"], "slate node t/r1/nav");
     let items = j["map"]["items"].as_array().unwrap();
     let gsr = items.iter().find(|i| i["id"] == "gsr").unwrap();
@@ -64,12 +56,7 @@ fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
             .iter()
             .any(|i| i["id"] == "rock" && i["kind"] == "obstacle")
     );
-    let classes: Vec<&str> = j["classes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|c| c["name"].as_str())
-        .collect();
+    let classes = keys(&j["classes"], "name");
     assert!(
         classes.contains(&"Vehicle") && classes.contains(&"Module"),
         "{classes:?}"
@@ -89,14 +76,8 @@ fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
     let links = j["links"].as_array().unwrap();
     assert_eq!(links.len(), 2);
     assert!(links[0]["total_bytes"].as_u64().unwrap() > 0, "{links:?}");
-    assert!(
-        j["events"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|e| e["text"] == "peer t/r1/loco up")
-    );
-    assert_eq!(get(&url, "/healthz"), "ok");
+    assert!(entry(&j["events"], "text", "peer t/r1/loco up").is_some());
+    assert_eq!(http_get(&url, "/healthz").body, "ok");
     nav.close();
     assert!(nav.dashboard_url().is_none(), "stopped with the node");
 }
@@ -104,46 +85,17 @@ fn the_snapshot_has_map_items_classes_objects_plans_links_and_events() {
 #[test]
 fn a_never_written_default_has_no_age_on_the_dashboard() {
     let net = SimNet::new(4);
-    let a = addr("t/r1/nav");
-    let nav = Node::builder(a.clone())
-        .transport(net.join(&a))
-        .clock(net.clock())
-        .source("w.slate", WORLD)
-        .source(
-            "o.slate",
-            "object gsr : Vehicle context self { speed = 2.0; }",
-        )
-        .dashboard("127.0.0.1:0".parse().unwrap())
-        .start()
-        .unwrap();
+    let nav = nav_serving(&net, "object gsr : Vehicle context self { speed = 2.0; }");
     net.run_for(Duration::from_secs(1));
     nav.board().write("gsr", "speed", 2.5).unwrap();
     net.run_for(Duration::from_secs(29));
     let url = nav.dashboard_url().expect("serves a dashboard");
-    let j: serde_json::Value = serde_json::from_str(&get(&url, "/api/snapshot")).unwrap();
+    let j: serde_json::Value = http_get(&url, "/api/snapshot").json();
     // gsr's position is its declared default: no age, and so never stale.
-    let gsr = j["map"]["items"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|i| i["id"] == "gsr")
-        .unwrap();
+    let gsr = entry(&j["map"]["items"], "id", "gsr").unwrap();
     assert!(gsr["age"].is_null() && gsr["stale"] == false, "{gsr}");
-    let o = j["objects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|o| o["name"] == "gsr")
-        .unwrap();
-    let attr = |name: &str| {
-        o["attrs"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|a| a["name"] == name)
-            .unwrap()
-            .clone()
-    };
+    let o = entry(&j["objects"], "name", "gsr").unwrap();
+    let attr = |name: &str| entry(&o["attrs"], "name", name).unwrap().clone();
     assert!(attr("mode")["age"].is_null(), "{o}");
     // A value written since the start has an age.
     assert!(

@@ -8,7 +8,7 @@ use slate_model::Value;
 use slate_node::{Level, Node};
 use slate_wire::PlanStep;
 
-use super::common::{addr, eventually, run_until, start};
+use crate::support::{addr, eventually, run_until, start};
 
 fn speed(node: &Node) -> Option<f64> {
     node.board().read("gsr", "speed").ok()?.value.as_f64()
@@ -199,7 +199,7 @@ fn a_node_can_adopt_an_existing_board_and_engine() {
             .build(),
     );
     let engine = slate_plans::Engine::new(&board);
-    engine.load("w.slate", super::common::WORLD).unwrap();
+    engine.load("w.slate", crate::support::WORLD).unwrap();
     let node = Node::builder(a.clone())
         .transport(net.join(&a))
         .board(board.clone())

@@ -13,15 +13,9 @@ use std::time::{Duration, Instant};
 use parking_lot::Mutex;
 use slate_ici::{ClassSet, Handler, Ici, IciConfig, MsgKind, PlanHandler, Transport};
 use slate_model::{Address, AttrDecl, Board, ClassDef, Value, ValueType};
+use slate_testing::free_port;
 use slate_wire::{CatchUpRequest, Encoder, Message, Schema};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
-
-fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
 
 fn classes() -> Vec<ClassDef> {
     vec![

@@ -8,7 +8,7 @@ use slate_model::{AttrDecl, Board, ClassDef, MergePolicy, ReportPolicy, Value};
 use crate::action::Write;
 use crate::ast::{AttributeDecl, ClassDecl, Expr, ObjectDecl, PacketExpr};
 use crate::check::{Checker, Locals};
-use crate::eval::{Ctx, Env, Node};
+use crate::eval::{CompiledExpr, Ctx, Env};
 
 pub(super) fn class_def(
     ck: &mut Checker<'_>,
@@ -162,7 +162,7 @@ pub(super) fn check_initial(ck: &mut Checker<'_>, class: &str, packet: &PacketEx
     } else {
         value
     };
-    let quality = |n: &Option<Node>| n.as_ref().and_then(constant_value)?.as_f64();
+    let quality = |n: &Option<CompiledExpr>| n.as_ref().and_then(constant_value)?.as_f64();
     check_packet(
         ck,
         &decl,
@@ -204,7 +204,7 @@ fn check_packet(
 }
 
 /// The value of a constant expression; `None` if it reads the world or fails.
-fn constant_value(node: &Node) -> Option<Value> {
+fn constant_value(node: &CompiledExpr) -> Option<Value> {
     is_constant(node)
         .then(|| node.eval(&mut Ctx::new(&NoWorld, 0, &[])).ok())
         .flatten()
@@ -230,11 +230,14 @@ pub(super) fn constant(ck: &mut Checker<'_>, e: &Expr) -> Option<Value> {
     node.eval(&mut Ctx::new(&NoWorld, 0, &[])).ok()
 }
 
-fn is_constant(node: &Node) -> bool {
+fn is_constant(node: &CompiledExpr) -> bool {
     use crate::eval::Builtin;
     match node {
-        Node::Attr(_) | Node::Token(_) | Node::Quant(_) => false,
-        Node::Call(Builtin::Age | Builtin::Now | Builtin::Changed(_) | Builtin::Exists, _) => false,
+        CompiledExpr::Attr(_) | CompiledExpr::Token(_) | CompiledExpr::Quant(_) => false,
+        CompiledExpr::Call(
+            Builtin::Age | Builtin::Now | Builtin::Changed(_) | Builtin::Exists,
+            _,
+        ) => false,
         n => n.children().iter().all(|c| is_constant(c)),
     }
 }

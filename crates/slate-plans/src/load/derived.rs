@@ -10,7 +10,7 @@ use crate::active::{Derived, Rule};
 use crate::ast::{AttributeDecl, ClassDecl, File, RuleDecl};
 use crate::check::{Checker, Locals};
 use crate::engine::{Dep, Shared};
-use crate::eval::{Node, Obj};
+use crate::eval::{CompiledExpr, Obj};
 
 use super::{DerivedDeps, PendingFn};
 
@@ -66,9 +66,9 @@ pub(super) fn derived_fn(
 
 /// What a derived attribute reads: `self.x` becomes `Dep::Object("self", x)`, resolved
 /// against the object a plan reads it on.
-fn template_deps(node: &Node, out: &mut Vec<Dep>) {
+fn template_deps(node: &CompiledExpr, out: &mut Vec<Dep>) {
     match node {
-        Node::Attr(a) => match &a.0 {
+        CompiledExpr::Attr(a) => match &a.0 {
             Obj::This => out.push(Dep::Object(SELF.into(), a.1.clone())),
             Obj::Named(o) => out.push(Dep::Object(o.clone(), a.1.clone())),
             Obj::Var(_) => {}
@@ -77,7 +77,7 @@ fn template_deps(node: &Node, out: &mut Vec<Dep>) {
                 out.push(Dep::Attr(a.1.clone()));
             }
         },
-        Node::Quant(q) => {
+        CompiledExpr::Quant(q) => {
             out.push(Dep::Members(q.class.clone()));
             node.children().iter().for_each(|c| template_deps(c, out));
         }

@@ -8,7 +8,7 @@ use slate_model::{Board, NewObject, Update};
 use crate::action::Write;
 use crate::ast::ObjectDecl;
 use crate::diagnostic::{Diagnostics, Span};
-use crate::eval::{Ctx, Env, Node, Obj};
+use crate::eval::{CompiledExpr, Ctx, Env, Obj};
 
 use super::classes::coerce;
 use super::{Undo, one};
@@ -70,7 +70,7 @@ fn write_initial<'w>(
             value
         };
         let mut quality =
-            |n: &Option<Node>| n.as_ref().and_then(|n| n.eval(&mut cx).ok())?.as_f64();
+            |n: &Option<CompiledExpr>| n.as_ref().and_then(|n| n.eval(&mut cx).ok())?.as_f64();
         // Stamped zero, like a declared default: an initial value claims no time, so it
         // loses to any packet the team wrote (a restarted module never rolls it back).
         let mut u = Update::new(value).timestamp(slate_model::Timestamp::ZERO);

@@ -6,7 +6,7 @@ use std::collections::HashSet;
 use crate::ast::PlanDecl;
 use crate::check::{Checker, Locals};
 use crate::engine::{CompiledPlan, Dep};
-use crate::eval::{Node, Obj};
+use crate::eval::{CompiledExpr, Obj};
 use crate::scope::Scope;
 
 use super::DerivedDeps;
@@ -65,9 +65,15 @@ pub(super) fn compile_plan(
 }
 
 /// What a plan's conditions read, with derived attributes expanded into what they read.
-fn plan_deps(node: &Node, l: &Locals, scope: &Scope, derived: &DerivedDeps, out: &mut Vec<Dep>) {
+fn plan_deps(
+    node: &CompiledExpr,
+    l: &Locals,
+    scope: &Scope,
+    derived: &DerivedDeps,
+    out: &mut Vec<Dep>,
+) {
     match node {
-        Node::Attr(a) => {
+        CompiledExpr::Attr(a) => {
             let (obj, attr) = (&a.0, &a.1);
             let (dep, class) = match obj {
                 Obj::Named(o) => (
@@ -106,7 +112,7 @@ fn plan_deps(node: &Node, l: &Locals, scope: &Scope, derived: &DerivedDeps, out:
             );
             out.push(dep);
         }
-        Node::Quant(q) => {
+        CompiledExpr::Quant(q) => {
             out.push(Dep::Members(q.class.clone()));
             node.children()
                 .iter()

@@ -5,6 +5,8 @@ use std::sync::Arc;
 use slate_model::{Board, Clock};
 use slate_plans::{Engine, LoadError};
 
+use crate::support::{engine, loaded};
+
 const WORLD: &str = r#"
 class Vehicle { position: vec<2> [m]; speed: real = 0.0; mode: string = "auto"; target: ref; }
 class Obstacle { position: vec<2> [m]; range: real; }
@@ -12,8 +14,7 @@ object gsr : Vehicle;
 "#;
 
 fn load(src: &str) -> Result<(), LoadError> {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
+    let (_board, engine) = engine();
     engine.load("w.slate", &format!("{WORLD}{src}")).map(|_| ())
 }
 
@@ -115,8 +116,7 @@ fn several_errors_are_all_reported_with_line_column_and_caret() {
 
 #[test]
 fn nothing_is_applied_when_a_file_has_an_error() {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
+    let (board, engine) = engine();
     let bad = "class Rover { speed: real; }\nobject r : Rover;\nplan p { trigger: r.spd > 1.0; action { set r.speed = 0; } }";
     assert!(engine.load("bad.slate", bad).is_err());
     assert!(board.class_def("Rover").is_none());
@@ -126,11 +126,7 @@ fn nothing_is_applied_when_a_file_has_an_error() {
 
 #[test]
 fn a_class_defined_differently_on_the_board_is_a_conflict() {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
-    engine
-        .load("a.slate", "class Rover { speed: real; }")
-        .unwrap();
+    let (_board, engine) = loaded("a.slate", "class Rover { speed: real; }");
     engine
         .load("again.slate", "class Rover { speed: real; }")
         .expect("identical is fine");

@@ -2,7 +2,7 @@
 
 use slate_plans::{Diagnostic, Span, Stage, parse};
 
-use super::messages;
+use crate::support::messages;
 
 /// Lines joined with newlines, so that expected renderings line up in the test source.
 fn lines(lines: &[&str]) -> String {
@@ -59,13 +59,7 @@ fn duplicate_attribute_options_are_errors() {
             "duplicate `confidence`",
         ),
     ];
-    for (attribute, message) in cases {
-        assert_eq!(
-            messages(&format!("class A {{ {attribute} }}")),
-            [message],
-            "{attribute}"
-        );
-    }
+    assert_attribute_errors(&cases);
 }
 
 #[test]
@@ -139,13 +133,7 @@ fn attribute_shape_errors() {
              values with an object or a `set` action",
         ),
     ];
-    for (attribute, message) in cases {
-        assert_eq!(
-            messages(&format!("class A {{ {attribute} }}")),
-            [message],
-            "{attribute}"
-        );
-    }
+    assert_attribute_errors(&cases);
 }
 
 #[test]
@@ -355,4 +343,15 @@ fn diagnostics_are_a_std_error() {
         boxed.to_string(),
         "1:6: error: expected a class name, found end of file"
     );
+}
+
+/// Each attribute declaration, alone in a class, gives exactly its one message.
+fn assert_attribute_errors(cases: &[(&str, &str)]) {
+    for (attribute, message) in cases {
+        assert_eq!(
+            messages(&format!("class A {{ {attribute} }}")),
+            [*message],
+            "{attribute}"
+        );
+    }
 }

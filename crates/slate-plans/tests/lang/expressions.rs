@@ -2,7 +2,7 @@
 
 use slate_plans::{BinaryOp, Expr, ExprKind, Item, Literal, Quantifier, QuantifierKind, Span};
 
-use super::parse_ok;
+use crate::support::parse_ok;
 
 /// The `trigger:` expression of a plan.
 fn expr(source: &str) -> Expr {

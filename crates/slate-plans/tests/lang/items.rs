@@ -6,7 +6,7 @@ use slate_plans::{
     Span, Type,
 };
 
-use super::{messages, only_item, parse_ok, text};
+use crate::support::{messages, only_item, parse_ok, text};
 
 const VEHICLE: &str = r#"class Vehicle : Thing {
     speed: real [m/s] in 0 .. 50 step 0.01 = 0.0 accuracy 0.1 confidence 1.0 merge latest report every 200ms heartbeat 5s deadband 0.05;

@@ -1,16 +1,9 @@
 //! Loading is all-or-nothing: a file with any error applies nothing, and every error
 //! carries the position of what is wrong.
 
-use std::sync::Arc;
+use slate_plans::LoadError;
 
-use slate_model::{Board, Clock};
-use slate_plans::{Engine, LoadError};
-
-fn engine() -> (Arc<Board>, Engine) {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
-    (board, engine)
-}
+use crate::support::{engine, loaded};
 
 /// The (line, column, message) of each diagnostic.
 fn positions(e: &LoadError) -> Vec<(u32, u32, String)> {
@@ -70,10 +63,7 @@ fn a_bad_confidence_or_accuracy_is_reported_at_its_expression() {
 
 #[test]
 fn a_computed_initial_value_that_fails_rolls_the_whole_load_back() {
-    let (board, engine) = engine();
-    engine
-        .load("base.slate", "class B { y: real = 5.0; }\nobject b : B;")
-        .unwrap();
+    let (board, engine) = loaded("base.slate", "class B { y: real = 5.0; }\nobject b : B;");
     let bad = "class A { x: real in 0 .. 1; }\nobject o : A { x = b.y; }\n\
                on write B.y { set b.y = 1.0; }\nplan p { trigger: o.x > 0.5; action { set o.x = 0.0; } }";
     let e = engine.load("w.slate", bad).unwrap_err();
@@ -102,10 +92,7 @@ fn a_default_outside_its_bounds_is_reported_at_the_default() {
 
 #[test]
 fn a_plan_named_like_an_existing_object_is_reported_at_its_name() {
-    let (board, engine) = engine();
-    engine
-        .load("a.slate", "class A { x: real; }\nobject o : A;")
-        .unwrap();
+    let (board, engine) = loaded("a.slate", "class A { x: real; }\nobject o : A;");
     let e = engine
         .load(
             "b.slate",

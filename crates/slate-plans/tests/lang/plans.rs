@@ -4,8 +4,10 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_model::{Board, Clock, Value};
+use slate_model::{Board, Value};
 use slate_plans::{Engine, Outgoing, PlanEvent, PlanState};
+
+use crate::support::{engine, loaded};
 
 pub const SIGNALS: &str = r#"
     class Signal { on: bool = false; level: real = 0.0; }
@@ -26,8 +28,7 @@ pub fn world(every: &str) -> (Arc<Board>, Engine) {
 /// A board with the signals and one plan `p` with these conditions, counting in log.n
 /// (and writing nothing its conditions read).
 fn world_with(conditions: &str) -> (Arc<Board>, Engine) {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
+    let (board, engine) = engine();
     let plan = format!(
         "{SIGNALS}
         plan p {{
@@ -244,8 +245,7 @@ const VEHICLES: &str = r#"
 "#;
 
 fn vehicles(plans: &str) -> (Arc<Board>, Engine) {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
+    let (board, engine) = engine();
     engine
         .load("v.slate", &format!("{VEHICLES}\n{plans}"))
         .unwrap_or_else(|e| panic!("{e}"));
@@ -314,8 +314,7 @@ fn an_age_condition_fires_exactly_when_its_deadline_passes() {
 fn a_derived_attribute_reading_its_own_name_through_a_reference_loads_and_tracks() {
     // Regression: `position` derived from `observer.position` made the dependency
     // expansion exponential (about 110 s to load one plan).
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
+    let (board, engine) = engine();
     let src = r#"
         class Body { position: vec<2>; heading: real = 0.0; }
         class Seen {
@@ -439,11 +438,7 @@ fn report_and_send_actions_produce_messages_for_the_ici() {
 
 #[test]
 fn initial_values_from_a_file_claim_no_time_and_lose_to_any_packet_written_since() {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
-    engine
-        .load("w.slate", "class A { x: real; } object o : A { x = 1.0; }")
-        .unwrap();
+    let (board, _engine) = loaded("w.slate", "class A { x: real; } object o : A { x = 1.0; }");
     let initial = board.read("o", "x").unwrap();
     assert_eq!(initial.value, Value::Real(1.0));
     assert_eq!(initial.timestamp, slate_model::Timestamp::ZERO);
@@ -489,11 +484,7 @@ fn a_plan_object_refuses_writes_from_anyone_but_its_engine() {
 
 #[test]
 fn a_plan_action_that_writes_a_plan_object_is_refused_by_the_checker() {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
-    engine
-        .load("a.slate", "plan q { trigger: false; action { } }")
-        .unwrap();
+    let (_board, engine) = loaded("a.slate", "plan q { trigger: false; action { } }");
     let e = engine
         .load(
             "b.slate",
@@ -509,8 +500,7 @@ fn a_plan_action_that_writes_a_plan_object_is_refused_by_the_checker() {
 
 #[test]
 fn a_failed_action_does_not_count_as_fired() {
-    let board = Arc::new(Board::builder().clock(Clock::manual()).build());
-    let engine = Engine::new(&board);
+    let (board, engine) = engine();
     engine
         .load(
             "t.slate",

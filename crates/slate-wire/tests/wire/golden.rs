@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use slate_wire::{CatchUpRequest, Decoder, Encoder, Heartbeat, Message, Names, PlanAck, PlanStep};
 
-use crate::common::*;
 use crate::sizes::{batch_of_100, pose_report};
+use crate::support::*;
 
 /// The golden messages, encoded in this order by one encoder (names announced by the
 /// first are not repeated by the next).

@@ -10,7 +10,7 @@ use slate_wire::{
     fuzz_classes, fuzz_decode, fuzz_source,
 };
 
-use crate::common::{Rng, assert_close, at};
+use crate::support::{Rng, assert_close, at};
 
 /// The fuzz schema's objects: name, class, context, owner fixed per index.
 fn object(i: u64) -> ObjectEntry {

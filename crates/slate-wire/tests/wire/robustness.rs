@@ -3,8 +3,8 @@
 use slate_model::{AttrDecl, ClassDef, ValueType};
 use slate_wire::{DecodeError, Decoder, Encoder, MAX_MESSAGE_BYTES, Message, Plan, Report, Schema};
 
-use crate::common::*;
 use crate::golden::cases;
+use crate::support::*;
 
 fn decode(bytes: &[u8]) -> Result<Message, DecodeError> {
     Decoder::new().decode(&nav(), bytes, &schema())

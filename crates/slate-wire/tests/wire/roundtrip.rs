@@ -6,7 +6,7 @@ use slate_wire::{
     Names, ObjectEntry, Plan, PlanAck, PlanStep, Report, Schema,
 };
 
-use crate::common::*;
+use crate::support::*;
 
 fn decode_report(decoder: &mut Decoder, bytes: &[u8], schema: &Schema) -> Report {
     match decoder.decode(&nav(), bytes, schema) {

@@ -7,7 +7,7 @@ use slate_wire::{
     Encoder, Heartbeat, Message, Names, ObjectEntry, Plan, PlanAck, PlanStep, Report, Schema,
 };
 
-use crate::common::*;
+use crate::support::*;
 
 /// One hour after the epoch, at 10 reports a second: a sender in steady state.
 const HOUR_US: u64 = 3_600_000_000;

@@ -4,7 +4,7 @@
 use slate_model::Address;
 use slate_wire::{DecodeError, Decoder, Encoder, MAX_SOURCES, Message, ObjectEntry};
 
-use crate::common::*;
+use crate::support::*;
 
 /// Module `i` of a team, each on its own robot.
 fn source(i: usize) -> Address {

@@ -9,9 +9,7 @@ use slate_model::{
     Update, Value, ValueType,
 };
 
-pub fn addr(text: &str) -> Address {
-    Address::new(text).unwrap()
-}
+pub use slate_testing::addr;
 
 pub fn secs(s: f64) -> Duration {
     Duration::from_secs_f64(s)
@@ -38,7 +36,7 @@ pub fn classes() -> Vec<ClassDef> {
 }
 
 /// One module: its board, its ICI, and the config it runs.
-pub struct Node {
+pub struct Member {
     pub address: Address,
     pub board: Arc<Board>,
     pub ici: Ici,
@@ -48,7 +46,7 @@ pub struct Node {
 /// Modules on one simulated network.
 pub struct Team {
     pub net: SimNet,
-    pub nodes: Vec<Node>,
+    pub members: Vec<Member>,
 }
 
 impl Team {
@@ -59,8 +57,17 @@ impl Team {
     pub fn with(seed: u64, config: SimConfig) -> Self {
         Team {
             net: SimNet::with_config(seed, config),
-            nodes: Vec::new(),
+            members: Vec::new(),
         }
+    }
+
+    /// A team of the modules `members` (address and config), with the test classes.
+    pub fn of<'a>(seed: u64, members: impl IntoIterator<Item = (&'a str, IciConfig)>) -> Self {
+        let mut team = Team::new(seed);
+        for (address, config) in members {
+            team.add(address, config);
+        }
+        team
     }
 
     /// A team of `robots` × `modules`, everyone interested in everything and exporting
@@ -76,43 +83,53 @@ impl Team {
     }
 
     /// Adds a module with the test classes defined.
-    pub fn add(&mut self, address: &str, config: IciConfig) -> &Node {
+    pub fn add(&mut self, address: &str, config: IciConfig) -> &Member {
         self.add_with(address, config, &classes())
     }
 
-    pub fn add_with(&mut self, address: &str, config: IciConfig, defs: &[ClassDef]) -> &Node {
+    pub fn add_with(&mut self, address: &str, config: IciConfig, defs: &[ClassDef]) -> &Member {
         let address = addr(address);
-        let board = Arc::new(
-            Board::builder()
-                .clock(self.net.clock())
-                .address(address.clone())
-                .build(),
-        );
-        for def in defs {
-            board.define(def.clone()).unwrap();
-        }
+        let board = self.board_at(&address, defs);
         let transport = self.net.join(&address);
         let ici = Ici::new(board.clone(), transport, config.clone()).unwrap();
-        self.nodes.retain(|n| n.address != address);
-        self.nodes.push(Node {
+        self.put(Member {
             address,
             board,
             ici,
             config,
-        });
-        self.nodes.last().unwrap()
+        })
     }
 
-    pub fn node(&self, address: &str) -> &Node {
+    /// A new board at `address` on the network's clock, with `defs` defined; not yet a
+    /// member.
+    pub fn board_at(&self, address: &Address, defs: &[ClassDef]) -> Arc<Board> {
+        let board = Board::builder()
+            .clock(self.net.clock())
+            .address(address.clone())
+            .build();
+        for def in defs {
+            board.define(def.clone()).unwrap();
+        }
+        Arc::new(board)
+    }
+
+    /// Makes `member` part of the team, in place of any member at its address.
+    pub fn put(&mut self, member: Member) -> &Member {
+        self.members.retain(|n| n.address != member.address);
+        self.members.push(member);
+        self.members.last().unwrap()
+    }
+
+    pub fn member(&self, address: &str) -> &Member {
         let a = addr(address);
-        self.nodes
+        self.members
             .iter()
             .find(|n| n.address == a)
-            .unwrap_or_else(|| panic!("no node {address}"))
+            .unwrap_or_else(|| panic!("no member {address}"))
     }
 
     pub fn board(&self, address: &str) -> &Arc<Board> {
-        &self.node(address).board
+        &self.member(address).board
     }
 
     pub fn run(&self, s: f64) {
@@ -124,10 +141,10 @@ impl Team {
     pub fn settle(&self, max: u32) -> Option<String> {
         for _ in 0..max {
             // `?`: nothing differs, the boards agree.
-            divergence(&self.nodes)?;
+            divergence(&self.members)?;
             self.run(1.0);
         }
-        divergence(&self.nodes)
+        divergence(&self.members)
     }
 
     /// Panics with the disagreement if the boards do not agree within `max` seconds.
@@ -156,7 +173,7 @@ pub fn lineage(board: &Board, class: &str) -> Vec<Arc<str>> {
 }
 
 /// Does `b` model the object `info` that another board holds?
-fn models(b: &Node, info: &ObjectInfo) -> bool {
+fn models(b: &Member, info: &ObjectInfo) -> bool {
     if info.is_class {
         return b.board.info(&info.name).is_some();
     }
@@ -191,8 +208,8 @@ pub fn own(board: &Board, name: &str) -> Vec<(Arc<str>, Packet)> {
 /// The first disagreement between the boards: an object one holds that another board
 /// modelling it lacks, or holds with other packets. `Module` objects are local facts
 /// and left out.
-pub fn divergence(nodes: &[Node]) -> Option<String> {
-    for a in nodes {
+pub fn divergence(members: &[Member]) -> Option<String> {
+    for a in members {
         let infos: Vec<ObjectInfo> = {
             let snap = a.board.snapshot();
             snap.objects()
@@ -202,7 +219,7 @@ pub fn divergence(nodes: &[Node]) -> Option<String> {
         };
         for info in infos.iter().filter(|i| &*i.class != MODULE_CLASS) {
             let mine = own(&a.board, &info.name);
-            for b in nodes
+            for b in members
                 .iter()
                 .filter(|b| b.address != a.address && models(b, info))
             {
@@ -230,37 +247,37 @@ pub fn divergence(nodes: &[Node]) -> Option<String> {
 /// `dt` seconds apart.
 pub fn workload(team: &Team, rng: &mut Rng, steps: usize, dt: f64) {
     for _ in 0..steps {
-        let node = &team.nodes[rng.below(team.nodes.len() as u64) as usize];
+        let member = &team.members[rng.below(team.members.len() as u64) as usize];
         let roll = rng.below(100);
         match roll {
-            0..10 => create(node, rng),
-            10..13 => delete_own(node, rng),
+            0..10 => create(member, rng),
+            10..13 => delete_own(member, rng),
             13..15 => {
                 let label = format!("class{}", rng.below(5));
-                let _ = node.board.write("Tracked", "label", label);
+                let _ = member.board.write("Tracked", "label", label);
             }
-            _ => write_some(node, rng),
+            _ => write_some(member, rng),
         }
         team.run(dt);
     }
 }
 
-fn create(node: &Node, rng: &mut Rng) {
+fn create(member: &Member, rng: &mut Rng) {
     let class = ["Rock", "Vehicle", "Target"][rng.below(3) as usize];
     let context = [Context::Self_, Context::Surroundings, Context::System][rng.below(3) as usize];
-    let (robot, module) = (node.address.robot(), node.address.module());
+    let (robot, module) = (member.address.robot(), member.address.module());
     let name = format!(
         "{}_{robot}_{module}_{}",
         class.to_lowercase(),
         rng.below(1 << 20)
     );
-    let _ = node
+    let _ = member
         .board
         .create_with(NewObject::new(class, &name).context(context));
 }
 
-fn objects(node: &Node) -> Vec<ObjectInfo> {
-    let snap = node.board.snapshot();
+fn objects(member: &Member) -> Vec<ObjectInfo> {
+    let snap = member.board.snapshot();
     snap.objects()
         .into_iter()
         .filter_map(|id| snap.info(id))
@@ -268,31 +285,31 @@ fn objects(node: &Node) -> Vec<ObjectInfo> {
         .collect()
 }
 
-fn delete_own(node: &Node, rng: &mut Rng) {
-    let own: Vec<_> = objects(node)
+fn delete_own(member: &Member, rng: &mut Rng) {
+    let own: Vec<_> = objects(member)
         .into_iter()
-        .filter(|i| i.owner == node.address)
+        .filter(|i| i.owner == member.address)
         .collect();
     if !own.is_empty() {
         let victim = &own[rng.below(own.len() as u64) as usize];
-        let _ = node.board.delete(&victim.name);
+        let _ = member.board.delete(&victim.name);
     }
 }
 
-fn write_some(node: &Node, rng: &mut Rng) {
-    let all = objects(node);
+fn write_some(member: &Member, rng: &mut Rng) {
+    let all = objects(member);
     if all.is_empty() {
-        return create(node, rng);
+        return create(member, rng);
     }
     let o = &all[rng.below(all.len() as u64) as usize];
     let v = (rng.next_f64() * 1000.0).round() / 8.0;
-    let b = &node.board;
+    let b = &member.board;
     let _ = match (&*o.class, rng.below(4)) {
         ("Rock", 0) => b.write(&o.name, "x", v),
         ("Rock", 1) => b.write(&o.name, "hits", Value::Int(rng.below(100) as i64)),
         ("Rock", 2) => b.write(&o.name, "seen", Update::new(v).confidence(rng.next_f64())),
         ("Rock", _) => b.write(&o.name, "label", format!("l{}", rng.below(10))),
-        ("Vehicle", 0) if o.owner == node.address => b.write(&o.name, "heading", v),
+        ("Vehicle", 0) if o.owner == member.address => b.write(&o.name, "heading", v),
         ("Vehicle", 1) => b.write(&o.name, "mode", format!("m{}", rng.below(4))),
         ("Vehicle", _) => b.write(&o.name, "speed", v),
         (_, _) => b.write(

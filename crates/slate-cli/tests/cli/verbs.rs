@@ -5,16 +5,12 @@ use std::io::{BufRead, BufReader};
 use std::process::Stdio;
 use std::time::Duration;
 
-use crate::team::{Guard, Team, show, wait_output};
+use crate::support::{Guard, Team, class_in, entry, keys, show, steps, wait_output};
 
 const NAV: &str = "object gsr : Vehicle context self { position = [10.0, 20.0] accuracy 0.5; }\nobject rock : Obstacle { position = [15.0, 22.0]; range = 5.4; }";
 
 fn two_nodes(name: &str) -> Team {
-    let mut team = Team::new(name);
-    team.add("t/r1/nav", NAV);
-    team.add("t/r2/loco", "");
-    team.wait_connected();
-    team
+    Team::connected(name, &[("t/r1/nav", NAV), ("t/r2/loco", "")])
 }
 
 #[test]
@@ -31,24 +27,14 @@ fn tree_ls_and_get_show_the_team_as_text_and_json() {
         "{tree}"
     );
     let j = team.json(&["tree"]);
-    let vehicle = j["classes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["name"] == "Vehicle")
-        .unwrap();
+    let vehicle = class_in(&j, "Vehicle");
     assert_eq!(vehicle["objects"], 1);
     assert_eq!(vehicle["parent"], "Thing");
 
     let ls = team.ok(&["ls", "Vehicle"]);
     assert!(ls.starts_with("gsr") && ls.contains("t/r1/nav"), "{ls}");
     let j = team.json(&["ls", "Thing"]);
-    let names: Vec<&str> = j["objects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|o| o["name"].as_str())
-        .collect();
+    let names = keys(&j["objects"], "name");
     assert!(
         names.contains(&"gsr") && names.contains(&"rock") && names.contains(&"t_r1_nav"),
         "{names:?}"
@@ -187,7 +173,7 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
     };
     let loco = team.node("t/r2/loco");
     assert!(
-        crate::team::eventually(Duration::from_secs(15), || loco
+        crate::support::eventually(Duration::from_secs(15), || loco
             .value("gsr", "mode")
             .as_deref()
             == Some("slow")),
@@ -216,12 +202,7 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
         );
     }
     let j = team.json(&["plan", "ls"]);
-    let fast = j["plans"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["name"] == "fast")
-        .unwrap();
+    let fast = entry(&j["plans"], "name", "fast").unwrap();
     assert_eq!(fast["state"], "terminated");
     assert_eq!(fast["on"], "t/r2/loco");
     assert_eq!(fast["fired"], 1);
@@ -233,37 +214,14 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
         "plan slow { trigger: gsr.speed > 9.0; action { set gsr.mode = \"x\"; } }",
     )
     .unwrap();
-    let out = team.slate(&[
-        "plan",
-        "send",
-        slow.to_str().unwrap(),
-        "--to",
-        "t/r2/loco",
-        "--timeout",
-        "2",
-        "--format",
-        "json",
-    ]);
+    let out = team.send_plan(&slow, "t/r2/loco", "2");
     assert!(out.status.success(), "{}", show(&out));
-    let steps: Vec<String> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| {
-            serde_json::from_str::<serde_json::Value>(l).unwrap()["step"]
-                .as_str()
-                .unwrap()
-                .to_owned()
-        })
-        .collect();
+    let steps = steps(&out);
     assert_eq!(steps, ["received", "accepted", "initiated"]);
     let out = team.ok(&["plan", "cancel", "slow", "--on", "t/r2/loco"]);
     assert_eq!(out, "plan slow cancelled on t/r2/loco\n");
     let j = team.json(&["plan", "ls"]);
-    let slow = j["plans"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["name"] == "slow")
-        .unwrap();
+    let slow = entry(&j["plans"], "name", "slow").unwrap();
     assert_eq!(slow["state"], "cancelled");
     let again = team.slate(&["plan", "cancel", "slow"]);
     assert_eq!(again.status.code(), Some(1));
@@ -338,12 +296,7 @@ fn introspection_says_which_modules_it_sees_only_through_their_export() {
     );
     // Following the advice shows it.
     let j = team.json(&["plan", "ls", "--as", "t/r2/cli-test"]);
-    let names: Vec<&str> = j["plans"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|p| p["name"].as_str())
-        .collect();
+    let names = keys(&j["plans"], "name");
     assert_eq!(names, ["idle"], "{j}");
     assert_eq!(j["seen_through_export"], serde_json::json!(["t/r1/nav"]));
     team.stop();
@@ -367,12 +320,7 @@ fn tree_shows_a_class_two_modules_define_differently() {
         "{tree}"
     );
     let j = team.json(&["tree"]);
-    let sonar = j["classes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|c| c["name"] == "Sonar")
-        .unwrap();
+    let sonar = class_in(&j, "Sonar");
     assert_eq!(sonar["conflicts"].as_array().map(Vec::len), Some(1), "{j}");
     // The object of the other definition is not held, and `get` says why.
     let missing: Vec<String> = ["s1", "s2"]

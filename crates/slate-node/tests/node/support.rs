@@ -1,24 +1,10 @@
 //! A team of nodes on one simulated network.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use slate_ici::{ClassSet, IciConfig, SimNet};
-use slate_model::Address;
 use slate_node::Node;
-
-/// Classes every node of the tests loads.
-pub const WORLD: &str = r#"
-class Vehicle {
-    position: vec<2> [m] = [0.0, 0.0] accuracy 1.0;
-    speed: real [m/s] in 0 .. 10 = 0.0;
-    mode: string = "auto";
-}
-class Obstacle { position: vec<2> [m]; range: real [m]; }
-"#;
-
-pub fn addr(text: &str) -> Address {
-    Address::new(text).unwrap()
-}
+pub use slate_testing::{WORLD, addr};
 
 /// A node on `net` that exports everything and loads [`WORLD`] then `extra`.
 pub fn start(net: &SimNet, address: &str, extra: &str) -> Node {
@@ -39,14 +25,8 @@ pub fn run_until(net: &SimNet, max: f64, done: impl FnMut() -> bool) -> bool {
     net.run_until(done, Duration::from_secs_f64(max))
 }
 
-/// Waits in real time (the node's monitor thread runs on its own) until `done`.
-pub fn eventually(mut done: impl FnMut() -> bool) -> bool {
-    let deadline = Instant::now() + Duration::from_secs(5);
-    while Instant::now() < deadline {
-        if done() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    done()
+/// Waits in real time (the node's monitor thread runs on its own) until `done`, for
+/// at most five seconds.
+pub fn eventually(done: impl FnMut() -> bool) -> bool {
+    slate_testing::eventually(Duration::from_secs(5), done)
 }

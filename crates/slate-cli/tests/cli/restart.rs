@@ -3,16 +3,13 @@
 
 use std::time::Duration;
 
-use crate::team::{NodeProc, Team, eventually};
+use crate::support::{NodeProc, Team, eventually};
 
 const NAV: &str = "object gsr : Vehicle context self { mode = \"patrol\"; }";
 
 #[test]
 fn a_module_killed_and_started_again_does_not_roll_the_team_back() {
-    let mut team = Team::new("restart");
-    team.add("t/r1/nav", NAV);
-    team.add("t/r2/loco", "");
-    team.wait_connected();
+    let mut team = Team::connected("restart", &[("t/r1/nav", NAV), ("t/r2/loco", "")]);
     team.ok(&["put", "gsr.mode", "manual"]);
     let loco = team.node("t/r2/loco");
     assert!(loco.wait_value("gsr", "mode", "manual"), "{}", team.logs());
@@ -28,10 +25,7 @@ fn a_module_killed_and_started_again_does_not_roll_the_team_back() {
 
 #[test]
 fn cli_calls_leave_no_module_objects_behind() {
-    let mut team = Team::new("observers");
-    team.add("t/r1/nav", NAV);
-    team.add("t/r2/loco", "");
-    team.wait_connected();
+    let team = Team::connected("observers", &[("t/r1/nav", NAV), ("t/r2/loco", "")]);
     let modules = |node: &NodeProc| {
         let snap = node.snapshot();
         let objects = snap["objects"].as_array().cloned().unwrap_or_default();
@@ -59,7 +53,7 @@ fn put_of_an_owned_attribute_by_anyone_but_its_owner_is_refused_in_one_line() {
     );
     team.wait_connected();
     let out = team.slate(&["put", "b.level", "2.0"]);
-    assert_eq!(out.status.code(), Some(1), "{}", crate::team::show(&out));
+    assert_eq!(out.status.code(), Some(1), "{}", crate::support::show(&out));
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(err.contains("owned by t/r1/nav"), "{err}");

@@ -36,3 +36,10 @@ pub fn board() -> Board {
     .unwrap();
     b
 }
+
+/// The world of [`board`] with one `Vehicle`, `v`.
+pub fn with_vehicle() -> Board {
+    let b = board();
+    b.create("Vehicle", "v").unwrap();
+    b
+}

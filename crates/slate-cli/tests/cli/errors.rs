@@ -1,7 +1,7 @@
 //! Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit. And every
 //! verb explains itself with an example.
 
-use crate::team::{Team, free_port, show, slate, temp_dir};
+use crate::support::{Team, entry, free_port, show, slate, temp_dir};
 
 fn one_line_error(out: &std::process::Output, code: i32, says: &str) {
     let err = String::from_utf8_lossy(&out.stderr);
@@ -41,9 +41,10 @@ fn no_node_to_talk_to_is_one_line() {
 
 #[test]
 fn bad_addresses_values_and_names_against_a_live_node() {
-    let mut team = Team::new("errors");
-    team.add("t/r1/nav", "object gsr : Vehicle context self;");
-    team.wait_connected();
+    let team = Team::connected(
+        "errors",
+        &[("t/r1/nav", "object gsr : Vehicle context self;")],
+    );
     let cases: [(&[&str], i32, &str); 8] = [
         (
             &["get", "gsr", "--as", "nav"],
@@ -128,13 +129,7 @@ fn tree_of_files_needs_no_network() {
     );
     let out = slate(&["tree", gsr, "--format", "json"]);
     let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert!(
-        j["classes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|c| c["name"] == "Target")
-    );
+    assert!(entry(&j["classes"], "name", "Target").is_some());
 }
 
 #[test]

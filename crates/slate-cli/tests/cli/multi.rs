@@ -3,24 +3,23 @@
 
 use std::time::Duration;
 
-use crate::team::{Team, eventually, show};
+use crate::support::{Team, entry, eventually, show, steps};
 
 #[test]
 fn two_nodes_exchange_reports_both_ways_and_stop_cleanly() {
-    let mut team = Team::new("two");
-    team.add("t/r1/nav", "object gsr : Vehicle context self;");
-    team.add("t/r2/loco", "object rock : Obstacle { range = 7.5; }");
-    team.wait_connected();
+    let team = Team::connected(
+        "two",
+        &[
+            ("t/r1/nav", "object gsr : Vehicle context self;"),
+            ("t/r2/loco", "object rock : Obstacle { range = 7.5; }"),
+        ],
+    );
     let nav = team.node("t/r1/nav");
     let loco = team.node("t/r2/loco");
     assert!(nav.wait_value("rock", "range", "7.5"), "{}", team.logs());
     assert!(
         loco.wait_value("gsr", "mode", "auto")
-            || loco.snapshot()["objects"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .any(|o| o["name"] == "gsr")
+            || entry(&loco.snapshot()["objects"], "name", "gsr").is_some()
     );
     team.ok(&["put", "rock.range", "3.25"]);
     assert!(nav.wait_value("rock", "range", "3.25"), "{}", team.logs());
@@ -31,10 +30,13 @@ fn two_nodes_exchange_reports_both_ways_and_stop_cleanly() {
 
 #[test]
 fn three_nodes_a_plan_with_acks_and_a_late_joiner_that_catches_up() {
-    let mut team = Team::new("three");
-    team.add("t/r1/nav", "object gsr : Vehicle context self;");
-    team.add("t/r2/loco", "");
-    team.wait_connected();
+    let mut team = Team::connected(
+        "three",
+        &[
+            ("t/r1/nav", "object gsr : Vehicle context self;"),
+            ("t/r2/loco", ""),
+        ],
+    );
     // Writes before the third node exists.
     for speed in ["1", "2", "3"] {
         team.ok(&["put", "gsr.speed", speed]);
@@ -49,27 +51,9 @@ fn three_nodes_a_plan_with_acks_and_a_late_joiner_that_catches_up() {
     // A plan from the console's side of the team to loco, acknowledged step by step.
     let plan = team.dir.join("go.slate");
     std::fs::write(&plan, "plan go { trigger: gsr.speed > 2.0; termination: gsr.mode == \"go\"; action { set gsr.mode = \"go\"; } }").unwrap();
-    let out = team.slate(&[
-        "plan",
-        "send",
-        plan.to_str().unwrap(),
-        "--to",
-        "t/r2/loco",
-        "--timeout",
-        "20",
-        "--format",
-        "json",
-    ]);
+    let out = team.send_plan(&plan, "t/r2/loco", "20");
     assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
-    let steps: Vec<String> = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .map(|l| {
-            serde_json::from_str::<serde_json::Value>(l).unwrap()["step"]
-                .as_str()
-                .unwrap()
-                .to_owned()
-        })
-        .collect();
+    let steps = steps(&out);
     assert_eq!(
         steps,
         [
@@ -92,13 +76,7 @@ fn three_nodes_a_plan_with_acks_and_a_late_joiner_that_catches_up() {
     }
     let loco = team.node("t/r2/loco");
     let snap = loco.snapshot();
-    let go = snap["plans"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|p| p["name"] == "go")
-        .unwrap()
-        .clone();
+    let go = entry(&snap["plans"], "name", "go").unwrap().clone();
     assert_eq!(go["state"], "terminated");
     assert!(go["origin"].as_str().unwrap().contains("/cli-"), "{go}");
     assert_eq!(go["acks"].as_array().unwrap().last().unwrap(), "terminated");

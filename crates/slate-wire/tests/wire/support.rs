@@ -5,9 +5,7 @@ use std::time::Duration;
 use slate_model::{Address, AttrDecl, ClassDef, MANUAL_EPOCH, Packet, Timestamp, Value, ValueType};
 use slate_wire::{Assertion, ObjectEntry, Report, Schema};
 
-pub fn addr(text: &str) -> Address {
-    Address::new(text).unwrap()
-}
+pub use slate_testing::addr;
 
 /// The sending module of most tests.
 pub fn nav() -> Address {

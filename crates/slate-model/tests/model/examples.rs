@@ -1,12 +1,8 @@
-//! Every example runs end to end.
-
-#[allow(dead_code)]
-#[path = "../examples/gsr_world.rs"]
-mod gsr_world;
+//! Every example of the crate runs end to end.
 
 #[test]
 fn the_gsr_world_example_runs_and_shows_the_paper_interactions() {
-    let out = gsr_world::world_tour().expect("the example runs");
+    let out = crate::gsr_world::world_tour().expect("the example runs");
     // Derived absolute positions: 12 m at bearing 0.5 rad from (10, 20) heading 0.
     let (x, y) = (10.0 + 12.0 * 0.5f64.cos(), 20.0 + 12.0 * 0.5f64.sin());
     assert!(out.contains(&format!("absolute [{x:?}, {y:?}]")), "{out}");

@@ -1,41 +1,14 @@
 //! A team of `slate node` processes on loopback, and running `slate` with a time limit.
 
-use std::io::{BufRead, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream};
+pub use slate_testing::{WORLD, entry, eventually, free_port, http_get, keys, temp_dir};
+
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-/// The classes every node loads.
-pub const WORLD: &str = r#"
-class Vehicle {
-    position: vec<2> [m] = [0.0, 0.0] accuracy 1.0;
-    speed: real [m/s] in 0 .. 10 = 0.0;
-    mode: string = "auto";
-}
-class Obstacle { position: vec<2> [m]; range: real [m]; }
-"#;
-
 /// Longest any one `slate` command may take.
 const COMMAND_LIMIT: Duration = Duration::from_secs(30);
-
-/// A free TCP port on 127.0.0.1 (the listener is dropped before use).
-pub fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
-}
-
-/// A fresh temporary folder.
-pub fn temp_dir(name: &str) -> PathBuf {
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.subsec_nanos());
-    let d = std::env::temp_dir().join(format!("slate-live-{name}-{}-{nanos}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 fn command() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_slate"));
@@ -105,6 +78,24 @@ impl Drop for Guard {
             let _ = c.wait();
         }
     }
+}
+
+/// The `step` of each JSON line `slate plan` printed.
+pub fn steps(out: &Output) -> Vec<String> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["step"]
+                .as_str()
+                .unwrap()
+                .to_owned()
+        })
+        .collect()
+}
+
+/// The class `name` in the JSON of `slate tree`.
+pub fn class_in<'j>(tree: &'j serde_json::Value, name: &str) -> &'j serde_json::Value {
+    entry(&tree["classes"], "name", name).unwrap_or_else(|| panic!("no class {name} in {tree}"))
 }
 
 /// Stdout and stderr as text, for assertion messages.
@@ -196,21 +187,7 @@ impl NodeProc {
 
     /// Its dashboard's snapshot: the node's own board.
     pub fn snapshot(&self) -> serde_json::Value {
-        let host = self
-            .dashboard
-            .trim_start_matches("http://")
-            .trim_end_matches('/');
-        let mut s = TcpStream::connect(host).expect("dashboard");
-        s.set_read_timeout(Some(Duration::from_secs(5))).unwrap();
-        write!(
-            s,
-            "GET /api/snapshot HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n"
-        )
-        .unwrap();
-        let mut text = String::new();
-        s.read_to_string(&mut text).unwrap();
-        let body = text.split_once("\r\n\r\n").map_or("", |(_, b)| b);
-        serde_json::from_str(body).unwrap_or_else(|e| panic!("{e}: {text}"))
+        http_get(&self.dashboard, "/api/snapshot").json()
     }
 
     /// The value text of `object.attr` on this node's board, if it has one.
@@ -305,18 +282,6 @@ fn first_line(child: &mut Child, limit: Duration) -> String {
     }
 }
 
-/// Polls `done` until it holds or `limit` passes.
-pub fn eventually(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
-    let deadline = Instant::now() + limit;
-    while Instant::now() < deadline {
-        if done() {
-            return true;
-        }
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    done()
-}
-
 /// A team of node processes; each connects to the ones started before it. One team
 /// runs at a time (on two cores, several teams at once starve each other's timers).
 pub struct Team {
@@ -337,6 +302,33 @@ impl Team {
             nodes: Vec::new(),
             _turn: turn,
         }
+    }
+
+    /// A team of the nodes `members` (address, and the source each loads beside
+    /// [`WORLD`]), started in order, once every node hears every other.
+    pub fn connected(name: &str, members: &[(&str, &str)]) -> Team {
+        let mut team = Team::new(name);
+        for (address, extra) in members {
+            team.add(address, extra);
+        }
+        team.wait_connected();
+        team
+    }
+
+    /// `slate plan send PLAN --to TO --timeout SECONDS --format json` against the team.
+    pub fn send_plan(&self, plan: &Path, to: &str, seconds: &str) -> Output {
+        let plan = plan.to_str().unwrap();
+        self.slate(&[
+            "plan",
+            "send",
+            plan,
+            "--to",
+            to,
+            "--timeout",
+            seconds,
+            "--format",
+            "json",
+        ])
     }
 
     /// Starts one more node.

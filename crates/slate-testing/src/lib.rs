@@ -1,0 +1,180 @@
+//! Fixtures shared by the integration tests of slate's crates.
+//!
+//! A dev-dependency only (`publish = false`): nothing here is part of any crate's API.
+//! Each helper is one that several crates' tests would otherwise write out themselves;
+//! a fixture used by one crate's tests stays in that crate's `tests/<name>/support.rs`.
+//!
+//! Every wait here is bounded and returns or panics with what it waited for; none
+//! asserts how long anything took.
+
+use std::fmt::Display;
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream, ToSocketAddrs};
+use std::path::PathBuf;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use slate_cdp::{Chromium, Page};
+use slate_model::Address;
+
+/// The classes the node and CLI tests load: a vehicle with a position, a speed and a
+/// mode, and obstacles with a position and a range.
+pub const WORLD: &str = r#"
+class Vehicle {
+    position: vec<2> [m] = [0.0, 0.0] accuracy 1.0;
+    speed: real [m/s] in 0 .. 10 = 0.0;
+    mode: string = "auto";
+}
+class Obstacle { position: vec<2> [m]; range: real [m]; }
+"#;
+
+/// How long [`http_get`] waits to connect, and for each read.
+const HTTP_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// How often [`eventually`] looks again.
+const POLL: Duration = Duration::from_millis(10);
+
+/// The address `text`, which the test wrote and knows to be valid.
+pub fn addr(text: &str) -> Address {
+    Address::new(text).unwrap()
+}
+
+/// A free TCP port on 127.0.0.1 (the OS picks it; the listener is dropped before use).
+pub fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .map(|a| a.port())
+        .expect("a free port")
+}
+
+/// Polls `done` until it holds or `limit` passes; whether it held. For what runs on
+/// real time (threads, processes, sockets); simulated runs step their own clock.
+pub fn eventually(limit: Duration, mut done: impl FnMut() -> bool) -> bool {
+    let deadline = Instant::now() + limit;
+    while Instant::now() < deadline {
+        if done() {
+            return true;
+        }
+        std::thread::sleep(POLL);
+    }
+    done()
+}
+
+/// Runs `f` on its own thread and fails the test if it takes longer than `limit` (a
+/// guard against hangs, not a performance assertion).
+pub fn within<T: Send + 'static>(limit: Duration, f: impl FnOnce() -> T + Send + 'static) -> T {
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(limit)
+        .unwrap_or_else(|_| panic!("did not finish within {limit:?}"))
+}
+
+/// The cargo target directory the running test binary was built into (`target/`).
+pub fn target_dir() -> PathBuf {
+    let exe = std::env::current_exe().expect("current exe");
+    // <target>/<profile>/deps/<test binary>
+    exe.ancestors().nth(3).expect("target dir").to_path_buf()
+}
+
+/// A fresh, empty folder under the system's temporary folder, unique to this process,
+/// `name` and the moment; the test removes it when it is done with it.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let unique = format!("slate-{name}-{}-{nanos}", std::process::id());
+    let dir = std::env::temp_dir().join(unique);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Saves a screenshot of `page` as `file` in [`target_dir`] and fails the test if the
+/// page logged any console error (with the browser's log to tell why); the path saved.
+pub fn screenshot_without_errors(page: &mut Page, chromium: &Chromium, file: &str) -> PathBuf {
+    let shot = target_dir().join(file);
+    page.screenshot(&shot);
+    assert_no_console_errors(page, chromium);
+    shot
+}
+
+/// Fails the test if `page` logged any console error, showing the browser's log.
+pub fn assert_no_console_errors(page: &mut Page, chromium: &Chromium) {
+    let errors = page.console_errors();
+    assert!(
+        errors.is_empty(),
+        "console errors: {errors:#?}\nchromium log:\n{}",
+        chromium.log_tail()
+    );
+}
+
+/// One HTTP response, as read off the socket.
+pub struct Response {
+    /// The status code.
+    pub status: u16,
+    /// The status line and the headers.
+    pub head: String,
+    /// Everything after the head.
+    pub body: String,
+}
+
+impl Response {
+    /// The value of `name` in the headers (case-insensitive), if present.
+    pub fn header(&self, name: &str) -> Option<&str> {
+        self.head.lines().find_map(|line| {
+            let (key, value) = line.split_once(':')?;
+            key.eq_ignore_ascii_case(name).then(|| value.trim())
+        })
+    }
+
+    /// The body as JSON; fails the test, showing the body, if it is not.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::from_str(&self.body).unwrap_or_else(|e| panic!("{e}: {}", self.body))
+    }
+}
+
+/// `GET path` over HTTP/1.1 with `Connection: close` from `server` (a socket address,
+/// or a URL such as `http://127.0.0.1:8080/`); the servers tested send lengths, not chunks.
+pub fn http_get(server: impl Display, path: &str) -> Response {
+    let url = server.to_string();
+    let host = url.trim_start_matches("http://").trim_end_matches('/');
+    let addr = host.to_socket_addrs().ok().and_then(|mut a| a.next());
+    let addr = addr.unwrap_or_else(|| panic!("{host} is not a socket address"));
+    let mut stream = TcpStream::connect_timeout(&addr, HTTP_TIMEOUT).expect("connect");
+    stream.set_read_timeout(Some(HTTP_TIMEOUT)).unwrap();
+    let request = format!("GET {path} HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n");
+    stream.write_all(request.as_bytes()).unwrap();
+    let mut raw = String::new();
+    stream.read_to_string(&mut raw).expect("read response");
+    parse_response(&raw)
+}
+
+/// Splits a whole HTTP response into status, head and body.
+fn parse_response(raw: &str) -> Response {
+    let (head, body) = raw.split_once("\r\n\r\n").expect("response has a head");
+    let status = head.split(' ').nth(1).and_then(|s| s.parse().ok());
+    Response {
+        status: status.expect("status code"),
+        head: head.to_owned(),
+        body: body.to_owned(),
+    }
+}
+
+/// The first entry of the JSON array `list` whose `key` is `value` (`None` if there is
+/// none, or `list` is not an array): how the tests pick a class, plan or object out of
+/// a snapshot or a verb's JSON.
+pub fn entry<'j>(
+    list: &'j serde_json::Value,
+    key: &str,
+    value: &str,
+) -> Option<&'j serde_json::Value> {
+    list.as_array()?.iter().find(|e| e[key] == value)
+}
+
+/// The text `key` of each entry of the JSON array `list` that has one (none if `list` is
+/// not an array): the names of the classes, objects or plans in a snapshot.
+pub fn keys<'j>(list: &'j serde_json::Value, key: &str) -> Vec<&'j str> {
+    let entries = list.as_array().map_or(&[][..], Vec::as_slice);
+    entries.iter().filter_map(|e| e[key].as_str()).collect()
+}
