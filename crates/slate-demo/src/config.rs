@@ -5,6 +5,11 @@ use std::time::Duration;
 
 use crate::net::NetworkKind;
 
+/// The largest team the demo runs: the world grows one strip (a route, obstacles,
+/// targets) per robot, and the team link's traffic grows faster than the team, so larger
+/// teams are refused rather than left to run for hours.
+pub const MAX_ROBOTS: usize = 32;
+
 /// The team link between robots: its declared budget and, on the simulator, its faults.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TeamLink {
@@ -41,7 +46,7 @@ impl Default for TeamLink {
 pub struct DemoConfig {
     /// Seeds the world, the sensors' noise and the simulated network.
     pub seed: u64,
-    /// Robots in the team (1 to 8).
+    /// Robots in the team (1 to [`MAX_ROBOTS`]).
     pub robots: usize,
     /// Simulator or Zenoh.
     pub network: NetworkKind,
@@ -124,8 +129,11 @@ impl DemoConfig {
     /// Checks the settings.
     pub fn validate(&self) -> Result<(), crate::DemoError> {
         let bad = |m: String| Err(crate::DemoError::Config(m));
-        if !(1..=8).contains(&self.robots) {
-            return bad(format!("--robots must be 1 to 8, not {}", self.robots));
+        if !(1..=MAX_ROBOTS).contains(&self.robots) {
+            return bad(format!(
+                "--robots must be 1 to {MAX_ROBOTS}, not {}",
+                self.robots
+            ));
         }
         if self.duration < Duration::from_secs(10) {
             return bad("--duration must be at least 10 s".into());

@@ -38,7 +38,7 @@ mod team;
 mod traffic;
 pub mod world;
 
-pub use config::{DemoConfig, TeamLink};
+pub use config::{DemoConfig, MAX_ROBOTS, TeamLink};
 pub use consistency::{TEAM_CLASSES, disagreement};
 pub use error::DemoError;
 pub use module::{Module, Role};

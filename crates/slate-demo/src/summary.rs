@@ -123,6 +123,33 @@ impl Summary {
         }
     }
 
+    /// Team-link bytes that are protocol overhead (neither reports, plans nor plan
+    /// acks: greetings, heartbeats, object lists, catch-up, lifecycle) over all team-link
+    /// bytes, both as the ICIs sent them (so the two sides count the same thing).
+    pub fn team_overhead_fraction(&self) -> f64 {
+        let all: u64 = self.team_bytes_by_kind.values().sum();
+        let model: u64 = MODEL_KINDS
+            .iter()
+            .filter_map(|k| self.team_bytes_by_kind.get(*k))
+            .sum();
+        if all == 0 {
+            0.0
+        } else {
+            all.saturating_sub(model) as f64 / all as f64
+        }
+    }
+
+    /// Team-link bytes (on the air, retransmissions included) per robot per minute of
+    /// mission: the load each robot adds to the team link.
+    pub fn team_bytes_per_robot_minute(&self) -> f64 {
+        let minutes = self.mission_seconds / 60.0;
+        if self.robots == 0 || minutes <= 0.0 {
+            0.0
+        } else {
+            self.team_link_bytes as f64 / self.robots as f64 / minutes
+        }
+    }
+
     /// The summary as one JSON object.
     pub fn to_json(&self) -> Value {
         let targets: Vec<Value> = self
@@ -151,6 +178,8 @@ impl Summary {
             "intra_robot_bytes": self.intra_robot_bytes,
             "team_fraction_of_intra": (self.team_fraction() * 10_000.0).round() / 10_000.0,
             "team_report_fraction_of_intra": (self.team_report_fraction() * 10_000.0).round() / 10_000.0,
+            "team_overhead_fraction": (self.team_overhead_fraction() * 10_000.0).round() / 10_000.0,
+            "team_bytes_per_robot_minute": self.team_bytes_per_robot_minute().round(),
             "team_link_budget_bps": self.team_link_budget_bps,
             "team_link_peak_bps": round(self.team_link_peak_bps),
             "team_link_peak_radio": self.team_link_peak_radio,
@@ -298,10 +327,20 @@ impl Summary {
             "  reports alone (the world model, no protocol overhead): {:.1} % of the robots' own",
             100.0 * self.team_report_fraction()
         );
+        let _ = writeln!(
+            s,
+            "  overhead (neither reports, plans nor plan acks): {:.1} % of the team bytes; {:.0} bytes per robot per minute",
+            100.0 * self.team_overhead_fraction(),
+            self.team_bytes_per_robot_minute()
+        );
         let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));
         let _ = writeln!(s, "  robot by kind: {}", kinds(&self.intra_bytes_by_kind));
     }
 }
+
+/// The message kinds that carry the world model and the plans themselves: the rest of
+/// the team link's bytes are the protocol's overhead.
+const MODEL_KINDS: [&str; 3] = ["report", "plan", "plan_ack"];
 
 fn round(x: f64) -> f64 {
     (x * 100.0).round() / 100.0

@@ -4,5 +4,6 @@ mod demo {
     pub mod browser;
     pub mod files;
     pub mod mission;
+    pub mod scale;
     pub mod support;
 }

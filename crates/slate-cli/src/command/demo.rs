@@ -19,8 +19,9 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
 
-    /// Robots in the team (each five modules: five boards, five ICIs).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=8))]
+    /// Robots in the team, 1 to 32 (each five modules: five boards, five ICIs; the world
+    /// grows a strip with a route and targets per robot).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=32))]
     pub robots: u8,
 
     /// The network: the deterministic simulator (team link 9600 bit/s, 5 % loss), or Zenoh

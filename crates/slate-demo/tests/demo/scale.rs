@@ -1,0 +1,70 @@
+//! The demo at scale: teams up to 32 robots, a world that grows with the team, and the
+//! summary's measures of the team link's overhead and load per robot.
+
+use std::time::Duration;
+
+use slate_demo::world::{Layout, STRIP};
+use slate_demo::{DemoConfig, DemoError, run};
+
+use super::support::{config, within};
+
+#[test]
+fn a_team_of_32_robots_is_accepted_and_33_is_refused_with_the_range() {
+    assert!(DemoConfig::default().robots(32).validate().is_ok());
+    let refused = DemoConfig::default().robots(33).validate();
+    let Err(DemoError::Config(message)) = refused else {
+        panic!("33 robots were not refused: {refused:?}");
+    };
+    assert!(message.contains("1 to 32"), "{message}");
+    assert!(DemoConfig::default().robots(0).validate().is_err());
+}
+
+#[test]
+fn every_robot_of_a_32_robot_team_has_its_own_route_and_targets() {
+    let layout = Layout::generate(7, 32);
+    assert_eq!(layout.regions.len(), 32);
+    assert_eq!(layout.bounds[3], 32.0 * STRIP);
+    for (i, region) in layout.regions.iter().enumerate() {
+        let (lo, hi) = (i as f64 * STRIP, (i + 1) as f64 * STRIP);
+        assert!(
+            !region.waypoints.is_empty(),
+            "{} has no route",
+            region.robot
+        );
+        assert!(region.waypoints.iter().all(|w| lo <= w[1] && w[1] < hi));
+        let targets = layout
+            .targets
+            .iter()
+            .filter(|t| lo <= t.anchor[1] && t.anchor[1] < hi)
+            .count();
+        assert!(targets >= 1, "{} has no target in its strip", region.robot);
+    }
+}
+
+#[test]
+fn the_summary_reports_the_team_links_overhead_and_bytes_per_robot_minute() {
+    let s = within(Duration::from_secs(300), || {
+        let c = config(7).robots(2).duration(Duration::from_secs(20));
+        run(c, &mut |_| {}).expect("the demo runs")
+    });
+    let all: u64 = s.team_bytes_by_kind.values().sum();
+    let model: u64 = ["report", "plan", "plan_ack"]
+        .iter()
+        .filter_map(|k| s.team_bytes_by_kind.get(*k))
+        .sum();
+    assert!(all > model && model > 0, "{}", s.to_text());
+    let overhead = (all - model) as f64 / all as f64;
+    assert!((s.team_overhead_fraction() - overhead).abs() < 1e-12);
+    let per_robot_minute = s.team_link_bytes as f64 / 2.0 / (s.mission_seconds / 60.0);
+    assert!((s.team_bytes_per_robot_minute() - per_robot_minute).abs() < 1e-6);
+    let json = s.to_json();
+    let rounded = (overhead * 10_000.0).round() / 10_000.0;
+    assert_eq!(json["team_overhead_fraction"], rounded);
+    assert_eq!(
+        json["team_bytes_per_robot_minute"],
+        per_robot_minute.round()
+    );
+    let text = s.to_text();
+    assert!(text.contains("overhead"), "{text}");
+    assert!(text.contains("bytes per robot per minute"), "{text}");
+}
