@@ -5,10 +5,10 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::{LinkConfig, SimConfig, SimNet, SimStats, Transport};
+use slate_ici::{Channel, LinkConfig, LinkKind, SimConfig, SimNet, SimStats, Transport};
 use slate_model::{Address, Clock};
 
-use crate::config::TeamLink;
+use crate::config::{TeamLink, TeamMedium};
 use crate::error::DemoError;
 
 /// Which network carries the team.
@@ -42,14 +42,25 @@ impl Network {
     /// The simulator with the team link shaped as `team` (the robot link is clean, 100 µs).
     pub fn sim(seed: u64, team: &TeamLink) -> Network {
         let config = SimConfig {
-            team: LinkConfig::clean()
-                .delay(team.delay)
-                .jitter(team.jitter)
-                .loss(team.loss)
-                .bandwidth(team.budget_bps),
+            team: team_link_config(team),
             ..SimConfig::default()
         };
         Network::Sim(SimNet::with_config(seed, config))
+    }
+
+    /// The team link's air on the simulator: its counters and the fraction of the time
+    /// its transmitters spent on the air.
+    pub fn team_channel(&self) -> Option<(Channel, SimStats, f64)> {
+        match self {
+            Network::Sim(net) => {
+                let stats = net.stats();
+                let channel = stats.channels.get(&LinkKind::Team).copied();
+                let utilisation = net.channel_utilisation(LinkKind::Team);
+                Some((channel.unwrap_or_default(), stats, utilisation))
+            }
+            #[cfg(feature = "zenoh")]
+            Network::Zenoh(_) => None,
+        }
     }
 
     /// Zenoh on loopback.
@@ -177,6 +188,23 @@ mod zenoh_net {
             }
         }
     }
+}
+
+/// The simulator's team link for `team`: radios (a transmitter per sender, messages
+/// whole) or one shared acoustic channel of frames.
+fn team_link_config(team: &TeamLink) -> LinkConfig {
+    let mut link = LinkConfig::clean()
+        .delay(team.delay)
+        .jitter(team.jitter)
+        .loss(team.loss)
+        .bandwidth(team.budget_bps);
+    if team.medium == TeamMedium::Acoustic {
+        link = link.shared();
+    }
+    if let Some(bytes) = team.frame_bytes {
+        link = link.frames(bytes, team.frame_overhead);
+    }
+    link
 }
 
 /// Paces a virtual-time loop to real time (for people watching the dashboard).

@@ -249,6 +249,7 @@ impl Demo {
             plans_accepted: accepted,
             plans_rejected: rejected,
             events: self.observer.events.len(),
+            team_channel: crate::traffic::team_channel(&self.net, &self.config.team_link),
         }
     }
 

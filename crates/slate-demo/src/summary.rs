@@ -20,6 +20,27 @@ pub struct TargetOutcome {
     pub investigators: Vec<String>,
 }
 
+/// The team link's air, as the simulator measured it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TeamChannel {
+    /// `radio` or `acoustic`.
+    pub medium: String,
+    /// The fraction of the run the one shared channel was on the air (`None` for
+    /// radios: each has its own).
+    pub utilisation: Option<f64>,
+    /// Frames put on the air (a radio sends a message as one frame).
+    pub frames_sent: u64,
+    /// Frames lost (per receiver for a broadcast, per attempt for a reliable send).
+    pub frames_lost: u64,
+    /// The largest frame on the air, bytes.
+    pub largest_frame_bytes: usize,
+    /// The largest message on the air, bytes.
+    pub largest_message_bytes: usize,
+    /// The longest a message waited for its transmitter (the shared channel, for the
+    /// acoustic medium), seconds.
+    pub max_queued_seconds: f64,
+}
+
 /// Everything a run measured.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
@@ -99,6 +120,8 @@ pub struct Summary {
     pub plans_rejected: usize,
     /// Events logged.
     pub events: usize,
+    /// The team link's air on the simulator (`None` on Zenoh).
+    pub team_channel: Option<TeamChannel>,
 }
 
 impl Summary {
@@ -157,7 +180,7 @@ impl Summary {
             .iter()
             .map(|t| json!({"name": t.name, "found_by": t.found_by, "found_at": t.found_at, "investigators": t.investigators}))
             .collect();
-        json!({
+        let mut summary = json!({
             "seed": self.seed,
             "robots": self.robots,
             "network": self.network,
@@ -199,7 +222,34 @@ impl Summary {
             "plans_accepted": self.plans_accepted,
             "plans_rejected": self.plans_rejected,
             "events": self.events,
-        })
+        });
+        if let Value::Object(map) = &mut summary {
+            map.extend(self.channel_json());
+        }
+        summary
+    }
+
+    /// The team link's medium and air, as JSON fields.
+    fn channel_json(&self) -> serde_json::Map<String, Value> {
+        let c = self.team_channel.as_ref();
+        let fields = json!({
+            "team_link": self.team_medium(),
+            "team_channel_utilisation": c.and_then(|c| c.utilisation).map(|u| (u * 10_000.0).round() / 10_000.0),
+            "team_frames_sent": c.map(|c| c.frames_sent),
+            "team_frames_lost": c.map(|c| c.frames_lost),
+            "team_largest_frame_bytes": c.map(|c| c.largest_frame_bytes),
+            "team_largest_message_bytes": c.map(|c| c.largest_message_bytes),
+            "team_channel_max_queued_seconds": c.map(|c| round(c.max_queued_seconds)),
+        });
+        match fields {
+            Value::Object(map) => map,
+            _ => serde_json::Map::new(),
+        }
+    }
+
+    /// `radio` or `acoustic` (Zenoh runs radios only).
+    pub fn team_medium(&self) -> &str {
+        self.team_channel.as_ref().map_or("radio", |c| &c.medium)
     }
 
     /// The summary as text.
@@ -292,14 +342,19 @@ impl Summary {
     }
 
     fn links_text(&self, s: &mut String) {
+        let budget = match self.team_medium() {
+            "radio" => "per radio",
+            _ => "on the one shared channel",
+        };
         let _ = writeln!(
             s,
-            "team link    {} bytes, {:.2} % of the {} bytes inside the robots; budget {} bit/s per radio",
+            "team link    {} bytes, {:.2} % of the {} bytes inside the robots; budget {} bit/s {budget}",
             self.team_link_bytes,
             100.0 * self.team_fraction(),
             self.intra_robot_bytes,
             self.team_link_budget_bps
         );
+        self.channel_text(s);
         let _ = writeln!(
             s,
             "  radio peak {:.0} bit/s ({}, {:.0} % of budget; bursts up to {:.0} bit/s queued at most {:.1} s)",
@@ -341,6 +396,27 @@ impl Summary {
 /// The message kinds that carry the world model and the plans themselves: the rest of
 /// the team link's bytes are the protocol's overhead.
 const MODEL_KINDS: [&str; 3] = ["report", "plan", "plan_ack"];
+
+impl Summary {
+    /// The shared channel's line (acoustic only: radios are the lines after it).
+    fn channel_text(&self, s: &mut String) {
+        let Some(c) = &self.team_channel else { return };
+        let Some(utilisation) = c.utilisation else {
+            return;
+        };
+        let _ = writeln!(
+            s,
+            "  {} channel (shared by the whole team): on the air {:.1} % of the run; {} frames sent, {} lost; largest frame {} bytes (largest message {} bytes); a message waited up to {:.1} s",
+            c.medium,
+            100.0 * utilisation,
+            c.frames_sent,
+            c.frames_lost,
+            c.largest_frame_bytes,
+            c.largest_message_bytes,
+            c.max_queued_seconds
+        );
+    }
+}
 
 fn round(x: f64) -> f64 {
     (x * 100.0).round() / 100.0

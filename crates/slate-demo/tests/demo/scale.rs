@@ -4,7 +4,7 @@
 use std::time::Duration;
 
 use slate_demo::world::{Layout, STRIP};
-use slate_demo::{DemoConfig, DemoError, run};
+use slate_demo::{DemoConfig, DemoError, TeamLink, run};
 
 use super::support::{config, within};
 
@@ -67,4 +67,69 @@ fn the_summary_reports_the_team_links_overhead_and_bytes_per_robot_minute() {
     let text = s.to_text();
     assert!(text.contains("overhead"), "{text}");
     assert!(text.contains("bytes per robot per minute"), "{text}");
+}
+
+/// A short acoustic run: 2 robots, 20 s of world time, the channel at 400 bit/s.
+fn acoustic_run() -> slate_demo::Summary {
+    within(Duration::from_secs(300), || {
+        let c = config(7)
+            .robots(2)
+            .duration(Duration::from_secs(20))
+            .team_link(TeamLink::acoustic(400));
+        run(c, &mut |_| {}).expect("the demo runs")
+    })
+}
+
+#[test]
+fn an_acoustic_team_link_is_one_shared_channel_of_32_byte_frames() {
+    let s = acoustic_run();
+    let text = s.to_text();
+    let channel = s
+        .team_channel
+        .as_ref()
+        .expect("the simulator measures its channel");
+    assert_eq!(channel.medium, "acoustic");
+    assert_eq!(channel.largest_frame_bytes, 32, "{text}");
+    assert!(channel.largest_message_bytes > 32, "{text}");
+    assert!(channel.frames_lost > 0 && channel.frames_sent > channel.frames_lost);
+    let utilisation = channel.utilisation.expect("a shared channel has one");
+    assert!(utilisation > 0.0 && utilisation <= 1.0, "{text}");
+    let json = s.to_json();
+    assert_eq!(json["team_link"], "acoustic");
+    assert_eq!(json["team_largest_frame_bytes"], 32);
+    assert_eq!(json["team_frames_lost"], channel.frames_lost);
+    assert!(json["team_channel_utilisation"].as_f64().is_some());
+    assert!(text.contains("acoustic channel"), "{text}");
+}
+
+#[test]
+fn the_default_radio_link_sends_a_message_as_one_frame_and_has_no_shared_utilisation() {
+    let s = within(Duration::from_secs(300), || {
+        let c = config(7).robots(2).duration(Duration::from_secs(20));
+        run(c, &mut |_| {}).expect("the demo runs")
+    });
+    let channel = s.team_channel.as_ref().expect("the simulator measures it");
+    assert_eq!(channel.medium, "radio");
+    assert_eq!(channel.largest_frame_bytes, channel.largest_message_bytes);
+    assert_eq!(channel.utilisation, None);
+    assert!(s.to_json()["team_channel_utilisation"].is_null());
+}
+
+#[test]
+fn a_team_rate_of_zero_and_an_acoustic_link_on_zenoh_are_refused() {
+    let zero = DemoConfig::default()
+        .team_link(TeamLink::acoustic(0))
+        .validate();
+    assert!(
+        matches!(&zero, Err(DemoError::Config(m)) if m.contains("--team-rate")),
+        "{zero:?}"
+    );
+    let zenoh = DemoConfig::default()
+        .network(slate_demo::NetworkKind::Zenoh)
+        .team_link(TeamLink::acoustic(400))
+        .validate();
+    assert!(
+        matches!(&zenoh, Err(DemoError::Config(m)) if m.contains("acoustic")),
+        "{zenoh:?}"
+    );
 }
