@@ -50,6 +50,11 @@ pub const ACOUSTIC_FRAME_BYTES: usize = 32;
 /// modem's datasheet figure.
 pub const ACOUSTIC_FRAME_OVERHEAD: Duration = Duration::from_millis(250);
 
+/// The longest a message waits for the acoustic channel before its sender drops it: a
+/// modem's transmit queue holds about a minute of airtime, so an overloaded channel
+/// loses messages rather than delivering them hours late. A modelling choice.
+pub const ACOUSTIC_MAX_QUEUE: Duration = Duration::from_secs(60);
+
 /// The team link between robots: its medium, its declared budget and, on the
 /// simulator, its faults.
 #[derive(Clone, Debug, PartialEq)]
@@ -70,6 +75,9 @@ pub struct TeamLink {
     pub frame_bytes: Option<usize>,
     /// Airtime of every frame besides its bits.
     pub frame_overhead: Duration,
+    /// The longest a message waits for its transmitter before its sender drops it
+    /// (`None`: as long as it takes).
+    pub max_queue: Option<Duration>,
 }
 
 impl Default for TeamLink {
@@ -89,11 +97,13 @@ impl TeamLink {
             jitter: Duration::from_millis(40),
             frame_bytes: None,
             frame_overhead: Duration::ZERO,
+            max_queue: None,
         }
     }
 
     /// One shared acoustic channel of `bps` bit/s: 32-byte frames, 20 % frame loss,
-    /// 1 to 2 s of latency (1 s delay, up to 1 s jitter).
+    /// 1 to 2 s of latency (1 s delay, up to 1 s jitter), and a transmit queue of
+    /// [`ACOUSTIC_MAX_QUEUE`].
     pub fn acoustic(bps: u64) -> TeamLink {
         TeamLink {
             medium: TeamMedium::Acoustic,
@@ -103,6 +113,7 @@ impl TeamLink {
             jitter: Duration::from_secs(1),
             frame_bytes: Some(ACOUSTIC_FRAME_BYTES),
             frame_overhead: ACOUSTIC_FRAME_OVERHEAD,
+            max_queue: Some(ACOUSTIC_MAX_QUEUE),
         }
     }
 

@@ -204,6 +204,9 @@ fn team_link_config(team: &TeamLink) -> LinkConfig {
     if let Some(bytes) = team.frame_bytes {
         link = link.frames(bytes, team.frame_overhead);
     }
+    if let Some(wait) = team.max_queue {
+        link = link.max_queue(wait);
+    }
     link
 }
 

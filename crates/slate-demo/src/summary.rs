@@ -39,6 +39,9 @@ pub struct TeamChannel {
     /// The longest a message waited for its transmitter (the shared channel, for the
     /// acoustic medium), seconds.
     pub max_queued_seconds: f64,
+    /// Messages their senders dropped because they would have waited longer than the
+    /// link's transmit queue allows.
+    pub dropped_msgs: u64,
 }
 
 /// Everything a run measured.
@@ -240,6 +243,7 @@ impl Summary {
             "team_largest_frame_bytes": c.map(|c| c.largest_frame_bytes),
             "team_largest_message_bytes": c.map(|c| c.largest_message_bytes),
             "team_channel_max_queued_seconds": c.map(|c| round(c.max_queued_seconds)),
+            "team_messages_dropped": c.map(|c| c.dropped_msgs),
         });
         match fields {
             Value::Object(map) => map,
@@ -355,20 +359,9 @@ impl Summary {
             self.team_link_budget_bps
         );
         self.channel_text(s);
-        let _ = writeln!(
-            s,
-            "  radio peak {:.0} bit/s ({}, {:.0} % of budget; bursts up to {:.0} bit/s queued at most {:.1} s)",
-            self.team_link_peak_bps,
-            self.team_link_peak_radio,
-            100.0 * self.team_link_peak_bps / self.team_link_budget_bps as f64,
-            self.team_link_offered_peak_bps,
-            self.team_link_max_backlog_seconds,
-        );
-        let _ = writeln!(
-            s,
-            "  all radios together: mean {:.0} bit/s, peak {:.0} bit/s",
-            self.team_link_mean_bps, self.team_channel_peak_bps
-        );
+        if self.team_medium() == "radio" {
+            self.radios_text(s);
+        }
         let kinds = |m: &BTreeMap<String, u64>| {
             let mut v: Vec<_> = m.iter().collect();
             v.sort_by(|a, b| b.1.cmp(a.1));
@@ -398,6 +391,25 @@ impl Summary {
 const MODEL_KINDS: [&str; 3] = ["report", "plan", "plan_ack"];
 
 impl Summary {
+    /// The radios' lines: the busiest radio against the budget, and all together (the
+    /// acoustic channel has its own line instead).
+    fn radios_text(&self, s: &mut String) {
+        let _ = writeln!(
+            s,
+            "  radio peak {:.0} bit/s ({}, {:.0} % of budget; bursts up to {:.0} bit/s queued at most {:.1} s)",
+            self.team_link_peak_bps,
+            self.team_link_peak_radio,
+            100.0 * self.team_link_peak_bps / self.team_link_budget_bps as f64,
+            self.team_link_offered_peak_bps,
+            self.team_link_max_backlog_seconds,
+        );
+        let _ = writeln!(
+            s,
+            "  all radios together: mean {:.0} bit/s, peak {:.0} bit/s",
+            self.team_link_mean_bps, self.team_channel_peak_bps
+        );
+    }
+
     /// The shared channel's line (acoustic only: radios are the lines after it).
     fn channel_text(&self, s: &mut String) {
         let Some(c) = &self.team_channel else { return };
@@ -406,14 +418,15 @@ impl Summary {
         };
         let _ = writeln!(
             s,
-            "  {} channel (shared by the whole team): on the air {:.1} % of the run; {} frames sent, {} lost; largest frame {} bytes (largest message {} bytes); a message waited up to {:.1} s",
+            "  {} channel (shared by the whole team): on the air {:.1} % of the run; {} frames sent, {} lost; largest frame {} bytes (largest message {} bytes); a message waited up to {:.1} s, {} dropped as the queue was full",
             c.medium,
             100.0 * utilisation,
             c.frames_sent,
             c.frames_lost,
             c.largest_frame_bytes,
             c.largest_message_bytes,
-            c.max_queued_seconds
+            c.max_queued_seconds,
+            c.dropped_msgs
         );
     }
 }

@@ -128,6 +128,7 @@ pub(crate) fn team_channel(net: &Network, link: &TeamLink) -> Option<TeamChannel
         largest_frame_bytes: channel.largest_frame,
         largest_message_bytes: channel.largest_message,
         max_queued_seconds: max_queued.as_secs_f64(),
+        dropped_msgs: channel.dropped,
     })
 }
 

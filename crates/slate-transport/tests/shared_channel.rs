@@ -214,3 +214,19 @@ fn a_shared_channel_run_is_the_same_for_the_same_seed() {
     };
     assert_eq!(run(9), run(9));
 }
+
+#[test]
+fn a_full_transmit_queue_drops_what_would_wait_too_long() {
+    let net = net_with(acoustic(0.0).max_queue(Duration::from_secs(2)), 6);
+    let (tx, arrivals) = team(&net, &["team/r1/m", "team/r2/m"]);
+    // 420 ms a frame: the sixth message would wait 2.1 s, longer than the bound.
+    for i in 0..10 {
+        let t = &tx[i % 2];
+        t.publish(LinkKind::Team, MsgKind::Report, &[2; FRAME])
+            .unwrap();
+    }
+    net.run_for(Duration::from_secs(10));
+    let channel = net.stats().channels[&LinkKind::Team];
+    assert_eq!(arrivals.got.lock().unwrap().len(), 5);
+    assert_eq!((channel.frames_sent, channel.dropped), (5, 5));
+}

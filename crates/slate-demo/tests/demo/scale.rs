@@ -133,3 +133,27 @@ fn a_team_rate_of_zero_and_an_acoustic_link_on_zenoh_are_refused() {
         "{zenoh:?}"
     );
 }
+
+#[test]
+fn an_acoustic_summary_shows_its_channel_and_not_per_robot_radios() {
+    let text = acoustic_run().to_text();
+    assert!(text.contains("on the one shared channel"), "{text}");
+    assert!(!text.contains("radio peak"), "{text}");
+    assert!(!text.contains("all radios together"), "{text}");
+}
+
+#[test]
+fn an_overloaded_acoustic_channel_drops_what_would_wait_beyond_its_queue() {
+    let s = acoustic_run();
+    let channel = s.team_channel.as_ref().expect("the simulator measures it");
+    let bound = TeamLink::acoustic(400)
+        .max_queue
+        .expect("the acoustic link bounds its queue");
+    assert!(channel.dropped_msgs > 0, "{}", s.to_text());
+    assert!(
+        channel.max_queued_seconds <= bound.as_secs_f64(),
+        "{}",
+        s.to_text()
+    );
+    assert_eq!(s.to_json()["team_messages_dropped"], channel.dropped_msgs);
+}

@@ -41,6 +41,11 @@ pub struct LinkConfig {
     pub frame_bytes: Option<usize>,
     /// Extra airtime of every frame: preamble, synchronisation, turn-around guard.
     pub frame_overhead: Duration,
+    /// The longest a message may wait for its transmitter: one that would wait longer
+    /// is dropped by the sender (a modem's transmit queue is finite), so an overloaded
+    /// link neither delivers hours late nor holds an ever-growing queue. Counted in
+    /// [`Channel::dropped`](crate::Channel::dropped). `None`: it waits as long as it takes.
+    pub max_queue: Option<Duration>,
 }
 
 impl LinkConfig {
@@ -55,6 +60,7 @@ impl LinkConfig {
             shared: false,
             frame_bytes: None,
             frame_overhead: Duration::ZERO,
+            max_queue: None,
         }
     }
 
@@ -99,6 +105,12 @@ impl LinkConfig {
     pub fn frames(mut self, bytes: usize, overhead: Duration) -> Self {
         self.frame_bytes = Some(bytes.max(1));
         self.frame_overhead = overhead;
+        self
+    }
+
+    /// Bounds how long a message may wait for its transmitter.
+    pub fn max_queue(mut self, wait: Duration) -> Self {
+        self.max_queue = Some(wait);
         self
     }
 

@@ -273,6 +273,25 @@ impl Net {
         (start, airtime)
     }
 
+    /// Drops a message (and counts it) if the transmitter `from` uses on `link` is
+    /// already reserved further ahead than the link's `max_queue`.
+    fn drop_if_queue_full(&mut self, from: usize, link: LinkKind, cfg: &LinkConfig) -> bool {
+        let Some(max) = cfg.max_queue else {
+            return false;
+        };
+        let key = if cfg.shared { SHARED } else { from };
+        let until = self
+            .busy_until
+            .get(&(key, link))
+            .copied()
+            .unwrap_or_default();
+        let full = until.saturating_sub(self.now) > max;
+        if full {
+            self.stats.channels.entry(link).or_default().dropped += 1;
+        }
+        full
+    }
+
     fn count_radio(
         &mut self,
         from: usize,
@@ -371,6 +390,9 @@ impl Net {
             return Ok(());
         }
         let cfg = self.link_config(link);
+        if self.drop_if_queue_full(from, link, &cfg) {
+            return Ok(());
+        }
         let (start, airtime) = self.transmit(from, link, &cfg, payload.len(), 1);
         let payload: Arc<[u8]> = payload.into();
         for to in receivers {
@@ -433,6 +455,9 @@ impl Net {
             return Ok(());
         };
         let cfg = self.link_config(link);
+        if self.drop_if_queue_full(from, link, &cfg) {
+            return Ok(());
+        }
         let frames = cfg.frame_count(payload.len());
         let (attempts, delivered) = self.attempts(link, cfg.loss, frames);
         let (start, airtime) = self.transmit(from, link, &cfg, payload.len(), attempts);

@@ -75,6 +75,9 @@ pub struct Channel {
     pub largest_message: usize,
     /// Airtime reserved so far, queued transmissions included.
     pub airtime: Duration,
+    /// Messages the senders dropped because they would have waited longer than the
+    /// link's `max_queue` (never on the air, in no other counter).
+    pub dropped: u64,
 }
 
 /// Everything a [`SimNet`](crate::SimNet) counted. Same seed, same scenario: same stats.
