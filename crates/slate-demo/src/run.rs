@@ -67,10 +67,7 @@ impl Demo {
         config.validate()?;
         let net = match config.network {
             NetworkKind::Sim => Network::sim(config.seed, &config.team_link),
-            #[cfg(feature = "zenoh")]
             NetworkKind::Zenoh => Network::zenoh(),
-            #[cfg(not(feature = "zenoh"))]
-            NetworkKind::Zenoh => unreachable!("validate refuses zenoh without the feature"),
         };
         let layout = Layout::generate(config.seed, config.robots);
         let world = World::new(&layout, config.seed);
@@ -243,6 +240,7 @@ impl Demo {
             plans_accepted: accepted,
             plans_rejected: rejected,
             events: self.observer.events.len(),
+            team_channel: crate::traffic::team_channel(&self.net, &self.config.team_link),
         }
     }
 

@@ -11,7 +11,9 @@ use std::collections::BTreeMap;
 
 use slate_ici::{LinkKind, MsgKind};
 
+use crate::config::{TeamLink, TeamMedium};
 use crate::net::Network;
+use crate::summary::TeamChannel;
 use crate::team::Team;
 
 /// Bytes per (robot or `base`, link kind), cumulative.
@@ -105,6 +107,29 @@ impl LinkRates {
             .map(|(_, b)| b)
             .sum()
     }
+}
+
+/// The team link's air as the simulator measured it (`None` on Zenoh).
+pub(crate) fn team_channel(net: &Network, link: &TeamLink) -> Option<TeamChannel> {
+    let (channel, stats, utilisation) = net.team_channel()?;
+    let max_queued = stats
+        .radios
+        .iter()
+        .filter(|((_, l), _)| *l == LinkKind::Team)
+        .map(|(_, r)| r.max_queued)
+        .max()
+        .unwrap_or_default();
+    let shared = link.medium == TeamMedium::Acoustic;
+    Some(TeamChannel {
+        medium: link.medium.name().to_owned(),
+        utilisation: shared.then_some(utilisation),
+        frames_sent: channel.frames_sent,
+        frames_lost: channel.frames_lost,
+        largest_frame_bytes: channel.largest_frame,
+        largest_message_bytes: channel.largest_message,
+        max_queued_seconds: max_queued.as_secs_f64(),
+        dropped_msgs: channel.dropped,
+    })
 }
 
 /// Cumulative bytes per (robot, link kind).
