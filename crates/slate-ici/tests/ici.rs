@@ -15,6 +15,9 @@ mod faults;
 // Report policies: fewer messages, never a lost final value.
 #[path = "ici/filters.rs"]
 mod filters;
+// Gateway election: one module speaks for its robot on the team link.
+#[path = "ici/gateway.rs"]
+mod gateway;
 // Interest (what a board models) and export policy (what leaves a robot).
 #[path = "ici/interest.rs"]
 mod interest;

@@ -63,6 +63,116 @@ pub struct IciConfig {
     /// hellos say so, and the boards it meets forget it as soon as it leaves instead of
     /// after `forget_dead`, so it leaves no trace (default false).
     pub observer: bool,
+    /// The team protocol of docs/team-protocol.md (one speaker per robot on the team
+    /// link): `Some` turns it on with these settings; `None` (the default) keeps the
+    /// per-module team protocol of docs/ici.md. A switch while the new path is built.
+    pub team_protocol: Option<TeamProtocol>,
+}
+
+/// Whether a member listens to the team link itself (docs/team-protocol.md, 2.1).
+#[non_exhaustive]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Listen {
+    /// When its interest meets a class another robot exports.
+    Auto,
+    /// Always.
+    Always,
+    /// Never: it gets what it models from its robot's gateway.
+    Never,
+}
+
+/// The settings of the team protocol (docs/team-protocol.md, section 4 step 7). The
+/// robot heartbeat's idle period and the robot silence timeout are
+/// [`IciConfig::team`]. Presets: [`TeamProtocol::radio`], [`TeamProtocol::acoustic`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct TeamProtocol {
+    /// The rank of this module in its robot's gateway election (lowest first, ties by
+    /// address); `None`: never gateway.
+    pub priority: Option<u8>,
+    /// Whether this module listens to the team link.
+    pub listen: Listen,
+    /// The largest frame the gateway publishes, in bytes.
+    pub mtu: usize,
+    /// How long the gateway holds an open frame after its first message.
+    pub batch: Duration,
+    /// A gap in a robot stream stays open this long before it is NACKed.
+    pub gap_grace: Duration,
+    /// The upper bound of the NACK's random back-off.
+    pub nack_backoff: Duration,
+    /// How long a NACK round waits for its repair.
+    pub repair_wait: Duration,
+    /// How long the gateway gathers NACKs before it repairs.
+    pub repair_gather: Duration,
+    /// Positions repaired this recently are not repaired again.
+    pub repair_holdoff: Duration,
+    /// The most positions of one stream a receiver NACKs; more asks for state.
+    pub max_nack_frames: u64,
+    /// State requests for one member are merged over this interval.
+    pub answer_interval: Duration,
+    /// The gateway says its robot hello at most this often.
+    pub hello_min_interval: Duration,
+    /// The history's byte limit.
+    pub history_bytes: usize,
+    /// The history's age limit.
+    pub history_age: Duration,
+    /// The gateway's token bucket rate, in bits per second.
+    pub rate_bps: u32,
+    /// Every this many robot heartbeats is a full one (all members' inner positions).
+    pub full_every: u32,
+    /// Bytes of recent frames of each remote stream a listening gateway keeps, to
+    /// answer its members' `Want`s.
+    pub foreign_cache: usize,
+}
+
+impl TeamProtocol {
+    /// The radio preset (9600 bit/s, about 100 ms one way, 5 % loss).
+    pub fn radio() -> Self {
+        TeamProtocol {
+            priority: Some(0),
+            listen: Listen::Auto,
+            mtu: 1024,
+            batch: Duration::from_millis(250),
+            gap_grace: Duration::from_millis(100),
+            nack_backoff: Duration::from_millis(300),
+            repair_wait: Duration::from_secs(1),
+            repair_gather: Duration::from_millis(50),
+            repair_holdoff: Duration::from_millis(300),
+            max_nack_frames: 64,
+            answer_interval: Duration::from_secs(2),
+            hello_min_interval: Duration::from_secs(1),
+            history_bytes: 64 * 1024,
+            history_age: Duration::from_secs(60),
+            rate_bps: 9600 * 8 / 10,
+            full_every: 30,
+            foreign_cache: 16 * 1024,
+        }
+    }
+
+    /// The acoustic preset (32-byte modem frames, 400 bit/s, 1-2 s one way).
+    pub fn acoustic() -> Self {
+        TeamProtocol {
+            mtu: 32,
+            batch: Duration::from_secs(2),
+            gap_grace: Duration::from_secs(1),
+            nack_backoff: Duration::from_secs(4),
+            repair_wait: Duration::from_secs(10),
+            repair_gather: Duration::from_secs(1),
+            repair_holdoff: Duration::from_secs(4),
+            answer_interval: Duration::from_secs(30),
+            hello_min_interval: Duration::from_secs(30),
+            history_bytes: 4 * 1024,
+            history_age: Duration::from_secs(600),
+            rate_bps: 400 * 7 / 10,
+            full_every: 5,
+            ..TeamProtocol::radio()
+        }
+    }
+
+    /// Sets the election priority (`None`: never gateway).
+    pub fn priority(mut self, priority: Option<u8>) -> Self {
+        self.priority = priority;
+        self
+    }
 }
 
 impl Default for IciConfig {
@@ -86,6 +196,7 @@ impl Default for IciConfig {
             forget_dead: Duration::from_secs(600),
             max_sources: slate_wire::MAX_SOURCES,
             observer: false,
+            team_protocol: None,
         }
     }
 }
@@ -124,6 +235,12 @@ impl IciConfig {
     /// Makes this module a short-lived observer, forgotten as soon as it leaves.
     pub fn observer(mut self, observer: bool) -> Self {
         self.observer = observer;
+        self
+    }
+
+    /// Turns the team protocol on with these settings (`None`: off).
+    pub fn team_protocol(mut self, team_protocol: Option<TeamProtocol>) -> Self {
+        self.team_protocol = team_protocol;
         self
     }
 

@@ -23,18 +23,27 @@ pub(crate) const MAX_NAME: u64 = slate_wire::MAX_NAME_BYTES as u64;
 /// A module's hello: which incarnation it is and what it models; `reply` when it
 /// answers the other's hello (a hello that is not a reply is answered by one, so its
 /// sender knows it was heard); `observer` when its sender is a short-lived observer, to
-/// be forgotten as soon as it leaves.
+/// be forgotten as soon as it leaves. With the team protocol on, a robot-link hello
+/// also says whether its sender may be its robot's gateway (`priority`, lowest wins)
+/// and listens to the team link (`listener`); hellos without them decode as before.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Hello {
     pub incarnation: u64,
     pub interest: ClassSet,
     pub reply: bool,
     pub observer: bool,
+    /// Eligible as gateway, with this election priority.
+    pub priority: Option<u8>,
+    pub listener: bool,
 }
 
 /// The bits of a hello's flags byte.
 const HELLO_REPLY: u8 = 1;
 const HELLO_OBSERVER: u8 = 2;
+/// Followed by the priority byte.
+const HELLO_ELIGIBLE: u8 = 4;
+const HELLO_LISTENER: u8 = 8;
+const HELLO_FLAGS: u8 = HELLO_REPLY | HELLO_OBSERVER | HELLO_ELIGIBLE | HELLO_LISTENER;
 
 /// An object as a source lists it: name, class (with the fingerprint of its
 /// definition, as slate-wire computes it), context on the source's board.
@@ -137,8 +146,8 @@ impl Frame {
                     w.str(class);
                     w.0.push(*mask);
                 }
-                let observer = if h.observer { HELLO_OBSERVER } else { 0 };
-                w.0.push(u8::from(h.reply) | observer);
+                w.0.push(hello_flags(h));
+                w.0.extend(h.priority);
             }
             Frame::Lifecycle(l) => write_lifecycle(&mut w, l),
             Frame::ObjectList(o) => {
@@ -166,6 +175,14 @@ impl Frame {
         }
         Ok(frame)
     }
+}
+
+fn hello_flags(h: &Hello) -> u8 {
+    let bit = |on: bool, bit: u8| if on { bit } else { 0 };
+    bit(h.reply, HELLO_REPLY)
+        | bit(h.observer, HELLO_OBSERVER)
+        | bit(h.priority.is_some(), HELLO_ELIGIBLE)
+        | bit(h.listener, HELLO_LISTENER)
 }
 
 fn write_lifecycle(w: &mut Writer, l: &Lifecycle) {
@@ -296,14 +313,21 @@ fn read_hello(r: &mut Reader<'_>) -> Result<Hello, FrameError> {
         interest = interest.with(&class, mask);
     }
     let flags = r.byte()?;
-    if flags & !(HELLO_REPLY | HELLO_OBSERVER) != 0 {
+    if flags & !HELLO_FLAGS != 0 {
         return Err(FrameError::Bad("hello flags"));
     }
+    let priority = if flags & HELLO_ELIGIBLE != 0 {
+        Some(r.byte()?)
+    } else {
+        None
+    };
     Ok(Hello {
         incarnation,
         interest,
         reply: flags & HELLO_REPLY != 0,
         observer: flags & HELLO_OBSERVER != 0,
+        priority,
+        listener: flags & HELLO_LISTENER != 0,
     })
 }
 
@@ -367,6 +391,16 @@ mod tests {
                     .class_in("Rock", &[Context::Self_]),
                 reply: true,
                 observer: false,
+                priority: None,
+                listener: false,
+            }),
+            Frame::Hello(Hello {
+                incarnation: 9,
+                interest: ClassSet::none().class("Vehicle"),
+                reply: false,
+                observer: false,
+                priority: Some(3),
+                listener: true,
             }),
             Frame::Lifecycle(Lifecycle {
                 seq: 300,
@@ -396,20 +430,50 @@ mod tests {
             interest: ClassSet::none(),
             reply,
             observer,
+            priority: None,
+            listener: false,
         };
         for (reply, observer) in [(false, true), (true, true), (false, false)] {
             let f = Frame::Hello(hello(reply, observer));
             assert_eq!(Frame::decode(&f.encode()), Ok(f));
         }
         let mut bytes = Frame::Hello(hello(false, true)).encode();
-        *bytes.last_mut().unwrap() |= 4;
+        *bytes.last_mut().unwrap() |= 16;
         assert!(Frame::decode(&bytes).is_err());
+    }
+
+    #[test]
+    fn an_old_hello_without_the_gateway_flags_still_decodes() {
+        // Incarnation 3, no interest, flags: observer (as written before step 7).
+        let old = [1, 3, 0, HELLO_OBSERVER];
+        let Ok(Frame::Hello(h)) = Frame::decode(&old) else {
+            panic!("the old hello was refused");
+        };
+        assert_eq!((h.priority, h.listener, h.observer), (None, false, true));
+    }
+
+    #[test]
+    fn an_eligible_hello_carries_its_priority_after_the_flags() {
+        let hello = Hello {
+            incarnation: 3,
+            interest: ClassSet::none(),
+            reply: false,
+            observer: false,
+            priority: Some(7),
+            listener: true,
+        };
+        let bytes = Frame::Hello(hello).encode();
+        assert_eq!(bytes[3..], [HELLO_ELIGIBLE | HELLO_LISTENER, 7]);
+        assert!(
+            Frame::decode(&bytes[..4]).is_err(),
+            "the priority is missing"
+        );
     }
 
     #[test]
     fn frames_start_with_version_zero_and_their_kind() {
         let kinds: Vec<u8> = samples().iter().map(|f| f.encode()[0]).collect();
-        assert_eq!(kinds, [1, 2, 3]);
+        assert_eq!(kinds, [1, 1, 2, 3]);
     }
 
     #[test]
@@ -432,7 +496,7 @@ mod tests {
         }
 
         #[test]
-        fn mutated_frames_never_panic(i in 0usize..3, at in 0usize..64, byte in any::<u8>()) {
+        fn mutated_frames_never_panic(i in 0usize..4, at in 0usize..64, byte in any::<u8>()) {
             let mut bytes = samples()[i].encode();
             let at = at % bytes.len();
             bytes[at] = byte;

@@ -28,7 +28,7 @@ use slate_model::{Address, Board, ClockListener, DefineError, Filter, LookupErro
 use slate_wire::{EncodeError, Encoder, Message, Schema};
 
 pub use classes::ClassSet;
-pub use config::{IciConfig, Liveliness};
+pub use config::{IciConfig, Listen, Liveliness, TeamProtocol};
 pub use module::{MODULE_CLASS, module_class, module_object_name};
 use ops::BoardOp;
 use state::State;
@@ -179,6 +179,11 @@ impl Ici {
     /// Runs the timers due now (heartbeats, trailing edges, timeouts, retries).
     pub fn tick(&self) {
         self.shared.with_state(State::tick);
+    }
+
+    /// The gateway of this module's robot as this module sees it (team protocol on).
+    pub fn gateway(&self) -> Option<Address> {
+        self.shared.state.lock().gateway()
     }
 
     /// Counters so far.

@@ -184,6 +184,11 @@ impl State {
         // Replies say it too: an observer's own hello may be lost, and it may be gone
         // before it says hello again.
         self.peer(from).observer = hello.observer;
+        if !hello.reply {
+            let p = self.peer(from);
+            p.priority = hello.priority;
+            p.listener = hello.listener;
+        }
         if hello.reply {
             // It heard this module's hello; what else it says of itself came with its own.
             self.peer(from).hello_unanswered = None;

@@ -78,6 +78,11 @@ pub(crate) struct Peer {
     /// waits for the answer interval to pass (see `State::on_request`).
     pub answered: Option<Duration>,
     pub deferred: Option<slate_wire::CatchUpRequest>,
+    /// A mate's election priority, from its robot-link hello (`None`: not eligible, or
+    /// no hello with the team protocol heard).
+    pub priority: Option<u8>,
+    /// A mate's hello says it listens to the team link.
+    pub listener: bool,
 }
 
 impl Peer {
@@ -99,6 +104,8 @@ impl Peer {
             observer: false,
             answered: None,
             deferred: None,
+            priority: None,
+            listener: false,
         }
     }
 }
@@ -290,6 +297,22 @@ impl State {
             .filter(|(_, p)| p.up && p.link == link)
             .map(|(a, _)| a.clone())
             .collect()
+    }
+
+    /// The gateway of this module's robot (docs/team-protocol.md, 2.1): the live,
+    /// eligible member with the smallest `(priority, address)`, this module included,
+    /// as this module's robot-link view has it. `None` with the team protocol off, or
+    /// when no member is eligible. No messages of its own: mates that heard the same
+    /// hellos agree.
+    pub fn gateway(&self) -> Option<Address> {
+        let protocol = self.config.team_protocol.as_ref()?;
+        let me = protocol.priority.map(|p| (p, &self.me));
+        let mates = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.link == LinkKind::Robot && p.alive == Some(true))
+            .filter_map(|(a, p)| Some((p.priority?, a)));
+        me.into_iter().chain(mates).min().map(|(_, a)| a.clone())
     }
 
     /// Sends one message reliably to `to`, counting it.

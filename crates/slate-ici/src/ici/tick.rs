@@ -233,12 +233,28 @@ impl State {
         } else {
             self.config.interest.clone()
         };
+        let (priority, listener) = self.election_flags(to);
         let hello = Hello {
             incarnation: self.incarnation,
             interest,
             reply,
             observer: self.config.observer,
+            priority,
+            listener,
         };
         self.send_to(to, MsgKind::Hello, &Frame::Hello(hello).encode());
+    }
+
+    /// What a hello to `to` says for the gateway election: only on the robot link and
+    /// with the team protocol on (otherwise the hello is as before step 7).
+    fn election_flags(&self, to: &Address) -> (Option<u8>, bool) {
+        let Some(protocol) = &self.config.team_protocol else {
+            return (None, false);
+        };
+        if LinkKind::between(&self.me, to) != LinkKind::Robot {
+            return (None, false);
+        }
+        let listener = protocol.listen != crate::ici::Listen::Never;
+        (protocol.priority, listener)
     }
 }
