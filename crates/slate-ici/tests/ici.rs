@@ -36,6 +36,9 @@ mod random;
 // A team on a simulated network, and the convergence check (the helper module).
 #[path = "ici/support.rs"]
 mod support;
+// The team protocol switched on: gateways, frames, convergence, liveliness.
+#[path = "ici/team.rs"]
+mod team;
 // The ICI under threads: writers on several threads, no deadlock, boards agree.
 #[path = "ici/threads.rs"]
 mod threads;

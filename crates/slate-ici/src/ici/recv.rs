@@ -28,12 +28,13 @@ impl State {
         self.heard(from);
         match kind {
             MsgKind::Hello | MsgKind::Lifecycle | MsgKind::ObjectList => self.on_frame(from, bytes),
+            k if super::team::is_team_kind(k) => self.on_team(from, bytes),
             _ => self.on_wire(from, kind, bytes),
         }
     }
 
     /// Anything from a peer shows it alive.
-    fn heard(&mut self, from: &Address) {
+    pub(crate) fn heard(&mut self, from: &Address) {
         let now = self.now;
         let timeout = self.config.link(LinkKind::between(&self.me, from)).timeout;
         let p = self.peer(from);
@@ -195,31 +196,45 @@ impl State {
             return;
         }
         self.hello(from, true);
-        let p = self.peer(from);
-        // Another incarnation than the one heard before; or the first hello heard from a
-        // source whose stream this board followed before that incarnation began (the
-        // previous incarnation's hellos were lost): its positions and the objects heard
-        // on it must not stand for the new incarnation's.
-        let restarted = match p.incarnation {
-            Some(i) => i != hello.incarnation,
-            None => p.newest.is_some_and(|t| t.raw() < hello.incarnation),
-        };
-        p.incarnation = Some(hello.incarnation);
-        p.interest = Some(hello.interest);
+        let restarted = self.take_incarnation(from, hello.incarnation);
+        self.peer(from).interest = Some(hello.interest);
         if restarted {
-            p.stream = Inbound::default();
-            p.newest = None;
-            p.catch_up = None;
-            p.caught_up = false;
-            self.stats.liveliness.restarts += 1;
-            self.decoder.forget(from);
-            self.forget_origins(from);
+            self.member_restarted(from);
             // The new incarnation knows nothing of this module yet (a restart quick
             // enough not to show as the peer going down tells no one to say hello).
             self.send_hello(from);
             self.request_catch_up(from, true, false);
             self.relay_orphans(from);
         }
+    }
+
+    /// Takes a source's incarnation (from its hello, or its robot's): did it restart?
+    /// Another incarnation than the one heard before; or the first heard from a source
+    /// whose stream this board followed before that incarnation began (the previous
+    /// incarnation's hellos were lost): its positions and the objects heard on it must
+    /// not stand for the new incarnation's.
+    pub(crate) fn take_incarnation(&mut self, from: &Address, incarnation: u64) -> bool {
+        let p = self.peer(from);
+        let restarted = match p.incarnation {
+            Some(i) => i != incarnation,
+            None => p.newest.is_some_and(|t| t.raw() < incarnation),
+        };
+        p.incarnation = Some(incarnation);
+        restarted
+    }
+
+    /// The restart rule: what was known of a source's previous incarnation (stream
+    /// position, names, catch-up, the origins of its objects) is forgotten. Shared by
+    /// the module hello and the robot hello's member list.
+    pub(crate) fn member_restarted(&mut self, from: &Address) {
+        let p = self.peer(from);
+        p.stream = Inbound::default();
+        p.newest = None;
+        p.catch_up = None;
+        p.caught_up = false;
+        self.stats.liveliness.restarts += 1;
+        self.decoder.forget(from);
+        self.forget_origins(from);
     }
 
     /// A restarted source owns only what its new incarnation lists: what this board

@@ -57,7 +57,7 @@ pub(crate) struct Subject {
 impl Item {
     /// Class chain, context, owner (`me` for a creation or deletion: only own
     /// objects' are sent), and whether it is a class's.
-    fn dest<'a>(&'a self, me: &'a Address) -> (&'a Lineage, Context, &'a Address, bool) {
+    pub(crate) fn dest<'a>(&'a self, me: &'a Address) -> (&'a Lineage, Context, &'a Address, bool) {
         match self {
             Item::Value(s, _) => (&s.lineage, s.object.context, &s.object.owner, s.is_class),
             Item::Created {
@@ -368,6 +368,13 @@ impl State {
             };
         if !exported {
             return Wanted::NotExported;
+        }
+        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+            return if self.team_wants(item) {
+                Wanted::Yes
+            } else {
+                Wanted::NoPeer
+            };
         }
         let wanted = self
             .peers

@@ -179,6 +179,8 @@ pub(crate) struct State {
     pub plans: Vec<super::PlanEvent>,
     /// Buffers kept between drains (a single update is the common case: no allocation).
     pub spare_items: Vec<super::send::Item>,
+    /// The team protocol's state (empty while `config.team_protocol` is `None`).
+    pub team: super::team::TeamState,
 }
 
 impl State {
@@ -228,6 +230,7 @@ impl State {
             ops: Vec::new(),
             plans: Vec::new(),
             spare_items: Vec::new(),
+            team: super::team::TeamState::default(),
         }
     }
 
@@ -327,8 +330,17 @@ impl State {
         }
     }
 
-    /// Publishes one message on `link`, counting it.
+    /// Publishes one message on `link`, counting it. With the team protocol on, a team
+    /// message goes to the robot's gateway instead (`team_out`).
     pub fn publish(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
+        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+            return self.team_out(bytes);
+        }
+        self.publish_now(link, kind, bytes);
+    }
+
+    /// Publishes one message on `link` as it is, counting it.
+    pub fn publish_now(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
         match self.transport.publish(link, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),
             Err(e) => {

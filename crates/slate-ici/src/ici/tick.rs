@@ -18,6 +18,7 @@ impl State {
     pub fn tick(&mut self) {
         self.filter_timers();
         self.heartbeats();
+        self.team_tick();
         self.timeouts();
         self.forget_dead();
         self.catch_up_timers();
@@ -86,7 +87,9 @@ impl State {
             }
             let next = self.now + self.config.link(link).heartbeat;
             self.next_heartbeat.insert(link, next);
-            if self.up_peers(link).is_empty() {
+            // With the team protocol on, the robot heartbeat replaces the module's.
+            let robot_speaks = link == LinkKind::Team && self.config.team_protocol.is_some();
+            if robot_speaks || self.up_peers(link).is_empty() {
                 continue;
             }
             let hb = self.heartbeat(link);
@@ -213,6 +216,11 @@ impl State {
             self.stats.liveliness.found += 1;
             self.set_alive(peer, true);
             self.plans.push(super::PlanEvent::Peer(peer.clone(), true));
+        }
+        let link = LinkKind::between(&self.me, peer);
+        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+            // Liveliness only: no per-pair hello or catch-up on the team link.
+            return self.team_peer_up();
         }
         self.send_hello(peer);
         self.request_catch_up(peer, false, false);

@@ -1,0 +1,328 @@
+//! The ICI's glue for the team protocol's receive side (docs/team-protocol.md, 2.4):
+//! per remote gateway, the robot hello (members, incarnations, liveliness) and the
+//! stream tracker (`Outer`); frames are unwrapped and each member's message handed to
+//! `State::on_message(member, inner)`, today's per-source machinery. Frames that come
+//! before their robot's hello are parked.
+//!
+//! Hooks left for step 10 (NACK and repair) and 11 (state): `stream_changed` is where a
+//! gap is found (`revealed`) or a state must be asked (`ask_state`); repairs, NACKs and
+//! `Gone` are decoded and dropped in `on_team`.
+
+use std::collections::VecDeque;
+
+use slate_model::Address;
+
+use super::frame::{MAX_MEMBERS, PartOf, RobotHeartbeat, RobotHello, TeamFrame, TeamMsg};
+use super::outer::{Change, Fragment, Heard, Outer};
+use crate::ici::state::State;
+use crate::{LinkKind, MsgKind};
+
+/// Frames parked per gateway while its hello is not known; the oldest go first.
+pub(crate) const MAX_PARKED: usize = 64;
+/// Remote gateways followed; past it, the one heard least recently is forgotten.
+pub(crate) const MAX_SPEAKERS: usize = 256;
+
+/// What a receiver holds of one remote gateway's stream.
+#[derive(Debug, Default)]
+pub(crate) struct Speaker {
+    pub hello: Option<RobotHello>,
+    /// The members' addresses, by index (`None`: a name that is no address segment).
+    pub members: Vec<Option<Address>>,
+    pub outer: Option<Outer>,
+    /// The members alive as the last hello or heartbeat said (bit i: member i).
+    pub alive: u32,
+    /// Frames waiting for the hello (at most `MAX_PARKED`).
+    pub parked: VecDeque<TeamFrame>,
+    /// When anything was last heard from it (to forget the stalest past the limit).
+    pub last_heard: std::time::Duration,
+}
+
+/// Is this a team protocol frame (which never travels inside another)?
+pub(crate) fn is_team_kind(kind: MsgKind) -> bool {
+    use MsgKind::*;
+    matches!(
+        kind,
+        TeamFrame
+            | TeamRepair
+            | RobotHello
+            | RobotHeartbeat
+            | Nack
+            | Gone
+            | Uplink
+            | Want
+            | StateRequest
+            | TeamInterest
+            | Fill
+    )
+}
+
+impl State {
+    /// A team protocol frame from `from` (the switch off: refused and counted).
+    pub(crate) fn on_team(&mut self, from: &Address, bytes: &[u8]) {
+        if self.config.team_protocol.is_none() {
+            self.team.counts.refused += 1;
+            return;
+        }
+        let msg = match TeamMsg::decode(bytes) {
+            Ok(msg) => msg,
+            Err(e) => {
+                self.team.counts.refused += 1;
+                return tracing::debug!(from = %from, error = %e, "team frame refused");
+            }
+        };
+        let team_link = LinkKind::between(&self.me, from) == LinkKind::Team;
+        match msg {
+            TeamMsg::Frame(f) if team_link => self.on_team_frame(from, f),
+            TeamMsg::Hello(h) if team_link => self.on_robot_hello(from, h),
+            TeamMsg::Heartbeat(hb) if team_link => self.on_robot_heartbeat(from, hb),
+            TeamMsg::Uplink(up) if !team_link => self.on_uplink(from, up),
+            TeamMsg::Interest(i) if !team_link => self.on_team_interest(i),
+            // Repairs, NACKs, Gone, Want, StateRequest, Fill: steps 10 and 11.
+            _ => self.team.counts.refused += 1,
+        }
+    }
+
+    /// The speaker entry of gateway `from`, made on first mention (the stalest one is
+    /// forgotten past `MAX_SPEAKERS`).
+    fn speaker(&mut self, from: &Address) -> &mut Speaker {
+        if !self.team.speakers.contains_key(from) && self.team.speakers.len() >= MAX_SPEAKERS {
+            let stalest = self.team.speakers.iter().min_by_key(|(_, s)| s.last_heard);
+            if let Some(old) = stalest.map(|(a, _)| a.clone()) {
+                self.team.speakers.remove(&old);
+            }
+        }
+        let now = self.now;
+        let s = self.team.speakers.entry(from.clone()).or_default();
+        s.last_heard = now;
+        s
+    }
+
+    fn on_team_frame(&mut self, from: &Address, frame: TeamFrame) {
+        let (now, max_nack) = (self.now, self.max_nack_frames());
+        let s = self.speaker(from);
+        let Some(tag) = s.hello.as_ref().map(|h| h.tag.0) else {
+            return self.park(from, frame);
+        };
+        let outer = s.outer.get_or_insert_with(|| Outer::new(tag, max_nack));
+        let Heard::Fresh(change) = outer.receive(tag, frame.seq, now) else {
+            return;
+        };
+        self.stream_changed(from, change);
+        self.vouch(from);
+        self.unwrap_frame(from, frame);
+    }
+
+    fn max_nack_frames(&self) -> u64 {
+        self.config
+            .team_protocol
+            .as_ref()
+            .map_or(64, |p| p.max_nack_frames)
+    }
+
+    /// Keeps a frame until its robot's hello comes (step 10 NACKs the hello here).
+    fn park(&mut self, from: &Address, frame: TeamFrame) {
+        self.team.counts.parked += 1;
+        let s = self.speaker(from);
+        if s.parked.len() >= MAX_PARKED {
+            s.parked.pop_front();
+            self.team.counts.parked_dropped += 1;
+        }
+        self.speaker(from).parked.push_back(frame);
+    }
+
+    /// What a frame or heartbeat showed of the stream. The hooks of steps 10 and 11.
+    fn stream_changed(&mut self, from: &Address, change: Change) {
+        if let Some((first, n)) = change.revealed {
+            // Step 10: `NackScheduler::gap_found` for these positions.
+            tracing::trace!(gateway = %from, first, n, "robot stream gap");
+        }
+        if change.ask_state {
+            // Step 11: ask the members' state (2.6, case b).
+            tracing::debug!(gateway = %from, "robot stream jumped a gap too large to repair");
+        }
+    }
+
+    /// Hands each part's message on; fragments are reassembled first.
+    fn unwrap_frame(&mut self, from: &Address, frame: TeamFrame) {
+        for part in frame.parts {
+            match part.of {
+                PartOf::Member(i) if part.cont || part.more => {
+                    let piece = Fragment {
+                        member: i,
+                        cont: part.cont,
+                        more: part.more,
+                        bytes: &part.bytes,
+                    };
+                    let outer = self.speaker(from).outer.as_mut();
+                    let whole = outer.and_then(|o| o.fragment(frame.seq, piece));
+                    whole
+                        .into_iter()
+                        .for_each(|r| self.deliver(from, r.member, &r.bytes));
+                }
+                PartOf::Member(i) => self.deliver(from, i, &part.bytes),
+                PartOf::Control => self.on_control_part(from, &part.bytes),
+                // Step 12: addressed parts (plans, acks, explicit reports).
+                PartOf::Addressed { .. } => {}
+            }
+        }
+    }
+
+    fn on_control_part(&mut self, from: &Address, bytes: &[u8]) {
+        match TeamMsg::decode(bytes) {
+            Ok(TeamMsg::Heartbeat(hb)) => self.on_robot_heartbeat(from, hb),
+            // Step 10: a NACK riding in a data frame.
+            _ => self.team.counts.refused += 1,
+        }
+    }
+
+    /// One member's message, to today's receive path as if the member had sent it.
+    fn deliver(&mut self, from: &Address, member: u8, bytes: &[u8]) {
+        let s = self.speaker(from);
+        let Some(Some(source)) = s.members.get(usize::from(member)).cloned() else {
+            self.team.counts.refused += 1;
+            return;
+        };
+        if is_team_kind(MsgKind::of(bytes)) {
+            // A team frame inside a team frame: refused, so nesting cannot recurse.
+            self.team.counts.refused += 1;
+            return;
+        }
+        self.on_message(&source, bytes);
+    }
+
+    /// A robot hello: its members (incarnations, restarts, liveliness), a new epoch if
+    /// the tag is new; the frames parked for it are handed on.
+    fn on_robot_hello(&mut self, from: &Address, hello: RobotHello) {
+        let max_nack = self.max_nack_frames();
+        let s = self.speaker(from);
+        if s.hello
+            .as_ref()
+            .is_some_and(|h| hello.gw_incarnation < h.gw_incarnation)
+        {
+            return; // A late hello of an earlier epoch.
+        }
+        match &mut s.outer {
+            Some(o) if o.tag() != hello.tag.0 => o.restart(hello.tag.0),
+            Some(_) => {}
+            None => s.outer = Some(Outer::new(hello.tag.0, max_nack)),
+        }
+        s.members = hello
+            .members
+            .iter()
+            .map(|m| member_address(from, &m.name))
+            .collect();
+        s.alive = hello
+            .members
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.alive)
+            .fold(0, |b, (i, _)| b | 1 << i);
+        for (i, m) in hello.members.iter().enumerate() {
+            let Some(Some(addr)) = self.speaker(from).members.get(i).cloned() else {
+                continue;
+            };
+            self.member_hello(&addr, m.incarnation);
+        }
+        self.speaker(from).hello = Some(hello);
+        self.team.interest_dirty = true;
+        self.apply_alive(from);
+        let parked: Vec<TeamFrame> = self.speaker(from).parked.drain(..).collect();
+        parked.into_iter().for_each(|f| self.on_team_frame(from, f));
+    }
+
+    /// A member's incarnation as its robot's hello says it: a new one runs today's
+    /// restart rule for that member (its new stream comes from inner position 1).
+    fn member_hello(&mut self, member: &Address, incarnation: u64) {
+        if self
+            .peer(member)
+            .incarnation
+            .is_some_and(|i| incarnation < i)
+        {
+            self.stats.rejects.stale += 1;
+            return;
+        }
+        if self.take_incarnation(member, incarnation) {
+            self.member_restarted(member);
+            self.relay_orphans(member);
+        }
+    }
+
+    /// A robot heartbeat: the stream's position and the members' liveliness.
+    fn on_robot_heartbeat(&mut self, from: &Address, hb: RobotHeartbeat) {
+        let now = self.now;
+        let s = self.speaker(from);
+        let Some(hello) = &s.hello else {
+            return; // Step 10: NACK the hello.
+        };
+        if hello.tag != hb.tag {
+            return; // Another epoch whose hello was not heard (step 10: NACK it).
+        }
+        let Some(change) = s
+            .outer
+            .as_mut()
+            .and_then(|o| o.announce(hb.tag.0, hb.seq, now))
+        else {
+            return;
+        };
+        s.alive = hb.alive & ((1u32 << MAX_MEMBERS) - 1);
+        self.stream_changed(from, change);
+        self.apply_alive(from);
+    }
+
+    /// Members the robot says are alive are heard (vouched for); those it says are
+    /// dead are lost.
+    fn apply_alive(&mut self, from: &Address) {
+        let s = self.speaker(from);
+        let bits = s.alive;
+        let members: Vec<(usize, Address)> = s
+            .members
+            .iter()
+            .enumerate()
+            .filter_map(|(i, a)| Some((i, a.clone()?)))
+            .collect();
+        for (i, member) in members {
+            if bits & (1 << i) != 0 {
+                self.vouch_one(&member);
+            } else if self
+                .peers
+                .get(&member)
+                .is_some_and(|p| p.alive == Some(true))
+            {
+                self.lost(&member);
+            }
+        }
+    }
+
+    /// A frame from the robot shows its live members alive (2.4, rule c).
+    fn vouch(&mut self, from: &Address) {
+        let s = self.speaker(from);
+        let bits = s.alive;
+        let live: Vec<Address> = s
+            .members
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| bits & (1 << i) != 0)
+            .filter_map(|(_, a)| a.clone())
+            .collect();
+        live.iter().for_each(|m| self.vouch_one(m));
+    }
+
+    /// A member its robot holds alive is heard, unless the transport said it is down
+    /// (rule b stands until the transport says it is up, or a new incarnation shows).
+    fn vouch_one(&mut self, member: &Address) {
+        if *member == self.me {
+            return;
+        }
+        let p = self.peer(member);
+        if !p.up && p.alive == Some(false) {
+            return;
+        }
+        self.heard(member);
+    }
+}
+
+/// `team/<robot of the gateway>/<name>`, if `name` makes an address.
+fn member_address(gateway: &Address, name: &str) -> Option<Address> {
+    let text = format!("{}/{}/{}", gateway.team(), gateway.robot(), name);
+    Address::new(&text).ok()
+}

@@ -1,0 +1,367 @@
+//! The ICI's glue for the team protocol's send side (docs/team-protocol.md, 2.3): a
+//! member's team messages go to its gateway (`Uplink`, robot link, reliable) or wait
+//! for one; the gateway frames its own and its members' messages, keeps the history,
+//! publishes, and says the robot hello, the idle heartbeat and the remote robots'
+//! interest (`TeamInterest`) to its members.
+//!
+//! Left for later steps: the token bucket and priority queue (frames go out as they
+//! close), `Mark`s after a takeover, the members' exports in the hello (the gateway's
+//! own export policy stands for the robot's) and their inner positions (only the
+//! gateway's own are known).
+
+use std::sync::Arc;
+
+use slate_model::{Address, Context};
+
+use super::MAX_PENDING;
+use super::frame::{
+    RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamInterest, TeamMsg, Uplink,
+};
+use super::gateway::{Framer, Gateway, Seen};
+use super::history::HistoryLimits;
+use crate::ici::classes::{ClassSet, context_bit};
+use crate::ici::state::State;
+use crate::{LinkKind, MsgKind};
+
+impl State {
+    /// A team message of this module (`State::publish(Team, ..)` with the protocol on):
+    /// into the stream if this module is gateway, to the gateway otherwise, or held
+    /// until there is one.
+    pub fn team_out(&mut self, bytes: &[u8]) {
+        self.team_elect();
+        self.route(bytes.to_vec());
+    }
+
+    fn route(&mut self, message: Vec<u8>) {
+        match self.team.elected.clone() {
+            Some(g) if g == self.me => {
+                let index = self
+                    .team
+                    .gateway
+                    .as_ref()
+                    .and_then(|gw| gw.index_of(self.me.module()));
+                self.gateway_push(index, message);
+            }
+            Some(g) => self.uplink(&g, message),
+            None => self.hold(message),
+        }
+    }
+
+    /// Keeps a message for the gateway to come, the oldest dropped past `MAX_PENDING`.
+    fn hold(&mut self, message: Vec<u8>) {
+        if self.team.pending.len() >= MAX_PENDING {
+            self.team.pending.pop_front();
+            self.team.counts.pending_dropped += 1;
+        }
+        self.team.pending.push_back(message);
+    }
+
+    fn uplink(&mut self, gateway: &Address, message: Vec<u8>) {
+        let up = Uplink {
+            to: None,
+            state_answer: false,
+            mark: None,
+            message,
+        };
+        self.send_to(gateway, MsgKind::Uplink, &TeamMsg::Uplink(up).encode());
+    }
+
+    /// A mate's message for the stream: this module must be gateway (an uplink that
+    /// reached a module that no longer is, or not yet, is dropped and counted: its
+    /// inner position shows as a gap at receivers).
+    pub(super) fn on_uplink(&mut self, from: &Address, up: Uplink) {
+        if self.team.gateway.is_none() {
+            self.team.counts.uplinks_misrouted += 1;
+            return;
+        }
+        if self.gateway_index(from).is_none() {
+            self.team_review();
+        }
+        let index = self.gateway_index(from);
+        self.gateway_push(index, up.message);
+    }
+
+    fn gateway_index(&self, member: &Address) -> Option<u8> {
+        self.team.gateway.as_ref()?.index_of(member.module())
+    }
+
+    /// Frames a member's message; publishes the frames it closed.
+    fn gateway_push(&mut self, index: Option<u8>, message: Vec<u8>) {
+        let now = self.now;
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return self.hold(message);
+        };
+        let Some(index) = index else {
+            gw.unindexed += 1;
+            return;
+        };
+        let frames = gw.framer.push(index, message, now);
+        frames.into_iter().for_each(|f| self.publish_frame(f));
+    }
+
+    /// Publishes a closed frame and keeps it in the history.
+    fn publish_frame(&mut self, frame: TeamFrame) {
+        let (now, seq) = (self.now, frame.seq);
+        let bytes: Arc<[u8]> = TeamMsg::Frame(frame).encode().into();
+        if let Some(gw) = self.team.gateway.as_mut() {
+            gw.last_sent = now;
+            if let Err(e) = gw.history.push(seq, bytes.clone(), now, &[]) {
+                tracing::debug!(error = %e, "frame not kept in the history");
+            }
+        }
+        self.publish_now(LinkKind::Team, MsgKind::TeamFrame, &bytes);
+    }
+
+    /// Acts on the election: takes or leaves the gateway role, and hands the messages
+    /// held to the gateway now known.
+    /// The election is not acted on during the first robot heartbeat interval after
+    /// start, while the mates' hellos arrive: otherwise every module that starts
+    /// first would speak for its robot for a moment (start-up split brain, 2.1). Team
+    /// messages wait in `pending` meanwhile.
+    pub(crate) fn team_elect(&mut self) {
+        let started = *self.team.started.get_or_insert(self.now);
+        if self.now.saturating_sub(started) < self.config.robot.heartbeat {
+            return;
+        }
+        let chosen = self.gateway();
+        if chosen == self.team.elected {
+            return;
+        }
+        let mine = chosen.as_ref() == Some(&self.me);
+        if self.team.gateway.is_some() && !mine {
+            self.resign();
+        }
+        self.team.elected = chosen;
+        if mine {
+            self.take_gateway_role();
+        }
+        if self.team.elected.is_some() {
+            let held: Vec<Vec<u8>> = self.team.pending.drain(..).collect();
+            held.into_iter().for_each(|m| self.route(m));
+        }
+    }
+
+    /// Starts a new epoch of the robot stream: a new tag, positions from 1.
+    fn take_gateway_role(&mut self) {
+        let Some(protocol) = &self.config.team_protocol else {
+            return;
+        };
+        let epoch = self.board.clock().now().raw();
+        let framer = Framer::new(protocol.mtu, protocol.batch);
+        let limits = HistoryLimits {
+            bytes: protocol.history_bytes,
+            age: protocol.history_age,
+        };
+        let tag = StreamTag::of(&self.me, epoch);
+        let mut gateway = Gateway::new(tag, epoch, framer, limits);
+        // The hello opens the stream; the idle heartbeat counts from it.
+        gateway.last_sent = self.now;
+        self.team.gateway = Some(gateway);
+        self.team.interest_dirty = true;
+        self.team_review();
+    }
+
+    /// Leaves the role: the open frame goes out first.
+    fn resign(&mut self) {
+        let open = self.team.gateway.as_mut().and_then(|gw| gw.framer.flush());
+        open.into_iter().for_each(|f| self.publish_frame(f));
+        self.team.gateway = None;
+    }
+
+    /// The gateway's view of its members: itself and the mates whose hello it heard.
+    fn team_review(&mut self) {
+        let mut seen = vec![self.seen_self()];
+        let mates = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.link == LinkKind::Robot && !p.observer);
+        seen.extend(mates.filter_map(|(a, p)| {
+            Some(Seen {
+                name: a.module().into(),
+                incarnation: p.incarnation?,
+                alive: p.alive == Some(true),
+                listener: p.listener,
+            })
+        }));
+        let own = self.out.get(&LinkKind::Team).map(|o| o.seq);
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if gw.review(&seen).hello {
+            self.team.interest_dirty = true;
+        }
+        let index = gw.index_of(self.me.module());
+        gw.sent_inner(index.unwrap_or(u8::MAX), own);
+    }
+
+    fn seen_self(&self) -> Seen {
+        let listen = self.config.team_protocol.as_ref().map(|p| p.listen);
+        Seen {
+            name: self.me.module().into(),
+            incarnation: self.incarnation,
+            alive: true,
+            listener: listen != Some(crate::ici::Listen::Never),
+        }
+    }
+
+    /// The team protocol's timers: the election, and for the gateway the batch, the
+    /// robot hello, the idle heartbeat and the members' `TeamInterest`.
+    pub(crate) fn team_tick(&mut self) {
+        if self.config.team_protocol.is_none() {
+            return;
+        }
+        self.team_elect();
+        if self.team.gateway.is_none() {
+            return;
+        }
+        self.team_review();
+        let now = self.now;
+        let due = self.team.gateway.as_mut().and_then(|gw| gw.framer.due(now));
+        due.into_iter().for_each(|f| self.publish_frame(f));
+        self.robot_hello_if_due();
+        self.robot_heartbeat_if_due();
+        self.team_interest_if_changed();
+    }
+
+    fn robot_hello_if_due(&mut self) {
+        let now = self.now;
+        let Some(min) = self
+            .config
+            .team_protocol
+            .as_ref()
+            .map(|p| p.hello_min_interval)
+        else {
+            return;
+        };
+        let interest = self.robot_interest();
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if !gw.hello_is_due(now, min) {
+            return;
+        }
+        (gw.hello_due, gw.hello_sent, gw.last_sent) = (false, Some(now), now);
+        let hello = RobotHello {
+            version: gw.version,
+            tag: gw.tag,
+            gw_incarnation: gw.epoch,
+            observer: self.config.observer,
+            interest,
+            exports: self.config.export.clone(),
+            members: gw.members.clone(),
+        };
+        self.publish_now(
+            LinkKind::Team,
+            MsgKind::RobotHello,
+            &TeamMsg::Hello(hello).encode(),
+        );
+    }
+
+    /// The union of the members' interests without SELF: an object of another robot
+    /// never arrives in SELF. Classes left with no context are dropped.
+    fn robot_interest(&self) -> ClassSet {
+        let mates = self
+            .peers
+            .values()
+            .filter(|p| p.link == LinkKind::Robot && p.alive == Some(true));
+        let sets =
+            std::iter::once(&self.config.interest).chain(mates.filter_map(|p| p.interest.as_ref()));
+        union_without(sets, context_bit(Context::Self_))
+    }
+
+    fn robot_heartbeat_if_due(&mut self) {
+        let now = self.now;
+        let idle = self.config.team.heartbeat;
+        let full_every = self
+            .config
+            .team_protocol
+            .as_ref()
+            .map_or(0, |p| p.full_every);
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if !gw.heartbeat_is_due(now, idle) {
+            return;
+        }
+        gw.heartbeats += 1;
+        (gw.heartbeat_due, gw.last_sent) = (false, now);
+        let full = full_every > 0 && gw.heartbeats % full_every == 0;
+        let hb = RobotHeartbeat {
+            tag: gw.tag,
+            hello_version: gw.version,
+            seq: gw.framer.position(),
+            alive: gw.alive_bits(),
+            positions: full.then(|| gw.members.iter().map(|m| m.inner_seq).collect()),
+        };
+        self.stats.liveliness.heartbeats_sent += 1;
+        self.publish_now(
+            LinkKind::Team,
+            MsgKind::RobotHeartbeat,
+            &TeamMsg::Heartbeat(hb).encode(),
+        );
+    }
+
+    /// Tells the members the remote robots' union interest when it changed (a remote
+    /// hello, a new member, a takeover), and takes it for this module's own sends.
+    fn team_interest_if_changed(&mut self) {
+        if !std::mem::take(&mut self.team.interest_dirty) {
+            return;
+        }
+        let hellos = self.team.speakers.values().filter_map(|s| s.hello.as_ref());
+        let interest = union_without(hellos.clone().map(|h| &h.interest), 0);
+        let exports = union_without(hellos.map(|h| &h.exports), 0);
+        let version = self.team.remote.as_ref().map_or(1, |r| r.version + 1);
+        let remote = TeamInterest {
+            version,
+            interest,
+            exports,
+        };
+        let bytes = TeamMsg::Interest(remote.clone()).encode();
+        self.team.remote = Some(remote);
+        self.publish_now(LinkKind::Robot, MsgKind::TeamInterest, &bytes);
+    }
+
+    /// A member takes its gateway's word for what the other robots model.
+    pub(super) fn on_team_interest(&mut self, remote: TeamInterest) {
+        self.team.remote = Some(remote);
+    }
+
+    /// Does any other robot model this item (as the gateway last said)? Before it has
+    /// said, everything exported goes: receivers drop what they do not model.
+    pub(crate) fn team_wants(&self, item: &crate::ici::send::Item) -> bool {
+        let Some(remote) = &self.team.remote else {
+            return true;
+        };
+        let (lineage, context, _, is_class) = item.dest(&self.me);
+        if is_class {
+            return remote.interest.relates_to_class(lineage, &self.catalog);
+        }
+        // SELF on this robot is SYSTEM on the others.
+        let there = if context == Context::Self_ {
+            Context::System
+        } else {
+            context
+        };
+        remote.interest.contains(lineage, there)
+    }
+
+    /// A team peer came up: the gateway says its hello again (at most once per
+    /// `hello_min_interval`), so a module that missed it stops parking frames. A
+    /// stopgap until receivers NACK the hello (step 10).
+    pub(crate) fn team_peer_up(&mut self) {
+        if let Some(gw) = self.team.gateway.as_mut() {
+            gw.hello_due = true;
+        }
+    }
+}
+
+/// The union of class sets, one rule per class, without the context bits `drop`.
+fn union_without<'a>(sets: impl Iterator<Item = &'a ClassSet>, drop: u8) -> ClassSet {
+    let mut masks: std::collections::BTreeMap<Arc<str>, u8> = Default::default();
+    for (class, mask) in sets.flat_map(|s| s.rules()) {
+        *masks.entry(class.clone()).or_default() |= mask & !drop;
+    }
+    masks
+        .into_iter()
+        .fold(ClassSet::none(), |set, (c, m)| set.with(&c, m))
+}

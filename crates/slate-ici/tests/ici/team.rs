@@ -1,0 +1,279 @@
+//! The team protocol switched on (docs/team-protocol.md): 3 robots × 3 modules, only
+//! gateways on the team link, frames within the MTU, boards that converge as with the
+//! switch off, idle robots' heartbeats, and remote deaths seen everywhere.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use slate_ici::{
+    Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MsgKind, Rng, SendError, SimConfig,
+    TeamProtocol, Transport, module_object_name,
+};
+use slate_model::{Address, Context, NewObject, Value};
+
+use crate::support::{Member, Team, addr, open, secs, workload};
+
+/// A transport that remembers the largest message it published on the team link.
+struct Largest {
+    inner: Arc<dyn Transport>,
+    team_publish: AtomicUsize,
+}
+
+impl Transport for Largest {
+    fn address(&self) -> &Address {
+        self.inner.address()
+    }
+    fn set_handler(&self, handler: Arc<dyn Handler>) {
+        self.inner.set_handler(handler)
+    }
+    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        if link == LinkKind::Team {
+            self.team_publish
+                .fetch_max(payload.len(), Ordering::Relaxed);
+        }
+        self.inner.publish(link, kind, payload)
+    }
+    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        self.inner.send(to, kind, payload)
+    }
+    fn peers(&self) -> Vec<Address> {
+        self.inner.peers()
+    }
+    fn stats(&self) -> LinkStats {
+        self.inner.stats()
+    }
+    fn close(&self) {
+        self.inner.close()
+    }
+}
+
+/// Module m{j} of every robot has priority j: m0 is each robot's gateway.
+fn config(module: usize, mtu: usize, on: bool) -> IciConfig {
+    let mut protocol = TeamProtocol::radio().priority(Some(module as u8));
+    protocol.mtu = mtu;
+    open().team_protocol(on.then_some(protocol))
+}
+
+/// 3 robots × 3 modules on `link` (team link; the robot link is clean), the team
+/// protocol on or off; returns the team and each module's largest team publish.
+fn grid(seed: u64, link: LinkConfig, mtu: usize, on: bool) -> (Team, Vec<Arc<Largest>>) {
+    let sim = SimConfig {
+        robot: LinkConfig::clean().delay(secs(0.0001)),
+        team: link.delay(secs(0.02)),
+        ..SimConfig::default()
+    };
+    let mut team = Team::with(seed, sim);
+    let mut recorders = Vec::new();
+    for r in 0..3 {
+        for m in 0..3 {
+            recorders.push(join(&mut team, &format!("t/r{r}/m{m}"), config(m, mtu, on)));
+        }
+    }
+    (team, recorders)
+}
+
+fn join(team: &mut Team, address: &str, config: IciConfig) -> Arc<Largest> {
+    let address = addr(address);
+    let board = team.board_at(&address, &crate::support::classes());
+    let recorder = Arc::new(Largest {
+        inner: team.net.join(&address),
+        team_publish: AtomicUsize::new(0),
+    });
+    let ici = Ici::new(board.clone(), recorder.clone(), config.clone()).unwrap();
+    team.put(Member {
+        address,
+        board,
+        ici,
+        config,
+    });
+    recorder
+}
+
+/// Runs the same random work as the fault tests, then the boards must agree.
+fn work_and_converge(team: &Team, seed: u64) {
+    team.run(0.5);
+    workload(team, &mut Rng::new(seed), 150, 0.05);
+    team.assert_converges(60);
+}
+
+/// The senders of publications on the team link (kinds a module publishes).
+fn team_publishers(team: &Team) -> Vec<(String, MsgKind)> {
+    let published = [
+        MsgKind::Report,
+        MsgKind::Lifecycle,
+        MsgKind::Heartbeat,
+        MsgKind::TeamFrame,
+        MsgKind::RobotHello,
+        MsgKind::RobotHeartbeat,
+    ];
+    let stats = team.net.stats();
+    let mut out: Vec<(String, MsgKind)> = stats
+        .links
+        .iter()
+        .filter(|((from, to), _)| LinkKind::between(from, to) == LinkKind::Team)
+        .flat_map(|((from, _), kinds)| kinds.keys().map(move |k| (from.to_string(), *k)))
+        .filter(|(_, k)| published.contains(k))
+        .collect();
+    out.sort_by_key(|(a, k)| (a.clone(), k.name()));
+    out.dedup();
+    out
+}
+
+#[test]
+fn only_gateways_publish_on_the_team_link_and_boards_converge() {
+    let (team, _) = grid(80, LinkConfig::clean(), 1024, true);
+    work_and_converge(&team, 80);
+    let publishers = team_publishers(&team);
+    assert!(!publishers.is_empty());
+    for (from, kind) in &publishers {
+        assert!(
+            from.ends_with("/m0"),
+            "{from} published {kind} on the team link"
+        );
+    }
+    let frames = team.net.stats().kind(LinkKind::Team, MsgKind::TeamFrame);
+    assert!(
+        frames.sent_msgs > 0,
+        "the gateways framed the members' messages"
+    );
+}
+
+#[test]
+fn no_team_frame_is_larger_than_the_mtu() {
+    let mtu = 96;
+    let (team, recorders) = grid(81, LinkConfig::clean(), mtu, true);
+    work_and_converge(&team, 81);
+    for (m, r) in team.members.iter().zip(&recorders) {
+        let largest = r.team_publish.load(Ordering::Relaxed);
+        assert!(largest <= mtu, "{} published {largest} bytes", m.address);
+    }
+}
+
+/// The objects and values of a board by name (`Module` objects left out), to compare
+/// runs: packets' stamps differ between runs, values do not.
+fn values(board: &slate_model::Board) -> Vec<(String, Vec<(String, Value)>)> {
+    let snap = board.snapshot();
+    let mut out: Vec<_> = snap
+        .objects()
+        .into_iter()
+        .filter_map(|id| snap.info(id).map(|i| (id, i)))
+        .filter(|(_, i)| &*i.class != slate_ici::MODULE_CLASS)
+        .map(|(id, i)| {
+            let mut vals: Vec<(String, Value)> = snap
+                .own_values(id)
+                .into_iter()
+                .map(|(a, p, _)| (a.to_string(), p.value.clone()))
+                .collect();
+            vals.sort_by(|a, b| a.0.cmp(&b.0));
+            (i.name.to_string(), vals)
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
+/// The same work whatever the timing: every module creates a rock and a vehicle
+/// (SELF, so other robots hold them in SYSTEM), writes them, one module of each robot
+/// deletes its rock, and a class-level value is written.
+fn scripted(team: &Team) {
+    team.run(0.5);
+    for m in &team.members {
+        let tail = format!("{}_{}", m.address.robot(), m.address.module());
+        let new = |class: &str, name: &str, context| {
+            let obj = NewObject::new(class, name).context(context);
+            m.board.create_with(obj).unwrap();
+        };
+        new("Rock", &format!("rock_{tail}"), Context::Surroundings);
+        new("Vehicle", &format!("vehicle_{tail}"), Context::Self_);
+    }
+    team.run(0.5);
+    for (i, m) in team.members.iter().enumerate() {
+        let tail = format!("{}_{}", m.address.robot(), m.address.module());
+        let rock = format!("rock_{tail}");
+        m.board.write(&rock, "hits", Value::Int(i as i64)).unwrap();
+        m.board.write(&rock, "label", format!("l{i}")).unwrap();
+        m.board
+            .write(&format!("vehicle_{tail}"), "speed", 2.5 * i as f64)
+            .unwrap();
+    }
+    team.run(0.5);
+    for m in team.members.iter().filter(|m| m.address.module() == "m1") {
+        let tail = format!("{}_{}", m.address.robot(), m.address.module());
+        m.board.delete(&format!("rock_{tail}")).unwrap();
+    }
+    team.board("t/r2/m2")
+        .write("Tracked", "label", "everyone")
+        .unwrap();
+    team.assert_converges(30);
+}
+
+#[test]
+fn boards_hold_the_same_values_with_the_switch_on_as_off() {
+    let (on, _) = grid(82, LinkConfig::clean(), 1024, true);
+    let (off, _) = grid(82, LinkConfig::clean(), 1024, false);
+    scripted(&on);
+    scripted(&off);
+    for m in &on.members {
+        let board = m.address.as_str();
+        let held = values(on.board(board));
+        assert!(
+            held.iter().any(|(name, _)| name == "vehicle_r1_m2"),
+            "{board}"
+        );
+        assert!(
+            !held.iter().any(|(name, _)| name == "rock_r0_m1"),
+            "{board}"
+        );
+        assert_eq!(held, values(off.board(board)), "{board}");
+    }
+}
+
+#[test]
+fn a_silent_robot_sends_about_one_heartbeat_per_interval() {
+    let (team, _) = grid(83, LinkConfig::clean(), 1024, true);
+    team.run(2.0);
+    let count = |team: &Team| {
+        let stats = team.net.stats();
+        let from_r1 = stats
+            .links
+            .iter()
+            .filter(|((from, to), _)| from.robot() == "r1" && to == &addr("t/r0/m0"));
+        from_r1
+            .filter_map(|(_, kinds)| kinds.get(&MsgKind::RobotHeartbeat))
+            .map(|c| c.sent_msgs)
+            .sum::<u64>()
+    };
+    let before = count(&team);
+    team.run(20.0);
+    let heartbeats = count(&team) - before;
+    assert!(
+        (18..=22).contains(&heartbeats),
+        "{heartbeats} heartbeats in 20 s"
+    );
+}
+
+#[test]
+fn a_killed_remote_module_is_dead_on_every_other_board() {
+    let (mut team, _) = grid(84, LinkConfig::clean(), 1024, true);
+    team.run(2.0);
+    let victim = addr("t/r1/m2");
+    team.net.kill(&victim);
+    team.members.retain(|m| m.address != victim);
+    team.run(6.0);
+    let name = module_object_name(&victim);
+    for m in &team.members {
+        let alive = m.board.read(&name, "alive").ok().map(|p| p.value);
+        assert_eq!(alive, Some(Value::Bool(false)), "as {} sees it", m.address);
+    }
+}
+
+/// Fails today: a member message lost at the end of its inner stream is found by
+/// nothing (module team heartbeats are gone, and the robot stream's gaps are not
+/// NACKed yet). Step 10 (NACK and repair) makes it pass.
+#[test]
+#[ignore = "needs step 10: robot-stream NACK and repair"]
+fn boards_converge_with_5_percent_loss() {
+    // Seed 86 fails today, as 17 of seeds 85..105 do.
+    let (team, _) = grid(86, LinkConfig::clean().loss(0.05), 1024, true);
+    work_and_converge(&team, 86);
+}
