@@ -3,6 +3,9 @@
 //! ports, each stopped by pid) and the other verbs as processes against them. Every wait
 //! is bounded; nothing is left running.
 
+// `slate demo`: the team's size range and the acoustic team link.
+#[path = "cli/demo.rs"]
+mod demo;
 // Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit.
 #[path = "cli/errors.rs"]
 mod errors;

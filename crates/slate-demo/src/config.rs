@@ -5,27 +5,124 @@ use std::time::Duration;
 
 use crate::net::NetworkKind;
 
-/// The team link between robots: its declared budget and, on the simulator, its faults.
+/// The largest team the demo runs: the world grows one strip (a route, obstacles,
+/// targets) per robot, and the team link's traffic grows faster than the team, so larger
+/// teams are refused rather than left to run for hours.
+pub const MAX_ROBOTS: usize = 32;
+
+/// What carries the team link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TeamMedium {
+    /// A radio per module (a robot's five share one in the summary's model): every
+    /// transmitter has the whole budget, messages go whole.
+    #[default]
+    Radio,
+    /// One shared half-duplex acoustic channel for the whole team (the paper's narrow
+    /// channel): everyone queues behind whoever transmits, messages go as frames of at
+    /// most [`ACOUSTIC_FRAME_BYTES`], each lost on its own.
+    Acoustic,
+}
+
+impl TeamMedium {
+    /// `radio` or `acoustic`.
+    pub fn name(self) -> &'static str {
+        match self {
+            TeamMedium::Radio => "radio",
+            TeamMedium::Acoustic => "acoustic",
+        }
+    }
+
+    /// The rate when none is given, bit/s: 9600 for a radio; for the acoustic channel
+    /// 80, the WHOI Micro-Modem's lowest rate (the regime of the paper's case).
+    pub fn default_bps(self) -> u64 {
+        match self {
+            TeamMedium::Radio => 9600,
+            TeamMedium::Acoustic => 80,
+        }
+    }
+}
+
+/// The largest frame on the acoustic channel, bytes (the Micro-Modem's 80 bit/s frame).
+pub const ACOUSTIC_FRAME_BYTES: usize = 32;
+
+/// Airtime every acoustic frame takes besides its bits: preamble, synchronisation and
+/// the guard before the next frame. A modelling choice (a quarter second), not a
+/// modem's datasheet figure.
+pub const ACOUSTIC_FRAME_OVERHEAD: Duration = Duration::from_millis(250);
+
+/// The longest a message waits for the acoustic channel before its sender drops it: a
+/// modem's transmit queue holds about a minute of airtime, so an overloaded channel
+/// loses messages rather than delivering them hours late. A modelling choice.
+pub const ACOUSTIC_MAX_QUEUE: Duration = Duration::from_secs(60);
+
+/// The team link between robots: its medium, its declared budget and, on the
+/// simulator, its faults.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TeamLink {
-    /// Declared capacity of a transmitter on the team link, bit/s (the simulator caps
-    /// every transmitter at it; the summary compares the traffic with it).
+    /// Radios or one acoustic channel.
+    pub medium: TeamMedium,
+    /// Declared capacity of a transmitter on the team link (of the one shared channel,
+    /// for the acoustic medium), bit/s: the simulator caps it; the summary compares the
+    /// traffic with it.
     pub budget_bps: u64,
-    /// Probability that a transmission is lost (simulator).
+    /// Probability that a transmission (a frame, when framed) is lost (simulator).
     pub loss: f64,
     /// Propagation delay (simulator).
     pub delay: Duration,
     /// Extra random delay, uniform in `[0, jitter]` (simulator; it reorders).
     pub jitter: Duration,
+    /// The largest frame, bytes (`None`: a message goes whole).
+    pub frame_bytes: Option<usize>,
+    /// Airtime of every frame besides its bits.
+    pub frame_overhead: Duration,
+    /// The longest a message waits for its transmitter before its sender drops it
+    /// (`None`: as long as it takes).
+    pub max_queue: Option<Duration>,
 }
 
 impl Default for TeamLink {
     fn default() -> Self {
+        TeamLink::radio(TeamMedium::Radio.default_bps())
+    }
+}
+
+impl TeamLink {
+    /// Radios of `bps` bit/s each: 60 ms delay, up to 40 ms jitter, 5 % loss.
+    pub fn radio(bps: u64) -> TeamLink {
         TeamLink {
-            budget_bps: 9600,
+            medium: TeamMedium::Radio,
+            budget_bps: bps,
             loss: 0.05,
             delay: Duration::from_millis(60),
             jitter: Duration::from_millis(40),
+            frame_bytes: None,
+            frame_overhead: Duration::ZERO,
+            max_queue: None,
+        }
+    }
+
+    /// One shared acoustic channel of `bps` bit/s: 32-byte frames, 20 % frame loss,
+    /// 1 to 2 s of latency (1 s delay, up to 1 s jitter), and a transmit queue of
+    /// [`ACOUSTIC_MAX_QUEUE`].
+    pub fn acoustic(bps: u64) -> TeamLink {
+        TeamLink {
+            medium: TeamMedium::Acoustic,
+            budget_bps: bps,
+            loss: 0.2,
+            delay: Duration::from_secs(1),
+            jitter: Duration::from_secs(1),
+            frame_bytes: Some(ACOUSTIC_FRAME_BYTES),
+            frame_overhead: ACOUSTIC_FRAME_OVERHEAD,
+            max_queue: Some(ACOUSTIC_MAX_QUEUE),
+        }
+    }
+
+    /// The medium's link at `bps` (its default rate when `None`).
+    pub fn of(medium: TeamMedium, bps: Option<u64>) -> TeamLink {
+        let bps = bps.unwrap_or(medium.default_bps());
+        match medium {
+            TeamMedium::Radio => TeamLink::radio(bps),
+            TeamMedium::Acoustic => TeamLink::acoustic(bps),
         }
     }
 }
@@ -41,7 +138,7 @@ impl Default for TeamLink {
 pub struct DemoConfig {
     /// Seeds the world, the sensors' noise and the simulated network.
     pub seed: u64,
-    /// Robots in the team (1 to 8).
+    /// Robots in the team (1 to [`MAX_ROBOTS`]).
     pub robots: usize,
     /// Simulator or Zenoh.
     pub network: NetworkKind,
@@ -115,6 +212,12 @@ impl DemoConfig {
         self
     }
 
+    /// Sets the team link.
+    pub fn team_link(mut self, link: TeamLink) -> Self {
+        self.team_link = link;
+        self
+    }
+
     /// Sets when the last robot dies.
     pub fn fault_at(mut self, at: Option<f64>) -> Self {
         self.fault_at = at;
@@ -124,19 +227,25 @@ impl DemoConfig {
     /// Checks the settings.
     pub fn validate(&self) -> Result<(), crate::DemoError> {
         let bad = |m: String| Err(crate::DemoError::Config(m));
-        if !(1..=8).contains(&self.robots) {
-            return bad(format!("--robots must be 1 to 8, not {}", self.robots));
+        if !(1..=MAX_ROBOTS).contains(&self.robots) {
+            return bad(format!(
+                "--robots must be 1 to {MAX_ROBOTS}, not {}",
+                self.robots
+            ));
         }
         if self.duration < Duration::from_secs(10) {
             return bad("--duration must be at least 10 s".into());
         }
+        if self.team_link.budget_bps == 0 {
+            return bad("--team-rate must be at least 1 bit/s".into());
+        }
+        if self.team_link.medium == TeamMedium::Acoustic && self.network != NetworkKind::Sim {
+            return bad(
+                "--team-link acoustic is a simulated channel: use it with --network sim".into(),
+            );
+        }
         if self.pace.is_some_and(|p| !(p > 0.0 && p.is_finite())) {
             return bad("the pace must be a positive number".into());
-        }
-        if cfg!(not(feature = "zenoh")) && self.network == NetworkKind::Zenoh {
-            return bad(
-                "this build has no Zenoh (build slate-demo with the `zenoh` feature)".into(),
-            );
         }
         Ok(())
     }

@@ -25,8 +25,8 @@ fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
     let dead: BTreeSet<Address> = team
         .modules
         .iter()
-        .filter(|m| !team.alive_modules().any(|a| a.address == m.address))
-        .map(|m| m.address.clone())
+        .filter(|m| !team.alive_modules().any(|a| a.address() == m.address()))
+        .map(|m| m.address().clone())
         .collect();
     let mut boards = vec![team.console()];
     for i in (0..team.robots.len()).filter(|i| !team.dead[*i]) {
@@ -34,7 +34,7 @@ fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
     }
     let views = boards
         .iter()
-        .map(|m| (m.address.to_string(), view(&m.board)))
+        .map(|m| (m.address().to_string(), view(m.node.board())))
         .collect();
     (views, dead)
 }

@@ -11,18 +11,16 @@ pub enum DemoError {
     #[error("network: {0}")]
     Network(String),
     /// A `.slate` file did not load on a board (a bug in the demo's files).
-    #[error("{board}: cannot load {file}:\n{rendered}")]
+    #[error("{board}: a demo file did not load:\n{rendered}")]
     Load {
         /// The board.
         board: String,
-        /// The file.
-        file: String,
-        /// The diagnostics.
+        /// The diagnostics, naming the file.
         rendered: String,
     },
-    /// An ICI did not start.
-    #[error("cannot start the ICI: {0}")]
-    Ici(#[from] slate_ici::IciStartError),
+    /// A module's node did not start.
+    #[error("cannot start a module: {0}")]
+    Start(#[from] slate_node::StartError),
     /// The dashboard could not be served.
     #[error("dashboard: {0}")]
     Dashboard(#[from] slate_dashboard::ServeError),

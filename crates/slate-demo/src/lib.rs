@@ -38,7 +38,10 @@ mod team;
 mod traffic;
 pub mod world;
 
-pub use config::{DemoConfig, TeamLink};
+pub use config::{
+    ACOUSTIC_FRAME_BYTES, ACOUSTIC_FRAME_OVERHEAD, ACOUSTIC_MAX_QUEUE, DemoConfig, MAX_ROBOTS,
+    TeamLink, TeamMedium,
+};
 pub use consistency::{TEAM_CLASSES, disagreement};
 pub use error::DemoError;
 pub use module::{Module, Role};
@@ -47,6 +50,6 @@ pub use observe::{Event, Fault, Investigation, Observer};
 pub use run::{DT, Demo, Progress, run};
 pub use slate_dashboard::Level;
 pub use snapshot::snapshot;
-pub use summary::{Summary, TargetOutcome};
+pub use summary::{Summary, TargetOutcome, TeamChannel};
 pub use team::{BASE, Team};
 pub use traffic::LinkRates;

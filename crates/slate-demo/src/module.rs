@@ -1,13 +1,13 @@
-//! A module: one board with its own ICI, plan engine and plan circuits, as a separate
-//! board on the network would be. What each kind of module models (its interest) and
-//! lets out of the robot (its export policy) is decided here.
+//! A module: a `slate_node::Node` (one board with its own ICI, plan engine and plan
+//! circuits) on the demo's network, as a separate board on a real network would be. What
+//! each kind of module models (its interest) and lets out of the robot (its export
+//! policy) is decided here.
 
-use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::{ClassSet, Ici, IciConfig, LinkKind, PlanCircuits, module_class};
-use slate_model::{Address, Board, Context};
-use slate_plans::Engine;
+use slate_ici::{ClassSet, IciConfig, LinkKind};
+use slate_model::{Address, Context};
+use slate_node::Node;
 
 use crate::error::DemoError;
 use crate::files::{self, SlateFile};
@@ -109,28 +109,23 @@ fn classes(names: &[&str]) -> ClassSet {
     names.iter().fold(ClassSet::none(), |s, c| s.class(c))
 }
 
-/// One module: its board, ICI, plan engine and plan circuits.
+/// One module: a [`slate_node::Node`] (board, plan engine, ICI, plan circuits) on the
+/// demo's network and clock, and what it does on which robot.
 pub struct Module {
-    /// Its address, `team/ROBOT/ROLE`.
-    pub address: Address,
     /// What it does.
     pub role: Role,
     /// Its robot's name (`base` for the console).
     pub robot: String,
-    /// Its board (the paper's blackboard; drivers use it through the SBIPs).
-    pub board: Arc<Board>,
-    /// Its ICI.
-    pub ici: Ici,
-    /// Its plan engine.
-    pub engine: Engine,
-    /// Its plan circuits (plans sent and received, with their acknowledgements).
-    pub circuits: PlanCircuits,
+    /// The node: its board (the paper's blackboard; drivers use it through the SBIPs), ICI,
+    /// plan engine and plan circuits.
+    pub node: Node,
 }
 
 impl Module {
-    /// Starts a module on `net`: board, ICI, plan engine and circuits, then its files
-    /// (the classes first, then its role's files for its robot; the console also loads
-    /// the mission of each robot in `team`).
+    /// Starts a module on `net`: a node with the role's ICI settings, into which it then
+    /// loads the classes and its role's files for its robot (the console also the mission
+    /// of each robot in `team`), as an operator loads files into a running node. The
+    /// order is the demo's: its seeds' runs are what they were with the ICI started first.
     pub(crate) fn start(
         net: &Network,
         robot: &str,
@@ -139,30 +134,18 @@ impl Module {
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
-        let board = Arc::new(
-            Board::builder()
-                .clock(net.clock())
-                .address(address.clone())
-                .build(),
-        );
-        board
-            .define(module_class())
-            .map_err(|e| DemoError::Config(e.to_string()))?;
-        let engine = Engine::new(&board);
-        let ici = Ici::new(board.clone(), net.join(&address)?, role.ici_config())?;
-        let circuits = PlanCircuits::attach(&ici, &engine);
+        let node = Node::builder(address.clone())
+            .transport(net.join(&address)?)
+            .clock(net.clock())
+            .ici(role.ici_config())
+            .start()?;
         let module = Module {
-            address,
             role,
             robot: robot.to_owned(),
-            board,
-            ici,
-            engine,
-            circuits,
+            node,
         };
-        module.load(files::CLASSES, robot)?;
-        for file in role.files() {
-            module.load(*file, robot)?;
+        for file in std::iter::once(files::CLASSES).chain(role.files().iter().copied()) {
+            module.load(file, robot)?;
         }
         if role == Role::Console {
             for r in team {
@@ -173,21 +156,25 @@ impl Module {
     }
 
     fn load(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {
-        self.engine
+        self.node
             .load(&file.label(robot), &file.for_robot(robot))
             .map(|_| ())
             .map_err(|e| DemoError::Load {
-                board: self.address.to_string(),
-                file: file.label(robot),
+                board: self.address().to_string(),
                 rendered: e.rendered,
             })
+    }
+
+    /// Its address, `team/ROBOT/ROLE`.
+    pub fn address(&self) -> &Address {
+        self.node.address()
     }
 
     /// Loads a file whose plans are sent: terse, so they travel in few bytes (if it
     /// fails, the file as written is loaded for readable diagnostics).
     fn load_terse(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {
         let text = files::terse(&file.for_robot(robot));
-        match self.engine.load(&file.label(robot), &text) {
+        match self.node.load(&file.label(robot), &text) {
             Ok(_) => Ok(()),
             Err(_) => self.load(file, robot),
         }
@@ -195,6 +182,6 @@ impl Module {
 
     /// The name of this module's object on other boards (`team_r1_exec`).
     pub fn object_name(&self) -> String {
-        slate_ici::module_object_name(&self.address)
+        slate_ici::module_object_name(self.address())
     }
 }

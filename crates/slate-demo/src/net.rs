@@ -5,10 +5,10 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::{LinkConfig, SimConfig, SimNet, SimStats, Transport};
+use slate_ici::{Channel, LinkConfig, LinkKind, SimConfig, SimNet, SimStats, Transport};
 use slate_model::{Address, Clock};
 
-use crate::config::TeamLink;
+use crate::config::{TeamLink, TeamMedium};
 use crate::error::DemoError;
 
 /// Which network carries the team.
@@ -34,7 +34,6 @@ impl NetworkKind {
 /// A running network.
 pub(crate) enum Network {
     Sim(SimNet),
-    #[cfg(feature = "zenoh")]
     Zenoh(zenoh_net::ZenohNet),
 }
 
@@ -42,18 +41,27 @@ impl Network {
     /// The simulator with the team link shaped as `team` (the robot link is clean, 100 µs).
     pub fn sim(seed: u64, team: &TeamLink) -> Network {
         let config = SimConfig {
-            team: LinkConfig::clean()
-                .delay(team.delay)
-                .jitter(team.jitter)
-                .loss(team.loss)
-                .bandwidth(team.budget_bps),
+            team: team_link_config(team),
             ..SimConfig::default()
         };
         Network::Sim(SimNet::with_config(seed, config))
     }
 
+    /// The team link's air on the simulator: its counters and the fraction of the time
+    /// its transmitters spent on the air.
+    pub fn team_channel(&self) -> Option<(Channel, SimStats, f64)> {
+        match self {
+            Network::Sim(net) => {
+                let stats = net.stats();
+                let channel = stats.channels.get(&LinkKind::Team).copied();
+                let utilisation = net.channel_utilisation(LinkKind::Team);
+                Some((channel.unwrap_or_default(), stats, utilisation))
+            }
+            Network::Zenoh(_) => None,
+        }
+    }
+
     /// Zenoh on loopback.
-    #[cfg(feature = "zenoh")]
     pub fn zenoh() -> Network {
         Network::Zenoh(zenoh_net::ZenohNet::new())
     }
@@ -62,7 +70,6 @@ impl Network {
     pub fn clock(&self) -> Clock {
         match self {
             Network::Sim(net) => net.clock(),
-            #[cfg(feature = "zenoh")]
             Network::Zenoh(_) => Clock::system(),
         }
     }
@@ -76,7 +83,6 @@ impl Network {
     pub fn join(&self, address: &Address) -> Result<Arc<dyn Transport>, DemoError> {
         match self {
             Network::Sim(net) => Ok(net.join(address)),
-            #[cfg(feature = "zenoh")]
             Network::Zenoh(z) => z.join(address),
         }
     }
@@ -85,7 +91,6 @@ impl Network {
     pub fn kill(&self, address: &Address) {
         match self {
             Network::Sim(net) => net.kill(address),
-            #[cfg(feature = "zenoh")]
             Network::Zenoh(z) => z.kill(address),
         }
     }
@@ -95,7 +100,6 @@ impl Network {
     pub fn advance(&self, d: Duration) {
         match self {
             Network::Sim(net) => net.run_for(d),
-            #[cfg(feature = "zenoh")]
             Network::Zenoh(z) => z.advance(d),
         }
     }
@@ -104,13 +108,11 @@ impl Network {
     pub fn sim_stats(&self) -> Option<SimStats> {
         match self {
             Network::Sim(net) => Some(net.stats()),
-            #[cfg(feature = "zenoh")]
             Network::Zenoh(_) => None,
         }
     }
 }
 
-#[cfg(feature = "zenoh")]
 mod zenoh_net {
     use std::net::TcpListener;
     use std::sync::Arc;
@@ -177,6 +179,26 @@ mod zenoh_net {
             }
         }
     }
+}
+
+/// The simulator's team link for `team`: radios (a transmitter per sender, messages
+/// whole) or one shared acoustic channel of frames.
+fn team_link_config(team: &TeamLink) -> LinkConfig {
+    let mut link = LinkConfig::clean()
+        .delay(team.delay)
+        .jitter(team.jitter)
+        .loss(team.loss)
+        .bandwidth(team.budget_bps);
+    if team.medium == TeamMedium::Acoustic {
+        link = link.shared();
+    }
+    if let Some(bytes) = team.frame_bytes {
+        link = link.frames(bytes, team.frame_overhead);
+    }
+    if let Some(wait) = team.max_queue {
+        link = link.max_queue(wait);
+    }
+    link
 }
 
 /// Paces a virtual-time loop to real time (for people watching the dashboard).

@@ -92,7 +92,7 @@ impl Observer {
     /// Looks at everything once, at world time `t`.
     pub fn observe(&mut self, team: &Team, world: &World) {
         let t = world.time;
-        let console = &team.console().board;
+        let console = team.console().node.board();
         self.targets(console, t);
         self.waypoints(console, t);
         self.robots(team, t);
@@ -150,7 +150,7 @@ impl Observer {
     }
 
     fn robots(&mut self, team: &Team, t: f64) {
-        let console = &team.console().board;
+        let console = team.console().node.board();
         for r in &team.robots {
             let phase = text(console, r, "phase");
             if let Some(Some(_)) = self.changed(format!("{r}.phase"), phase.clone()) {
@@ -250,7 +250,7 @@ impl Observer {
     /// The robot's sensors: hand-offs, narrowed searches, obstacles placed.
     fn sensors(&mut self, team: &Team, i: usize, world: &World, t: f64) {
         let r = &team.robots[i];
-        let prox = &team.module(i, Role::Prox).board;
+        let prox = team.module(i, Role::Prox).node.board();
         for c in instances(prox, "Contact") {
             if flag(prox, &c, "handed_off")
                 && self
@@ -263,7 +263,7 @@ impl Observer {
                 ));
             }
         }
-        let vision = &team.module(i, Role::Vision).board;
+        let vision = team.module(i, Role::Vision).node.board();
         let mode = text(vision, &format!("{r}_vision"), "mode");
         let switched = self.changed(format!("{r}.vision.mode"), mode.clone());
         if matches!(switched, Some(Some(_))) && mode == "cued" {
@@ -276,7 +276,7 @@ impl Observer {
                 ),
             );
         }
-        let loco = &team.module(i, Role::Loco).board;
+        let loco = team.module(i, Role::Loco).node.board();
         for o in instances(loco, "Obstacle") {
             if self.obstacles.insert((i, o.clone())) {
                 let truth = world.obstacles.iter().find(|x| x.id == o).map(|x| x.center);
@@ -299,7 +299,7 @@ impl Observer {
     /// Counts an investigation when the robot holds a target and is near its true position.
     fn investigate(&mut self, team: &Team, i: usize, world: &World, t: f64) {
         let r = &team.robots[i];
-        let exec = &team.module(i, Role::Exec).board;
+        let exec = team.module(i, Role::Exec).node.board();
         if !flag(exec, r, "busy") {
             return;
         }
@@ -343,12 +343,15 @@ impl Observer {
     fn circuits(&mut self, team: &Team, t: f64) {
         for m in team.alive_modules() {
             let mut lost: BTreeMap<String, Vec<String>> = BTreeMap::new();
-            for c in m.circuits.sent() {
-                let key = (m.address.to_string(), c.circuit);
+            for c in m.node.circuits().sent() {
+                let key = (m.address().to_string(), c.circuit);
                 let before = self.steps.insert(key, c.steps.len()).unwrap_or(0);
                 for step in c.steps.iter().skip(before) {
-                    let route =
-                        format!("{} → {}", short(m.address.as_str()), short(c.peer.as_str()));
+                    let route = format!(
+                        "{} → {}",
+                        short(m.address().as_str()),
+                        short(c.peer.as_str())
+                    );
                     match step {
                         PlanStep::Accepted => {
                             self.push_detail(t, format!("{route}: plan {} accepted", c.name));
@@ -382,9 +385,9 @@ impl Observer {
         };
         let dead = fault.robot.as_str();
         if fault.detected.is_none() {
-            let mut boards = vec![&team.console().board];
+            let mut boards = vec![team.console().node.board()];
             for i in (0..team.robots.len()).filter(|i| !team.dead[*i]) {
-                boards.push(&team.module(i, Role::Exec).board);
+                boards.push(team.module(i, Role::Exec).node.board());
             }
             if boards
                 .iter()
@@ -405,7 +408,7 @@ impl Observer {
         }
         if fault.detected.is_some()
             && fault.recovered.is_none()
-            && !holds_work(&team.console().board, dead)
+            && !holds_work(team.console().node.board(), dead)
         {
             if let Some(f) = self.fault.as_mut() {
                 f.recovered = Some(t);

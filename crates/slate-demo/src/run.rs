@@ -67,10 +67,7 @@ impl Demo {
         config.validate()?;
         let net = match config.network {
             NetworkKind::Sim => Network::sim(config.seed, &config.team_link),
-            #[cfg(feature = "zenoh")]
             NetworkKind::Zenoh => Network::zenoh(),
-            #[cfg(not(feature = "zenoh"))]
-            NetworkKind::Zenoh => unreachable!("validate refuses zenoh without the feature"),
         };
         let layout = Layout::generate(config.seed, config.robots);
         let world = World::new(&layout, config.seed);
@@ -115,16 +112,10 @@ impl Demo {
         }
     }
 
-    /// Lets the network run for [`DT`]. On the system clock (Zenoh) the ICIs' and
-    /// engines' timers are run by hand (on the simulator the clock runs them).
+    /// Lets the network run for [`DT`] (on the system clock, Zenoh, each node's timer
+    /// thread runs its ICI's and engine's timers; on the simulator the clock runs them).
     fn advance(&self) {
         self.net.advance(Duration::from_secs_f64(DT));
-        if !self.net.is_virtual() {
-            for m in self.team.alive_modules() {
-                m.ici.tick();
-                m.engine.tick();
-            }
-        }
     }
 
     fn maybe_fault(&mut self) {
@@ -143,7 +134,7 @@ impl Demo {
 
     /// The console's mission phase.
     pub fn mission_phase(&self) -> String {
-        text(&self.team.console().board, "mission", "phase")
+        text(self.team.console().node.board(), "mission", "phase")
     }
 
     /// Is the mission over (complete, or out of time)?
@@ -183,7 +174,7 @@ impl Demo {
     }
 
     fn summary(&self, mission_seconds: f64, lag: Option<f64>, left: Option<String>) -> Summary {
-        let console = &self.team.console().board;
+        let console = self.team.console().node.board();
         let targets: Vec<TargetOutcome> = self
             .world
             .targets
@@ -249,6 +240,7 @@ impl Demo {
             plans_accepted: accepted,
             plans_rejected: rejected,
             events: self.observer.events.len(),
+            team_channel: crate::traffic::team_channel(&self.net, &self.config.team_link),
         }
     }
 
@@ -257,7 +249,7 @@ impl Demo {
             .team
             .modules
             .iter()
-            .flat_map(|m| m.circuits.sent())
+            .flat_map(|m| m.node.circuits().sent())
             .collect();
         let has = |f: &dyn Fn(&PlanStep) -> bool| {
             circuits.iter().filter(|c| c.steps.iter().any(f)).count()
@@ -271,7 +263,7 @@ impl Demo {
 
     /// A one-line status.
     pub fn status_line(&self) -> String {
-        let console = &self.team.console().board;
+        let console = self.team.console().node.board();
         let found = self.observer.found.len();
         let alive = self.team.dead.iter().filter(|d| !**d).count();
         let team = self.traffic.team_bps();

@@ -1,14 +1,14 @@
 //! The dashboard's view of a run (the JSON contract of docs/dashboard.md): the map as
 //! the console's board knows it (robots and targets with their accuracy, confidence and
-//! age; obstacles from the terrain map), the console's class tree and objects, every plan
+//! age; obstacles from the terrain map), the console's class tree and objects (its node's
+//! own view of them), every plan
 //! sent on a circuit with its acknowledgements, the links against their budget, events.
 
 use std::collections::BTreeMap;
 
 use serde_json::{Value, json};
 use slate_dashboard::{
-    AttrRow, ClassRow, EventRow, ItemKind, LinkRow, MapItem, MapView, ObjectRow, PlanRow, Snapshot,
-    Status, is_stale,
+    EventRow, ItemKind, LinkRow, MapItem, MapView, PlanRow, Snapshot, Status, is_stale,
 };
 use slate_ici::LinkKind;
 use slate_model::{Board, Packet, Value as V};
@@ -20,7 +20,7 @@ use crate::run::Demo;
 /// The whole snapshot.
 pub fn snapshot(demo: &Demo, status: Status) -> Snapshot {
     let c = &demo.config;
-    let console = &demo.team.console().board;
+    let console = demo.team.console().node.view();
     Snapshot {
         title: format!(
             "slate demo — seed {}, {} robots, {} network",
@@ -32,8 +32,8 @@ pub fn snapshot(demo: &Demo, status: Status) -> Snapshot {
         status,
         summary: summary(demo),
         map: map(demo),
-        classes: classes(console),
-        objects: objects(console),
+        classes: console.classes,
+        objects: console.objects,
         plans: plans(demo),
         links: links(demo),
         events: events(demo),
@@ -41,7 +41,7 @@ pub fn snapshot(demo: &Demo, status: Status) -> Snapshot {
 }
 
 fn summary(demo: &Demo) -> BTreeMap<String, Value> {
-    let console = &demo.team.console().board;
+    let console = demo.team.console().node.board();
     let found = instances(console, "Target")
         .iter()
         .filter(|t| !text(console, t, "found_by").is_empty())
@@ -87,7 +87,7 @@ fn age(board: &Board, p: &Packet) -> Option<f64> {
 }
 
 fn map(demo: &Demo) -> MapView {
-    let console = &demo.team.console().board;
+    let console = demo.team.console().node.board();
     let mut items: Vec<MapItem> = demo
         .world
         .obstacles
@@ -210,64 +210,18 @@ fn robot_items(console: &Board, r: &str, dead: bool) -> Vec<MapItem> {
     items
 }
 
-fn classes(board: &Board) -> Vec<ClassRow> {
-    board
-        .class_defs()
-        .into_iter()
-        .map(|d| ClassRow {
-            attrs: d.attrs.iter().map(|a| a.name.clone()).collect(),
-            name: d.name,
-            parent: d.parent,
-        })
-        .collect()
-}
-
-/// Every object the console holds, with the values it wrote itself.
-fn objects(board: &Board) -> Vec<ObjectRow> {
-    let snap = board.snapshot();
-    let me = board.address().to_string();
-    snap.objects()
-        .into_iter()
-        .filter_map(|id| snap.info(id))
-        .filter(|info| !info.is_class)
-        .map(|info| ObjectRow {
-            board: me.clone(),
-            name: info.name.to_string(),
-            class: info.class.to_string(),
-            context: info.context.name().to_owned(),
-            owner: info.owner.to_string(),
-            attrs: snap
-                .own_values(info.id)
-                .into_iter()
-                .map(|(name, p, _)| attr_row(board, name.to_string(), &p))
-                .collect(),
-        })
-        .collect()
-}
-
-fn attr_row(board: &Board, name: String, p: &Packet) -> AttrRow {
-    AttrRow {
-        name,
-        value: p.value.plain_text(),
-        accuracy: p.accuracy,
-        confidence: p.confidence,
-        age: age(board, p),
-        source: p.source.to_string(),
-    }
-}
-
 /// Every plan sent on a circuit, with the state its destination's engine holds (the
 /// latest step's when the engine has none; `lost` once the destination is).
 fn plans(demo: &Demo) -> Vec<PlanRow> {
     let mut out = Vec::new();
     for m in &demo.team.modules {
-        for c in m.circuits.sent() {
+        for c in m.node.circuits().sent() {
             let status = demo
                 .team
                 .modules
                 .iter()
-                .find(|d| d.address == c.peer)
-                .and_then(|d| d.engine.status(&c.name));
+                .find(|d| *d.address() == c.peer)
+                .and_then(|d| d.node.engine().status(&c.name));
             let state = if c.steps.contains(&PlanStep::DestinationLost) {
                 "lost".to_owned()
             } else {
@@ -283,7 +237,7 @@ fn plans(demo: &Demo) -> Vec<PlanRow> {
             };
             out.push(PlanRow {
                 board: c.peer.to_string(),
-                origin: m.address.to_string(),
+                origin: m.address().to_string(),
                 state,
                 fired: Some(status.as_ref().map_or(0, |s| s.fired)),
                 last_error: Some(status.and_then(|s| s.last_error).unwrap_or_default()),

@@ -20,6 +20,30 @@ pub struct TargetOutcome {
     pub investigators: Vec<String>,
 }
 
+/// The team link's air, as the simulator measured it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TeamChannel {
+    /// `radio` or `acoustic`.
+    pub medium: String,
+    /// The fraction of the run the one shared channel was on the air (`None` for
+    /// radios: each has its own).
+    pub utilisation: Option<f64>,
+    /// Frames put on the air (a radio sends a message as one frame).
+    pub frames_sent: u64,
+    /// Frames lost (per receiver for a broadcast, per attempt for a reliable send).
+    pub frames_lost: u64,
+    /// The largest frame on the air, bytes.
+    pub largest_frame_bytes: usize,
+    /// The largest message on the air, bytes.
+    pub largest_message_bytes: usize,
+    /// The longest a message waited for its transmitter (the shared channel, for the
+    /// acoustic medium), seconds.
+    pub max_queued_seconds: f64,
+    /// Messages their senders dropped because they would have waited longer than the
+    /// link's transmit queue allows.
+    pub dropped_msgs: u64,
+}
+
 /// Everything a run measured.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Summary {
@@ -99,6 +123,8 @@ pub struct Summary {
     pub plans_rejected: usize,
     /// Events logged.
     pub events: usize,
+    /// The team link's air on the simulator (`None` on Zenoh).
+    pub team_channel: Option<TeamChannel>,
 }
 
 impl Summary {
@@ -123,6 +149,33 @@ impl Summary {
         }
     }
 
+    /// Team-link bytes that are protocol overhead (neither reports, plans nor plan
+    /// acks: greetings, heartbeats, object lists, catch-up, lifecycle) over all team-link
+    /// bytes, both as the ICIs sent them (so the two sides count the same thing).
+    pub fn team_overhead_fraction(&self) -> f64 {
+        let all: u64 = self.team_bytes_by_kind.values().sum();
+        let model: u64 = MODEL_KINDS
+            .iter()
+            .filter_map(|k| self.team_bytes_by_kind.get(*k))
+            .sum();
+        if all == 0 {
+            0.0
+        } else {
+            all.saturating_sub(model) as f64 / all as f64
+        }
+    }
+
+    /// Team-link bytes (on the air, retransmissions included) per robot per minute of
+    /// mission: the load each robot adds to the team link.
+    pub fn team_bytes_per_robot_minute(&self) -> f64 {
+        let minutes = self.mission_seconds / 60.0;
+        if self.robots == 0 || minutes <= 0.0 {
+            0.0
+        } else {
+            self.team_link_bytes as f64 / self.robots as f64 / minutes
+        }
+    }
+
     /// The summary as one JSON object.
     pub fn to_json(&self) -> Value {
         let targets: Vec<Value> = self
@@ -130,7 +183,7 @@ impl Summary {
             .iter()
             .map(|t| json!({"name": t.name, "found_by": t.found_by, "found_at": t.found_at, "investigators": t.investigators}))
             .collect();
-        json!({
+        let mut summary = json!({
             "seed": self.seed,
             "robots": self.robots,
             "network": self.network,
@@ -151,6 +204,8 @@ impl Summary {
             "intra_robot_bytes": self.intra_robot_bytes,
             "team_fraction_of_intra": (self.team_fraction() * 10_000.0).round() / 10_000.0,
             "team_report_fraction_of_intra": (self.team_report_fraction() * 10_000.0).round() / 10_000.0,
+            "team_overhead_fraction": (self.team_overhead_fraction() * 10_000.0).round() / 10_000.0,
+            "team_bytes_per_robot_minute": self.team_bytes_per_robot_minute().round(),
             "team_link_budget_bps": self.team_link_budget_bps,
             "team_link_peak_bps": round(self.team_link_peak_bps),
             "team_link_peak_radio": self.team_link_peak_radio,
@@ -170,7 +225,35 @@ impl Summary {
             "plans_accepted": self.plans_accepted,
             "plans_rejected": self.plans_rejected,
             "events": self.events,
-        })
+        });
+        if let Value::Object(map) = &mut summary {
+            map.extend(self.channel_json());
+        }
+        summary
+    }
+
+    /// The team link's medium and air, as JSON fields.
+    fn channel_json(&self) -> serde_json::Map<String, Value> {
+        let c = self.team_channel.as_ref();
+        let fields = json!({
+            "team_link": self.team_medium(),
+            "team_channel_utilisation": c.and_then(|c| c.utilisation).map(|u| (u * 10_000.0).round() / 10_000.0),
+            "team_frames_sent": c.map(|c| c.frames_sent),
+            "team_frames_lost": c.map(|c| c.frames_lost),
+            "team_largest_frame_bytes": c.map(|c| c.largest_frame_bytes),
+            "team_largest_message_bytes": c.map(|c| c.largest_message_bytes),
+            "team_channel_max_queued_seconds": c.map(|c| round(c.max_queued_seconds)),
+            "team_messages_dropped": c.map(|c| c.dropped_msgs),
+        });
+        match fields {
+            Value::Object(map) => map,
+            _ => serde_json::Map::new(),
+        }
+    }
+
+    /// `radio` or `acoustic` (Zenoh runs radios only).
+    pub fn team_medium(&self) -> &str {
+        self.team_channel.as_ref().map_or("radio", |c| &c.medium)
     }
 
     /// The summary as text.
@@ -263,14 +346,54 @@ impl Summary {
     }
 
     fn links_text(&self, s: &mut String) {
+        let budget = match self.team_medium() {
+            "radio" => "per radio",
+            _ => "on the one shared channel",
+        };
         let _ = writeln!(
             s,
-            "team link    {} bytes, {:.2} % of the {} bytes inside the robots; budget {} bit/s per radio",
+            "team link    {} bytes, {:.2} % of the {} bytes inside the robots; budget {} bit/s {budget}",
             self.team_link_bytes,
             100.0 * self.team_fraction(),
             self.intra_robot_bytes,
             self.team_link_budget_bps
         );
+        self.channel_text(s);
+        if self.team_medium() == "radio" {
+            self.radios_text(s);
+        }
+        let kinds = |m: &BTreeMap<String, u64>| {
+            let mut v: Vec<_> = m.iter().collect();
+            v.sort_by(|a, b| b.1.cmp(a.1));
+            v.iter()
+                .map(|(k, b)| format!("{k} {b}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let _ = writeln!(
+            s,
+            "  reports alone (the world model, no protocol overhead): {:.1} % of the robots' own",
+            100.0 * self.team_report_fraction()
+        );
+        let _ = writeln!(
+            s,
+            "  overhead (neither reports, plans nor plan acks): {:.1} % of the team bytes; {:.0} bytes per robot per minute",
+            100.0 * self.team_overhead_fraction(),
+            self.team_bytes_per_robot_minute()
+        );
+        let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));
+        let _ = writeln!(s, "  robot by kind: {}", kinds(&self.intra_bytes_by_kind));
+    }
+}
+
+/// The message kinds that carry the world model and the plans themselves: the rest of
+/// the team link's bytes are the protocol's overhead.
+const MODEL_KINDS: [&str; 3] = ["report", "plan", "plan_ack"];
+
+impl Summary {
+    /// The radios' lines: the busiest radio against the budget, and all together (the
+    /// acoustic channel has its own line instead).
+    fn radios_text(&self, s: &mut String) {
         let _ = writeln!(
             s,
             "  radio peak {:.0} bit/s ({}, {:.0} % of budget; bursts up to {:.0} bit/s queued at most {:.1} s)",
@@ -285,21 +408,26 @@ impl Summary {
             "  all radios together: mean {:.0} bit/s, peak {:.0} bit/s",
             self.team_link_mean_bps, self.team_channel_peak_bps
         );
-        let kinds = |m: &BTreeMap<String, u64>| {
-            let mut v: Vec<_> = m.iter().collect();
-            v.sort_by(|a, b| b.1.cmp(a.1));
-            v.iter()
-                .map(|(k, b)| format!("{k} {b}"))
-                .collect::<Vec<_>>()
-                .join(", ")
+    }
+
+    /// The shared channel's line (acoustic only: radios are the lines after it).
+    fn channel_text(&self, s: &mut String) {
+        let Some(c) = &self.team_channel else { return };
+        let Some(utilisation) = c.utilisation else {
+            return;
         };
         let _ = writeln!(
             s,
-            "  reports alone (the world model, no protocol overhead): {:.1} % of the robots' own",
-            100.0 * self.team_report_fraction()
+            "  {} channel (shared by the whole team): on the air {:.1} % of the run; {} frames sent, {} lost; largest frame {} bytes (largest message {} bytes); a message waited up to {:.1} s, {} dropped as the queue was full",
+            c.medium,
+            100.0 * utilisation,
+            c.frames_sent,
+            c.frames_lost,
+            c.largest_frame_bytes,
+            c.largest_message_bytes,
+            c.max_queued_seconds,
+            c.dropped_msgs
         );
-        let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));
-        let _ = writeln!(s, "  robot by kind: {}", kinds(&self.intra_bytes_by_kind));
     }
 }
 

@@ -34,7 +34,7 @@ impl Team {
                 modules.push(Module::start(net, robot, role, &robots)?);
             }
         }
-        let operator = Operator::new(modules[0].board.clone());
+        let operator = Operator::new(modules[0].node.board().clone());
         let mut team = Team {
             dead: vec![false; robots.len()],
             robots,
@@ -50,7 +50,7 @@ impl Team {
 
     fn robot_drivers(&self, i: usize, seed: u64) -> RobotDrivers {
         let name = &self.robots[i];
-        let board = |role| self.module(i, role).board.clone();
+        let board = |role| self.module(i, role).node.board().clone();
         RobotDrivers {
             nav: Nav::new(i, name, board(Role::Nav), seed),
             prox: Prox::new(i, name, board(Role::Prox), seed),
@@ -101,7 +101,7 @@ impl Team {
         self.dead[i] = true;
         world.power_off(i);
         for m in self.robot_modules(i) {
-            net.kill(&m.address);
+            net.kill(m.address());
         }
     }
 }

@@ -11,7 +11,9 @@ use std::collections::BTreeMap;
 
 use slate_ici::{LinkKind, MsgKind};
 
+use crate::config::{TeamLink, TeamMedium};
 use crate::net::Network;
+use crate::summary::TeamChannel;
 use crate::team::Team;
 
 /// Bytes per (robot or `base`, link kind), cumulative.
@@ -107,6 +109,29 @@ impl LinkRates {
     }
 }
 
+/// The team link's air as the simulator measured it (`None` on Zenoh).
+pub(crate) fn team_channel(net: &Network, link: &TeamLink) -> Option<TeamChannel> {
+    let (channel, stats, utilisation) = net.team_channel()?;
+    let max_queued = stats
+        .radios
+        .iter()
+        .filter(|((_, l), _)| *l == LinkKind::Team)
+        .map(|(_, r)| r.max_queued)
+        .max()
+        .unwrap_or_default();
+    let shared = link.medium == TeamMedium::Acoustic;
+    Some(TeamChannel {
+        medium: link.medium.name().to_owned(),
+        utilisation: shared.then_some(utilisation),
+        frames_sent: channel.frames_sent,
+        frames_lost: channel.frames_lost,
+        largest_frame_bytes: channel.largest_frame,
+        largest_message_bytes: channel.largest_message,
+        max_queued_seconds: max_queued.as_secs_f64(),
+        dropped_msgs: channel.dropped,
+    })
+}
+
 /// Cumulative bytes per (robot, link kind).
 fn counts(net: &Network, team: &Team) -> Counts {
     let mut out = Counts::new();
@@ -117,7 +142,7 @@ fn counts(net: &Network, team: &Team) -> Counts {
     } else {
         for m in &team.modules {
             for link in LinkKind::ALL {
-                let sent = m.ici.stats().link(link).sent_bytes;
+                let sent = m.node.ici().stats().link(link).sent_bytes;
                 *out.entry((m.robot.clone(), link)).or_default() += sent;
             }
         }
@@ -129,7 +154,7 @@ fn counts(net: &Network, team: &Team) -> Counts {
 pub(crate) fn by_kind(team: &Team, link: LinkKind) -> BTreeMap<MsgKind, u64> {
     let mut out = BTreeMap::new();
     for m in &team.modules {
-        for ((l, kind), t) in m.ici.stats().traffic {
+        for ((l, kind), t) in m.node.ici().stats().traffic {
             if l == link && t.sent_bytes > 0 {
                 *out.entry(kind).or_default() += t.sent_bytes;
             }

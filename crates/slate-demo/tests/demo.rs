@@ -9,6 +9,9 @@ mod files;
 // The mission end to end on the simulator, with fixed seeds.
 #[path = "demo/mission.rs"]
 mod mission;
+// The team at scale (up to 32 robots) and the acoustic channel.
+#[path = "demo/scale.rs"]
+mod scale;
 // Shared helpers: fast configurations (and the shared timeout guard).
 #[path = "demo/support.rs"]
 mod support;

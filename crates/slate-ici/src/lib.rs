@@ -63,6 +63,6 @@ pub use ici::{
     module_object_name,
 };
 pub use slate_transport::{
-    Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng, SendError,
+    Channel, Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng, SendError,
     SimConfig, SimNet, SimStats, SimTransport, Traffic, Transport,
 };

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
 use slate_ici::{ClassSet, Ici, MODULE_CLASS};
-use slate_model::{Board, BoardEvent, ChangeItem, Filter, Value, Watch};
+use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Filter, Value, Watch};
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
 use crate::observer::OBSERVER_PREFIX;
@@ -64,10 +64,14 @@ impl EventLog {
     }
 }
 
-/// The thread that turns board changes and events into log entries.
+/// What turns board changes and events into log entries: a thread polling every
+/// [`POLL`] on the system clock; on a manual clock (the simulator) the clock's own moves,
+/// so that a simulated run stays the same run (no wall-clock timing enters it).
 pub(crate) struct Monitor {
     stop: Sender<()>,
     thread: Option<JoinHandle<()>>,
+    /// On a manual clock: the listener the clock holds weakly (dropped, it stops).
+    ticked: Option<Arc<Ticked>>,
 }
 
 impl Monitor {
@@ -90,18 +94,35 @@ impl Monitor {
             plan_events: engine.events(),
             board: Arc::downgrade(board),
         };
+        if board.clock().is_manual() {
+            let ticked = Arc::new(Ticked { sources, log });
+            let listener: Arc<dyn ClockListener> = ticked.clone();
+            board.clock().subscribe(Arc::downgrade(&listener));
+            return Monitor {
+                stop,
+                thread: None,
+                ticked: Some(ticked),
+            };
+        }
         let thread = std::thread::Builder::new()
             .name("slate-node-monitor".into())
             .spawn(move || sources.run(&stopped, &log))
             .ok();
-        Monitor { stop, thread }
+        Monitor {
+            stop,
+            thread,
+            ticked: None,
+        }
     }
 
-    /// Stops the thread, after it has logged what is waiting.
+    /// Stops the thread (or the clock's calls), after it has logged what is waiting.
     pub fn stop(&mut self) {
         let _ = self.stop.try_send(());
         if let Some(t) = self.thread.take() {
             let _ = t.join();
+        }
+        if let Some(t) = self.ticked.take() {
+            t.drain();
         }
     }
 }
@@ -109,6 +130,28 @@ impl Monitor {
 impl Drop for Monitor {
     fn drop(&mut self) {
         self.stop();
+    }
+}
+
+/// The monitor of a node on a manual clock: it drains whenever the clock moves. It never
+/// greets peers again ([`REGREET`] is for networks whose routes settle in wall-clock time;
+/// the simulator delivers to a peer as soon as it is up).
+struct Ticked {
+    sources: Sources,
+    log: Arc<EventLog>,
+}
+
+impl Ticked {
+    fn drain(&self) {
+        if let Some(board) = self.sources.board.upgrade() {
+            self.sources.drain(&board, &self.log);
+        }
+    }
+}
+
+impl ClockListener for Ticked {
+    fn advanced(&self, _now: Duration) {
+        self.drain();
     }
 }
 

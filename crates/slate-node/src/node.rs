@@ -259,7 +259,10 @@ struct Threads {
 /// [`Transport`] (Zenoh, or the simulator), and its [`PlanCircuits`] (plans sent to and
 /// received from other modules, with their acknowledgements).
 ///
-/// On the system clock a timer thread runs the ICI's timers and the engine's deadlines.
+/// On the system clock a timer thread runs the ICI's timers and the engine's deadlines,
+/// and a monitor thread keeps the event log. On a manual clock (the simulator) the node
+/// starts no thread: timers and the event log move with the clock, in the thread that
+/// moves it, so a simulated run depends on nothing but its seed.
 /// [`close`](Node::close) (or drop) flushes what is in flight and leaves the network;
 /// peers see the module go down.
 ///
@@ -381,6 +384,13 @@ impl Node {
     /// The dashboard's view of this node, as JSON (`docs/dashboard.md`).
     pub fn snapshot(&self) -> serde_json::Value {
         self.view.snapshot()
+    }
+
+    /// The dashboard's view of this node, typed (what [`snapshot`](Node::snapshot)
+    /// serialises): for a program that shows this node among others, as the demo shows
+    /// its console's classes and objects.
+    pub fn view(&self) -> slate_dashboard::Snapshot {
+        self.view.view()
     }
 
     /// Has it been closed?

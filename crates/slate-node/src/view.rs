@@ -68,7 +68,7 @@ impl View {
     }
 
     /// The whole snapshot.
-    fn view(&self) -> Snapshot {
+    pub fn view(&self) -> Snapshot {
         let classes = Classes::of(&self.board);
         Snapshot {
             title: format!("slate node {}", self.board.address()),

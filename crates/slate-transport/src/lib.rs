@@ -51,5 +51,7 @@ pub mod conformance;
 mod sim;
 mod transport;
 
-pub use sim::{LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport};
+pub use sim::{
+    Channel, LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport,
+};
 pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};

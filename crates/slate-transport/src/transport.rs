@@ -56,8 +56,10 @@ impl fmt::Display for LinkKind {
 /// What a message is, for routing (a transport may give kinds their own keys,
 /// priorities or reliability) and for statistics.
 ///
-/// The first nine are slate-wire messages (header version 1); the last three are the
-/// ICI's own frames (header version 0, see `docs/ici.md`).
+/// The first nine are slate-wire messages (header version 1); the next three are the
+/// ICI's own frames (header version 0, see `docs/ici.md`); the eleven after them are the
+/// team protocol's frames (header version 0 kinds 4-12, and versions 2 and 3 for team data
+/// and repair frames, see `docs/team-protocol.md` section 2.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[non_exhaustive]
 pub enum MsgKind {
@@ -85,13 +87,37 @@ pub enum MsgKind {
     Lifecycle,
     /// The ICI's list of the objects a source owns (ends a catch-up answer).
     ObjectList,
+    /// A numbered frame of a robot stream, single part (`0x20..=0x2E`, the low nibble
+    /// is the member index) or multi part (`0x2F`).
+    TeamFrame,
+    /// A repair of a range of robot-stream positions (`0x3F`).
+    TeamRepair,
+    /// A robot's hello: its members, their incarnations, its union interest (`0x04`).
+    RobotHello,
+    /// A robot's heartbeat: stream position and members' liveliness (`0x05`).
+    RobotHeartbeat,
+    /// A request to repair robot-stream positions or to send state (`0x06`).
+    Nack,
+    /// Positions a gateway can no longer repair (`0x07`).
+    Gone,
+    /// A member's message handed to its robot's gateway (`0x08`).
+    Uplink,
+    /// What a member lacks, told to its gateway (`0x09`).
+    Want,
+    /// A gateway's request for a member's current state (`0x0A`).
+    StateRequest,
+    /// The remote robots' union interest and exports, from a gateway to its members
+    /// (`0x0B`).
+    TeamInterest,
+    /// Inner positions covered by a repair by difference (`0x0C`).
+    Fill,
     /// Bytes that are none of the above.
     Unknown,
 }
 
 impl MsgKind {
     /// Every kind.
-    pub const ALL: [MsgKind; 13] = [
+    pub const ALL: [MsgKind; 24] = [
         MsgKind::Report,
         MsgKind::Names,
         MsgKind::Classes,
@@ -104,10 +130,23 @@ impl MsgKind {
         MsgKind::Hello,
         MsgKind::Lifecycle,
         MsgKind::ObjectList,
+        MsgKind::TeamFrame,
+        MsgKind::TeamRepair,
+        MsgKind::RobotHello,
+        MsgKind::RobotHeartbeat,
+        MsgKind::Nack,
+        MsgKind::Gone,
+        MsgKind::Uplink,
+        MsgKind::Want,
+        MsgKind::StateRequest,
+        MsgKind::TeamInterest,
+        MsgKind::Fill,
         MsgKind::Unknown,
     ];
 
-    /// The kind of a message, read from its first byte.
+    /// The kind of a message, read from its first byte: the high nibble is the header
+    /// version (0 ICI frames, 1 slate-wire, 2 team data frames, 3 team repairs), the low
+    /// nibble the kind (or, in a single-part team frame, the member index).
     pub fn of(payload: &[u8]) -> MsgKind {
         let Some(&first) = payload.first() else {
             return MsgKind::Unknown;
@@ -115,6 +154,9 @@ impl MsgKind {
         let index = match (first >> 4, first & 0xf) {
             (1, k @ 1..=9) => k - 1,
             (0, k @ 1..=3) => k + 8,
+            (0, k @ 4..=12) => k + 10,
+            (2, _) => 12,
+            (3, 0xf) => 13,
             _ => return MsgKind::Unknown,
         };
         MsgKind::ALL[usize::from(index)]
@@ -150,6 +192,17 @@ impl MsgKind {
             MsgKind::Hello => "hello",
             MsgKind::Lifecycle => "lifecycle",
             MsgKind::ObjectList => "object_list",
+            MsgKind::TeamFrame => "team_frame",
+            MsgKind::TeamRepair => "team_repair",
+            MsgKind::RobotHello => "robot_hello",
+            MsgKind::RobotHeartbeat => "robot_heartbeat",
+            MsgKind::Nack => "nack",
+            MsgKind::Gone => "gone",
+            MsgKind::Uplink => "uplink",
+            MsgKind::Want => "want",
+            MsgKind::StateRequest => "state_request",
+            MsgKind::TeamInterest => "team_interest",
+            MsgKind::Fill => "fill",
             MsgKind::Unknown => "unknown",
         }
     }
@@ -326,10 +379,95 @@ mod tests {
         assert_eq!(MsgKind::of(&[0x19]), MsgKind::Heartbeat);
         assert_eq!(MsgKind::of(&[0x01]), MsgKind::Hello);
         assert_eq!(MsgKind::of(&[0x03]), MsgKind::ObjectList);
-        for bad in [[0x10], [0x1a], [0x00], [0x04], [0x21], [0xff]] {
+        for bad in [
+            [0x10],
+            [0x1a],
+            [0x00],
+            [0x0d],
+            [0x30],
+            [0x3e],
+            [0x40],
+            [0xff],
+        ] {
             assert_eq!(MsgKind::of(&bad), MsgKind::Unknown, "{bad:?}");
         }
         assert_eq!(MsgKind::of(&[]), MsgKind::Unknown);
+    }
+
+    /// The kind of every header byte, written out by hand (not by `of`'s rule), so a
+    /// change to either one shows here.
+    fn expected_kind(header: u8) -> MsgKind {
+        let old = [MsgKind::Hello, MsgKind::Lifecycle, MsgKind::ObjectList];
+        let wire = &MsgKind::ALL[..9];
+        let team = &MsgKind::ALL[14..23];
+        match header {
+            0x01..=0x03 => old[usize::from(header - 1)],
+            0x04..=0x0c => team[usize::from(header - 4)],
+            0x11..=0x19 => wire[usize::from(header - 0x11)],
+            0x20..=0x2f => MsgKind::TeamFrame,
+            0x3f => MsgKind::TeamRepair,
+            _ => MsgKind::Unknown,
+        }
+    }
+
+    #[test]
+    fn every_header_byte_maps_to_its_kind() {
+        for header in 0..=u8::MAX {
+            assert_eq!(
+                MsgKind::of(&[header, 9]),
+                expected_kind(header),
+                "{header:#04x}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_team_protocols_headers_name_their_frames() {
+        let named = [
+            (0x20, "team_frame"),
+            (0x2e, "team_frame"),
+            (0x2f, "team_frame"),
+            (0x3f, "team_repair"),
+            (0x04, "robot_hello"),
+            (0x05, "robot_heartbeat"),
+            (0x06, "nack"),
+            (0x07, "gone"),
+            (0x08, "uplink"),
+            (0x09, "want"),
+            (0x0a, "state_request"),
+            (0x0b, "team_interest"),
+            (0x0c, "fill"),
+        ];
+        for (header, name) in named {
+            assert_eq!(MsgKind::of(&[header]).name(), name, "{header:#04x}");
+        }
+    }
+
+    #[test]
+    fn the_old_kinds_keep_their_headers_and_names() {
+        let old = [
+            (0x11, "report"),
+            (0x12, "names"),
+            (0x13, "classes"),
+            (0x14, "plan"),
+            (0x15, "plan_ack"),
+            (0x16, "plan_cancel"),
+            (0x17, "catch_up_request"),
+            (0x18, "catch_up_answer"),
+            (0x19, "heartbeat"),
+            (0x01, "hello"),
+            (0x02, "lifecycle"),
+            (0x03, "object_list"),
+        ];
+        for (header, name) in old {
+            assert_eq!(MsgKind::of(&[header]).name(), name, "{header:#04x}");
+        }
+    }
+
+    #[test]
+    fn every_kind_has_its_own_name() {
+        let names: std::collections::BTreeSet<_> = MsgKind::ALL.iter().map(|k| k.name()).collect();
+        assert_eq!(names.len(), MsgKind::ALL.len());
     }
 
     #[test]

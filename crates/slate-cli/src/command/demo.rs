@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::ValueEnum;
-use slate_demo::{DemoConfig, NetworkKind, Progress};
+use slate_demo::{DemoConfig, NetworkKind, Progress, TeamLink, TeamMedium};
 
 use crate::cli::Format;
 
@@ -19,14 +19,26 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
 
-    /// Robots in the team (each five modules: five boards, five ICIs).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=8))]
+    /// Robots in the team, 1 to 32 (each five modules: five boards, five ICIs; the world
+    /// grows a strip with a route and targets per robot).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u8).range(1..=32))]
     pub robots: u8,
 
     /// The network: the deterministic simulator (team link 9600 bit/s, 5 % loss), or Zenoh
     /// on 127.0.0.1 with one session per module, all in this process (real time).
     #[arg(long, value_enum, default_value_t = Network::Sim)]
     pub network: Network,
+
+    /// What carries the team link on the simulator: a radio per robot, or one shared
+    /// half-duplex acoustic channel for the whole team (32-byte frames, 20 % frame loss,
+    /// 1-2 s latency).
+    #[arg(long, value_enum, default_value_t = TeamLinkArg::Radio)]
+    pub team_link: TeamLinkArg,
+
+    /// The team link's rate in bit/s: per radio (default 9600), or of the one acoustic
+    /// channel (default 80, the WHOI Micro-Modem's lowest rate).
+    #[arg(long, value_name = "BPS")]
+    pub team_rate: Option<u64>,
 
     /// Serve the live dashboard at this address, like 127.0.0.1:8080 (the simulator then
     /// runs at real time so people can watch).
@@ -69,6 +81,15 @@ pub enum Network {
     Zenoh,
 }
 
+/// What carries the team link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum TeamLinkArg {
+    /// A radio per robot, messages whole.
+    Radio,
+    /// One shared half-duplex acoustic channel, 32-byte frames.
+    Acoustic,
+}
+
 /// Runs the demo; exits 0 when the mission completes, 1 when it does not.
 pub fn run(args: &DemoArgs, format: Format) -> anyhow::Result<ExitCode> {
     let config = config(args)?;
@@ -107,7 +128,14 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
             Network::Zenoh => NetworkKind::Zenoh,
         })
         .duration(Duration::from_secs_f64(args.duration))
-        .fault_at((!args.no_fault).then_some(args.fault_at));
+        .fault_at((!args.no_fault).then_some(args.fault_at))
+        .team_link(TeamLink::of(
+            match args.team_link {
+                TeamLinkArg::Radio => TeamMedium::Radio,
+                TeamLinkArg::Acoustic => TeamMedium::Acoustic,
+            },
+            args.team_rate,
+        ));
     if let Some(addr) = args.dashboard {
         config = config.dashboard(addr);
         config.linger = Duration::from_secs_f64(args.linger);

@@ -7,7 +7,7 @@ mod geometry;
 mod layout;
 
 pub use geometry::{P2, add, angle, dist, gauss, norm, scale, sub, uniform, unit, wrap};
-pub use layout::{Layout, Region};
+pub use layout::{Layout, Region, STRIP, WIDTH};
 
 use slate_ici::Rng;
 

@@ -94,20 +94,20 @@ fn the_team_link_never_carries_sensor_data() {
     for i in 0..team.robots.len() {
         for m in team.robot_modules(i) {
             for class in ["Pose", "Obstacle", "Contact", "Sighting"] {
-                for id in m.board.instances(class).unwrap() {
-                    let info = m.board.snapshot().info(id).unwrap();
+                for id in m.node.board().instances(class).unwrap() {
+                    let info = m.node.board().snapshot().info(id).unwrap();
                     assert_eq!(
                         info.owner.robot(),
                         team.robots[i],
                         "{} holds {} ({class}) from another robot",
-                        m.address,
+                        m.address(),
                         info.name
                     );
                 }
             }
         }
     }
-    let console = &team.console().board;
+    let console = team.console().node.board();
     for class in ["Pose", "Obstacle", "Contact", "Sighting", "Sensor"] {
         assert!(
             console.instances(class).unwrap().is_empty(),
@@ -117,7 +117,7 @@ fn the_team_link_never_carries_sensor_data() {
     let suppressed: u64 = team
         .modules
         .iter()
-        .map(|m| m.ici.stats().reports.suppressed_export)
+        .map(|m| m.node.ici().stats().reports.suppressed_export)
         .sum();
     assert!(
         suppressed > 0,
@@ -129,7 +129,7 @@ fn the_team_link_never_carries_sensor_data() {
 fn other_robots_are_system_context_and_their_death_a_world_model_fact() {
     let demo = within(LIMIT, || run_for(17, 40.0));
     let team = &demo.team;
-    let r1 = &team.module(0, Role::Exec).board;
+    let r1 = team.module(0, Role::Exec).node.board();
     let r2 = r1.info(&team.robots[1]).expect("r1's controller knows r2");
     assert_eq!(r2.context, Context::System);
     assert_eq!(r1.info(&team.robots[0]).unwrap().context, Context::Self_);

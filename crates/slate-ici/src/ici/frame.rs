@@ -15,8 +15,10 @@ use super::classes::{ALL_CONTEXTS, ClassSet};
 const HELLO: u8 = 1;
 const LIFECYCLE: u8 = 2;
 const OBJECT_LIST: u8 = 3;
-const MAX_ITEMS: u64 = slate_wire::MAX_ITEMS as u64;
-const MAX_NAME: u64 = slate_wire::MAX_NAME_BYTES as u64;
+/// The most items a count may announce (also checked against the bytes left).
+pub(crate) const MAX_ITEMS: u64 = slate_wire::MAX_ITEMS as u64;
+/// The longest string, in bytes.
+pub(crate) const MAX_NAME: u64 = slate_wire::MAX_NAME_BYTES as u64;
 
 /// A module's hello: which incarnation it is and what it models; `reply` when it
 /// answers the other's hello (a hello that is not a reply is answered by one, so its
@@ -73,19 +75,23 @@ pub(crate) enum Frame {
 /// A frame that could not be read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub(crate) enum FrameError {
+    /// The bytes end inside a field.
     #[error("frame truncated")]
     Truncated,
+    /// A field holds what its layout forbids; the text says which.
     #[error("bad frame: {0}")]
     Bad(&'static str),
 }
 
 // ----- writing -----
 
+/// Appends fields to a frame (shared with the team protocol's frames, `team/frame.rs`).
 #[derive(Default)]
-struct Writer(Vec<u8>);
+pub(crate) struct Writer(pub(crate) Vec<u8>);
 
 impl Writer {
-    fn var(&mut self, mut v: u64) {
+    /// An unsigned LEB128 varint.
+    pub(crate) fn var(&mut self, mut v: u64) {
         loop {
             let byte = (v & 0x7f) as u8;
             v >>= 7;
@@ -97,7 +103,8 @@ impl Writer {
         }
     }
 
-    fn str(&mut self, s: &str) {
+    /// A length-prefixed UTF-8 string.
+    pub(crate) fn str(&mut self, s: &str) {
         self.var(s.len() as u64);
         self.0.extend_from_slice(s.as_bytes());
     }
@@ -178,19 +185,22 @@ fn write_lifecycle(w: &mut Writer, l: &Lifecycle) {
 
 // ----- reading -----
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    at: usize,
+/// Reads fields of a frame, checking each against the bytes left (shared with the team
+/// protocol's frames, `team/frame.rs`).
+pub(crate) struct Reader<'a> {
+    pub(crate) bytes: &'a [u8],
+    /// The next byte to read.
+    pub(crate) at: usize,
 }
 
-impl Reader<'_> {
-    fn byte(&mut self) -> Result<u8, FrameError> {
+impl<'a> Reader<'a> {
+    pub(crate) fn byte(&mut self) -> Result<u8, FrameError> {
         let b = *self.bytes.get(self.at).ok_or(FrameError::Truncated)?;
         self.at += 1;
         Ok(b)
     }
 
-    fn var(&mut self) -> Result<u64, FrameError> {
+    pub(crate) fn var(&mut self) -> Result<u64, FrameError> {
         let mut v = 0u64;
         for shift in (0..64).step_by(7) {
             let b = self.byte()?;
@@ -208,7 +218,7 @@ impl Reader<'_> {
 
     /// A count, checked against the limit and against the bytes left (each item takes
     /// at least one byte).
-    fn count(&mut self) -> Result<usize, FrameError> {
+    pub(crate) fn count(&mut self) -> Result<usize, FrameError> {
         let n = self.var()?;
         if n > MAX_ITEMS || n > (self.bytes.len() - self.at) as u64 {
             return Err(FrameError::Bad("count too large"));
@@ -216,7 +226,17 @@ impl Reader<'_> {
         Ok(n as usize)
     }
 
-    fn name(&mut self) -> Result<Arc<str>, FrameError> {
+    /// An identifier (class or object name).
+    pub(crate) fn name(&mut self) -> Result<Arc<str>, FrameError> {
+        let text = self.text()?;
+        if !is_identifier(text) {
+            return Err(FrameError::Bad("name is not an identifier"));
+        }
+        Ok(text.into())
+    }
+
+    /// A length-prefixed UTF-8 string of at most `MAX_NAME` bytes.
+    pub(crate) fn text(&mut self) -> Result<&'a str, FrameError> {
         let len = self.var()?;
         if len > MAX_NAME {
             return Err(FrameError::Bad("name too long"));
@@ -227,11 +247,8 @@ impl Reader<'_> {
             .ok_or(FrameError::Truncated)?;
         let raw = self.bytes.get(self.at..end).ok_or(FrameError::Truncated)?;
         let text = std::str::from_utf8(raw).map_err(|_| FrameError::Bad("name is not UTF-8"))?;
-        if !is_identifier(text) {
-            return Err(FrameError::Bad("name is not an identifier"));
-        }
         self.at = end;
-        Ok(text.into())
+        Ok(text)
     }
 
     fn context(&mut self) -> Result<Context, FrameError> {

@@ -15,6 +15,7 @@ mod send;
 mod state;
 mod stats;
 mod stream;
+mod team;
 mod tick;
 
 use std::collections::VecDeque;

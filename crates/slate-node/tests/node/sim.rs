@@ -266,3 +266,19 @@ fn a_restarted_module_does_not_roll_the_team_back_to_its_files_initial_values() 
     assert_eq!(speed(&loco), Some(5.0), "the team keeps the newer value");
     assert_eq!(speed(&nav), Some(5.0), "the restarted module gets it back");
 }
+
+/// On a manual clock the event log is written as the clock moves, in the simulator's
+/// thread: a run is the same run whatever the wall clock does, and nothing is left for a
+/// thread to log later.
+#[test]
+fn a_simulated_node_logs_its_events_as_the_clock_moves() {
+    let net = SimNet::new(4);
+    let nav = start(&net, "t/r1/nav", "");
+    let _loco = start(&net, "t/r1/loco", "");
+    net.run_for(Duration::from_millis(500));
+    let texts: Vec<String> = nav.events().into_iter().map(|e| e.text).collect();
+    assert!(
+        texts.iter().any(|t| t == "peer t/r1/loco up"),
+        "no peer event in {texts:?}"
+    );
+}

@@ -7,12 +7,14 @@ use std::time::Duration;
 /// ```
 /// use slate_transport::LinkConfig;
 /// use std::time::Duration;
-/// // An acoustic-modem-like team link.
+/// // An acoustic-modem-like team link: one shared channel, 32-byte frames.
 /// let team = LinkConfig::clean()
-///     .delay(Duration::from_millis(50))
-///     .bandwidth(9600)
-///     .loss(0.1);
-/// assert_eq!(team.bandwidth, Some(9600));
+///     .delay(Duration::from_secs(1))
+///     .bandwidth(80)
+///     .loss(0.2)
+///     .shared()
+///     .frames(32, Duration::from_millis(500));
+/// assert_eq!(team.frame_count(100), 4);
 /// ```
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LinkConfig {
@@ -25,9 +27,25 @@ pub struct LinkConfig {
     /// Probability that a best-effort delivery arrives twice.
     pub duplicate: f64,
     /// Capacity of each sender's transmitter on this kind of link, in bit/s (`None`:
-    /// unlimited). A message occupies the transmitter for `bytes * 8 / bandwidth`;
-    /// messages queue behind it.
+    /// unlimited). A message occupies the transmitter for `bytes * 8 / bandwidth` (plus
+    /// the frames' overhead); messages queue behind it.
     pub bandwidth: Option<u64>,
+    /// One transmitter for every sender on this kind of link: a shared half-duplex
+    /// channel (an acoustic modem's). While anyone transmits, every other sender queues,
+    /// so nobody receives while it transmits. `false`: a transmitter per sender.
+    pub shared: bool,
+    /// The largest frame on the air, bytes (`None`: a message is one frame). A longer
+    /// message goes as `ceil(len / frame_bytes)` frames, back to back; each is lost
+    /// independently with [`loss`](Self::loss), and the message arrives only if every
+    /// frame does (a reliable send then retransmits the whole message).
+    pub frame_bytes: Option<usize>,
+    /// Extra airtime of every frame: preamble, synchronisation, turn-around guard.
+    pub frame_overhead: Duration,
+    /// The longest a message may wait for its transmitter: one that would wait longer
+    /// is dropped by the sender (a modem's transmit queue is finite), so an overloaded
+    /// link neither delivers hours late nor holds an ever-growing queue. Counted in
+    /// [`Channel::dropped`](crate::Channel::dropped). `None`: it waits as long as it takes.
+    pub max_queue: Option<Duration>,
 }
 
 impl LinkConfig {
@@ -39,6 +57,10 @@ impl LinkConfig {
             loss: 0.0,
             duplicate: 0.0,
             bandwidth: None,
+            shared: false,
+            frame_bytes: None,
+            frame_overhead: Duration::ZERO,
+            max_queue: None,
         }
     }
 
@@ -72,7 +94,46 @@ impl LinkConfig {
         self
     }
 
-    /// How long `bytes` occupy a transmitter of this link.
+    /// Makes the link one shared half-duplex channel (see [`shared`](Self::shared)).
+    pub fn shared(mut self) -> Self {
+        self.shared = true;
+        self
+    }
+
+    /// Splits messages into frames of at most `bytes` (at least 1), each taking
+    /// `overhead` of airtime besides its bits.
+    pub fn frames(mut self, bytes: usize, overhead: Duration) -> Self {
+        self.frame_bytes = Some(bytes.max(1));
+        self.frame_overhead = overhead;
+        self
+    }
+
+    /// Bounds how long a message may wait for its transmitter.
+    pub fn max_queue(mut self, wait: Duration) -> Self {
+        self.max_queue = Some(wait);
+        self
+    }
+
+    /// How many frames a message of `bytes` takes (at least one: an empty message is
+    /// still a frame on the air).
+    pub fn frame_count(&self, bytes: usize) -> u64 {
+        let frames = self.frame_bytes.map_or(1, |f| bytes.div_ceil(f.max(1)));
+        u64::try_from(frames.max(1)).unwrap_or(u64::MAX)
+    }
+
+    /// The largest frame a message of `bytes` puts on the air.
+    pub fn largest_frame(&self, bytes: usize) -> usize {
+        self.frame_bytes.map_or(bytes, |f| bytes.min(f))
+    }
+
+    /// How long a message of `bytes` occupies a transmitter of this link: its bits at
+    /// the bandwidth, plus every frame's overhead.
+    pub fn airtime(&self, bytes: usize) -> Duration {
+        let frames = u32::try_from(self.frame_count(bytes)).unwrap_or(u32::MAX);
+        self.transmit_time(bytes) + self.frame_overhead * frames
+    }
+
+    /// How long `bytes` occupy a transmitter of this link, frames' overhead aside.
     pub fn transmit_time(&self, bytes: usize) -> Duration {
         match self.bandwidth {
             None => Duration::ZERO,
@@ -128,5 +189,19 @@ mod tests {
         let link = LinkConfig::clean().bandwidth(9600);
         assert_eq!(link.transmit_time(1200), Duration::from_secs(1));
         assert_eq!(LinkConfig::clean().transmit_time(1200), Duration::ZERO);
+    }
+
+    #[test]
+    fn a_framed_message_pays_every_frames_overhead() {
+        let link = LinkConfig::clean()
+            .bandwidth(800)
+            .frames(32, Duration::from_millis(100));
+        assert_eq!(link.frame_count(100), 4);
+        assert_eq!(link.frame_count(0), 1);
+        assert_eq!(link.largest_frame(100), 32);
+        assert_eq!(link.airtime(100), Duration::from_millis(1400));
+        let plain = LinkConfig::clean().bandwidth(800);
+        assert_eq!((plain.frame_count(100), plain.largest_frame(100)), (1, 100));
+        assert_eq!(plain.airtime(100), plain.transmit_time(100));
     }
 }

@@ -21,7 +21,7 @@ use slate_model::{Address, Clock, MANUAL_EPOCH};
 pub use config::{LinkConfig, SimConfig};
 use net::{Action, Call, Net};
 pub use rng::Rng;
-pub use stats::{LinkCounter, Radio, SimStats};
+pub use stats::{Channel, LinkCounter, Radio, SimStats};
 
 use crate::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 
@@ -126,6 +126,13 @@ impl SimNet {
     /// Counters so far.
     pub fn stats(&self) -> SimStats {
         self.net.lock().stats.clone()
+    }
+
+    /// The fraction of the time so far that the transmitters of one kind of link spent
+    /// on the air (queued transmissions not yet started do not count). For a shared
+    /// channel it is at most 1; with a transmitter per sender, it adds theirs.
+    pub fn channel_utilisation(&self, link: LinkKind) -> f64 {
+        self.net.lock().utilisation(link)
     }
 
     /// Runs the network for `d` of virtual time.

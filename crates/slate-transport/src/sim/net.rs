@@ -42,6 +42,10 @@ pub(crate) struct Endpoint {
     pub stats: LinkStats,
 }
 
+/// The transmitter key of a shared channel (no endpoint has this index): every sender
+/// on the link reserves this one.
+const SHARED: usize = usize::MAX;
+
 /// Time is virtual: a `Duration` since the network was created.
 pub(crate) struct Net {
     pub config: SimConfig,
@@ -53,6 +57,7 @@ pub(crate) struct Net {
     current: BTreeMap<Address, usize>,
     cuts: Vec<(BTreeSet<Address>, BTreeSet<Address>)>,
     reliable_tail: BTreeMap<(usize, usize), Duration>,
+    /// When each transmitter `(sender or SHARED, link)` is free again.
     busy_until: BTreeMap<(usize, LinkKind), Duration>,
     pub stats: SimStats,
 }
@@ -244,23 +249,107 @@ impl Net {
 
     // ----- traffic -----
 
-    /// Reserves `from`'s transmitter for `airtime`; returns when the transmission starts.
-    fn transmit(&mut self, from: usize, link: LinkKind, bytes: u64, airtime: Duration) -> Duration {
-        let busy = self.busy_until.entry((from, link)).or_default();
+    /// Reserves the transmitter `from` uses on `link` (the channel's only one, if it is
+    /// shared) for `attempts` transmissions of `len` bytes; returns when the first
+    /// starts and how long they all take. Reservations are back to back (first come,
+    /// first served), so what lies ahead of `now` is one contiguous stretch.
+    fn transmit(
+        &mut self,
+        from: usize,
+        link: LinkKind,
+        cfg: &LinkConfig,
+        len: usize,
+        attempts: u32,
+    ) -> (Duration, Duration) {
+        let airtime = cfg.airtime(len) * attempts;
+        let key = if cfg.shared { SHARED } else { from };
+        let busy = self.busy_until.entry((key, link)).or_default();
         let start = (*busy).max(self.now);
         *busy = start + airtime;
         let waited = start - self.now;
-        let radio = self
-            .stats
-            .radios
-            .entry((self.endpoints[from].address.clone(), link))
-            .or_default();
+        let bytes = len as u64 * u64::from(attempts);
+        self.count_radio(from, link, bytes, airtime, waited);
+        self.count_channel(link, cfg, len, attempts, airtime);
+        (start, airtime)
+    }
+
+    /// Drops a message (and counts it) if the transmitter `from` uses on `link` is
+    /// already reserved further ahead than the link's `max_queue`.
+    fn drop_if_queue_full(&mut self, from: usize, link: LinkKind, cfg: &LinkConfig) -> bool {
+        let Some(max) = cfg.max_queue else {
+            return false;
+        };
+        let key = if cfg.shared { SHARED } else { from };
+        let until = self
+            .busy_until
+            .get(&(key, link))
+            .copied()
+            .unwrap_or_default();
+        let full = until.saturating_sub(self.now) > max;
+        if full {
+            self.stats.channels.entry(link).or_default().dropped += 1;
+        }
+        full
+    }
+
+    fn count_radio(
+        &mut self,
+        from: usize,
+        link: LinkKind,
+        bytes: u64,
+        airtime: Duration,
+        waited: Duration,
+    ) {
+        let address = self.endpoints[from].address.clone();
+        let radio = self.stats.radios.entry((address, link)).or_default();
         radio.msgs += 1;
         radio.bytes += bytes;
         radio.busy += airtime;
         radio.queued += waited;
         radio.max_queued = radio.max_queued.max(waited);
-        start
+    }
+
+    fn count_channel(
+        &mut self,
+        link: LinkKind,
+        cfg: &LinkConfig,
+        len: usize,
+        attempts: u32,
+        airtime: Duration,
+    ) {
+        let channel = self.stats.channels.entry(link).or_default();
+        channel.frames_sent += cfg.frame_count(len) * u64::from(attempts);
+        channel.largest_frame = channel.largest_frame.max(cfg.largest_frame(len));
+        channel.largest_message = channel.largest_message.max(len);
+        channel.airtime += airtime;
+    }
+
+    /// Draws the fate of a message's `frames` frames on `link`: how many were lost
+    /// (one draw per frame, so an unframed message takes exactly one).
+    fn lose_frames(&mut self, link: LinkKind, loss: f64, frames: u64) -> u64 {
+        let lost = (0..frames).filter(|_| self.rng.chance(loss)).count() as u64;
+        self.stats.channels.entry(link).or_default().frames_lost += lost;
+        lost
+    }
+
+    /// The fraction of the time so far that `link`'s transmitters spent on the air:
+    /// the airtime reserved, less what is still ahead of now.
+    pub fn utilisation(&self, link: LinkKind) -> f64 {
+        if self.now.is_zero() {
+            return 0.0;
+        }
+        let airtime = self
+            .stats
+            .channels
+            .get(&link)
+            .map_or(Duration::ZERO, |c| c.airtime);
+        let ahead: Duration = self
+            .busy_until
+            .iter()
+            .filter(|((_, l), _)| *l == link)
+            .map(|(_, until)| until.saturating_sub(self.now))
+            .sum();
+        airtime.saturating_sub(ahead).as_secs_f64() / self.now.as_secs_f64()
     }
 
     fn check_send(&self, from: usize, payload: &[u8]) -> Result<(), SendError> {
@@ -301,8 +390,10 @@ impl Net {
             return Ok(());
         }
         let cfg = self.link_config(link);
-        let airtime = cfg.transmit_time(payload.len());
-        let start = self.transmit(from, link, payload.len() as u64, airtime);
+        if self.drop_if_queue_full(from, link, &cfg) {
+            return Ok(());
+        }
+        let (start, airtime) = self.transmit(from, link, &cfg, payload.len(), 1);
         let payload: Arc<[u8]> = payload.into();
         for to in receivers {
             self.fan_out(&sender, to, kind, &payload, start + airtime, &cfg);
@@ -323,7 +414,9 @@ impl Net {
         let counter = self.stats.link(sender, &receiver, kind);
         counter.sent_msgs += 1;
         counter.sent_bytes += payload.len() as u64;
-        if self.rng.chance(cfg.loss) {
+        let link = LinkKind::between(sender, &receiver);
+        let frames = cfg.frame_count(payload.len());
+        if self.lose_frames(link, cfg.loss, frames) > 0 {
             self.stats.link(sender, &receiver, kind).lost += 1;
             return;
         }
@@ -362,14 +455,12 @@ impl Net {
             return Ok(());
         };
         let cfg = self.link_config(link);
-        let (attempts, delivered) = self.attempts(cfg.loss);
-        let airtime = cfg.transmit_time(payload.len()) * attempts;
-        let start = self.transmit(
-            from,
-            link,
-            payload.len() as u64 * u64::from(attempts),
-            airtime,
-        );
+        if self.drop_if_queue_full(from, link, &cfg) {
+            return Ok(());
+        }
+        let frames = cfg.frame_count(payload.len());
+        let (attempts, delivered) = self.attempts(link, cfg.loss, frames);
+        let (start, airtime) = self.transmit(from, link, &cfg, payload.len(), attempts);
         self.count_attempts(&sender, to, kind, payload.len(), attempts, delivered);
         if !delivered {
             return Ok(());
@@ -414,11 +505,12 @@ impl Net {
         }
     }
 
-    /// How many attempts a reliable send takes, and whether the last one got through.
-    fn attempts(&mut self, loss: f64) -> (u32, bool) {
+    /// How many attempts a reliable send of `frames` frames takes, and whether the last
+    /// one got through (every frame of it).
+    fn attempts(&mut self, link: LinkKind, loss: f64, frames: u64) -> (u32, bool) {
         let max = self.config.max_attempts.max(1);
         for n in 1..=max {
-            if !self.rng.chance(loss) {
+            if self.lose_frames(link, loss, frames) == 0 {
                 return (n, true);
             }
         }

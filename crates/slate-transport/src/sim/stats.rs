@@ -61,6 +61,25 @@ pub struct Radio {
     pub max_queued: Duration,
 }
 
+/// One kind of link's air, all its transmitters together: frames, airtime, sizes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Channel {
+    /// Frames put on the air (a publish's once, however many receive it; a reliable
+    /// send's every attempt).
+    pub frames_sent: u64,
+    /// Frames lost: per receiver for a publish, per attempt for a reliable send.
+    pub frames_lost: u64,
+    /// The largest frame put on the air, bytes.
+    pub largest_frame: usize,
+    /// The largest message put on the air, bytes.
+    pub largest_message: usize,
+    /// Airtime reserved so far, queued transmissions included.
+    pub airtime: Duration,
+    /// Messages the senders dropped because they would have waited longer than the
+    /// link's `max_queue` (never on the air, in no other counter).
+    pub dropped: u64,
+}
+
 /// Everything a [`SimNet`](crate::SimNet) counted. Same seed, same scenario: same stats.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct SimStats {
@@ -68,6 +87,8 @@ pub struct SimStats {
     pub links: BTreeMap<(Address, Address), BTreeMap<MsgKind, LinkCounter>>,
     /// Per transmitter `(sender, kind of link)`.
     pub radios: BTreeMap<(Address, LinkKind), Radio>,
+    /// Per kind of link, its air (every transmitter together).
+    pub channels: BTreeMap<LinkKind, Channel>,
     /// Events processed by the step loop.
     pub events: u64,
 }

@@ -1,0 +1,53 @@
+//! `slate demo --robots`: the range a team may have, as the CLI states and enforces it.
+
+use crate::support::slate;
+
+#[test]
+fn demo_refuses_33_robots_and_names_the_range() {
+    let out = slate(&["demo", "--robots", "33", "--quiet"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("1..=32"), "{err}");
+}
+
+#[test]
+fn demo_help_says_a_team_has_1_to_32_robots() {
+    let out = slate(&["demo", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("1 to 32"), "{help}");
+}
+
+#[test]
+fn demo_runs_on_an_acoustic_team_link_and_reports_its_frames() {
+    let out = slate(&[
+        "demo",
+        "--team-link",
+        "acoustic",
+        "--team-rate",
+        "400",
+        "--robots",
+        "1",
+        "--duration",
+        "10",
+        "--no-fault",
+        "--quiet",
+        "--format",
+        "json",
+    ]);
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!("{e}: {}", String::from_utf8_lossy(&out.stderr));
+    });
+    assert_eq!(j["team_link"], "acoustic");
+    assert_eq!(j["team_link_budget_bps"], 400);
+    let frame = j["team_largest_frame_bytes"].as_u64().expect("a number");
+    assert!(frame > 0 && frame <= 32, "{j}");
+    assert!(j["team_channel_utilisation"].as_f64().is_some(), "{j}");
+}
+
+#[test]
+fn demo_refuses_a_team_rate_of_zero() {
+    let out = slate(&["demo", "--team-rate", "0", "--quiet"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--team-rate"), "{err}");
+}
