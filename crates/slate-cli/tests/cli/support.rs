@@ -36,6 +36,14 @@ pub fn slate_ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Runs `slate ARGS` as [`slate`] does and fails the test, showing what it printed,
+/// unless it fails; its stderr.
+pub fn slate_err(args: &[&str]) -> String {
+    let out = slate(args);
+    assert!(!out.status.success(), "slate {args:?}\n{}", show(&out));
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// Waits for a child's output, killing it (by pid) past `limit`.
 pub fn wait_output(mut child: Child, limit: Duration) -> Output {
     let out = drain(child.stdout.take());
