@@ -277,3 +277,58 @@ fn boards_converge_with_5_percent_loss() {
     let (team, _) = grid(86, LinkConfig::clean().loss(0.05), 1024, true);
     work_and_converge(&team, 86);
 }
+
+/// Does every board hold `object` with `attr` = `value`?
+fn everyone_holds(team: &Team, object: &str, attr: &str, value: &Value) -> Result<(), String> {
+    for m in &team.members {
+        let held = m.board.read(object, attr).ok().map(|p| p.value);
+        if held.as_ref() != Some(value) {
+            return Err(format!("{} holds {object}.{attr} = {held:?}", m.address));
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn after_its_gateway_dies_a_robot_speaks_through_the_next_one() {
+    let (mut team, _) = grid(86, LinkConfig::clean(), 1024, true);
+    team.run(2.0);
+    let gateway = addr("t/r1/m0");
+    team.net.kill(&gateway);
+    team.members.retain(|m| m.address != gateway);
+    team.run(2.5);
+    assert_eq!(team.member("t/r1/m2").ici.gateway(), Some(addr("t/r1/m1")));
+    let board = team.board("t/r1/m2");
+    board
+        .create_with(NewObject::new("Rock", "rock_after").context(Context::Surroundings))
+        .unwrap();
+    board.write("rock_after", "hits", Value::Int(7)).unwrap();
+    team.run(1.0);
+    everyone_holds(&team, "rock_after", "hits", &Value::Int(7)).unwrap();
+    team.assert_converges(10);
+}
+
+#[test]
+fn a_restarted_remote_module_is_restarted_on_every_board_and_heard_again() {
+    let (mut team, _) = grid(87, LinkConfig::clean(), 1024, true);
+    team.run(0.5);
+    workload(&team, &mut Rng::new(87), 40, 0.05);
+    team.run(1.0);
+    // Same address, new incarnation, empty board.
+    let member = "t/r1/m2";
+    let restarts = |team: &Team| team.member("t/r0/m1").ici.stats().liveliness.restarts;
+    let before = restarts(&team);
+    join(&mut team, member, config(2, 1024, true));
+    team.run(2.0);
+    assert!(
+        restarts(&team) > before,
+        "the robot hello showed the restart"
+    );
+    let board = team.board(member);
+    board
+        .create_with(NewObject::new("Rock", "rock_reborn").context(Context::Surroundings))
+        .unwrap();
+    board.write("rock_reborn", "hits", Value::Int(3)).unwrap();
+    team.run(1.0);
+    everyone_holds(&team, "rock_reborn", "hits", &Value::Int(3)).unwrap();
+}

@@ -326,3 +326,162 @@ fn member_address(gateway: &Address, name: &str) -> Option<Address> {
     let text = format!("{}/{}/{}", gateway.team(), gateway.robot(), name);
     Address::new(&text).ok()
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use slate_model::{Board, Filter};
+    use slate_testing::addr;
+
+    use super::super::frame::{Member, Part, StreamTag};
+    use super::*;
+    use crate::SimNet;
+    use crate::ici::classes::ClassSet;
+    use crate::ici::frame::{Frame, Lifecycle};
+    use crate::ici::{IciConfig, TeamProtocol, module_class};
+
+    /// A state of `t/r0/m0` with the team protocol on, on its own network.
+    fn state() -> (SimNet, State) {
+        let net = SimNet::new(1);
+        let me = addr("t/r0/m0");
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(me.clone())
+                .build(),
+        );
+        board.define(module_class()).unwrap();
+        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
+        let config = IciConfig::default().team_protocol(Some(TeamProtocol::radio()));
+        let state = State::new(board, net.join(&me), config, watch);
+        (net, state)
+    }
+
+    /// The hello of `gateway`'s robot: members m1 (index 0) and m2, both alive.
+    fn hello(gateway: &Address) -> Vec<u8> {
+        let member = |name: &str| Member {
+            name: name.into(),
+            incarnation: 5,
+            inner_seq: 0,
+            alive: true,
+            listener: true,
+        };
+        let hello = RobotHello {
+            version: 1,
+            tag: StreamTag::of(gateway, 9),
+            gw_incarnation: 9,
+            observer: false,
+            interest: ClassSet::all(),
+            exports: ClassSet::none(),
+            members: vec![member("m1"), member("m2")],
+        };
+        TeamMsg::Hello(hello).encode()
+    }
+
+    /// A frame at `seq` holding one message of member 0.
+    fn frame(seq: u64, message: Vec<u8>) -> Vec<u8> {
+        frame_of(0, seq, message)
+    }
+
+    fn frame_of(member: u8, seq: u64, message: Vec<u8>) -> Vec<u8> {
+        TeamMsg::Frame(TeamFrame {
+            seq,
+            parts: vec![Part::member(member, message)],
+        })
+        .encode()
+    }
+
+    fn lifecycle(seq: u64) -> Vec<u8> {
+        Frame::Lifecycle(Lifecycle {
+            seq,
+            ..Lifecycle::default()
+        })
+        .encode()
+    }
+
+    #[test]
+    fn frames_heard_before_the_hello_are_parked_and_handed_on_when_it_comes() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &frame(1, lifecycle(1)));
+        assert_eq!(st.team.counts.parked, 1);
+        st.on_team(&gw, &hello(&gw));
+        let s = &st.team.speakers[&gw];
+        assert!(s.parked.is_empty());
+        assert_eq!(s.outer.as_ref().map(Outer::have), Some(1));
+        let member = addr("t/r1/m1");
+        assert_eq!(st.peers[&member].incarnation, Some(5));
+    }
+
+    #[test]
+    fn at_most_64_frames_are_parked_per_gateway() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        for seq in 1..=70 {
+            st.on_team(&gw, &frame(seq, lifecycle(seq)));
+        }
+        assert_eq!(st.team.speakers[&gw].parked.len(), MAX_PARKED);
+        assert_eq!(st.team.counts.parked_dropped, 6);
+    }
+
+    #[test]
+    fn a_team_frame_inside_a_team_frame_is_refused() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        let nested = frame(1, frame(1, lifecycle(1)));
+        st.on_team(&gw, &nested);
+        assert_eq!(st.team.counts.refused, 1);
+    }
+
+    #[test]
+    fn the_number_of_gateways_followed_is_bounded() {
+        let (_net, mut st) = state();
+        for i in 0..MAX_SPEAKERS + 10 {
+            let gw = addr(&format!("t/r{i}/g"));
+            st.on_team(&gw, &hello(&gw));
+        }
+        assert_eq!(st.team.speakers.len(), MAX_SPEAKERS);
+    }
+
+    #[test]
+    fn a_frame_of_a_robot_whose_heartbeat_says_a_member_is_dead_does_not_revive_it() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        let member = addr("t/r1/m1");
+        assert_eq!(st.peers[&member].alive, Some(true));
+        let dead = RobotHeartbeat {
+            tag: StreamTag::of(&gw, 9),
+            hello_version: 1,
+            seq: 0,
+            alive: 0b10,
+            positions: None,
+        };
+        st.on_team(&gw, &TeamMsg::Heartbeat(dead).encode());
+        assert_eq!(st.peers[&member].alive, Some(false));
+        // A message of m2 vouches for the members alive (m2), not for m1.
+        st.on_team(&gw, &frame_of(1, 1, lifecycle(1)));
+        assert_eq!(st.peers[&member].alive, Some(false));
+        assert_eq!(st.peers[&addr("t/r1/m2")].alive, Some(true));
+    }
+
+    #[test]
+    fn team_frames_are_refused_with_the_switch_off() {
+        let (net, _) = state();
+        let me = addr("t/r0/m1");
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(me.clone())
+                .build(),
+        );
+        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
+        let mut st = State::new(board, net.join(&me), IciConfig::default(), watch);
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        assert!(st.team.speakers.is_empty());
+        assert_eq!(st.team.counts.refused, 1);
+    }
+}

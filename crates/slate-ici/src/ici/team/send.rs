@@ -365,3 +365,90 @@ fn union_without<'a>(sets: impl Iterator<Item = &'a ClassSet>, drop: u8) -> Clas
         .into_iter()
         .fold(ClassSet::none(), |set, (c, m)| set.with(&c, m))
 }
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use slate_model::{Board, Filter};
+    use slate_testing::addr;
+
+    use super::*;
+    use crate::SimNet;
+    use crate::ici::{IciConfig, TeamProtocol, module_class};
+
+    /// `t/r0/m0` alone on its robot, with this election priority.
+    fn state(priority: Option<u8>) -> (SimNet, State) {
+        let net = SimNet::new(1);
+        let me = addr("t/r0/m0");
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(me.clone())
+                .build(),
+        );
+        board.define(module_class()).unwrap();
+        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
+        let protocol = TeamProtocol::radio().priority(priority);
+        let config = IciConfig::default().team_protocol(Some(protocol));
+        let state = State::new(board, net.join(&me), config, watch);
+        (net, state)
+    }
+
+    #[test]
+    fn a_member_with_no_gateway_holds_at_most_64_messages() {
+        let (_net, mut st) = state(None);
+        st.now = Duration::from_secs(1);
+        for i in 0..70u8 {
+            st.publish(LinkKind::Team, MsgKind::Report, &[0x11, i]);
+        }
+        assert_eq!(st.team.pending.len(), MAX_PENDING);
+        assert_eq!(st.team.counts.pending_dropped, 6);
+        assert_eq!(
+            st.team.pending.front().map(|m| m[1]),
+            Some(6),
+            "the oldest went"
+        );
+    }
+
+    #[test]
+    fn the_election_waits_one_robot_heartbeat_after_start() {
+        let (_net, mut st) = state(Some(0));
+        st.team_tick();
+        st.publish(LinkKind::Team, MsgKind::Report, &[0x11, 1]);
+        assert_eq!((st.team.elected.clone(), st.team.pending.len()), (None, 1));
+        st.now += st.config.robot.heartbeat;
+        st.team_tick();
+        assert_eq!(st.team.elected, Some(addr("t/r0/m0")));
+        assert!(st.team.pending.is_empty(), "handed to the stream");
+    }
+
+    #[test]
+    fn a_gateway_frames_its_own_messages_keeps_them_and_says_its_hello() {
+        let (_net, mut st) = state(Some(0));
+        st.team_tick();
+        st.now += Duration::from_millis(300);
+        st.publish(LinkKind::Team, MsgKind::Report, &[0x11, 1]);
+        st.publish(LinkKind::Team, MsgKind::Report, &[0x11, 2]);
+        st.now += Duration::from_millis(250);
+        st.team_tick();
+        let gw = st.team.gateway.as_ref().expect("gateway");
+        assert_eq!((gw.framer.position(), gw.history.len()), (1, 1));
+        assert!(gw.hello_sent.is_some());
+        let sent = |kind| {
+            st.stats
+                .traffic
+                .get(&(LinkKind::Team, kind))
+                .map_or(0, |t| t.sent_msgs)
+        };
+        assert_eq!(
+            (sent(MsgKind::TeamFrame), sent(MsgKind::RobotHello)),
+            (1, 1)
+        );
+        assert_eq!(
+            sent(MsgKind::Report),
+            0,
+            "members' messages travel inside frames"
+        );
+    }
+}
