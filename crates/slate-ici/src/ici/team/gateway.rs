@@ -174,8 +174,10 @@ pub(crate) struct Gateway {
     pub heartbeat_due: bool,
     /// When the stream last published anything (frame, hello or heartbeat).
     pub last_sent: Duration,
-    /// Heartbeats sent in this epoch (every `full_every`-th is full).
+    /// Heartbeats sent in this epoch.
     pub heartbeats: u32,
+    /// When the last full heartbeat (members' inner positions) went out.
+    pub last_full: Duration,
     /// Messages dropped because their member had no index (more than `MAX_MEMBERS`).
     pub unindexed: u64,
 }
@@ -195,6 +197,7 @@ impl Gateway {
             heartbeat_due: false,
             last_sent: Duration::ZERO,
             heartbeats: 0,
+            last_full: Duration::ZERO,
             unindexed: 0,
         }
     }
@@ -263,6 +266,12 @@ impl Gateway {
     /// Is a heartbeat due at `now`: the stream idle for `idle`, or liveliness changed?
     pub fn heartbeat_is_due(&self, now: Duration, idle: Duration) -> bool {
         self.heartbeat_due || now.saturating_sub(self.last_sent) >= idle
+    }
+
+    /// Is a full heartbeat due at `now`: one every `period`, busy or idle? A busy
+    /// stream sends no idle heartbeats, yet its members' lost tails must be found too.
+    pub fn full_is_due(&self, now: Duration, period: Duration) -> bool {
+        !period.is_zero() && now.saturating_sub(self.last_full) >= period
     }
 
     /// Is the hello due at `now`, at most once per `min_interval`?
@@ -396,6 +405,19 @@ mod tests {
         gw.review(&[seen("exec", 5, true)]);
         assert!(!gw.hello_is_due(ms(999), ms(1000)));
         assert!(gw.hello_is_due(ms(1000), ms(1000)));
+    }
+
+    #[test]
+    fn a_full_heartbeat_is_due_every_period_busy_or_idle() {
+        let mut gw = gateway();
+        gw.last_full = ms(1000);
+        gw.last_sent = ms(30_500);
+        assert!(!gw.full_is_due(ms(30_999), ms(30_000)));
+        assert!(gw.full_is_due(ms(31_000), ms(30_000)));
+        assert!(
+            !gw.full_is_due(ms(31_000), Duration::ZERO),
+            "full_every 0: never"
+        );
     }
 
     #[test]

@@ -265,8 +265,26 @@ impl State {
             return;
         };
         s.alive = hb.alive & ((1u32 << MAX_MEMBERS) - 1);
+        let same_hello = hello.version == hb.hello_version;
         self.stream_changed(from, change);
         self.apply_alive(from);
+        if let Some(positions) = hb.positions.filter(|_| same_hello) {
+            self.announce_positions(from, &positions);
+        }
+    }
+
+    /// A full heartbeat's inner positions: a member's lost tail shows as a gap in its
+    /// stream (the backstop of 2.3, item 5), which today's catch-up closes until state
+    /// requests come (step 11).
+    fn announce_positions(&mut self, from: &Address, positions: &[u64]) {
+        let now = self.now;
+        let members = self.speaker(from).members.clone();
+        for (member, seq) in members.iter().zip(positions) {
+            let Some(p) = member.as_ref().and_then(|m| self.peers.get_mut(m)) else {
+                continue;
+            };
+            p.stream.announce(*seq, now);
+        }
     }
 
     /// Members the robot says are alive are heard (vouched for); those it says are
@@ -465,6 +483,28 @@ mod tests {
         st.on_team(&gw, &frame_of(1, 1, lifecycle(1)));
         assert_eq!(st.peers[&member].alive, Some(false));
         assert_eq!(st.peers[&addr("t/r1/m2")].alive, Some(true));
+    }
+
+    #[test]
+    fn a_full_heartbeat_shows_a_members_lost_tail_as_a_gap() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        let full = RobotHeartbeat {
+            tag: StreamTag::of(&gw, 9),
+            hello_version: 1,
+            seq: 0,
+            alive: 0b11,
+            positions: Some(vec![3, 0]),
+        };
+        st.on_team(&gw, &TeamMsg::Heartbeat(full).encode());
+        let now = st.now;
+        let gap = |st: &State, m: &str| st.peers[&addr(m)].stream.gap_age(now);
+        assert!(
+            gap(&st, "t/r1/m1").is_some(),
+            "m1 sent 3 messages, none heard"
+        );
+        assert!(gap(&st, "t/r1/m2").is_none());
     }
 
     #[test]

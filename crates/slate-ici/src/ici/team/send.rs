@@ -56,11 +56,14 @@ impl State {
         self.team.pending.push_back(message);
     }
 
+    /// Hands a message to the gateway with this module's inner team position as its
+    /// mark, so the gateway can list every member's position in its hello and full
+    /// heartbeats (reports' `seq` is bit-packed: the gateway cannot read it).
     fn uplink(&mut self, gateway: &Address, message: Vec<u8>) {
         let up = Uplink {
             to: None,
             state_answer: false,
-            mark: None,
+            mark: self.out.get(&LinkKind::Team).map(|o| o.seq),
             message,
         };
         self.send_to(gateway, MsgKind::Uplink, &TeamMsg::Uplink(up).encode());
@@ -78,6 +81,9 @@ impl State {
             self.team_review();
         }
         let index = self.gateway_index(from);
+        if let (Some(gw), Some(i)) = (self.team.gateway.as_mut(), index) {
+            gw.sent_inner(i, up.mark);
+        }
         self.gateway_push(index, up.message);
     }
 
@@ -155,7 +161,7 @@ impl State {
         let tag = StreamTag::of(&self.me, epoch);
         let mut gateway = Gateway::new(tag, epoch, framer, limits);
         // The hello opens the stream; the idle heartbeat counts from it.
-        gateway.last_sent = self.now;
+        (gateway.last_sent, gateway.last_full) = (self.now, self.now);
         self.team.gateway = Some(gateway);
         self.team.interest_dirty = true;
         self.team_review();
@@ -280,12 +286,15 @@ impl State {
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
-        if !gw.heartbeat_is_due(now, idle) {
+        let full = gw.full_is_due(now, idle * full_every);
+        if !(full || gw.heartbeat_is_due(now, idle)) {
             return;
         }
         gw.heartbeats += 1;
         (gw.heartbeat_due, gw.last_sent) = (false, now);
-        let full = full_every > 0 && gw.heartbeats % full_every == 0;
+        if full {
+            gw.last_full = now;
+        }
         let hb = RobotHeartbeat {
             tag: gw.tag,
             hello_version: gw.version,
