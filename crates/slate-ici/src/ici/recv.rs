@@ -197,7 +197,13 @@ impl State {
         }
         self.hello(from, true);
         let restarted = self.take_incarnation(from, hello.incarnation);
-        self.peer(from).interest = Some(hello.interest);
+        let p = self.peer(from);
+        let new_interest = p.interest.as_ref() != Some(&hello.interest);
+        p.interest = Some(hello.interest);
+        if new_interest && p.link == LinkKind::Robot {
+            // A member's interest is part of its robot's hello.
+            self.team_hello_changed();
+        }
         if restarted {
             self.member_restarted(from);
             // The new incarnation knows nothing of this module yet (a restart quick

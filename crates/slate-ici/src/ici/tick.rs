@@ -226,8 +226,13 @@ impl State {
         self.request_catch_up(peer, false, false);
     }
 
-    /// Tells a peer this module's incarnation and interest, until it answers.
+    /// Tells a peer this module's incarnation and interest, until it answers. With the
+    /// team protocol on, a team peer learns them from the robot hello instead.
     pub fn send_hello(&mut self, to: &Address) {
+        let team = LinkKind::between(&self.me, to) == LinkKind::Team;
+        if team && self.config.team_protocol.is_some() {
+            return self.team_hello_changed();
+        }
         let now = self.now;
         self.peer(to).hello_unanswered = Some((now, 0));
         self.hello(to, false);

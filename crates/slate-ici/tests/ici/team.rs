@@ -348,3 +348,36 @@ fn boards_converge_with_reordering() {
     let (team, _) = grid(89, LinkConfig::clean().jitter(secs(0.5)), 1024, true);
     work_and_converge(&team, 89);
 }
+
+#[test]
+fn a_changed_interest_is_said_in_the_robot_hello_not_to_each_team_peer() {
+    let (team, _) = grid(90, LinkConfig::clean(), 1024, true);
+    team.run(2.0);
+    let hellos = |team: &Team| {
+        team.net
+            .stats()
+            .kind(LinkKind::Team, MsgKind::RobotHello)
+            .sent_msgs
+    };
+    let per_pair = |team: &Team| {
+        team.net
+            .stats()
+            .kind(LinkKind::Team, MsgKind::Hello)
+            .sent_msgs
+    };
+    let before = (hellos(&team), per_pair(&team));
+    let member = team.member("t/r1/m2");
+    member
+        .ici
+        .set_interest(slate_ici::ClassSet::none().class("Rock"));
+    team.run(2.0);
+    assert_eq!(
+        per_pair(&team),
+        before.1,
+        "no per-pair hello on the team link"
+    );
+    assert!(
+        hellos(&team) > before.0,
+        "r1's gateway said its hello again"
+    );
+}

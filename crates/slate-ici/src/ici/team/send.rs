@@ -354,6 +354,15 @@ impl State {
         remote.interest.contains(lineage, there)
     }
 
+    /// What the robot hello says changed (a member's interest): the gateway moves its
+    /// version on and says it again (at most once per `hello_min_interval`).
+    pub(crate) fn team_hello_changed(&mut self) {
+        if let Some(gw) = self.team.gateway.as_mut() {
+            gw.version = gw.version.wrapping_add(1);
+            gw.hello_due = true;
+        }
+    }
+
     /// A team peer came up: the gateway says its hello again (at most once per
     /// `hello_min_interval`), so a module that missed it stops parking frames. A
     /// stopgap until receivers NACK the hello (step 10).
