@@ -11,7 +11,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::frame::{MAX_MEMBERS, Member, Part, PartOf, StreamTag, TeamFrame};
+use super::frame::{MAX_MEMBERS, Member, Part, PartOf, SINGLE_PART_MEMBERS, StreamTag, TeamFrame};
 use super::history::{History, HistoryLimits};
 
 /// Packs parts into frames of at most `mtu` bytes.
@@ -26,6 +26,8 @@ pub(crate) struct Framer {
     /// The last position handed out (0: none yet).
     seq: u64,
     open: Vec<Part>,
+    /// The open parts' bytes in multi-part form when none is last (each with its length).
+    open_len: usize,
     /// When the open frame got its first part.
     opened_at: Option<Duration>,
 }
@@ -41,6 +43,7 @@ impl Framer {
             batch,
             seq: 0,
             open: Vec::new(),
+            open_len: 0,
             opened_at: None,
         }
     }
@@ -63,6 +66,7 @@ impl Framer {
             closed.extend(self.flush());
         }
         if self.fits(&part) {
+            self.open_len += part.encoded_len(false);
             self.open.push(part);
             self.opened_at.get_or_insert(now);
         } else {
@@ -84,7 +88,7 @@ impl Framer {
         if self.open.is_empty() {
             return None;
         }
-        self.opened_at = None;
+        (self.opened_at, self.open_len) = (None, 0);
         self.seq += 1;
         let parts = std::mem::take(&mut self.open);
         Some(TeamFrame {
@@ -93,15 +97,18 @@ impl Framer {
         })
     }
 
-    /// Would the open frame with `part` added still fit the MTU?
+    /// Would the open frame with `part` added still fit the MTU? A lone whole message
+    /// of a low member goes in single-part form (no part byte), anything else in
+    /// multi-part form, the last part without its length.
     fn fits(&self, part: &Part) -> bool {
-        let mut parts = self.open.clone();
-        parts.push(part.clone());
-        let frame = TeamFrame {
-            seq: self.seq + 1,
-            parts,
+        let header = 1 + var_len(self.seq + 1);
+        let single = matches!(part.of, PartOf::Member(m) if m < SINGLE_PART_MEMBERS);
+        let len = if self.open.is_empty() && single {
+            header + part.bytes.len()
+        } else {
+            header + self.open_len + part.encoded_len(true)
         };
-        frame.encoded_len() <= self.mtu
+        len <= self.mtu
     }
 
     /// A message too large for one frame, over consecutive positions: every fragment
@@ -285,6 +292,8 @@ impl Gateway {
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::super::frame::TeamMsg;
     use super::*;
 
@@ -426,5 +435,50 @@ mod tests {
         gw.last_sent = ms(500);
         assert!(!gw.heartbeat_is_due(ms(1499), ms(1000)));
         assert!(gw.heartbeat_is_due(ms(1500), ms(1000)));
+    }
+
+    /// A member's message: its index and bytes.
+    type Message = (u8, Vec<u8>);
+
+    /// The messages of a run of frames, joined again from their fragments.
+    fn messages(frames: &[TeamFrame]) -> Vec<Message> {
+        let (mut out, mut open): (Vec<Message>, Option<Message>) = (vec![], None);
+        for part in frames.iter().flat_map(|f| &f.parts) {
+            let PartOf::Member(m) = part.of else { continue };
+            let mut whole = if part.cont {
+                open.take().unwrap_or((m, vec![]))
+            } else {
+                (m, vec![])
+            };
+            whole.1.extend_from_slice(&part.bytes);
+            if part.more {
+                open = Some(whole);
+            } else {
+                out.push(whole);
+            }
+        }
+        out
+    }
+
+    proptest! {
+        #[test]
+        fn framing_keeps_every_message_in_order_within_the_mtu(
+            mtu in 13usize..200,
+            sent in proptest::collection::vec((0u8..30, proptest::collection::vec(any::<u8>(), 1..300)), 0..20),
+        ) {
+            let mut framer = Framer::new(mtu, ms(250));
+            let mut frames = Vec::new();
+            for (i, (member, bytes)) in sent.iter().enumerate() {
+                frames.extend(framer.push(*member, bytes.clone(), ms(i as u64)));
+            }
+            frames.extend(framer.flush());
+            for (i, f) in frames.iter().enumerate() {
+                prop_assert_eq!(f.seq, i as u64 + 1);
+                prop_assert_eq!(encoded(f).len(), f.encoded_len());
+                prop_assert!(encoded(f).len() <= mtu);
+                prop_assert_eq!(TeamMsg::decode(&encoded(f)), Ok(TeamMsg::Frame(f.clone())));
+            }
+            prop_assert_eq!(messages(&frames), sent);
+        }
     }
 }
