@@ -111,7 +111,7 @@ impl From<&slate_plans::LinkPolicy> for LinkPolicy {
 pub fn link_kind(name: slate_plans::LinkName) -> LinkKind {
     match name {
         slate_plans::LinkName::Robot => LinkKind::Robot,
-        _ => LinkKind::Team,
+        slate_plans::LinkName::Team => LinkKind::Team,
     }
 }
 
@@ -163,8 +163,11 @@ impl State {
     /// holds (sent at the trailing edge by [`Self::link_filter_timers`]). Other modules'
     /// packets (relays) and lifecycle items pass.
     pub(super) fn link_filter(&mut self, link: LinkKind, chosen: &mut SmallVec<[&Item; 8]>) {
-        let (now, quiet, me) = (self.now, self.config.quiet, self.me.clone());
-        let Some(filters) = self.filters.link(link) else {
+        let (now, quiet) = (self.now, self.config.quiet);
+        let State {
+            filters, me, stats, ..
+        } = self;
+        let Some(filters) = filters.link(link) else {
             return;
         };
         let (mut held, mut never) = (0, 0);
@@ -172,7 +175,7 @@ impl State {
             let Item::Value(s, p) = &**item else {
                 return true;
             };
-            if p.source != me {
+            if p.source != *me {
                 return true;
             }
             let key = (s.object.name.clone(), s.attr.clone());
@@ -188,8 +191,8 @@ impl State {
                 }
             }
         });
-        self.stats.reports.held += held;
-        self.stats.reports.suppressed_export += never;
+        stats.reports.held += held;
+        stats.reports.suppressed_export += never;
     }
 
     /// Sends what the links' filters release now (trailing edges, heartbeats), each on

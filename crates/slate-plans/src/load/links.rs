@@ -19,7 +19,6 @@ use crate::diagnostic::Span;
 /// The kinds of link a policy configures (the ICI's `LinkKind`, which this crate does not
 /// depend on).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-#[non_exhaustive]
 pub enum LinkName {
     /// `robot`: between the modules of one robot.
     Robot,
@@ -240,7 +239,8 @@ fn contexts(ck: &mut Checker<'_>, decl: &ExportDecl) -> Option<Vec<Context>> {
 }
 
 /// `(class, attribute)` of `Class.attribute`, if the class has it and it is ever reported
-/// (a derived attribute is computed on read, never written, so never reported).
+/// (a derived attribute is computed on read, never written, so never reported; a
+/// `Module` object's attributes are each ICI's own view, never reported either).
 fn reported_attribute(ck: &mut Checker<'_>, path: &Path) -> Option<(String, String)> {
     let [attr] = path.fields.as_slice() else {
         let message = "a link report names one class attribute: `Class.attribute`";
@@ -255,6 +255,15 @@ fn reported_attribute(ck: &mut Checker<'_>, path: &Path) -> Option<(String, Stri
     match info.attrs.get(&attr.name) {
         None => {
             let message = format!("{} has no attribute {}", class.name, attr.name);
+            ck.error(attr.span, message);
+            None
+        }
+        Some(a) if a.class == slate_model::MODULE_CLASS => {
+            let message = format!(
+                "{}.{} is written by each ICI about the modules it hears and never reported: \
+                 a link cannot filter it",
+                class.name, attr.name
+            );
             ck.error(attr.span, message);
             None
         }
@@ -279,6 +288,112 @@ fn duration(ck: &mut Checker<'_>, e: &Expr) -> Option<Duration> {
         _ => {
             ck.error(e.span, "expected a positive duration (`20s`, `500ms`)");
             None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn exporting(class: &str, contexts: &[Context]) -> LinkPolicy {
+        LinkPolicy {
+            export: vec![LinkExport {
+                class: class.into(),
+                contexts: contexts.to_vec(),
+            }],
+            ..LinkPolicy::default()
+        }
+    }
+
+    fn reporting(attr: &str, report: LinkReport) -> LinkPolicy {
+        let mut policy = LinkPolicy::default();
+        policy.reports.insert(("Robot".into(), attr.into()), report);
+        policy
+    }
+
+    #[test]
+    fn merged_exports_unite_their_contexts() {
+        let mut policy = exporting("Robot", &[Context::Self_]);
+        policy.merge(exporting("Robot", &[Context::System, Context::Self_]));
+        assert_eq!(policy.export[0].contexts, [Context::Self_, Context::System]);
+        policy.merge(exporting("Robot", &[]));
+        assert!(policy.export[0].contexts.is_empty(), "every context");
+        policy.merge(exporting("Robot", &[Context::Self_]));
+        assert!(policy.export[0].contexts.is_empty(), "every context stays");
+    }
+
+    #[test]
+    fn a_later_report_replaces_an_earlier_one_and_others_stay() {
+        let mut policy = reporting("position", LinkReport::Never);
+        policy.merge(reporting("heading", LinkReport::Never));
+        policy.merge(reporting(
+            "position",
+            LinkReport::Policy(ReportPolicy::default()),
+        ));
+        let position = &policy.reports[&("Robot".to_owned(), "position".to_owned())];
+        assert_eq!(*position, LinkReport::Policy(ReportPolicy::default()));
+        assert_eq!(policy.reports.len(), 2);
+    }
+
+    #[test]
+    fn a_later_heartbeat_replaces_and_an_absent_one_keeps() {
+        let mut policy = LinkPolicy {
+            heartbeat: Some(Duration::from_secs(20)),
+            ..LinkPolicy::default()
+        };
+        policy.merge(LinkPolicy::default());
+        assert_eq!(policy.heartbeat, Some(Duration::from_secs(20)));
+        policy.merge(LinkPolicy {
+            heartbeat: Some(Duration::from_secs(5)),
+            ..LinkPolicy::default()
+        });
+        assert_eq!(policy.heartbeat, Some(Duration::from_secs(5)));
+    }
+
+    /// What an export list lets out: (class, context) pairs.
+    fn exported(policy: &LinkPolicy) -> std::collections::BTreeSet<(String, String)> {
+        let all = [Context::Self_, Context::Surroundings, Context::System];
+        let mut out = std::collections::BTreeSet::new();
+        for e in &policy.export {
+            for c in all {
+                if e.contexts.is_empty() || e.contexts.contains(&c) {
+                    out.insert((e.class.clone(), format!("{c:?}")));
+                }
+            }
+        }
+        out
+    }
+
+    fn any_export() -> impl Strategy<Value = LinkPolicy> {
+        let class = prop::sample::select(vec!["Robot", "Target", "Waypoint"]);
+        let context =
+            prop::sample::select(vec![Context::Self_, Context::Surroundings, Context::System]);
+        (class, prop::collection::vec(context, 0..3)).prop_map(|(class, mut contexts)| {
+            contexts.dedup();
+            exporting(class, &contexts)
+        })
+    }
+
+    proptest! {
+        #[test]
+        fn exports_merged_in_any_order_let_out_the_same(
+            blocks in prop::collection::vec(any_export(), 1..6),
+        ) {
+            let merged = |order: &mut dyn Iterator<Item = &LinkPolicy>| {
+                let mut policy = LinkPolicy::default();
+                for block in order {
+                    policy.merge(block.clone());
+                }
+                exported(&policy)
+            };
+            let forward = merged(&mut blocks.iter());
+            let backward = merged(&mut blocks.iter().rev());
+            let union: std::collections::BTreeSet<_> =
+                blocks.iter().flat_map(exported).collect();
+            prop_assert_eq!(&forward, &backward);
+            prop_assert_eq!(forward, union);
         }
     }
 }

@@ -170,6 +170,13 @@ fn a_filter_on_a_derived_attribute_is_refused() {
 }
 
 #[test]
+fn a_filter_on_a_module_attribute_is_refused() {
+    let e = link_errors("link team { report Module.alive never; }");
+    assert_eq!((e[0].0, e[0].1), (1, 27), "{e:?}");
+    assert!(e[0].2.contains("never reported"), "{e:?}");
+}
+
+#[test]
 fn a_link_report_names_a_class_attribute() {
     let e = link_errors("link team { report Robot never; }");
     assert_eq!((e[0].0, e[0].1), (1, 20), "{e:?}");
