@@ -289,6 +289,26 @@ fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
 }
 
 #[test]
+fn leaving_a_shared_channel_waits_for_what_is_on_the_air() {
+    let acoustic = LinkConfig::clean().bandwidth(800).shared();
+    let net = net_with(acoustic, 12);
+    let addresses = ["team/r1/a", "team/r2/b", "team/r3/c"].map(str::to_owned);
+    let t = join_all(&net, &addresses);
+    net.run_for(Duration::from_millis(500));
+    let start = net.now();
+    t[0].0
+        .publish(LinkKind::Team, MsgKind::Report, &[1; 100])
+        .expect("publish");
+    net.set_team_link(LinkConfig::clean().bandwidth(800));
+    t[1].0
+        .publish(LinkKind::Team, MsgKind::Report, &[2; 100])
+        .expect("publish");
+    net.run_for(Duration::from_secs(3));
+    let second = Duration::from_secs(1);
+    assert_eq!(t[2].1.times(), vec![start + second, start + second * 2]);
+}
+
+#[test]
 fn drop_next_publish_drops_at_exactly_the_named_receivers() {
     let net = SimNet::new(10);
     let addresses =

@@ -326,7 +326,7 @@ impl Net {
             .filter(on_link)
             .map(|(_, t)| *t)
             .max();
-        let Some(latest) = latest else {
+        let Some(latest) = latest.filter(|t| *t > self.now) else {
             return;
         };
         if shared {
