@@ -126,6 +126,18 @@ fn with_loss_per_robot_a_robots_endpoints_lose_the_same_publications() {
 }
 
 #[test]
+fn a_run_with_loss_per_robot_is_the_same_for_the_same_seed() {
+    let run = |seed| {
+        let link = LinkConfig::clean().loss(0.3).loss_per_robot().jitter(DELAY);
+        let net = net_with(link, seed);
+        let all = team(&net, 4, 2);
+        publish_n(&net, &all, 20);
+        net.stats()
+    };
+    assert_eq!(run(21), run(21));
+}
+
+#[test]
 fn without_loss_per_robot_each_endpoint_draws_its_own_loss() {
     let net = net_with(LinkConfig::clean().loss(0.5), 1);
     let all = team(&net, 8, 3);
@@ -194,6 +206,25 @@ fn an_endpoint_not_listening_to_its_robot_gets_team_publications() {
     publish(&t[2].0, LinkKind::Team, 2);
     net.run_for(Duration::from_secs(1));
     assert_eq!(t[0].1.tags(), vec![2]);
+}
+
+#[test]
+fn a_revived_endpoint_keeps_its_choice_and_a_restarted_one_listens_again() {
+    let net = SimNet::new(13);
+    let t = trio(&net);
+    assert!(t[0].0.listen(LinkKind::Team, false));
+    let a = addr("team/r1/a");
+    net.kill(&a);
+    net.revive(&a);
+    net.run_for(Duration::from_millis(500));
+    publish(&t[2].0, LinkKind::Team, 1);
+    net.run_for(Duration::from_secs(1));
+    assert!(t[0].1.tags().is_empty(), "revived: still not listening");
+    let restarted = join_all(&net, &["team/r1/a".to_owned()]);
+    net.run_for(Duration::from_millis(500));
+    publish(&t[2].0, LinkKind::Team, 2);
+    net.run_for(Duration::from_secs(1));
+    assert_eq!(restarted[0].1.tags(), vec![2]);
 }
 
 #[test]
