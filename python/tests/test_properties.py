@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from hypothesis import HealthCheck, settings
@@ -160,24 +161,29 @@ class BoardMachine(RuleBasedStateMachine):
         def again(call: slate.Call) -> None:
             board.read(call.object, call.attr)  # a cycle: cut, the read is unchanged
 
-        try:
-            board.on_read(where, attr, again)
-        except slate.SlateError:
-            assert where not in self.objects and where != "A"
+        self.attach(board.on_read, where, attr, again)
 
     @rule(where=st.sampled_from(["A", "o1", "o2"]), attr=st.sampled_from(["x", "y", "s"]))
     def attach_a_write_function_that_writes_itself_through_the_board(
         self, where: str, attr: str
     ) -> None:
-        board = self.board
-
         def again(call: slate.Call) -> None:
             # A cycle: cut, so the write that triggered it is what stays.
-            board.write(call.object, call.attr, call.packet.value)
-            board.write(call.object, call.attr, "not the value")
+            self.board.write(call.object, call.attr, call.packet.value)
+            self.board.write(call.object, call.attr, "not the value")
 
+        self.attach(self.board.on_write, where, attr, again)
+
+    def attach(
+        self,
+        on: Callable[..., object],
+        where: str,
+        attr: str,
+        function: Callable[[slate.Call], None],
+    ) -> None:
+        """Attaches `function` with `on`; refused only where nothing of that name exists."""
         try:
-            board.on_write(where, attr, again)
+            on(where, attr, function)
         except slate.SlateError:
             assert where not in self.objects and where != "A"
 

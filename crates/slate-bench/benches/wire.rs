@@ -3,6 +3,7 @@
 
 use divan::Bencher;
 use slate_bench::wire::{SEQ, SteadySender};
+use slate_wire::Assertion;
 
 fn main() {
     divan::main();
@@ -10,8 +11,14 @@ fn main() {
 
 /// Encodes the first `n` of the sender's 100 updates as one report, repeatedly.
 fn encode_updates(bencher: Bencher, n: usize) {
+    encode_repeatedly(bencher, |sender| sender.updates[..n].to_vec());
+}
+
+/// Encodes the report `pick` takes from a new steady sender, repeatedly, each time with
+/// the next sequence number.
+fn encode_repeatedly(bencher: Bencher, pick: impl FnOnce(&SteadySender) -> Vec<Assertion>) {
     let mut sender = SteadySender::new().expect("steady sender");
-    let items = sender.updates[..n].to_vec();
+    let items = pick(&sender);
     let mut seq = SEQ;
     bencher
         .with_inputs(|| items.clone())
@@ -33,13 +40,5 @@ fn encode_batch100(bencher: Bencher) {
 
 #[divan::bench]
 fn encode_pose(bencher: Bencher) {
-    let mut sender = SteadySender::new().expect("steady sender");
-    let pose = sender.pose.clone();
-    let mut seq = SEQ;
-    bencher
-        .with_inputs(|| pose.clone())
-        .bench_local_values(|items| {
-            seq += 1;
-            sender.encode(seq, items).expect("encodes")
-        });
+    encode_repeatedly(bencher, |sender| sender.pose.clone());
 }

@@ -184,17 +184,19 @@ mod tests {
     #[test]
     fn the_core_suite_reports_every_field() {
         let j = run(&crate::TINY, &mut |_| {}).json();
-        for f in [
-            "read_ns",
-            "read_inherited_ns",
-            "write_ns",
-            "batch10_ns",
-            "write_active_fn_ns",
-            "query_10k_ns",
-            "hashmap_get_ns",
-            "hashmap_insert_ns",
-        ] {
-            assert!(j[f].as_f64().is_some_and(|x| x > 0.0), "{f}: {}", j[f]);
-        }
+        crate::assert_fields(
+            &j,
+            &[
+                "read_ns",
+                "read_inherited_ns",
+                "write_ns",
+                "batch10_ns",
+                "write_active_fn_ns",
+                "query_10k_ns",
+                "hashmap_get_ns",
+                "hashmap_insert_ns",
+            ],
+            |x| x > 0.0,
+        );
     }
 }

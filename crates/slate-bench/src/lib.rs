@@ -369,10 +369,16 @@ const TINY: Config = Config {
 /// were met.
 #[cfg(test)]
 fn assert_reports(j: &Value, fields: &[&str]) {
-    for f in fields {
-        assert!(j[f].as_f64().is_some_and(|x| x > 0.0), "{f}: {}", j[f]);
-    }
+    assert_fields(j, fields, |x| x > 0.0);
     assert!(j["targets_met"].is_boolean());
+}
+
+/// Asserts that each of `fields` in a suite's JSON is a number for which `holds`.
+#[cfg(test)]
+fn assert_fields(j: &Value, fields: &[&str], holds: fn(f64) -> bool) {
+    for f in fields {
+        assert!(j[f].as_f64().is_some_and(holds), "{f}: {}", j[f]);
+    }
 }
 
 /// Median nanoseconds per call of `op` (each call is one operation).

@@ -191,23 +191,10 @@ impl NodeBuilder {
         let monitor = Monitor::start(&board, &engine, (&ici, interest), log.clone());
         let timers = system_clock.then(|| Timers::start(ici.clone()));
         let view = Arc::new(View::new(
-            board.clone(),
-            engine.clone(),
-            ici.clone(),
-            transport.clone(),
-            circuits.clone(),
-            log.clone(),
-            listen.clone(),
+            board, engine, ici, transport, circuits, log, listen,
         ));
         let node = Node {
-            board,
-            engine,
-            ici,
-            transport,
-            circuits,
-            log,
             view,
-            listen,
             threads: Mutex::new(Threads {
                 monitor: Some(monitor),
                 timers,
@@ -274,14 +261,9 @@ struct Threads {
 /// # Ok::<(), slate_node::Error>(())
 /// ```
 pub struct Node {
-    board: Arc<Board>,
-    engine: Engine,
-    ici: Ici,
-    transport: Arc<dyn Transport>,
-    circuits: Arc<PlanCircuits>,
-    log: Arc<EventLog>,
+    /// Its parts (board, engine, ICI, transport, circuits, event log), which the
+    /// dashboard's view reads too.
     view: Arc<View>,
-    listen: Vec<String>,
     threads: Mutex<Threads>,
     closed: AtomicBool,
 }
@@ -308,67 +290,67 @@ impl Node {
 
     fn started(&self) {
         let me = self.address();
-        if self.listen.is_empty() {
+        if self.view.listen.is_empty() {
             self.log(Level::Info, format!("{me} started"));
         } else {
-            let on = self.listen.join(", ");
+            let on = self.view.listen.join(", ");
             self.log(Level::Info, format!("{me} started, listening on {on}"));
         }
     }
 
     fn log(&self, level: Level, text: String) {
-        self.log.push(&self.board, level, text);
+        self.view.log.push(&self.view.board, level, text);
     }
 
     /// The module's address.
     pub fn address(&self) -> &Address {
-        self.board.address()
+        self.view.board.address()
     }
 
     /// The board.
     pub fn board(&self) -> &Arc<Board> {
-        &self.board
+        &self.view.board
     }
 
     /// The plan engine.
     pub fn engine(&self) -> &Engine {
-        &self.engine
+        &self.view.engine
     }
 
     /// The ICI.
     pub fn ici(&self) -> &Ici {
-        &self.ici
+        &self.view.ici
     }
 
     /// The plan circuits.
     pub fn circuits(&self) -> &PlanCircuits {
-        &self.circuits
+        &self.view.circuits
     }
 
     /// The transport.
     pub fn transport(&self) -> &Arc<dyn Transport> {
-        &self.transport
+        &self.view.transport
     }
 
     /// Loads `.slate` source text into the board (classes, objects, rules, plans).
     pub fn load(&self, name: &str, text: &str) -> Result<Loaded, LoadError> {
-        self.engine.load(name, text)
+        self.view.engine.load(name, text)
     }
 
     /// Sends a plan (`plan NAME { ... }` source text) to another module on a virtual
     /// circuit; the handle's `acks()` yields its acknowledgements as they arrive.
     pub fn send_plan(&self, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
-        self.circuits.send(to, text)
+        self.view.circuits.send(to, text)
     }
 
     /// The modules this node holds alive.
     pub fn peers(&self) -> Vec<Address> {
-        self.ici.alive_peers()
+        self.view.ici.alive_peers()
     }
 
     /// The Zenoh endpoints it listens on (empty on another transport).
     pub fn listening(&self) -> &[String] {
-        &self.listen
+        &self.view.listen
     }
 
     /// The dashboard's URL, if it serves one.
@@ -378,7 +360,7 @@ impl Node {
 
     /// The last events: peers up and down, plan progress, failed active functions.
     pub fn events(&self) -> Vec<NodeEvent> {
-        self.log.events()
+        self.view.log.events()
     }
 
     /// The dashboard's view of this node, as JSON (`docs/dashboard.md`).
@@ -412,9 +394,9 @@ impl Node {
         if let Some(mut t) = threads.timers.take() {
             t.stop();
         }
-        self.ici.tick();
-        tracing::debug!(stats = ?self.ici.stats(), "ICI counters at close");
-        self.transport.close();
+        self.view.ici.tick();
+        tracing::debug!(stats = ?self.view.ici.stats(), "ICI counters at close");
+        self.view.transport.close();
         self.log(Level::Info, format!("{} stopped", self.address()));
         if let Some(mut m) = threads.monitor.take() {
             m.stop();

@@ -452,7 +452,12 @@ mod tests {
             (0x0b, "team_interest"),
             (0x0c, "fill"),
         ];
-        for (header, name) in named {
+        assert_names(&named);
+    }
+
+    /// Each header reads as the kind of that name.
+    fn assert_names(named: &[(u8, &str)]) {
+        for &(header, name) in named {
             assert_eq!(MsgKind::of(&[header]).name(), name, "{header:#04x}");
         }
     }
@@ -473,9 +478,7 @@ mod tests {
             (0x02, "lifecycle"),
             (0x03, "object_list"),
         ];
-        for (header, name) in old {
-            assert_eq!(MsgKind::of(&[header]).name(), name, "{header:#04x}");
-        }
+        assert_names(&old);
     }
 
     #[test]

@@ -1,12 +1,10 @@
 //! `slate demo --robots`: the range a team may have, as the CLI states and enforces it.
 
-use crate::support::slate;
+use crate::support::{slate, slate_err};
 
 #[test]
 fn demo_refuses_33_robots_and_names_the_range() {
-    let out = slate(&["demo", "--robots", "33", "--quiet"]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = slate_err(&["demo", "--robots", "33", "--quiet"]);
     assert!(err.contains("1..=32"), "{err}");
 }
 
@@ -46,8 +44,6 @@ fn demo_runs_on_an_acoustic_team_link_and_reports_its_frames() {
 
 #[test]
 fn demo_refuses_a_team_rate_of_zero() {
-    let out = slate(&["demo", "--team-rate", "0", "--quiet"]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = slate_err(&["demo", "--team-rate", "0", "--quiet"]);
     assert!(err.contains("--team-rate"), "{err}");
 }

@@ -1,7 +1,7 @@
 //! Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit. And every
 //! verb explains itself with an example.
 
-use crate::support::{Team, entry, free_port, show, slate, temp_dir};
+use crate::support::{Team, entry, free_port, show, slate, slate_ok, temp_dir};
 
 fn one_line_error(out: &std::process::Output, code: i32, says: &str) {
     let err = String::from_utf8_lossy(&out.stderr);
@@ -109,9 +109,7 @@ fn help_explains_every_verb_with_an_example() {
     ] {
         let mut args = verb.to_vec();
         args.push("--help");
-        let out = slate(&args);
-        assert!(out.status.success(), "{verb:?}");
-        let text = String::from_utf8_lossy(&out.stdout);
+        let text = slate_ok(&args);
         assert!(text.contains("Example: slate "), "{verb:?}: {text}");
         assert!(text.contains("--format"), "{verb:?}: {text}");
     }
@@ -120,9 +118,7 @@ fn help_explains_every_verb_with_an_example() {
 #[test]
 fn tree_of_files_needs_no_network() {
     let gsr = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/gsr.slate");
-    let out = slate(&["tree", gsr]);
-    assert!(out.status.success(), "{}", show(&out));
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = slate_ok(&["tree", gsr]);
     assert!(
         text.contains("├── Obstacle (observer, range, bearing, position, clearance)"),
         "{text}"

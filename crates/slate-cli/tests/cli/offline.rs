@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use crate::support::{slate, temp_dir};
+use crate::support::{show, slate, slate_ok, temp_dir};
 
 #[test]
 fn bench_core_prints_one_json_object_with_every_field() {
@@ -18,11 +18,7 @@ fn bench_core_prints_one_json_object_with_every_field() {
         "--sample-ms",
         "1",
     ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", show(&out));
     let j: serde_json::Value =
         serde_json::from_slice(&out.stdout).expect("stdout is one JSON object");
     for f in [
@@ -47,9 +43,7 @@ fn bench_core_prints_one_json_object_with_every_field() {
 
 #[test]
 fn bench_core_text_shows_the_baselines_and_targets() {
-    let out = slate(&["bench", "core", "--samples", "3", "--sample-ms", "1"]);
-    assert!(out.status.success());
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = slate_ok(&["bench", "core", "--samples", "3", "--sample-ms", "1"]);
     assert!(
         text.contains("hashmap_get_ns") && text.contains("target <= 2x"),
         "{text}"
@@ -123,22 +117,14 @@ fn a_malformed_endpoint_is_named_at_once_not_reported_unreachable() {
 
 #[test]
 fn help_explains_the_bench_verb_with_an_example() {
-    let out = slate(&["bench", "--help"]);
-    assert!(out.status.success());
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = slate_ok(&["bench", "--help"]);
     assert!(text.contains("slate bench core --format json"), "{text}");
 }
 
 #[test]
 fn check_accepts_the_gsr_example_and_exits_zero() {
     let gsr = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/gsr.slate");
-    let out = slate(&["check", gsr]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8_lossy(&out.stdout);
+    let text = slate_ok(&["check", gsr]);
     assert!(text.contains("gsr.slate: ok (4 classes"), "{text}");
 }
 
@@ -184,11 +170,7 @@ fn check_accepts_the_demo_files_that_together_form_a_module() {
     let mut args = vec!["check"];
     args.extend(files.iter().map(String::as_str));
     let out = slate(&args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", show(&out));
 }
 
 #[test]
@@ -198,11 +180,7 @@ fn check_accepts_a_plan_over_the_builtin_module_class() {
         "watch.slate",
         "plan watch { trigger: any m: Module where not m.alive; action { } }\n",
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert!(out.status.success(), "{}", show(&out));
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

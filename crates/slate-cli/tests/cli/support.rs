@@ -28,6 +28,22 @@ pub fn slate(args: &[&str]) -> Output {
     wait_output(child, COMMAND_LIMIT)
 }
 
+/// Runs `slate ARGS` as [`slate`] does and fails the test, showing what it printed,
+/// unless it succeeds; its stdout.
+pub fn slate_ok(args: &[&str]) -> String {
+    let out = slate(args);
+    assert!(out.status.success(), "slate {args:?}\n{}", show(&out));
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Runs `slate ARGS` as [`slate`] does and fails the test, showing what it printed,
+/// unless it fails; its stderr.
+pub fn slate_err(args: &[&str]) -> String {
+    let out = slate(args);
+    assert!(!out.status.success(), "slate {args:?}\n{}", show(&out));
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
 /// Waits for a child's output, killing it (by pid) past `limit`.
 pub fn wait_output(mut child: Child, limit: Duration) -> Output {
     let out = drain(child.stdout.take());
@@ -373,6 +389,20 @@ impl Team {
     }
 
     /// `--connect E` for every node, so an observer reaches all at once.
+    /// Starts `slate ARGS` against the team without waiting for it, its output piped;
+    /// killed if the test ends first.
+    pub fn spawn(&self, args: &[&str]) -> Guard {
+        let child = command()
+            .args(args)
+            .args(self.connect_args())
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run slate");
+        Guard(Some(child))
+    }
+
     pub fn connect_args(&self) -> Vec<String> {
         self.nodes
             .iter()

@@ -2,10 +2,9 @@
 //! plans. Both export everything.
 
 use std::io::{BufRead, BufReader};
-use std::process::Stdio;
 use std::time::Duration;
 
-use crate::support::{Guard, Team, class_in, entry, keys, show, steps, wait_output};
+use crate::support::{Team, class_in, entry, keys, show, steps, wait_output};
 
 const NAV: &str = "object gsr : Vehicle context self { position = [10.0, 20.0] accuracy 0.5; }\nobject rock : Obstacle { position = [15.0, 22.0]; range = 5.4; }";
 
@@ -68,8 +67,7 @@ fn tree_ls_and_get_show_the_team_as_text_and_json() {
 fn put_on_one_node_is_seen_by_get_and_on_the_other_node_and_watch_prints_it() {
     let team = two_nodes("put");
     // A watcher, started first; it says on stderr when it is watching.
-    let connect = team.connect_args();
-    let mut args = vec![
+    let args = [
         "watch",
         "gsr.speed",
         "--count",
@@ -79,16 +77,7 @@ fn put_on_one_node_is_seen_by_get_and_on_the_other_node_and_watch_prints_it() {
         "--log",
         "slate_ici=debug,slate_node=debug",
     ];
-    args.extend(connect.iter().map(String::as_str));
-    let mut watcher = Guard(Some(
-        std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
-            .args(&args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
-    ));
+    let mut watcher = team.spawn(&args);
     let stderr = watcher.0.as_mut().and_then(|c| c.stderr.take()).unwrap();
     let mut stderr = BufReader::new(stderr);
     let mut line = String::new();
@@ -157,20 +146,7 @@ fn plan_send_prints_acks_and_plan_ls_and_cancel_work() {
     let file = plans.to_str().unwrap();
     // Triggered at once (speed 6 before it is sent), then terminated by the mode.
     team.ok(&["put", "gsr.speed", "6"]);
-    let sender = {
-        let connect = team.connect_args();
-        let mut args = vec!["plan", "send", file, "--to", "t/r2/loco", "--timeout", "20"];
-        args.extend(connect.iter().map(String::as_str));
-        Guard(Some(
-            std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
-                .args(&args)
-                .stdin(Stdio::null())
-                .stdout(Stdio::piped())
-                .stderr(Stdio::piped())
-                .spawn()
-                .unwrap(),
-        ))
-    };
+    let sender = team.spawn(&["plan", "send", file, "--to", "t/r2/loco", "--timeout", "20"]);
     let loco = team.node("t/r2/loco");
     assert!(
         crate::support::eventually(Duration::from_secs(15), || loco

@@ -284,17 +284,24 @@ fn is_identifier(s: &str) -> bool {
         && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
 }
 
-fn read_hello(r: &mut Reader<'_>) -> Result<Hello, FrameError> {
-    let incarnation = r.var()?;
-    let mut interest = ClassSet::none();
+/// A class set as every frame carries it: a count, then each class's name and context
+/// mask (at least one context, no unknown bit).
+pub(crate) fn read_class_set(r: &mut Reader<'_>) -> Result<ClassSet, FrameError> {
+    let mut set = ClassSet::none();
     for _ in 0..r.count()? {
         let class = r.name()?;
         let mask = r.byte()?;
         if mask == 0 || mask & !ALL_CONTEXTS != 0 {
             return Err(FrameError::Bad("context mask"));
         }
-        interest = interest.with(&class, mask);
+        set = set.with(&class, mask);
     }
+    Ok(set)
+}
+
+fn read_hello(r: &mut Reader<'_>) -> Result<Hello, FrameError> {
+    let incarnation = r.var()?;
+    let interest = read_class_set(r)?;
     let flags = r.byte()?;
     if flags & !(HELLO_REPLY | HELLO_OBSERVER) != 0 {
         return Err(FrameError::Bad("hello flags"));

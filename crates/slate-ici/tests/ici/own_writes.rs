@@ -18,13 +18,21 @@ fn pair(seed: u64) -> Team {
     team
 }
 
+/// [`pair`] once both boards hold `object` (of `class`, made at t/r1/nav) with
+/// `attr` = 1.0.
+fn pair_sharing(seed: u64, (class, object, attr): (&str, &str, &str)) -> Team {
+    let team = pair(seed);
+    let nav = team.board("t/r1/nav");
+    nav.create(class, object).unwrap();
+    nav.write(object, attr, 1.0).unwrap();
+    team.run(0.5);
+    team
+}
+
 #[test]
 fn an_old_stamped_latest_write_leaves_writer_and_receiver_with_the_same_packet() {
-    let team = pair(31);
+    let team = pair_sharing(31, ("Tracked", "o", "x"));
     let a = team.board("t/r1/nav");
-    a.create("Tracked", "o").unwrap();
-    a.write("o", "x", 1.0).unwrap();
-    team.run(0.5);
     let old = Timestamp::from_duration(a.clock().physical() - Duration::from_secs(100));
     let err = a
         .write("o", "x", Update::new(2.0).timestamp(old))
@@ -42,11 +50,7 @@ fn an_old_stamped_latest_write_leaves_writer_and_receiver_with_the_same_packet()
 
 #[test]
 fn a_non_owner_write_is_refused_at_the_writer_and_copies_stay_the_owners() {
-    let team = pair(32);
-    let owner = team.board("t/r1/nav");
-    owner.create("Vehicle", "gsr").unwrap();
-    owner.write("gsr", "heading", 1.0).unwrap();
-    team.run(0.5);
+    let team = pair_sharing(32, ("Vehicle", "gsr", "heading"));
     let err = team
         .board("t/r2/nav")
         .write("gsr", "heading", 2.0)

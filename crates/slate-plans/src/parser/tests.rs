@@ -14,6 +14,13 @@ fn trigger(source: &str) -> Result<Expr, Vec<Diagnostic>> {
     }
 }
 
+/// Each source groups as its expected text.
+fn assert_grouped(cases: &[(&str, &str)]) {
+    for (source, expected) in cases {
+        assert_eq!(grouped(source), *expected, "{source}");
+    }
+}
+
 fn grouped(source: &str) -> String {
     match trigger(source) {
         Ok(expr) => expr.to_string(),
@@ -50,27 +57,29 @@ fn binary_operators_group_by_precedence() {
         ("(a + b) * c", "((a + b) * c)"),
         ("a <= b or c >= d", "((a <= b) or (c >= d))"),
     ];
-    for (source, expected) in cases {
-        assert_eq!(grouped(source), expected, "{source}");
-    }
+    assert_grouped(&cases);
 }
 
 #[test]
 fn same_precedence_operators_associate_to_the_left() {
-    assert_eq!(grouped("a - b - c"), "((a - b) - c)");
-    assert_eq!(grouped("a / b * c % d"), "(((a / b) * c) % d)");
-    assert_eq!(grouped("a or b or c"), "((a or b) or c)");
-    assert_eq!(grouped("a and b and c"), "((a and b) and c)");
+    assert_grouped(&[
+        ("a - b - c", "((a - b) - c)"),
+        ("a / b * c % d", "(((a / b) * c) % d)"),
+        ("a or b or c", "((a or b) or c)"),
+        ("a and b and c", "((a and b) and c)"),
+    ]);
 }
 
 #[test]
 fn not_binds_looser_than_comparison_and_tighter_than_and() {
-    assert_eq!(grouped("not a == b"), "(not (a == b))");
-    assert_eq!(grouped("not a and b"), "((not a) and b)");
-    assert_eq!(grouped("a or not b and c"), "(a or ((not b) and c))");
-    assert_eq!(grouped("not not a"), "(not (not a))");
-    assert_eq!(grouped("- - a"), "(-(-a))");
-    assert_eq!(grouped("a == (not b)"), "(a == (not b))");
+    assert_grouped(&[
+        ("not a == b", "(not (a == b))"),
+        ("not a and b", "((not a) and b)"),
+        ("a or not b and c", "(a or ((not b) and c))"),
+        ("not not a", "(not (not a))"),
+        ("- - a", "(-(-a))"),
+        ("a == (not b)", "(a == (not b))"),
+    ]);
 }
 
 #[test]

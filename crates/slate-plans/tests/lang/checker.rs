@@ -5,7 +5,7 @@ use std::sync::Arc;
 use slate_model::{Board, Clock};
 use slate_plans::{Engine, LoadError};
 
-use crate::support::{engine, loaded};
+use crate::support::{engine, loaded, refused};
 
 const WORLD: &str = r#"
 class Vehicle { position: vec<2> [m]; speed: real = 0.0; mode: string = "auto"; target: ref; }
@@ -130,9 +130,7 @@ fn a_class_defined_differently_on_the_board_is_a_conflict() {
     engine
         .load("again.slate", "class Rover { speed: real; }")
         .expect("identical is fine");
-    let e = engine
-        .load("b.slate", "class Rover { speed: int; }")
-        .unwrap_err();
+    let e = refused(&engine, "class Rover { speed: int; }");
     assert!(
         e.rendered
             .contains("class Rover is already defined differently"),

@@ -3,7 +3,7 @@
 
 use slate_plans::LoadError;
 
-use crate::support::{engine, loaded};
+use crate::support::{engine, loaded, refused_after};
 
 /// The (line, column, message) of each diagnostic.
 fn positions(e: &LoadError) -> Vec<(u32, u32, String)> {
@@ -44,20 +44,16 @@ fn an_out_of_bounds_initial_value_is_reported_at_the_value() {
 #[test]
 fn a_bad_confidence_or_accuracy_is_reported_at_its_expression() {
     let (board, engine) = engine();
-    let bad = "class A { x: real; }\nobject o : A { x = 1.0 confidence 2.0; }";
-    let p = positions(&engine.load("w.slate", bad).unwrap_err());
-    assert_eq!((p[0].0, p[0].1), (2, 35), "{p:?}");
-    assert!(
-        p[0].2.contains("confidence 2 must be between 0 and 1"),
-        "{p:?}"
-    );
-    let bad = "class A { x: real; }\nobject o : A { x = 1.0 accuracy -1; }";
-    let p = positions(&engine.load("w.slate", bad).unwrap_err());
-    assert_eq!((p[0].0, p[0].1), (2, 33), "{p:?}");
-    assert!(
-        p[0].2.contains("accuracy -1 must be finite and >= 0"),
-        "{p:?}"
-    );
+    let cases = [
+        ("confidence 2.0", 35, "confidence 2 must be between 0 and 1"),
+        ("accuracy -1", 33, "accuracy -1 must be finite and >= 0"),
+    ];
+    for (quality, column, says) in cases {
+        let bad = format!("class A {{ x: real; }}\nobject o : A {{ x = 1.0 {quality}; }}");
+        let p = positions(&engine.load("w.slate", &bad).unwrap_err());
+        assert_eq!((p[0].0, p[0].1), (2, column), "{p:?}");
+        assert!(p[0].2.contains(says), "{p:?}");
+    }
     assert!(board.class_def("A").is_none());
 }
 
@@ -92,13 +88,10 @@ fn a_default_outside_its_bounds_is_reported_at_the_default() {
 
 #[test]
 fn a_plan_named_like_an_existing_object_is_reported_at_its_name() {
-    let (board, engine) = loaded("a.slate", "class A { x: real; }\nobject o : A;");
-    let e = engine
-        .load(
-            "b.slate",
-            "object n : A;\nplan o { trigger: true; action { set n.x = 1.0; } }",
-        )
-        .unwrap_err();
+    let (board, _engine, e) = refused_after(
+        "class A { x: real; }\nobject o : A;",
+        "object n : A;\nplan o { trigger: true; action { set n.x = 1.0; } }",
+    );
     let p = positions(&e);
     assert_eq!((p[0].0, p[0].1), (2, 6), "{p:?}");
     assert!(board.info("n").is_none(), "{e}");

@@ -7,7 +7,7 @@ use std::time::Duration;
 use slate_model::{Board, Value};
 use slate_plans::{Engine, Outgoing, PlanEvent, PlanState};
 
-use crate::support::{engine, loaded};
+use crate::support::{engine, loaded, refused_after};
 
 pub const SIGNALS: &str = r#"
     class Signal { on: bool = false; level: real = 0.0; }
@@ -484,13 +484,10 @@ fn a_plan_object_refuses_writes_from_anyone_but_its_engine() {
 
 #[test]
 fn a_plan_action_that_writes_a_plan_object_is_refused_by_the_checker() {
-    let (_board, engine) = loaded("a.slate", "plan q { trigger: false; action { } }");
-    let e = engine
-        .load(
-            "b.slate",
-            "plan r { trigger: true; action { set q.state = \"terminated\"; } }",
-        )
-        .unwrap_err();
+    let (_board, _engine, e) = refused_after(
+        "plan q { trigger: false; action { } }",
+        "plan r { trigger: true; action { set q.state = \"terminated\"; } }",
+    );
     assert!(e.diagnostics.0[0].message.contains("plan engine"), "{e}");
     assert_eq!(
         (e.diagnostics.0[0].span.line, e.diagnostics.0[0].span.col),

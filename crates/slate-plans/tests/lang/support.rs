@@ -3,7 +3,7 @@
 use std::sync::Arc;
 
 use slate_model::{Board, Clock};
-use slate_plans::{Diagnostics, Engine, Expr, File, Item, parse};
+use slate_plans::{Diagnostics, Engine, Expr, File, Item, LoadError, parse};
 
 /// Parses `source`, failing the test with the rendered diagnostics if it does not parse.
 pub fn parse_ok(source: &str) -> File {
@@ -44,4 +44,17 @@ pub fn loaded(file: &str, source: &str) -> (Arc<Board>, Engine) {
         .load(file, source)
         .unwrap_or_else(|e| panic!("{file}: {e}"));
     (board, engine)
+}
+
+/// The error of loading `source` (as `b.slate`) on `engine`, which must refuse it.
+pub fn refused(engine: &Engine, source: &str) -> LoadError {
+    engine.load("b.slate", source).unwrap_err()
+}
+
+/// An engine that loaded `first` (as `a.slate`) and then refused `second` (as
+/// `b.slate`): the board, the engine, and the error.
+pub fn refused_after(first: &str, second: &str) -> (Arc<Board>, Engine, LoadError) {
+    let (board, engine) = loaded("a.slate", first);
+    let error = refused(&engine, second);
+    (board, engine, error)
 }

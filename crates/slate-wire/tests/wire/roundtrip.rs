@@ -15,6 +15,15 @@ fn decode_report(decoder: &mut Decoder, bytes: &[u8], schema: &Schema) -> Report
     }
 }
 
+/// A new encoder at nav, and its encodings of poses 1 and 2 (the first names the
+/// object and attributes, the second need not).
+fn two_poses(schema: &Schema) -> (Encoder, Vec<u8>, Vec<u8>) {
+    let mut encoder = Encoder::new(nav());
+    let first = encoder.encode(&Message::Report(pose(1)), schema).unwrap();
+    let second = encoder.encode(&Message::Report(pose(2)), schema).unwrap();
+    (encoder, first, second)
+}
+
 fn pose(seq: u64) -> Report {
     let t = at(3_600_000_000, 0);
     let r = robot();
@@ -94,9 +103,7 @@ fn small_messages_come_back_exactly() {
 #[test]
 fn names_are_announced_once_and_again_after_a_reset() {
     let schema = schema();
-    let mut encoder = Encoder::new(nav());
-    let first = encoder.encode(&Message::Report(pose(1)), &schema).unwrap();
-    let second = encoder.encode(&Message::Report(pose(2)), &schema).unwrap();
+    let (mut encoder, first, second) = two_poses(&schema);
     assert!(
         second.len() + 10 < first.len(),
         "{} vs {}",
@@ -111,9 +118,7 @@ fn names_are_announced_once_and_again_after_a_reset() {
 #[test]
 fn a_receiver_that_missed_the_names_catches_up() {
     let schema = schema();
-    let mut source = Encoder::new(nav());
-    let _lost = source.encode(&Message::Report(pose(1)), &schema).unwrap();
-    let second = source.encode(&Message::Report(pose(2)), &schema).unwrap();
+    let (mut source, _lost, second) = two_poses(&schema);
     let mut late = Decoder::new();
     let err = late.decode(&nav(), &second, &schema).unwrap_err();
     assert!(matches!(err, DecodeError::UnknownName { .. }), "{err}");

@@ -15,8 +15,8 @@ use std::sync::Arc;
 
 use slate_model::Address;
 
-use crate::ici::classes::{ALL_CONTEXTS, ClassSet};
-use crate::ici::frame::{FrameError, MAX_ITEMS, Reader, Writer};
+use crate::ici::classes::ClassSet;
+use crate::ici::frame::{FrameError, MAX_ITEMS, Reader, Writer, read_class_set};
 
 const ROBOT_HELLO: u8 = 0x04;
 const ROBOT_HEARTBEAT: u8 = 0x05;
@@ -733,16 +733,7 @@ fn read_segment(r: &mut Reader<'_>) -> Result<Arc<str>> {
 }
 
 fn read_classes(r: &mut Reader<'_>) -> Result<ClassSet> {
-    let mut set = ClassSet::none();
-    for _ in 0..r.count()? {
-        let class = r.name()?;
-        let mask = r.byte()?;
-        if mask == 0 || mask & !ALL_CONTEXTS != 0 {
-            return Err(TeamFrameError::Bad("context mask"));
-        }
-        set = set.with(&class, mask);
-    }
-    Ok(set)
+    Ok(read_class_set(r)?)
 }
 
 fn read_single(r: &mut Reader<'_>, index: u8) -> Result<TeamFrame> {
@@ -1041,6 +1032,7 @@ fn read_fill(r: &mut Reader<'_>) -> Result<Fill> {
 mod tests {
     use super::*;
     use crate::MsgKind;
+    use crate::ici::classes::ALL_CONTEXTS;
     use proptest::prelude::*;
     use proptest::sample::select;
 

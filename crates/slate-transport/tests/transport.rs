@@ -1,0 +1,9 @@
+//! Integration tests of slate-transport: one binary, one module per area in
+//! `tests/transport/`.
+
+// The transport conformance suite, on the simulator.
+#[path = "transport/conformance.rs"]
+mod conformance;
+// The simulator's shared channel: one half-duplex transmitter, bounded frames, frame loss.
+#[path = "transport/shared_channel.rs"]
+mod shared_channel;
