@@ -58,9 +58,9 @@ mod ici;
 pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
 pub use error::Error;
 pub use ici::{
-    CatchUpStats, ClassSet, Ici, IciConfig, IciStartError, IciStats, Listen, Liveliness,
-    LivelinessStats, MODULE_CLASS, MergeStats, PlanHandler, RejectStats, ReportStats, SendRawError,
-    TeamProtocol, module_class, module_object_name,
+    CatchUpStats, ClassSet, Ici, IciConfig, IciStartError, IciStats, LinkPolicy, LinkReport,
+    Listen, Liveliness, LivelinessStats, MODULE_CLASS, MergeStats, PlanHandler, RejectStats,
+    ReportStats, SendRawError, TeamProtocol, link_kind, module_class, module_object_name,
 };
 pub use slate_transport::{
     Channel, Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng, SendError,

@@ -21,6 +21,9 @@ mod gateway;
 // Interest (what a board models) and export policy (what leaves a robot).
 #[path = "ici/interest.rs"]
 mod interest;
+// Link policies: the team link's own filters, `never`, export and liveliness from `link` blocks.
+#[path = "ici/links.rs"]
+mod links;
 // Merge policies across boards: owned, confident, fused.
 #[path = "ici/merge.rs"]
 mod merge;

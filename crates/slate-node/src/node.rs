@@ -8,9 +8,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use parking_lot::Mutex;
 use slate_dashboard::Dashboard;
-use slate_ici::{Ici, IciConfig, PlanCircuits, PlanHandle, SendPlanError, Transport};
+use slate_ici::{
+    Ici, IciConfig, LinkPolicy, PlanCircuits, PlanHandle, SendPlanError, Transport, link_kind,
+};
 use slate_model::{Address, Board, Clock};
-use slate_plans::{Engine, LoadError, Loaded};
+use slate_plans::{Engine, LinkName, LoadError, Loaded};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 
 use crate::config::NodeConfig;
@@ -171,6 +173,10 @@ impl NodeBuilder {
         for source in &self.sources {
             load(&engine, source)?;
         }
+        let mut ici_config = self.ici;
+        for (name, policy) in engine.link_policies() {
+            LinkPolicy::from(&policy).apply_to(link_kind(name), &mut ici_config);
+        }
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
@@ -178,14 +184,16 @@ impl NodeBuilder {
             }
             TransportChoice::Custom(t) => (t, Vec::new()),
         };
-        let interest = self.ici.interest.clone();
-        let ici = match Ici::new(board.clone(), transport.clone(), self.ici) {
+        let interest = ici_config.interest.clone();
+        let ici = match Ici::new(board.clone(), transport.clone(), ici_config) {
             Ok(ici) => ici,
             Err(e) => {
                 transport.close();
                 return Err(e.into());
             }
         };
+        let links: Vec<LinkName> = engine.link_policies().into_keys().collect();
+        apply_link_policies(&ici, &engine, &links);
         let circuits = Arc::new(PlanCircuits::attach(&ici, &engine));
         let log = Arc::new(EventLog::default());
         let monitor = Monitor::start(&board, &engine, (&ici, interest), log.clone());
@@ -214,6 +222,18 @@ impl NodeBuilder {
             }
         }
         Ok(node)
+    }
+}
+
+/// Hands the engine's merged policies of `links` (the `link` blocks of every file it
+/// loaded) to the ICI. The node is where both exist: slate-plans does not depend on the
+/// ICI, and a file can be loaded after the circuits are attached (`Node::load`).
+fn apply_link_policies(ici: &Ici, engine: &Engine, links: &[LinkName]) {
+    let policies = engine.link_policies();
+    for name in links {
+        if let Some(policy) = policies.get(name) {
+            ici.set_link_policy(link_kind(*name), LinkPolicy::from(policy));
+        }
     }
 }
 
@@ -333,8 +353,11 @@ impl Node {
     }
 
     /// Loads `.slate` source text into the board (classes, objects, rules, plans).
+    /// A file's `link` blocks change the ICI's link policies at once.
     pub fn load(&self, name: &str, text: &str) -> Result<Loaded, LoadError> {
-        self.view.engine.load(name, text)
+        let loaded = self.view.engine.load(name, text)?;
+        apply_link_policies(&self.view.ici, &self.view.engine, &loaded.links);
+        Ok(loaded)
     }
 
     /// Sends a plan (`plan NAME { ... }` source text) to another module on a virtual

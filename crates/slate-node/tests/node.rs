@@ -6,6 +6,9 @@ mod config;
 // The dashboard a node serves: its snapshot follows docs/dashboard.md.
 #[path = "node/dashboard.rs"]
 mod dashboard;
+// A node hands the `link` blocks of the files it loads to its ICI.
+#[path = "node/links.rs"]
+mod links;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;

@@ -46,6 +46,14 @@ impl File {
             _ => None,
         })
     }
+
+    /// The link policies (`link team { ... }`), in source order.
+    pub fn links(&self) -> impl Iterator<Item = &LinkDecl> {
+        self.items.iter().filter_map(|item| match item {
+            Item::Link(link) => Some(link),
+            _ => None,
+        })
+    }
 }
 
 /// A top-level declaration.
@@ -63,6 +71,8 @@ pub enum Item {
     Rule(RuleDecl),
     /// `plan NAME { ... }`
     Plan(PlanDecl),
+    /// `link NAME { ... }`: the loading module's policy for one kind of link.
+    Link(LinkDecl),
 }
 
 impl Item {
@@ -73,6 +83,7 @@ impl Item {
             Item::Object(object) => object.span,
             Item::Rule(rule) => rule.span,
             Item::Plan(plan) => plan.span,
+            Item::Link(link) => link.span,
         }
     }
 }
@@ -204,6 +215,76 @@ pub struct ReportPolicyDecl {
     pub on_accuracy: Option<Span>,
     /// From `report` to the last option.
     pub span: Span,
+}
+
+/// `link NAME { entry* }`: what the loading module's ICI sends on one kind of link (`team`
+/// or `robot`, validated by the checker). It belongs to no class, so class fingerprints do
+/// not depend on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkDecl {
+    /// The kind of link, as written.
+    pub link: Ident,
+    /// The entries, in source order.
+    pub entries: Vec<LinkEntry>,
+    /// The whole declaration.
+    pub span: Span,
+}
+
+/// One statement of a `link` block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinkEntry {
+    /// What it says.
+    pub kind: LinkEntryKind,
+    /// The whole statement, without its `;`.
+    pub span: Span,
+}
+
+/// The statements of a `link` block.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "a link block has a handful of entries, built once; boxing would only add indirection"
+)]
+pub enum LinkEntryKind {
+    /// `export CLASS [(CONTEXT, ...)], ...;`: classes that may leave the robot on this link.
+    Export(Vec<ExportDecl>),
+    /// `report CLASS.ATTRIBUTE (never | report options);`: this link's filter for the
+    /// attribute, on top of the class's own.
+    Report {
+        /// `Class.attribute`.
+        attribute: Path,
+        /// `never`, or the report options.
+        filter: LinkFilterDecl,
+    },
+    /// `heartbeat DURATION [timeout DURATION];`: the link's liveliness.
+    Heartbeat {
+        /// How long the link may stay silent before a heartbeat is sent.
+        heartbeat: Expr,
+        /// Silence after which a peer is dead.
+        timeout: Option<Expr>,
+    },
+}
+
+/// One class of an `export` line: `Robot` or `Robot (self, system)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportDecl {
+    /// The class (and its subclasses).
+    pub class: Ident,
+    /// The contexts exported; empty means every context.
+    pub contexts: Vec<ContextSpec>,
+}
+
+/// A link's filter for one attribute.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "a link block has a handful of entries, built once; boxing would only add indirection"
+)]
+pub enum LinkFilterDecl {
+    /// `never`: the attribute does not go on this link; where `never` is written.
+    Never(Span),
+    /// The attribute report options (`every`, `heartbeat`, `deadband`, `on_accuracy`).
+    Policy(ReportPolicyDecl),
 }
 
 /// `object NAME : CLASS [context C] [owner "addr"] ({ NAME = packet; ... } | ;)`

@@ -9,7 +9,7 @@
 //! together with initiation means the action never runs.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap};
+use std::collections::{BTreeMap, BinaryHeap, HashMap};
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
@@ -25,6 +25,7 @@ use crate::action::{Act, Effect, effects};
 use crate::env::SnapEnv;
 use crate::eval::{CompiledExpr, Ctx, truthy};
 use crate::index::DepIndex;
+use crate::load::{LinkName, LinkPolicy};
 use crate::outbox::{Outbox, Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 
 /// Class of the objects that show plans on the board (built in on every board).
@@ -149,6 +150,8 @@ pub(crate) struct Shared {
     evaluations: AtomicU64,
     /// Plans installed (the hook does nothing while there are none).
     installed: AtomicUsize,
+    /// The `link` blocks of every file loaded, merged per link.
+    links: Mutex<BTreeMap<LinkName, LinkPolicy>>,
 }
 
 /// Runs plans on one board. Cloning gives another handle to the same engine.
@@ -191,11 +194,26 @@ impl Engine {
             derived: Mutex::new(HashMap::new()),
             evaluations: AtomicU64::new(0),
             installed: AtomicUsize::new(0),
+            links: Mutex::new(BTreeMap::new()),
         });
         board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
         let listener: Arc<dyn ClockListener> = shared.clone();
         board.clock().subscribe(Arc::downgrade(&listener));
         Engine { shared }
+    }
+
+    /// The link policies of every file loaded so far (`link team { ... }`), merged per
+    /// link: what the module's ICI is to apply (`Ici::set_link_policy`).
+    pub fn link_policies(&self) -> BTreeMap<LinkName, LinkPolicy> {
+        self.shared.links.lock().clone()
+    }
+
+    /// Merges the link policies of a file just loaded into those of the files before it.
+    pub(crate) fn merge_links(&self, links: BTreeMap<LinkName, LinkPolicy>) {
+        let mut all = self.shared.links.lock();
+        for (name, policy) in links {
+            all.entry(name).or_default().merge(policy);
+        }
     }
 
     /// The board, if it still exists.

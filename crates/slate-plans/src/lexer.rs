@@ -50,10 +50,11 @@ pub(crate) enum Keyword {
     Action,
     To,
     SelfKw,
+    Link,
 }
 
 /// Every keyword with its spelling, in the order of the language reference.
-pub(crate) const KEYWORDS: [(&str, Keyword); 40] = [
+pub(crate) const KEYWORDS: [(&str, Keyword); 41] = [
     ("class", Keyword::Class),
     ("object", Keyword::Object),
     ("plan", Keyword::Plan),
@@ -94,6 +95,7 @@ pub(crate) const KEYWORDS: [(&str, Keyword); 40] = [
     ("action", Keyword::Action),
     ("to", Keyword::To),
     ("self", Keyword::SelfKw),
+    ("link", Keyword::Link),
 ];
 
 impl Keyword {

@@ -91,15 +91,15 @@ mod scope;
 
 pub use ast::{
     Action, ActionKind, Assignment, AttributeDecl, AttributeValue, BinaryOp, Bounds, ClassDecl,
-    ContextSpec, Expr, ExprKind, File, Ident, Item, Literal, ObjectDecl, Order, PacketExpr, Path,
-    PlanDecl, PlanRef, Quantifier, QuantifierKind, ReportPolicyDecl, RuleDecl, StrLit, Type,
-    TypeRef, UnaryOp, Unit,
+    ContextSpec, ExportDecl, Expr, ExprKind, File, Ident, Item, LinkDecl, LinkEntry, LinkEntryKind,
+    LinkFilterDecl, Literal, ObjectDecl, Order, PacketExpr, Path, PlanDecl, PlanRef, Quantifier,
+    QuantifierKind, ReportPolicyDecl, RuleDecl, StrLit, Type, TypeRef, UnaryOp, Unit,
 };
 pub use diagnostic::{Diagnostic, Diagnostics, Severity, Span, Stage};
 pub use engine::{
     Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanState, PlanStatus, TIME_FALLBACK,
 };
 pub use eval::{EvalError, MAX_OPS};
-pub use load::{LoadError, Loaded};
+pub use load::{LinkExport, LinkName, LinkPolicy, LinkReport, LoadError, Loaded};
 pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 pub use parser::{MAX_NESTING, parse};

@@ -9,6 +9,7 @@
 
 mod class;
 mod expr;
+mod link;
 mod object;
 mod plan;
 
@@ -126,7 +127,8 @@ impl<'s> Parser<'s> {
             TokenKind::Keyword(Keyword::Object) => self.object_decl().map(Item::Object),
             TokenKind::Keyword(Keyword::Plan) => self.plan_decl().map(Item::Plan),
             TokenKind::Keyword(Keyword::On) => self.top_rule().map(Item::Rule),
-            _ => Err(self.expected("`class`, `object`, `plan` or `on`")),
+            TokenKind::Keyword(Keyword::Link) => self.link_decl().map(Item::Link),
+            _ => Err(self.expected("`class`, `object`, `plan`, `on` or `link`")),
         }
     }
 
@@ -336,7 +338,7 @@ impl<'s> Parser<'s> {
     /// Whether `keyword` (found while skipping at brace `depth`) surely starts a new item.
     fn syncs_at(&self, keyword: Keyword, depth: usize) -> bool {
         match keyword {
-            Keyword::Class | Keyword::Object => true,
+            Keyword::Class | Keyword::Object | Keyword::Link => true,
             Keyword::Plan => self.prev_text() != "send",
             Keyword::On => depth == 0,
             _ => false,
@@ -436,7 +438,7 @@ impl<'s> Parser<'s> {
 
     fn ends_block(&self, keyword: Keyword, kind: BlockKind) -> bool {
         match keyword {
-            Keyword::Class | Keyword::Object | Keyword::Plan => true,
+            Keyword::Class | Keyword::Object | Keyword::Plan | Keyword::Link => true,
             Keyword::On => kind != BlockKind::Class,
             _ => false,
         }

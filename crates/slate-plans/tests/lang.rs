@@ -22,6 +22,9 @@ mod gsr_run;
 // One test per construct: classes, attributes, objects, active functions, plans and actions.
 #[path = "lang/items.rs"]
 mod items;
+// Link policies: `link team { ... }` parsed, checked with positions, merged.
+#[path = "lang/links.rs"]
+mod links;
 // Loading is all-or-nothing: a file with any error applies nothing.
 #[path = "lang/load.rs"]
 mod load;

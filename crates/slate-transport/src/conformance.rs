@@ -280,6 +280,34 @@ pub fn stats_count_traffic_by_link_and_kind<F: TransportFactory>(f: &mut F) {
     assert_eq!(diff(got.recv_bytes, before.recv_bytes), 30);
 }
 
+/// A module that stops listening to the team link gets no team publications, and still
+/// gets robot-link publications and sends (team ones included); once it listens again,
+/// team publications reach it. A transport whose [`listen`](Transport::listen) returns
+/// `false` (it cannot choose what an endpoint hears, the trait's default) skips the case.
+pub fn a_module_not_listening_gets_no_team_publications<F: TransportFactory>(f: &mut F) {
+    let t = trio(f);
+    if !t.a.listen(LinkKind::Team, false) {
+        tracing::info!("listen is not supported: case skipped");
+        return;
+    }
+    t.c.publish(LinkKind::Team, MsgKind::Report, b"team 1")
+        .unwrap_or_else(|e| panic!("{e}"));
+    t.b.publish(LinkKind::Robot, MsgKind::Report, b"robot")
+        .unwrap_or_else(|e| panic!("{e}"));
+    t.c.send(t.a.address(), MsgKind::Plan, b"sent")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(f.run_until(&mut || t.inboxes[0].len() == 2 && t.inboxes[1].len() == 1));
+    f.settle();
+    let mut got: Vec<Vec<u8>> = t.inboxes[0].messages().into_iter().map(|m| m.1).collect();
+    got.sort();
+    assert_eq!(got, vec![b"robot".to_vec(), b"sent".to_vec()]);
+    assert!(t.a.listen(LinkKind::Team, true));
+    t.c.publish(LinkKind::Team, MsgKind::Report, b"team 2")
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(f.run_until(&mut || t.inboxes[0].len() == 3));
+    assert_eq!(t.inboxes[0].messages()[2].1, b"team 2".to_vec());
+}
+
 /// One case of the suite: its name and the test.
 pub type Case<F> = (&'static str, fn(&mut F));
 
@@ -315,6 +343,10 @@ pub fn cases<F: TransportFactory>() -> Vec<Case<F>> {
             "stats_count_traffic_by_link_and_kind",
             stats_count_traffic_by_link_and_kind::<F>,
         ),
+        (
+            "a_module_not_listening_gets_no_team_publications",
+            a_module_not_listening_gets_no_team_publications::<F>,
+        ),
     ]
 }
 
@@ -339,7 +371,8 @@ macro_rules! transport_conformance {
             sends_arrive_once_and_in_order,
             payloads_arrive_intact_up_to_the_limit,
             a_closed_endpoint_goes_down_and_goes_quiet,
-            stats_count_traffic_by_link_and_kind
+            stats_count_traffic_by_link_and_kind,
+            a_module_not_listening_gets_no_team_publications
         );
     };
     (@cases $factory:expr; $($case:ident),*) => {

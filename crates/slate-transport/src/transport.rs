@@ -367,6 +367,20 @@ pub trait Transport: Send + Sync {
 
     /// Leaves the network: stops sending and receiving; peers see it go down.
     fn close(&self);
+
+    /// Starts (`on`) or stops receiving the publications other modules make on `link`.
+    /// An endpoint listens to both kinds of links until told otherwise. Only
+    /// publications are concerned: sends addressed to the endpoint and peer events still
+    /// arrive, and the endpoint may still publish and send on `link`.
+    ///
+    /// Returns whether the transport honours the choice. `false` (this default, and
+    /// transports that cannot choose what they receive, e.g. slate-zenoh until it
+    /// undeclares its team subscriber) means nothing changed: the endpoint keeps
+    /// receiving every publication, whatever `on` says, and the ICI must expect them.
+    fn listen(&self, link: LinkKind, on: bool) -> bool {
+        let _ = (link, on);
+        false
+    }
 }
 
 #[cfg(test)]

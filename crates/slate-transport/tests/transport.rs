@@ -7,3 +7,7 @@ mod conformance;
 // The simulator's shared channel: one half-duplex transmitter, bounded frames, frame loss.
 #[path = "transport/shared_channel.rs"]
 mod shared_channel;
+// The team link's settings for the team protocol: loss per robot, listening, no team
+// liveliness, switching the link mid-run, dropping one publication at named receivers.
+#[path = "transport/team_link.rs"]
+mod team_link;

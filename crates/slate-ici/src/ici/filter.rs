@@ -1,5 +1,11 @@
 //! Report filters: when a module's own packets are reported, from each attribute's
-//! declared `ReportPolicy`.
+//! declared `ReportPolicy`, and, on a link whose link policy (`link team { report ... }`)
+//! overrides an attribute, when they go on that link as well.
+//!
+//! An own packet passes the class's filter first (it decides what leaves the module at
+//! all); on each link with an override, what passed is offered again, separately, to that
+//! link's filter: [`LinkFilters`], one [`AttrFilters`] per link kind, or kept off the link
+//! by `never`.
 //!
 //! Invariant: a filter never loses the last value. A value held back by the minimum
 //! interval is sent when the interval ends (trailing edge); a value held back by a
@@ -11,6 +17,9 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use slate_model::{Packet, ReportPolicy, Value};
+use slate_plans::LinkReport;
+
+use crate::LinkKind;
 
 /// `(object, attribute)`.
 pub(crate) type Key = (Arc<str>, Arc<str>);
@@ -36,14 +45,14 @@ pub(crate) enum Due {
 
 /// The filters of every attribute this module reported, with their timers.
 #[derive(Default)]
-pub(crate) struct Filters {
+pub(crate) struct AttrFilters {
     states: BTreeMap<Key, State>,
     timers: BTreeSet<(Duration, Key)>,
     /// Values held back by a filter (not sent at once).
     pub held: u64,
 }
 
-impl Filters {
+impl AttrFilters {
     /// A new own packet: `Some` if it is to be sent now, `None` if held back.
     pub fn offer(
         &mut self,
@@ -163,6 +172,142 @@ impl Filters {
     }
 }
 
+/// Every report filter of the module: the classes' own, and the links' overrides.
+#[derive(Default)]
+pub(crate) struct Filters {
+    /// The class's filter of each attribute: what leaves the module at all.
+    class: AttrFilters,
+    /// The link policies' filters, for the link kinds that have overrides.
+    links: BTreeMap<LinkKind, LinkFilters>,
+}
+
+impl Filters {
+    /// A new own packet, through its class's filter: `Some` if it is to be sent now.
+    pub fn offer(
+        &mut self,
+        key: Key,
+        packet: Packet,
+        policy: &ReportPolicy,
+        now: Duration,
+        quiet: Duration,
+    ) -> Option<Packet> {
+        self.class.offer(key, packet, policy, now, quiet)
+    }
+
+    /// Records that `key` was (re)sent by the class's filter now, or has nothing to
+    /// heartbeat (`None`).
+    pub fn sent(&mut self, key: &Key, packet: Option<Packet>, now: Duration) {
+        self.class.sent(key, packet, now);
+    }
+
+    /// The class filters' timers due by `now`, in time order.
+    pub fn due(&mut self, now: Duration) -> Vec<Due> {
+        self.class.due(now)
+    }
+
+    /// When the class filters' next timer is due.
+    pub fn next_due(&self) -> Option<Duration> {
+        self.class.next_due()
+    }
+
+    /// Drops every filter of an object (it was deleted), on every link too.
+    pub fn forget(&mut self, object: &str) {
+        self.class.forget(object);
+        for link in self.links.values_mut() {
+            link.filters.forget(object);
+        }
+    }
+
+    /// Replaces the overrides of `link` (an empty set removes the link's filters).
+    pub fn set_link(&mut self, link: LinkKind, overrides: Overrides) {
+        if overrides.is_empty() {
+            self.links.remove(&link);
+        } else {
+            self.links.entry(link).or_default().overrides = overrides;
+        }
+    }
+
+    /// The filters of `link`, if its policy overrides any attribute.
+    pub fn link(&mut self, link: LinkKind) -> Option<&mut LinkFilters> {
+        self.links.get_mut(&link)
+    }
+
+    /// When the links' next timer is due.
+    pub fn next_link_due(&self) -> Option<Duration> {
+        self.links
+            .values()
+            .filter_map(|l| l.filters.next_due())
+            .min()
+    }
+
+    /// The links' timers due by `now`: each link's in time order.
+    pub fn link_due(&mut self, now: Duration) -> Vec<(LinkKind, Due)> {
+        let mut out = Vec::new();
+        for (link, filters) in &mut self.links {
+            out.extend(filters.filters.due(now).into_iter().map(|d| (*link, d)));
+        }
+        out
+    }
+}
+
+/// A link policy's report overrides: class → attribute → filter. A class's override
+/// applies to its subclasses, the nearest class's winning. Bounded by the classes'
+/// declared attributes (the loader checks each names one).
+pub(crate) type Overrides = BTreeMap<Arc<str>, BTreeMap<Arc<str>, LinkReport>>;
+
+/// What a link's filter says of a packet the class's filter let go.
+#[derive(Debug, PartialEq)]
+pub(crate) enum LinkVerdict {
+    /// No override, or the link's filter sends it now.
+    Send,
+    /// The link's filter holds it (its trailing edge sends it later).
+    Held,
+    /// The link policy keeps the attribute off this link (`never`).
+    Never,
+}
+
+/// One link kind's filters: the overrides of its link policy, and their states.
+#[derive(Default)]
+pub(crate) struct LinkFilters {
+    overrides: Overrides,
+    filters: AttrFilters,
+}
+
+impl LinkFilters {
+    /// Offers a packet of `key` (class chain `lineage`, class first) that the class's
+    /// filter let go.
+    pub fn offer(
+        &mut self,
+        lineage: &[Arc<str>],
+        key: Key,
+        packet: Packet,
+        now: Duration,
+        quiet: Duration,
+    ) -> LinkVerdict {
+        let policy = match self.override_of(lineage, &key.1) {
+            None => return LinkVerdict::Send,
+            Some(LinkReport::Never) => return LinkVerdict::Never,
+            Some(LinkReport::Policy(p)) => p.clone(),
+        };
+        match self.filters.offer(key, packet, &policy, now, quiet) {
+            Some(_) => LinkVerdict::Send,
+            None => LinkVerdict::Held,
+        }
+    }
+
+    /// Records that `key` was (re)sent on the link now, or has nothing to heartbeat.
+    pub fn sent(&mut self, key: &Key, packet: Option<Packet>, now: Duration) {
+        self.filters.sent(key, packet, now);
+    }
+
+    /// The override of the nearest class of `lineage` that has one for `attr`.
+    fn override_of(&self, lineage: &[Arc<str>], attr: &str) -> Option<&LinkReport> {
+        lineage
+            .iter()
+            .find_map(|class| self.overrides.get(class)?.get(attr))
+    }
+}
+
 /// A policy that sends every packet at once and never repeats one.
 pub(crate) fn is_unfiltered(p: &ReportPolicy) -> bool {
     p.min_interval.is_none() && p.heartbeat.is_none() && p.deadband.is_none() && !p.on_accuracy
@@ -244,7 +389,7 @@ mod tests {
 
     #[test]
     fn the_default_policy_sends_every_change_at_once() {
-        let mut f = Filters::default();
+        let mut f = AttrFilters::default();
         let policy = ReportPolicy::default();
         for i in 0..3 {
             assert!(
@@ -257,7 +402,7 @@ mod tests {
 
     #[test]
     fn min_interval_sends_the_final_value_at_the_trailing_edge() {
-        let mut f = Filters::default();
+        let mut f = AttrFilters::default();
         let policy = ReportPolicy {
             min_interval: Some(ms(1000)),
             ..Default::default()
@@ -272,7 +417,7 @@ mod tests {
 
     #[test]
     fn deadband_holds_small_changes_until_they_settle() {
-        let mut f = Filters::default();
+        let mut f = AttrFilters::default();
         let policy = ReportPolicy {
             deadband: Some(1.0),
             ..Default::default()
@@ -287,7 +432,7 @@ mod tests {
 
     #[test]
     fn on_accuracy_sends_only_changes_beyond_the_accuracy() {
-        let mut f = Filters::default();
+        let mut f = AttrFilters::default();
         let policy = ReportPolicy {
             on_accuracy: true,
             ..Default::default()
@@ -299,7 +444,7 @@ mod tests {
 
     #[test]
     fn heartbeat_asks_for_a_resend_when_quiet() {
-        let mut f = Filters::default();
+        let mut f = AttrFilters::default();
         let policy = ReportPolicy {
             heartbeat: Some(ms(500)),
             ..Default::default()
@@ -315,7 +460,7 @@ mod tests {
 
     #[test]
     fn forgetting_an_object_drops_its_timers() {
-        let mut f = Filters::default();
+        let mut f = AttrFilters::default();
         let policy = ReportPolicy {
             heartbeat: Some(ms(500)),
             ..Default::default()
@@ -323,6 +468,136 @@ mod tests {
         f.offer(key(), p(1.0), &policy, ms(0), QUIET);
         f.forget("gsr");
         assert!(f.due(ms(10_000)).is_empty());
+    }
+
+    /// Filters whose team link holds `Robot.position` for 20 s and keeps `heading` off.
+    fn team_filters() -> Filters {
+        let mut by_attr = BTreeMap::new();
+        let every_20s = ReportPolicy {
+            min_interval: Some(ms(20_000)),
+            ..Default::default()
+        };
+        by_attr.insert(Arc::from("position"), LinkReport::Policy(every_20s));
+        by_attr.insert(Arc::from("heading"), LinkReport::Never);
+        let mut f = Filters::default();
+        f.set_link(
+            LinkKind::Team,
+            Overrides::from([(Arc::from("Robot"), by_attr)]),
+        );
+        f
+    }
+
+    fn robot_key(attr: &str) -> Key {
+        ("r1".into(), attr.into())
+    }
+
+    /// `Scout` is a `Robot`.
+    fn scout() -> Vec<Arc<str>> {
+        vec!["Scout".into(), "Robot".into(), "Thing".into()]
+    }
+
+    /// Offers a packet to the class's filter (default policy) then to the team's.
+    fn offer_both(f: &mut Filters, attr: &str, v: f64, at: u64) -> (bool, LinkVerdict) {
+        let class = f.offer(
+            robot_key(attr),
+            p(v),
+            &ReportPolicy::default(),
+            ms(at),
+            QUIET,
+        );
+        let team = f.link(LinkKind::Team).expect("team filters");
+        (
+            class.is_some(),
+            team.offer(&scout(), robot_key(attr), p(v), ms(at), QUIET),
+        )
+    }
+
+    #[test]
+    fn a_team_filter_holds_a_value_the_robot_link_sends() {
+        let mut f = team_filters();
+        assert_eq!(
+            offer_both(&mut f, "position", 1.0, 0),
+            (true, LinkVerdict::Send)
+        );
+        assert_eq!(
+            offer_both(&mut f, "position", 2.0, 1000),
+            (true, LinkVerdict::Held)
+        );
+        assert_eq!(f.next_due(), None, "the class's filter holds nothing");
+        assert_eq!(f.next_link_due(), Some(ms(20_000)));
+    }
+
+    #[test]
+    fn the_trailing_edge_of_a_team_filter_goes_to_the_team_only() {
+        let mut f = team_filters();
+        offer_both(&mut f, "position", 1.0, 0);
+        offer_both(&mut f, "position", 2.0, 1000);
+        offer_both(&mut f, "position", 3.0, 2000);
+        assert!(f.link_due(ms(19_999)).is_empty());
+        let due = f.link_due(ms(20_000));
+        assert_eq!(
+            due,
+            [(LinkKind::Team, Due::Trailing(robot_key("position"), p(3.0)))]
+        );
+        assert!(
+            f.due(ms(20_000)).is_empty(),
+            "nothing for the class's filter"
+        );
+    }
+
+    #[test]
+    fn never_keeps_an_attribute_off_the_link_and_keeps_no_state() {
+        let mut f = team_filters();
+        assert_eq!(
+            offer_both(&mut f, "heading", 1.0, 0),
+            (true, LinkVerdict::Never)
+        );
+        assert_eq!(f.next_link_due(), None);
+    }
+
+    #[test]
+    fn an_attribute_without_override_goes_on_the_link_unfiltered() {
+        let mut f = team_filters();
+        for (i, at) in [0, 10, 20].into_iter().enumerate() {
+            let v = i as f64;
+            assert_eq!(
+                offer_both(&mut f, "speed", v, at),
+                (true, LinkVerdict::Send)
+            );
+        }
+    }
+
+    #[test]
+    fn the_nearest_class_override_wins() {
+        let mut f = team_filters();
+        let mut scout_only = BTreeMap::new();
+        scout_only.insert(Arc::from("position"), LinkReport::Never);
+        let mut overrides = Overrides::from([(Arc::from("Scout"), scout_only)]);
+        let robot = team_filters()
+            .links
+            .remove(&LinkKind::Team)
+            .unwrap()
+            .overrides;
+        overrides.extend(robot);
+        f.set_link(LinkKind::Team, overrides);
+        assert_eq!(offer_both(&mut f, "position", 1.0, 0).1, LinkVerdict::Never);
+    }
+
+    #[test]
+    fn a_link_without_overrides_has_no_filters() {
+        let mut f = team_filters();
+        f.set_link(LinkKind::Team, Overrides::new());
+        assert!(f.link(LinkKind::Team).is_none());
+    }
+
+    #[test]
+    fn forgetting_an_object_drops_its_link_timers() {
+        let mut f = team_filters();
+        offer_both(&mut f, "position", 1.0, 0);
+        offer_both(&mut f, "position", 2.0, 1000);
+        f.forget("r1");
+        assert_eq!(f.next_link_due(), None);
+        assert!(f.link_due(ms(60_000)).is_empty());
     }
 
     #[test]

@@ -7,6 +7,7 @@ mod explicit;
 mod filter;
 mod frame;
 mod fuse;
+mod link;
 mod module;
 mod ops;
 mod quantise;
@@ -29,6 +30,7 @@ use slate_wire::{EncodeError, Encoder, Message, Schema};
 
 pub use classes::ClassSet;
 pub use config::{IciConfig, Listen, Liveliness, TeamProtocol};
+pub use link::{LinkPolicy, LinkReport, link_kind};
 pub use module::{MODULE_CLASS, module_class, module_object_name};
 use ops::BoardOp;
 use state::State;
@@ -127,6 +129,8 @@ struct Shared {
     queue: Mutex<VecDeque<BoardOp>>,
     plan_handler: RwLock<Option<Arc<dyn PlanHandler>>>,
     ticker: Arc<Ticker>,
+    /// The link policies set (`set_link_policy`), taken after the state lock.
+    links: Mutex<link::Links>,
 }
 
 impl Ici {
@@ -147,6 +151,7 @@ impl Ici {
         board.set_normaliser(Some(Arc::new(quantise::Quantiser)));
         quantise::settle(&board);
         let watch = board.watch(Filter::all().own_writes_only())?;
+        let links = Mutex::new(link::Links::new(&config));
         let state = State::new(board.clone(), transport.clone(), config, watch);
         let shared = Arc::new_cyclic(|me: &Weak<Shared>| Shared {
             board: board.clone(),
@@ -157,6 +162,7 @@ impl Ici {
             queue: Mutex::new(VecDeque::new()),
             plan_handler: RwLock::new(None),
             ticker: Arc::new(Ticker(me.clone())),
+            links,
         });
         shared.with_state(State::adopt_own_objects);
         shared.connect();
@@ -178,7 +184,7 @@ impl Ici {
 
     /// Runs the timers due now (heartbeats, trailing edges, timeouts, retries).
     pub fn tick(&self) {
-        self.shared.with_state(State::tick);
+        self.shared.with_state(tick_all);
     }
 
     /// The gateway of this module's robot as this module sees it (team protocol on).
@@ -244,6 +250,20 @@ impl Ici {
     /// Changes what may leave the robot on the team link, from now on.
     pub fn set_export(&self, export: ClassSet) {
         self.shared.with_state(|st| st.config.export = export);
+    }
+
+    /// Sets the policy of one kind of link (a module's merged `link` blocks, from now
+    /// on): its export (team link) is united with the export this ICI was started with,
+    /// its heartbeat and timeout replace the link's, and its report overrides become the
+    /// link's own filters, applied on top of the classes' (docs/team-protocol.md, 3).
+    pub fn set_link_policy(&self, link: LinkKind, policy: LinkPolicy) {
+        self.shared
+            .with_state(|st| self.shared.links.lock().set(st, link, policy));
+    }
+
+    /// The policy last set for one kind of link.
+    pub fn link_policy(&self, link: LinkKind) -> Option<LinkPolicy> {
+        self.shared.links.lock().get(link).cloned()
     }
 
     /// Asks `source` for its current state now.
@@ -430,6 +450,12 @@ impl Drop for Shared {
     }
 }
 
+/// Runs the ICI's timers, then the link filters' (`link.rs`).
+fn tick_all(st: &mut State) {
+    st.tick();
+    st.link_filter_timers();
+}
+
 /// The board's change hook: rings the ICI.
 struct Doorbell(Weak<Shared>);
 
@@ -447,7 +473,7 @@ struct Ticker(Weak<Shared>);
 impl ClockListener for Ticker {
     fn advanced(&self, _: Duration) {
         if let Some(shared) = self.0.upgrade() {
-            shared.with_state(State::tick);
+            shared.with_state(tick_all);
         }
     }
 }

@@ -352,6 +352,7 @@ impl State {
             }
             self.stats.reports.suppressed_export += not_exported;
             self.stats.reports.suppressed_interest += not_wanted;
+            self.link_filter(link, &mut chosen); // the link policy's filters (link.rs)
             self.emit(link, &chosen);
         }
     }

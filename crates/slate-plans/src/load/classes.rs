@@ -119,7 +119,10 @@ fn attr_decl(ck: &mut Checker<'_>, a: &AttributeDecl) -> AttrDecl {
     d
 }
 
-fn report_policy(ck: &mut Checker<'_>, r: &crate::ast::ReportPolicyDecl) -> ReportPolicy {
+pub(super) fn report_policy(
+    ck: &mut Checker<'_>,
+    r: &crate::ast::ReportPolicyDecl,
+) -> ReportPolicy {
     let mut secs = |e: &Option<Expr>| {
         e.as_ref()
             .and_then(|e| constant(ck, e))

@@ -1,7 +1,7 @@
 //! Loading a `.slate` file into a board: check everything first, then define the classes,
 //! attach derived attributes and rules, create the objects and install the plans.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::sync::{Arc, Weak};
 
 use slate_model::{Board, ClassDef, Trigger};
@@ -15,11 +15,13 @@ use crate::scope::Scope;
 
 mod classes;
 mod derived;
+mod links;
 mod objects;
 mod plans;
 
 use classes::{check_initial, check_owner, class_def};
 use derived::{check_derived_cycles, derived_fn, rule_fn};
+pub use links::{LinkExport, LinkName, LinkPolicy, LinkReport};
 use objects::create_objects;
 use plans::compile_plan;
 
@@ -34,6 +36,9 @@ pub struct Loaded {
     pub rules: usize,
     /// Plans installed.
     pub plans: Vec<String>,
+    /// Links whose policy the file's `link` blocks changed (the merged policies are
+    /// [`Engine::link_policies`]).
+    pub links: Vec<LinkName>,
 }
 
 /// Why a file did not load. Nothing of it was applied.
@@ -63,6 +68,7 @@ struct Compiled {
     objects: Vec<(ObjectDecl, Vec<(Span, Write)>)>,
     plans: Vec<CompiledPlan>,
     texts: Vec<(String, String)>,
+    links: BTreeMap<LinkName, LinkPolicy>,
 }
 
 /// Derived attributes known to an engine: (declaring class, attribute) → what they read.
@@ -169,6 +175,8 @@ impl Engine {
                 .map_err(|e| one(Span::default(), e))?;
             loaded.plans.push(name);
         }
+        loaded.links = c.links.keys().copied().collect();
+        self.merge_links(c.links);
         Ok(loaded)
     }
 }
@@ -273,6 +281,7 @@ fn compile(
     for item in &file.items {
         compile_item(&mut ck, item, source, board, engine, derived, &mut out);
     }
+    out.links = links::compile_links(&mut ck, file.links());
     diags.append(&mut ck.diags);
     if diags.is_empty() {
         Ok(out)
@@ -336,6 +345,8 @@ fn compile_item(
                 out.plans.push(plan);
             }
         }
+        // Checked together, after every item: blocks of one file merge in source order.
+        Item::Link(_) => {}
     }
 }
 

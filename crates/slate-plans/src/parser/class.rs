@@ -252,12 +252,19 @@ impl Parser<'_> {
     /// `on_accuracy`, each once.
     fn report_policy(&mut self, attribute: &str) -> PResult<ReportPolicyDecl> {
         let start = self.bump().span;
+        let place = format!("in the `report` options of attribute `{attribute}`");
+        self.report_options(start, &place)
+    }
+
+    /// One or more report options after `report` (at `start`), each once; `place` says
+    /// where they are in messages about duplicates. Class attributes and link blocks share
+    /// this grammar.
+    pub(super) fn report_options(&mut self, start: Span, place: &str) -> PResult<ReportPolicyDecl> {
         let mut policy = ReportPolicyDecl {
             span: start,
             ..ReportPolicyDecl::default()
         };
-        let place = format!("in the `report` options of attribute `{attribute}`");
-        while self.report_option(&mut policy, &place)? {}
+        while self.report_option(&mut policy, place)? {}
         if policy.span == start {
             let what = "`every`, `heartbeat`, `deadband` or `on_accuracy` after `report`";
             return Err(self.expected(what));

@@ -310,7 +310,7 @@ fn a_broken_item_header_skips_to_the_next_item() {
         messages(source),
         [
             "expected a class name, found `{`",
-            "expected `class`, `object`, `plan` or `on`, found `foo`",
+            "expected `class`, `object`, `plan`, `on` or `link`, found `foo`",
             "plan `q` has no `action { ... }` block",
         ]
     );

@@ -495,8 +495,9 @@ fn delete_action_takes_an_expression() {
 
 #[test]
 fn items_keep_source_order() {
-    let file =
-        parse_ok("plan a { action {} }\nclass B {}\nobject c : B;\non write c.x { delete c; }");
+    let file = parse_ok(
+        "plan a { action {} }\nclass B {}\nobject c : B;\non write c.x { delete c; }\nlink team {}",
+    );
     let kinds: Vec<_> = file
         .items
         .iter()
@@ -505,9 +506,10 @@ fn items_keep_source_order() {
             Item::Class(_) => "class",
             Item::Object(_) => "object",
             Item::Rule(_) => "on",
+            Item::Link(_) => "link",
         })
         .collect();
-    assert_eq!(kinds, ["plan", "class", "object", "on"]);
+    assert_eq!(kinds, ["plan", "class", "object", "on", "link"]);
     assert_eq!(file.items[2].span().line, 3);
     assert_eq!(
         (

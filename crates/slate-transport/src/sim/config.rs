@@ -24,6 +24,12 @@ pub struct LinkConfig {
     pub jitter: Duration,
     /// Probability that a best-effort delivery (or one attempt of a reliable send) is lost.
     pub loss: f64,
+    /// A publication's loss is drawn once per receiving *robot*, and that robot's
+    /// endpoints share the outcome: one radio receives for the robot, so its modules
+    /// lose or get a frame together. `false`: one draw per receiving endpoint. Only
+    /// publications are concerned (a reliable send has one receiver anyway); duplication
+    /// and jitter stay per endpoint.
+    pub loss_per_robot: bool,
     /// Probability that a best-effort delivery arrives twice.
     pub duplicate: f64,
     /// Capacity of each sender's transmitter on this kind of link, in bit/s (`None`:
@@ -55,6 +61,7 @@ impl LinkConfig {
             delay: Duration::ZERO,
             jitter: Duration::ZERO,
             loss: 0.0,
+            loss_per_robot: false,
             duplicate: 0.0,
             bandwidth: None,
             shared: false,
@@ -79,6 +86,13 @@ impl LinkConfig {
     /// Sets the loss probability.
     pub fn loss(mut self, p: f64) -> Self {
         self.loss = p;
+        self
+    }
+
+    /// Draws a publication's loss once per receiving robot (see
+    /// [`loss_per_robot`](Self::loss_per_robot)).
+    pub fn loss_per_robot(mut self) -> Self {
+        self.loss_per_robot = true;
         self
     }
 
@@ -164,6 +178,12 @@ pub struct SimConfig {
     pub rto: Duration,
     /// Attempts of a reliable send before it is given up (counted as lost).
     pub max_attempts: u32,
+    /// Do endpoints hear peers on other robots come up and go down? `false`: no peer
+    /// events and no [`peers`](crate::Transport::peers) across robots (an acoustic
+    /// modem has no lease, so robot death is judged from silence); the robot link's
+    /// liveliness is unchanged, and publications and sends still cross. Set it before
+    /// endpoints join: peers already up when it is switched off stay up in the views.
+    pub team_liveliness: bool,
 }
 
 impl Default for SimConfig {
@@ -176,6 +196,7 @@ impl Default for SimConfig {
             step: Duration::from_millis(10),
             rto: Duration::from_millis(200),
             max_attempts: 16,
+            team_liveliness: true,
         }
     }
 }

@@ -82,13 +82,25 @@ impl SimNet {
         self.net.lock().config = config;
     }
 
-    /// Changes one kind of link from now on.
+    /// Changes one kind of link from now on: messages already on their way keep their
+    /// fate, the next ones get the new delay, loss, bandwidth and so on. If the link
+    /// becomes shared (or stops being so), what is on the air finishes first.
     pub fn set_link(&self, kind: LinkKind, link: LinkConfig) {
-        let mut net = self.net.lock();
-        match kind {
-            LinkKind::Robot => net.config.robot = link,
-            LinkKind::Team => net.config.team = link,
-        }
+        self.net.lock().set_link(kind, link);
+    }
+
+    /// Switches the team link to `link` from now on, e.g. from the deck's fast clean
+    /// radio to the mission's radio or acoustic channel (see [`set_link`](Self::set_link)).
+    pub fn set_team_link(&self, link: LinkConfig) {
+        self.set_link(LinkKind::Team, link);
+    }
+
+    /// Test hook: the next team publication of `from` is lost at exactly `receivers`
+    /// (addresses of endpoints); every other receiver gets it, or loses it, as the
+    /// link's settings draw. A second call before that publication replaces the first.
+    #[cfg(feature = "testing")]
+    pub fn drop_next_publish(&self, from: &Address, receivers: &[Address]) {
+        self.net.lock().drop_next_publish(from, receivers);
     }
 
     /// A new endpoint at `address`. Joining an address already in use restarts it: the
@@ -247,5 +259,12 @@ impl Transport for SimTransport {
 
     fn close(&self) {
         self.net.lock().close(self.index);
+    }
+
+    /// Honoured: an endpoint not listening to a link gets none of its publications
+    /// (and is not counted as one of their receivers), but still its sends.
+    fn listen(&self, link: LinkKind, on: bool) -> bool {
+        self.net.lock().listen(self.index, link, on);
+        true
     }
 }

@@ -40,6 +40,32 @@ pub(crate) struct Endpoint {
     /// The peers this endpoint has heard come up, and which incarnation.
     pub view: BTreeMap<Address, usize>,
     pub stats: LinkStats,
+    /// The kinds of links whose publications this endpoint does not receive
+    /// (`Transport::listen(link, false)`); empty when it joins.
+    pub not_listening: BTreeSet<LinkKind>,
+}
+
+impl Endpoint {
+    /// Does this endpoint receive publications on `link`?
+    pub fn listens(&self, link: LinkKind) -> bool {
+        !self.not_listening.contains(&link)
+    }
+}
+
+/// One publication on its way out: what every receiver's fate is drawn for.
+struct Publication<'a> {
+    sender: &'a Address,
+    link: LinkKind,
+    kind: MsgKind,
+    payload: Arc<[u8]>,
+    /// When its transmission ends.
+    done: Duration,
+    cfg: LinkConfig,
+    /// The receivers at which it is lost whatever the draws (`drop_next_publish`).
+    dropped_at: BTreeSet<Address>,
+    /// With `loss_per_robot`: each receiving robot's draw (`team/robot` → lost), made at
+    /// its first receiving endpoint and shared by the others.
+    robot_lost: BTreeMap<String, bool>,
 }
 
 /// The transmitter key of a shared channel (no endpoint has this index): every sender
@@ -59,6 +85,9 @@ pub(crate) struct Net {
     reliable_tail: BTreeMap<(usize, usize), Duration>,
     /// When each transmitter `(sender or SHARED, link)` is free again.
     busy_until: BTreeMap<(usize, LinkKind), Duration>,
+    /// Test hook: the receivers at which each sender's next team publication is lost.
+    /// One entry per sender (a new request replaces the old), taken by that publication.
+    drop_next: BTreeMap<Address, BTreeSet<Address>>,
     pub stats: SimStats,
 }
 
@@ -75,6 +104,7 @@ impl Net {
             cuts: Vec::new(),
             reliable_tail: BTreeMap::new(),
             busy_until: BTreeMap::new(),
+            drop_next: BTreeMap::new(),
             stats: SimStats::default(),
         }
     }
@@ -121,6 +151,7 @@ impl Net {
             handler: None,
             view: BTreeMap::new(),
             stats: LinkStats::default(),
+            not_listening: BTreeSet::new(),
         });
         self.current.insert(address.clone(), index);
         self.review_all(address, self.config.liveliness_delay);
@@ -183,13 +214,20 @@ impl Net {
             .any(|(a, b)| (a.contains(x) && b.contains(y)) || (a.contains(y) && b.contains(x)))
     }
 
-    /// Schedules reviews of every pair involving `address`, both ways.
+    /// Do two endpoints at these addresses hear each other come up and go down? Always
+    /// on one robot; across robots, only with `team_liveliness`.
+    fn watches(&self, a: &Address, b: &Address) -> bool {
+        self.config.team_liveliness || a.same_robot(b)
+    }
+
+    /// Schedules reviews of every pair involving `address` that watch each other, both
+    /// ways.
     fn review_all(&mut self, address: &Address, delay: Duration) {
         let at = self.now + delay;
         let others: Vec<(usize, Address)> = self
             .current
             .iter()
-            .filter(|(a, _)| *a != address)
+            .filter(|(a, _)| *a != address && self.watches(address, a))
             .map(|(a, i)| (*i, a.clone()))
             .collect();
         let Some(me) = self.current.get(address).copied() else {
@@ -221,8 +259,13 @@ impl Net {
         ok.then_some(index)
     }
 
-    /// Updates `to`'s view of `peer`; returns the peer events to deliver.
+    /// Updates `to`'s view of `peer`; returns the peer events to deliver. A pair that
+    /// does not watch each other (across robots without `team_liveliness`) is left as
+    /// it is.
     pub fn review(&mut self, to: usize, peer: &Address) -> Vec<Call> {
+        if !self.watches(&self.endpoints[to].address, peer) {
+            return Vec::new();
+        }
         let truth = self.reachable(to, peer);
         let ep = &mut self.endpoints[to];
         let seen = ep.view.get(peer).copied();
@@ -245,6 +288,55 @@ impl Net {
             .into_iter()
             .map(|up| Call::Peer(handler.clone(), peer.clone(), up))
             .collect()
+    }
+
+    /// Starts or stops `index`'s reception of publications on `link`.
+    pub fn listen(&mut self, index: usize, link: LinkKind, on: bool) {
+        let ep = &mut self.endpoints[index];
+        if on {
+            ep.not_listening.remove(&link);
+        } else {
+            ep.not_listening.insert(link);
+        }
+    }
+
+    /// Changes one kind of link's settings from now on. When the link becomes shared
+    /// (or stops being so), the transmitters it uses change: the new ones are busy as
+    /// long as the old ones were, so what is on the air finishes before anything new
+    /// starts.
+    pub fn set_link(&mut self, kind: LinkKind, link: LinkConfig) {
+        let old = self.link_config(kind);
+        match kind {
+            LinkKind::Robot => self.config.robot = link,
+            LinkKind::Team => self.config.team = link,
+        }
+        if old.shared != link.shared {
+            self.hand_over_transmitters(kind, link.shared);
+        }
+    }
+
+    /// Carries the busy times of `kind`'s transmitters over to the ones it uses now:
+    /// the shared channel is busy until every sender's transmitter is free, and each
+    /// sender's until the shared channel is.
+    fn hand_over_transmitters(&mut self, kind: LinkKind, shared: bool) {
+        let on_link = |((_, l), _): &(&(usize, LinkKind), &Duration)| *l == kind;
+        let latest = self
+            .busy_until
+            .iter()
+            .filter(on_link)
+            .map(|(_, t)| *t)
+            .max();
+        let Some(latest) = latest.filter(|t| *t > self.now) else {
+            return;
+        };
+        if shared {
+            self.busy_until.insert((SHARED, kind), latest);
+            return;
+        }
+        for index in 0..self.endpoints.len() {
+            let busy = self.busy_until.entry((index, kind)).or_default();
+            *busy = (*busy).max(latest);
+        }
     }
 
     // ----- traffic -----
@@ -325,7 +417,9 @@ impl Net {
     }
 
     /// Draws the fate of a message's `frames` frames on `link`: how many were lost
-    /// (one draw per frame, so an unframed message takes exactly one).
+    /// (one draw per frame, so an unframed message takes exactly one). A publication
+    /// with `loss_per_robot` draws once per receiving robot, so its losses count per
+    /// robot, not per endpoint.
     fn lose_frames(&mut self, link: LinkKind, loss: f64, frames: u64) -> u64 {
         let lost = (0..frames).filter(|_| self.rng.chance(loss)).count() as u64;
         self.stats.channels.entry(link).or_default().frames_lost += lost;
@@ -365,8 +459,10 @@ impl Net {
         Ok(())
     }
 
-    /// Best effort to every live endpoint on `link`: one transmission, then independent
-    /// loss, duplication and jitter per receiver.
+    /// Best effort to every live endpoint on `link` that listens to it: one
+    /// transmission, then loss (per receiver, or per receiving robot), duplication and
+    /// jitter per receiver. The transmission happens if any live endpoint is on the link,
+    /// listening or not: not listening is the receiver's choice, not the radio's.
     pub fn publish(
         &mut self,
         from: usize,
@@ -377,15 +473,9 @@ impl Net {
         self.check_send(from, payload)
             .inspect_err(|_| self.endpoints[from].stats.refused += 1)?;
         let sender = self.endpoints[from].address.clone();
-        let receivers: Vec<usize> = self
-            .current
-            .iter()
-            .filter(|(a, i)| {
-                **a != sender && self.endpoints[**i].alive && LinkKind::between(&sender, a) == link
-            })
-            .map(|(_, i)| *i)
-            .collect();
+        let receivers = self.live_on(&sender, link);
         self.endpoints[from].stats.sent(link, kind, payload.len());
+        let dropped_at = self.take_drop(&sender, link);
         if receivers.is_empty() {
             return Ok(());
         }
@@ -394,47 +484,102 @@ impl Net {
             return Ok(());
         }
         let (start, airtime) = self.transmit(from, link, &cfg, payload.len(), 1);
-        let payload: Arc<[u8]> = payload.into();
+        let mut publication = Publication {
+            sender: &sender,
+            link,
+            kind,
+            payload: payload.into(),
+            done: start + airtime,
+            cfg,
+            dropped_at,
+            robot_lost: BTreeMap::new(),
+        };
         for to in receivers {
-            self.fan_out(&sender, to, kind, &payload, start + airtime, &cfg);
+            if self.endpoints[to].listens(link) {
+                self.fan_out(to, &mut publication);
+            }
         }
         Ok(())
     }
 
-    fn fan_out(
-        &mut self,
-        sender: &Address,
-        to: usize,
-        kind: MsgKind,
-        payload: &Arc<[u8]>,
-        done: Duration,
-        cfg: &LinkConfig,
-    ) {
+    /// The live endpoints other than `sender` that `link` joins it to.
+    fn live_on(&self, sender: &Address, link: LinkKind) -> Vec<usize> {
+        self.current
+            .iter()
+            .filter(|(a, i)| {
+                *a != sender && self.endpoints[**i].alive && LinkKind::between(sender, a) == link
+            })
+            .map(|(_, i)| *i)
+            .collect()
+    }
+
+    /// Takes the test hook's receivers for this publication of `sender`: only a team
+    /// publication takes them.
+    fn take_drop(&mut self, sender: &Address, link: LinkKind) -> BTreeSet<Address> {
+        if link != LinkKind::Team {
+            return BTreeSet::new();
+        }
+        self.drop_next.remove(sender).unwrap_or_default()
+    }
+
+    /// Asks that `from`'s next team publication be lost at exactly `receivers` (the
+    /// others get it or lose it as the link's settings draw). Replaces an earlier
+    /// request for `from` that no publication took yet.
+    #[cfg(feature = "testing")]
+    pub fn drop_next_publish(&mut self, from: &Address, receivers: &[Address]) {
+        let receivers = receivers.iter().cloned().collect();
+        self.drop_next.insert(from.clone(), receivers);
+    }
+
+    fn fan_out(&mut self, to: usize, p: &mut Publication) {
         let receiver = self.endpoints[to].address.clone();
-        let counter = self.stats.link(sender, &receiver, kind);
+        let counter = self.stats.link(p.sender, &receiver, p.kind);
         counter.sent_msgs += 1;
-        counter.sent_bytes += payload.len() as u64;
-        let link = LinkKind::between(sender, &receiver);
-        let frames = cfg.frame_count(payload.len());
-        if self.lose_frames(link, cfg.loss, frames) > 0 {
-            self.stats.link(sender, &receiver, kind).lost += 1;
+        counter.sent_bytes += p.payload.len() as u64;
+        if self.lost_at(&receiver, p) {
+            self.stats.link(p.sender, &receiver, p.kind).lost += 1;
             return;
         }
-        let copies = if self.rng.chance(cfg.duplicate) { 2 } else { 1 };
+        let copies = if self.rng.chance(p.cfg.duplicate) {
+            2
+        } else {
+            1
+        };
         for copy in 0..copies {
             if copy == 1 {
-                self.stats.link(sender, &receiver, kind).duplicated += 1;
+                self.stats.link(p.sender, &receiver, p.kind).duplicated += 1;
             }
-            let at = done + cfg.delay + self.rng.duration(cfg.jitter);
+            let at = p.done + p.cfg.delay + self.rng.duration(p.cfg.jitter);
             let action = Action::Deliver {
-                from: sender.clone(),
+                from: p.sender.clone(),
                 to,
-                kind,
-                payload: payload.clone(),
+                kind: p.kind,
+                payload: p.payload.clone(),
                 reliable_from: None,
             };
             self.schedule(at, action);
         }
+    }
+
+    /// Is the publication lost at `receiver`? It is if the test hook names the
+    /// receiver; otherwise the draw decides: the receiver's own, or with
+    /// `loss_per_robot` its robot's, drawn at the robot's first receiving endpoint.
+    fn lost_at(&mut self, receiver: &Address, p: &mut Publication) -> bool {
+        let frames = p.cfg.frame_count(p.payload.len());
+        if p.dropped_at.contains(receiver) {
+            self.stats.channels.entry(p.link).or_default().frames_lost += frames;
+            return true;
+        }
+        if !p.cfg.loss_per_robot {
+            return self.lose_frames(p.link, p.cfg.loss, frames) > 0;
+        }
+        let robot = receiver.robot_path();
+        if let Some(lost) = p.robot_lost.get(robot) {
+            return *lost;
+        }
+        let lost = self.lose_frames(p.link, p.cfg.loss, frames) > 0;
+        p.robot_lost.insert(robot.to_owned(), lost);
+        lost
     }
 
     /// Reliable and in order to the current endpoint at `to`: lost attempts are
