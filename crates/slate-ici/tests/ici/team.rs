@@ -36,6 +36,9 @@ impl Transport for Largest {
     fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
         self.inner.send(to, kind, payload)
     }
+    fn listen(&self, link: LinkKind, on: bool) -> bool {
+        self.inner.listen(link, on)
+    }
     fn peers(&self) -> Vec<Address> {
         self.inner.peers()
     }
@@ -380,4 +383,42 @@ fn a_changed_interest_is_said_in_the_robot_hello_not_to_each_team_peer() {
         hellos(&team) > before.0,
         "r1's gateway said its hello again"
     );
+}
+
+#[test]
+fn a_module_that_never_listens_gets_no_team_frames_until_it_is_gateway() {
+    let deaf = |priority: u8| {
+        let mut protocol = TeamProtocol::radio().priority(Some(priority));
+        protocol.listen = slate_ici::Listen::Never;
+        open().team_protocol(Some(protocol))
+    };
+    let sim = SimConfig {
+        team: LinkConfig::clean().delay(secs(0.02)),
+        ..SimConfig::default()
+    };
+    let mut team = Team::with(91, sim);
+    join(&mut team, "t/r0/m0", config(0, 1024, true));
+    join(&mut team, "t/r1/m0", config(0, 1024, true));
+    join(&mut team, "t/r1/m1", deaf(1));
+    team.run(1.0);
+    let rock = NewObject::new("Rock", "rock_r0").context(Context::Surroundings);
+    team.board("t/r0/m0").create_with(rock).unwrap();
+    team.run(1.0);
+    let frames = |team: &Team, m: &str| {
+        let stats = team.member(m).ici.stats();
+        stats
+            .traffic
+            .get(&(LinkKind::Team, MsgKind::TeamFrame))
+            .map_or(0, |t| t.recv_msgs)
+    };
+    assert!(frames(&team, "t/r1/m0") > 0);
+    assert_eq!(frames(&team, "t/r1/m1"), 0, "it does not listen");
+    team.net.kill(&addr("t/r1/m0"));
+    team.members.retain(|m| m.address != addr("t/r1/m0"));
+    team.run(2.0);
+    team.board("t/r0/m0")
+        .write("rock_r0", "hits", Value::Int(1))
+        .unwrap();
+    team.run(1.0);
+    assert!(frames(&team, "t/r1/m1") > 0, "as gateway it listens");
 }

@@ -29,6 +29,9 @@ pub(crate) struct TeamState {
     pub gateway: Option<gateway::Gateway>,
     /// When the team protocol first ran here (the election waits a little after it).
     pub started: Option<std::time::Duration>,
+    /// Whether this module last told its transport to listen to the team link
+    /// (`None`: not told yet, so it listens, as every endpoint starts).
+    pub listening: Option<bool>,
     /// The gateway this module last acted on (to see the election change).
     pub elected: Option<Address>,
     /// Team messages waiting for a gateway (at most `MAX_PENDING`).

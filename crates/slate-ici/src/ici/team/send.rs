@@ -19,6 +19,7 @@ use super::frame::{
 };
 use super::gateway::{Framer, Gateway, Seen};
 use super::history::HistoryLimits;
+use crate::ici::Listen;
 use crate::ici::classes::{ClassSet, context_bit};
 use crate::ici::state::State;
 use crate::{LinkKind, MsgKind};
@@ -200,13 +201,25 @@ impl State {
         gw.sent_inner(index.unwrap_or(u8::MAX), own);
     }
 
+    /// Tells the transport whether to hand this module team publications: a gateway
+    /// always listens, a member unless its setting is `Never`. `Auto` listens until the
+    /// robot hellos carry every member's exports (the rule of 2.1 needs them).
+    fn team_listen(&mut self) {
+        let never = self.config.team_protocol.as_ref().map(|p| p.listen) == Some(Listen::Never);
+        let on = self.team.gateway.is_some() || !never;
+        if self.team.listening != Some(on) {
+            self.team.listening = Some(on);
+            self.transport.listen(LinkKind::Team, on);
+        }
+    }
+
     fn seen_self(&self) -> Seen {
         let listen = self.config.team_protocol.as_ref().map(|p| p.listen);
         Seen {
             name: self.me.module().into(),
             incarnation: self.incarnation,
             alive: true,
-            listener: listen != Some(crate::ici::Listen::Never),
+            listener: listen != Some(Listen::Never),
         }
     }
 
@@ -217,6 +230,7 @@ impl State {
             return;
         }
         self.team_elect();
+        self.team_listen();
         if self.team.gateway.is_none() {
             return;
         }
