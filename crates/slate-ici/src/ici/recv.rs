@@ -168,7 +168,9 @@ impl State {
 
     fn on_heartbeat(&mut self, from: &Address, h: Heartbeat) {
         let now = self.now;
-        self.peer(from).stream.announce(h.seq, now);
+        let p = self.peer(from);
+        p.stream.announce(h.seq, now);
+        p.top = p.top.max(h.seq);
     }
 
     fn on_hello(&mut self, from: &Address, hello: Hello) {
@@ -190,6 +192,7 @@ impl State {
             return;
         }
         self.hello(from, true);
+        let fence_until = self.now + self.config.link(LinkKind::between(&self.me, from)).timeout;
         let p = self.peer(from);
         // Another incarnation than the one heard before; or the first hello heard from a
         // source whose stream this board followed before that incarnation began (the
@@ -202,6 +205,7 @@ impl State {
         p.incarnation = Some(hello.incarnation);
         p.interest = Some(hello.interest);
         if restarted {
+            p.put_up_fence(fence_until);
             p.stream = Inbound::default();
             p.newest = None;
             p.catch_up = None;
@@ -297,15 +301,21 @@ impl State {
     }
 
     /// Takes position `seq` of `from`'s stream, whose own newest stamp is `newest`;
-    /// false (counted) for a duplicate.
+    /// false (counted) for a duplicate, or for a position a restart's fence refuses
+    /// ([`Peer::fenced`](super::state::Peer::fenced)).
     fn take_position(&mut self, from: &Address, seq: u64, newest: Option<Timestamp>) -> bool {
         let now = self.now;
         let p = self.peer(from);
+        if p.fenced(seq, now) {
+            self.stats.rejects.stale += 1;
+            return false;
+        }
         if !p.stream.receive(seq, now) {
             self.stats.rejects.duplicates += 1;
             return false;
         }
         p.newest = p.newest.max(newest);
+        p.top = p.top.max(seq);
         true
     }
 
