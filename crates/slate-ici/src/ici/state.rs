@@ -113,10 +113,12 @@ impl Peer {
     }
 
     /// The source restarted: until `until` at the latest, fence its new stream at the
-    /// highest position heard of the incarnation that ended (or of a fence still up);
-    /// no fence if nothing of its stream was heard.
+    /// highest position heard of the incarnation that ended (taken, announced, or given
+    /// by a catch-up), or of a fence still up; no fence if nothing of its stream was
+    /// heard. Call it before the stream is reset.
     pub fn put_up_fence(&mut self, until: Duration) {
-        let top = self.top.max(self.fence.map_or(0, |f| f.top));
+        let heard = self.top.max(self.stream.have());
+        let top = heard.max(self.fence.map_or(0, |f| f.top));
         self.fence = (top > 0).then_some(Fence { top, until });
         self.top = 0;
     }
@@ -390,9 +392,14 @@ mod tests {
     const UNTIL: Duration = Duration::from_secs(5);
 
     /// A peer on the team link that had taken positions up to `top` when it restarted.
-    fn restarted_at(top: u64) -> Peer {
+    /// A team peer, never heard.
+    fn peer() -> Peer {
         let me = Address::new("t/r0/m0").unwrap();
-        let mut p = Peer::new(&me, &Address::new("t/r1/m0").unwrap());
+        Peer::new(&me, &Address::new("t/r1/m0").unwrap())
+    }
+
+    fn restarted_at(top: u64) -> Peer {
+        let mut p = peer();
         for seq in 1..=top {
             p.stream.receive(seq, Duration::ZERO);
         }
@@ -455,6 +462,14 @@ mod tests {
         let mut p = restarted_at(0);
         assert!(p.fence.is_none());
         assert!(!p.fenced(5, Duration::ZERO));
+    }
+
+    #[test]
+    fn a_restart_fences_at_the_position_a_catch_up_gave() {
+        let mut p = peer();
+        p.stream.caught_up(6, Duration::ZERO);
+        p.put_up_fence(UNTIL);
+        assert_eq!(p.fence.map(|f| f.top), Some(6));
     }
 
     #[test]
