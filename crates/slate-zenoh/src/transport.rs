@@ -750,28 +750,62 @@ mod tests {
         done()
     }
 
-    #[test]
-    fn a_peer_that_leaves_takes_its_keys_and_publishers_along() {
+    fn free_endpoint() -> String {
         let port = TcpListener::bind("127.0.0.1:0")
             .and_then(|l| l.local_addr())
             .map(|a| a.port())
             .expect("a free port");
-        let endpoint = format!("tcp/127.0.0.1:{port}");
-        let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
-            let config = ZenohConfig {
-                listen,
-                connect,
-                ..ZenohConfig::default()
-            };
-            ZenohTransport::open(Address::new(name).unwrap(), &config).expect("opens")
+        format!("tcp/127.0.0.1:{port}")
+    }
+
+    fn open(name: &str, listen: Vec<String>, connect: Vec<String>) -> Arc<ZenohTransport> {
+        let config = ZenohConfig {
+            listen,
+            connect,
+            ..ZenohConfig::default()
         };
+        ZenohTransport::open(Address::new(name).unwrap(), &config).expect("opens")
+    }
+
+    /// How many keys of `peer` `t` has declared.
+    fn declared(t: &ZenohTransport, peer: &Address) -> usize {
+        t.inner.declared.lock().get(peer).map_or(0, Vec::len)
+    }
+
+    #[test]
+    fn another_robots_module_has_its_keys_declared_once_heard_on_the_team_link() {
+        let endpoint = free_endpoint();
+        let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
+        let b = open("t/r1/b", vec![], vec![endpoint.clone()]);
+        let c = open("t/r2/c", vec![], vec![endpoint]);
+        let (b_address, c_address) = (b.address().clone(), c.address().clone());
+        assert!(wait(|| a.peers().len() == 2), "a sees b and c");
+        assert!(wait(|| declared(&a, &b_address) == 2), "a mate's, at once");
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!a.inner.declared.lock().contains_key(&c_address));
+        c.publish(LinkKind::Robot, MsgKind::Report, &[0x11])
+            .unwrap();
+        b.publish(LinkKind::Team, MsgKind::Report, &[0x11]).unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!a.inner.declared.lock().contains_key(&c_address));
+        c.publish(LinkKind::Team, MsgKind::Report, &[0x11]).unwrap();
+        assert!(
+            wait(|| declared(&a, &c_address) == 2),
+            "heard on the team link"
+        );
+        c.close();
+        assert!(wait(|| !a.inner.declared.lock().contains_key(&c_address)));
+        b.close();
+        a.close();
+    }
+
+    #[test]
+    fn a_peer_that_leaves_takes_its_keys_and_publishers_along() {
+        let endpoint = free_endpoint();
         let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
         let b = open("t/r1/b", vec![], vec![endpoint]);
         let b_address = b.address().clone();
         assert!(wait(|| a.peers().contains(&b_address)), "a sees b");
-        let declared = |t: &ZenohTransport, peer: &Address| {
-            t.inner.declared.lock().get(peer).map_or(0, Vec::len)
-        };
         assert!(
             wait(|| declared(&a, &b_address) == 2),
             "a declares b's keys"
