@@ -144,8 +144,9 @@ pub(crate) struct Inner {
     handler: RwLock<Option<Arc<dyn Handler>>>,
     peers: Mutex<BTreeSet<Address>>,
     stats: Mutex<LinkStats>,
-    /// The inbox and liveliness subscribers, and the listen barrier's queryable.
+    /// The inbox and liveliness subscribers.
     subscribers: Mutex<Vec<Subscriber<()>>>,
+    /// The queryable that answers other modules' listen barriers ([`keys::sync`]).
     barrier: Mutex<Option<Queryable<()>>>,
     /// The publication subscriber of each link kind listened to. A link not listened to
     /// has none, so the other sessions route none of its publications here: a module not
