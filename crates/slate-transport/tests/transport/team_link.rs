@@ -442,10 +442,23 @@ fn a_reliable_send_is_dropped_once_the_cut_outlasts_the_lease() {
     let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
     net.run_for(Duration::from_millis(300));
     net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
-    all[0].0.send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8]).unwrap();
+    all[0]
+        .0
+        .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
+        .unwrap();
     net.run_for(Duration::from_secs(5));
-    assert!(all[0].1.peers.lock().unwrap().contains(&(addr("t/r2/b"), false)));
+    assert!(
+        all[0]
+            .1
+            .peers
+            .lock()
+            .unwrap()
+            .contains(&(addr("t/r2/b"), false))
+    );
     net.heal();
     net.run_for(Duration::from_secs(3));
-    assert!(all[1].1.tags().is_empty(), "the send was dropped with the peer");
+    assert!(
+        all[1].1.tags().is_empty(),
+        "the send was dropped with the peer"
+    );
 }
