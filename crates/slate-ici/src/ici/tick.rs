@@ -178,6 +178,8 @@ impl State {
         let (now, retry, grace) = (self.now, self.config.catch_up_retry, self.config.gap_grace);
         let peers: Vec<Address> = self.peers.keys().cloned().collect();
         for a in peers {
+            // A member's inner gap waits while its robot stream is being repaired.
+            let repairing = self.config.team_protocol.is_some() && self.team_repairing(&a);
             let Some(p) = self.peers.get_mut(&a) else {
                 continue;
             };
@@ -190,7 +192,10 @@ impl State {
                     self.send_request(&a, r);
                 }
                 Some(_) => {}
-                None if p.up && p.stream.gap_age(now).is_some_and(|age| age >= grace) => {
+                None if p.up
+                    && !repairing
+                    && p.stream.gap_age(now).is_some_and(|age| age >= grace) =>
+                {
                     self.stats.catch_up.gaps += 1;
                     self.request_catch_up(&a, false, false);
                 }

@@ -1,0 +1,539 @@
+//! The ICI's glue for repair by NACK (docs/team-protocol.md 2.5, step 10, replay):
+//!
+//! * receivers feed the stream tracker's gaps, the NACKs they hear and the positions
+//!   they receive to the [`NackScheduler`], publish the NACKs it fires, and ask the
+//!   members' state (today's per-member catch-up, until step 11) when it gives up;
+//! * a receiver holding parked frames of a robot whose hello it lacks NACKs the hello,
+//!   with the same suppression ([`HelloAsk`]);
+//! * the source gateway gathers the NACKs for its stream in its [`RepairScheduler`]
+//!   and answers once, by broadcast: `TeamRepair` replays from its history, split at
+//!   the MTU, and `Gone` for what the history no longer holds.
+//!
+//! Every listener NACKs for itself (no `Want` to the gateway, no foreign cache): the
+//! suppression bounds the cost to about one NACK per loss, whoever lost it.
+
+use std::time::Duration;
+
+use slate_model::Address;
+use slate_transport::Rng;
+
+use super::frame::{
+    Gone, Nack, NackEntry, Part, RepairContent, Span, StreamTag, TeamFrame, TeamMsg, TeamRepair,
+};
+use super::nack::{MissingRange, NackAction, NackScheduler, NackTiming, RepairTiming, SeqRange};
+use crate::ici::TeamProtocol;
+use crate::ici::state::State;
+use crate::{LinkKind, MsgKind};
+
+/// The stream tag a hello NACK carries when the receiver never heard the tag of the
+/// robot it lacks the hello of (frames carry no tag): every gateway takes it as its own.
+/// A real tag of 0 (1 in 65 536) only makes that gateway answer such NACKs too.
+pub(crate) const ANY_TAG: StreamTag = StreamTag(0);
+
+/// Entries per `Nack` published: a NACK of many streams goes as several.
+const ENTRIES_PER_NACK: usize = 32;
+
+/// A receiver's pending NACK of one robot's hello (at most one per remote gateway).
+///
+/// Invariant: `due` is the next time the hello may be NACKed; a NACK heard from
+/// another robot for the same hello pushes it back by `repair_wait`, as for frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct HelloAsk {
+    /// The tag the NACK names (`ANY_TAG` until a heartbeat told the robot's tag).
+    pub tag: StreamTag,
+    pub due: Duration,
+}
+
+impl HelloAsk {
+    /// Is this ask suppressed by another robot's hello NACK for `tag`?
+    pub fn covered_by(&self, tag: StreamTag) -> bool {
+        tag == self.tag || tag == ANY_TAG
+    }
+}
+
+/// The receiver's timing from the ICI's settings; an MTU under 64 bytes takes the
+/// acoustic bounds (a `Nack` must fit one modem frame).
+pub(crate) fn nack_timing(p: &TeamProtocol) -> NackTiming {
+    let base = if p.mtu < 64 {
+        NackTiming::acoustic()
+    } else {
+        NackTiming::radio()
+    };
+    NackTiming {
+        gap_grace: p.gap_grace,
+        nack_backoff: p.nack_backoff,
+        repair_wait: p.repair_wait,
+        max_nack_frames: p.max_nack_frames,
+        ..base
+    }
+}
+
+/// The source gateway's timing from the ICI's settings (bounds as `nack_timing`'s).
+pub(crate) fn repair_timing(p: &TeamProtocol) -> RepairTiming {
+    let base = if p.mtu < 64 {
+        RepairTiming::acoustic()
+    } else {
+        RepairTiming::radio()
+    };
+    RepairTiming {
+        repair_gather: p.repair_gather,
+        repair_holdoff: p.repair_holdoff,
+        ..base
+    }
+}
+
+/// The seed of one ICI's back-off draws: its address (FNV-1a 64) and the clock's time
+/// when it first needed one. The simulator's clock is virtual, so one seed of the
+/// network gives one run; two modules never share a sequence.
+pub(crate) fn nack_seed(me: &Address, started_raw: u64) -> u64 {
+    let fnv = me
+        .to_string()
+        .bytes()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        });
+    fnv ^ started_raw.rotate_left(32)
+}
+
+/// Replays of `bodies` (consecutive positions from the first one's, each with its
+/// original parts), split so that every repair is at most `mtu` bytes. A body too
+/// large to fit with a repair's header alone goes alone (the transport may refuse it).
+pub(crate) fn replays(bodies: Vec<(u64, Vec<Part>)>, mtu: usize) -> Vec<TeamRepair> {
+    let mut out: Vec<TeamRepair> = Vec::new();
+    let (mut from, mut open): (u64, Vec<Vec<Part>>) = (0, Vec::new());
+    for (seq, parts) in bodies {
+        let follows = !open.is_empty() && from + open.len() as u64 == seq;
+        if follows && fits(from, &mut open, &parts, mtu) {
+            continue;
+        }
+        if !open.is_empty() {
+            out.push(replay(from, std::mem::take(&mut open)));
+        }
+        (from, open) = (seq, vec![parts]);
+    }
+    if !open.is_empty() {
+        out.push(replay(from, open));
+    }
+    out
+}
+
+/// Adds `parts` to the open replay if the repair stays within `mtu`.
+fn fits(from: u64, open: &mut Vec<Vec<Part>>, parts: &[Part], mtu: usize) -> bool {
+    open.push(parts.to_vec());
+    let candidate = replay(from, std::mem::take(open));
+    let ok = candidate.encoded_len() <= mtu;
+    if let RepairContent::Replay(back) = candidate.content {
+        *open = back;
+    }
+    if !ok {
+        open.pop();
+    }
+    ok
+}
+
+fn replay(from: u64, bodies: Vec<Vec<Part>>) -> TeamRepair {
+    TeamRepair {
+        from,
+        content: RepairContent::Replay(bodies),
+    }
+}
+
+fn range_of(span: Span) -> Option<SeqRange> {
+    SeqRange::from_wire(span.from, span.n).ok()
+}
+
+// ----- the receiver -----
+
+impl State {
+    /// The NACK scheduler, made on first use with this ICI's seed.
+    fn nacks(&mut self) -> Option<&mut NackScheduler> {
+        let protocol = self.config.team_protocol.as_ref()?;
+        if self.team.nacks.is_none() {
+            let seed = nack_seed(&self.me, self.board.clock().now().raw());
+            let timing = nack_timing(protocol);
+            self.team.nacks = Some(NackScheduler::new(timing, Rng::new(seed)));
+        }
+        self.team.nacks.as_mut()
+    }
+
+    /// The tracker of gateway `from` found positions `first .. first + n` missing.
+    pub(super) fn team_gap(&mut self, from: &Address, first: u64, n: u64) {
+        let (now, tag) = (self.now, self.speaker_tag(from));
+        let range = SeqRange::from_wire(first, n).ok();
+        if let (Some(tag), Some(range)) = (tag, range)
+            && let Some(s) = self.nacks()
+        {
+            s.gap_found(tag, range, now);
+        }
+    }
+
+    /// Position `seq` of stream `tag` arrived (the original, late or not).
+    pub(super) fn team_received(&mut self, tag: u16, seq: u64) {
+        if let (Some(s), Some(range)) = (self.team.nacks.as_mut(), SeqRange::one(seq)) {
+            s.received(tag, range);
+        }
+    }
+
+    /// The tag of the stream followed for gateway `from`, if any.
+    pub(super) fn speaker_tag(&self, from: &Address) -> Option<u16> {
+        let s = self.team.speakers.get(from)?;
+        s.outer.as_ref().map(|o| o.tag())
+    }
+
+    /// A NACK heard on the team link: our stream's entries go to the repair
+    /// scheduler (gateway); the others suppress our own NACKs for the same positions.
+    pub(super) fn on_nack(&mut self, nack: Nack) {
+        for entry in nack.entries {
+            self.gateway_nack_heard(&entry);
+            if let Some(span) = entry.frames {
+                self.nack_heard(entry.tag.0, span);
+            }
+            if entry.hello {
+                self.hello_nack_heard(entry.tag);
+            }
+        }
+    }
+
+    /// Another robot NACKed `span` of stream `tag`: positions we did not know were
+    /// sent (a lost tail) are announced first, so they join its round.
+    fn nack_heard(&mut self, tag: u16, span: Span) {
+        let now = self.now;
+        let Some(range) = range_of(span) else { return };
+        let speaker =
+            self.team.speakers.iter_mut().find(|(_, s)| {
+                s.hello.is_some() && s.outer.as_ref().is_some_and(|o| o.tag() == tag)
+            });
+        let Some((gateway, s)) = speaker else { return };
+        let gateway = gateway.clone();
+        let change = s
+            .outer
+            .as_mut()
+            .and_then(|o| o.announce(tag, range.last(), now));
+        if let Some(change) = change {
+            self.stream_changed(&gateway, change);
+        }
+        if let Some(s) = self.nacks() {
+            s.nack_heard(tag, range, now);
+        }
+    }
+
+    /// Runs the receiver's NACK timers and carries out what they fired.
+    pub(super) fn nack_tick(&mut self) {
+        let now = self.now;
+        let mut entries = self.hello_asks_due();
+        if let Some(s) = self.team.nacks.as_mut() {
+            s.tick(now);
+        }
+        while let Some(action) = self.team.nacks.as_mut().and_then(NackScheduler::poll) {
+            match action {
+                NackAction::Nack(missing) => entries.extend(missing.iter().map(frames_entry)),
+                NackAction::AskState { tag, through } => self.ask_stream_state(tag, through),
+            }
+        }
+        self.publish_nacks(entries);
+    }
+
+    fn publish_nacks(&mut self, entries: Vec<NackEntry>) {
+        for chunk in entries.chunks(ENTRIES_PER_NACK) {
+            let nack = Nack {
+                entries: chunk.to_vec(),
+            };
+            let bytes = TeamMsg::Nack(nack).encode();
+            self.publish_now(LinkKind::Team, MsgKind::Nack, &bytes);
+        }
+    }
+
+    /// The NACK gave up stream `tag` up to `through`: its positions count as covered
+    /// and every member of its robot is asked for its state (today's catch-up, one
+    /// request per member, until step 11's broadcast state answers).
+    pub(super) fn ask_stream_state(&mut self, tag: u16, through: u64) {
+        let now = self.now;
+        let speaker = self
+            .team
+            .speakers
+            .iter_mut()
+            .find(|(_, s)| s.outer.as_ref().is_some_and(|o| o.tag() == tag));
+        let Some((gateway, s)) = speaker else { return };
+        let gateway = gateway.clone();
+        if let Some(o) = s.outer.as_mut() {
+            o.cover(1, through, now);
+        }
+        self.ask_members_state(&gateway);
+    }
+
+    /// Asks each member of gateway `from`'s robot for its current state.
+    pub(super) fn ask_members_state(&mut self, from: &Address) {
+        self.team.counts.state_asked += 1;
+        let members: Vec<Address> = self
+            .team
+            .speakers
+            .get(from)
+            .map_or(vec![], |s| s.members.iter().flatten().cloned().collect());
+        members
+            .iter()
+            .for_each(|m| self.request_catch_up(m, false, false));
+    }
+
+    /// A repair of gateway `from`'s stream: each position not held yet is taken as if
+    /// its frame had come; those held are skipped. Before the hello, they are parked.
+    pub(super) fn on_repair(&mut self, from: &Address, repair: TeamRepair) {
+        let RepairContent::Replay(bodies) = repair.content else {
+            // Repairs by difference come with step 13.
+            self.team.counts.refused += 1;
+            return;
+        };
+        for (i, parts) in bodies.into_iter().enumerate() {
+            let frame = TeamFrame {
+                seq: repair.from + i as u64,
+                parts,
+            };
+            self.team.counts.repaired += 1;
+            self.on_team_frame(from, frame);
+        }
+    }
+
+    /// Positions gateway `from` can no longer repair: they are closed, and the
+    /// members' inner positions it gives are announced, so a member whose messages
+    /// were lost with them shows an inner gap and is asked for its state.
+    pub(super) fn on_gone(&mut self, from: &Address, gone: Gone) {
+        let now = self.now;
+        let Some(s) = self.team.speakers.get_mut(from) else {
+            return;
+        };
+        let Some(outer) = s.outer.as_mut().filter(|o| o.tag() == gone.tag.0) else {
+            return;
+        };
+        outer.cover(gone.span.from, gone.span.n, now);
+        self.team.counts.gone_heard += 1;
+        if let (Some(n), Some(range)) = (self.team.nacks.as_mut(), range_of(gone.span)) {
+            n.received(gone.tag.0, range);
+        }
+        let mut positions = vec![0; super::frame::MAX_MEMBERS as usize];
+        for (member, seq) in &gone.positions {
+            positions[usize::from(*member)] = *seq;
+        }
+        self.announce_positions(from, &positions);
+    }
+
+    /// Is a member's inner gap being repaired through its robot's stream? While the
+    /// robot stream has a gap, inner gaps wait for its repair (2.6) instead of asking
+    /// the member for its state.
+    pub(crate) fn team_repairing(&self, member: &Address) -> bool {
+        self.team.speakers.iter().any(|(gateway, s)| {
+            gateway.robot() == member.robot()
+                && gateway.team() == member.team()
+                && s.outer.as_ref().is_some_and(|o| o.has_gap())
+        })
+    }
+}
+
+fn frames_entry(missing: &MissingRange) -> NackEntry {
+    NackEntry {
+        tag: StreamTag(missing.tag),
+        frames: Some(Span {
+            from: missing.range.first(),
+            n: missing.range.n(),
+        }),
+        hello: false,
+        state: None,
+    }
+}
+
+// ----- the hello NACK -----
+
+impl State {
+    /// A frame of gateway `from` was parked: its hello is NACKed after `gap_grace`
+    /// and a back-off, unless already asked. `tag` is the robot's, if a heartbeat said it.
+    pub(super) fn ask_hello(&mut self, from: &Address, tag: Option<StreamTag>) {
+        let Some(s) = self.team.speakers.get(from) else {
+            return;
+        };
+        let known = s.hello.as_ref().map(|h| h.tag);
+        if known.is_some() && (tag.is_none() || tag == known) {
+            return;
+        }
+        let asked = s.hello_ask;
+        let Some(p) = self.config.team_protocol.clone() else {
+            return;
+        };
+        let due = match asked {
+            Some(a) => a.due,
+            None => {
+                self.now
+                    + p.gap_grace
+                    + self
+                        .nacks()
+                        .map_or(Duration::ZERO, |n| n.draw(p.nack_backoff))
+            }
+        };
+        let tag = tag.or(asked.map(|a| a.tag)).unwrap_or(ANY_TAG);
+        if let Some(s) = self.team.speakers.get_mut(from) {
+            s.hello_ask = Some(HelloAsk { tag, due });
+        }
+    }
+
+    /// Another robot NACKed the hello of stream `tag`: ours waits `repair_wait` more.
+    fn hello_nack_heard(&mut self, tag: StreamTag) {
+        let Some(wait) = self.config.team_protocol.as_ref().map(|p| p.repair_wait) else {
+            return;
+        };
+        let later = self.now + wait;
+        for s in self.team.speakers.values_mut() {
+            if let Some(ask) = s.hello_ask.as_mut().filter(|a| a.covered_by(tag)) {
+                ask.due = ask.due.max(later);
+            }
+        }
+    }
+
+    /// The hello NACK entries due now; each is asked again after `repair_wait` until
+    /// the hello comes.
+    fn hello_asks_due(&mut self) -> Vec<NackEntry> {
+        let now = self.now;
+        let Some(wait) = self.config.team_protocol.as_ref().map(|p| p.repair_wait) else {
+            return vec![];
+        };
+        let mut tags: Vec<StreamTag> = Vec::new();
+        for s in self.team.speakers.values_mut() {
+            if let Some(ask) = s.hello_ask.as_mut().filter(|a| a.due <= now) {
+                ask.due = now + wait;
+                tags.push(ask.tag);
+            }
+        }
+        tags.sort_by_key(|t| t.0);
+        tags.dedup();
+        tags.into_iter().map(hello_entry).collect()
+    }
+}
+
+fn hello_entry(tag: StreamTag) -> NackEntry {
+    NackEntry {
+        tag,
+        frames: None,
+        hello: true,
+        state: None,
+    }
+}
+
+// ----- the source gateway -----
+
+impl State {
+    /// A NACK entry for this gateway's stream: frames gathered for a repair, a hello
+    /// said again (at most once per `hello_min_interval`).
+    fn gateway_nack_heard(&mut self, entry: &NackEntry) {
+        let now = self.now;
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if entry.hello && (entry.tag == gw.tag || entry.tag == ANY_TAG) {
+            gw.hello_due = true;
+        }
+        if entry.tag != gw.tag {
+            return;
+        }
+        let head = gw.framer.position();
+        if let Some(range) = entry.frames.and_then(range_of) {
+            gw.repairs.nack_heard(range, head, now);
+        }
+    }
+
+    /// The repair due now, if the gathering window closed: replays of what the
+    /// history holds, `Gone` for the rest.
+    pub(super) fn repair_tick(&mut self) {
+        let now = self.now;
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        let Some(ranges) = gw.repairs.poll(now) else {
+            return;
+        };
+        for range in ranges {
+            self.repair_range(range);
+        }
+    }
+
+    /// Replays `range` from the history, split at the MTU, and says `Gone` for the
+    /// positions it no longer holds.
+    fn repair_range(&mut self, range: SeqRange) {
+        let now = self.now;
+        let mtu = self.config.team_protocol.as_ref().map_or(1024, |p| p.mtu);
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        let lookup = gw.history.get(range.first(), range.n(), now);
+        let gone = lookup.gone.map(|(from, n)| Gone {
+            tag: gw.tag,
+            span: Span { from, n },
+            positions: gw.inner_positions(),
+        });
+        let bodies: Vec<(u64, Vec<Part>)> = lookup
+            .held
+            .iter()
+            .filter_map(|(seq, bytes)| match TeamMsg::decode(bytes) {
+                Ok(TeamMsg::Frame(f)) => Some((*seq, f.parts)),
+                _ => None,
+            })
+            .collect();
+        if let Some(gone) = gone {
+            self.publish_now(LinkKind::Team, MsgKind::Gone, &TeamMsg::Gone(gone).encode());
+        }
+        for repair in replays(bodies, mtu) {
+            let bytes = TeamMsg::Repair(repair).encode();
+            self.publish_now(LinkKind::Team, MsgKind::TeamRepair, &bytes);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(member: u8, len: usize) -> Part {
+        Part::member(member, vec![0x11; len])
+    }
+
+    #[test]
+    fn consecutive_bodies_share_a_repair_up_to_the_mtu() {
+        let bodies: Vec<(u64, Vec<Part>)> = (5..10).map(|s| (s, vec![part(0, 30)])).collect();
+        let repairs = replays(bodies, 80);
+        assert!(repairs.len() > 1);
+        let mut next = 5;
+        for r in &repairs {
+            assert!(r.encoded_len() <= 80, "{} bytes", r.encoded_len());
+            assert_eq!(r.from, next);
+            assert_eq!(TeamMsg::Repair(r.clone()).encode().len(), r.encoded_len());
+            next = r.span().end();
+        }
+        assert_eq!(next, 10);
+    }
+
+    #[test]
+    fn a_hole_in_the_positions_starts_a_new_repair() {
+        let bodies = vec![
+            (3, vec![part(0, 4)]),
+            (4, vec![part(1, 4)]),
+            (9, vec![part(0, 4)]),
+        ];
+        let repairs = replays(bodies, 1024);
+        let spans: Vec<(u64, u64)> = repairs.iter().map(|r| (r.from, r.span().n)).collect();
+        assert_eq!(spans, vec![(3, 2), (9, 1)]);
+    }
+
+    #[test]
+    fn a_hello_nack_for_any_tag_or_the_same_tag_covers_an_ask() {
+        let ask = HelloAsk {
+            tag: StreamTag(7),
+            due: Duration::ZERO,
+        };
+        assert!(ask.covered_by(StreamTag(7)));
+        assert!(ask.covered_by(ANY_TAG));
+        assert!(!ask.covered_by(StreamTag(8)));
+    }
+
+    #[test]
+    fn two_modules_draw_different_back_offs() {
+        let a = nack_seed(&slate_testing::addr("t/r1/m0"), 5);
+        let b = nack_seed(&slate_testing::addr("t/r1/m1"), 5);
+        assert_ne!(a, b);
+        assert_eq!(a, nack_seed(&slate_testing::addr("t/r1/m0"), 5));
+    }
+}
