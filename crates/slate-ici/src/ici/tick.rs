@@ -224,8 +224,9 @@ impl State {
         }
         let link = LinkKind::between(&self.me, peer);
         if link == LinkKind::Team && self.config.team_protocol.is_some() {
-            // Liveliness only: no per-pair hello or catch-up on the team link.
-            return self.team_peer_up();
+            // Liveliness only: no per-pair hello or catch-up on the team link (a
+            // receiver that lacks the robot hello NACKs it).
+            return;
         }
         self.send_hello(peer);
         self.request_catch_up(peer, false, false);

@@ -380,15 +380,6 @@ impl State {
             gw.hello_due = true;
         }
     }
-
-    /// A team peer came up: the gateway says its hello again (at most once per
-    /// `hello_min_interval`), so a module that missed it stops parking frames. A
-    /// stopgap until receivers NACK the hello (step 10).
-    pub(crate) fn team_peer_up(&mut self) {
-        if let Some(gw) = self.team.gateway.as_mut() {
-            gw.hello_due = true;
-        }
-    }
 }
 
 /// The union of class sets, one rule per class, without the context bits `drop`.
