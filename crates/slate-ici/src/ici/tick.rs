@@ -177,9 +177,10 @@ impl State {
     fn catch_up_timers(&mut self) {
         let (now, retry, grace) = (self.now, self.config.catch_up_retry, self.config.gap_grace);
         let peers: Vec<Address> = self.peers.keys().cloned().collect();
+        // A member's inner gap waits while its robot stream is being repaired.
+        let gapped = self.team_gapped_robots();
         for a in peers {
-            // A member's inner gap waits while its robot stream is being repaired.
-            let repairing = self.config.team_protocol.is_some() && self.team_repairing(&a);
+            let repairing = gapped.iter().any(|(t, r)| a.team() == t && a.robot() == r);
             let Some(p) = self.peers.get_mut(&a) else {
                 continue;
             };

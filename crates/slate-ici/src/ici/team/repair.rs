@@ -315,15 +315,18 @@ impl State {
         self.announce_positions(from, &positions);
     }
 
-    /// Is a member's inner gap being repaired through its robot's stream? While the
-    /// robot stream has a gap, inner gaps wait for its repair (2.6) instead of asking
-    /// the member for its state.
-    pub(crate) fn team_repairing(&self, member: &Address) -> bool {
-        self.team.speakers.iter().any(|(gateway, s)| {
-            gateway.robot() == member.robot()
-                && gateway.team() == member.team()
-                && s.outer.as_ref().is_some_and(|o| o.has_gap())
-        })
+    /// The robots (team, robot) whose stream has a gap, so that their members' inner
+    /// gaps wait for its repair (2.6) instead of asking the members for their state.
+    /// Empty with the switch off. O(speakers), once per tick.
+    pub(crate) fn team_gapped_robots(&self) -> Vec<(String, String)> {
+        let gapped = self
+            .team
+            .speakers
+            .iter()
+            .filter(|(_, s)| s.outer.as_ref().is_some_and(|o| o.has_gap()));
+        gapped
+            .map(|(g, _)| (g.team().to_string(), g.robot().to_string()))
+            .collect()
     }
 }
 
@@ -485,7 +488,231 @@ impl State {
 
 #[cfg(test)]
 mod tests {
+    use std::sync::Arc;
+
+    use slate_model::{Board, Filter};
+    use slate_testing::addr;
+
+    use super::super::frame::{Member, RobotHello};
+    use super::super::gateway::{Framer, Gateway};
+    use super::super::history::HistoryLimits;
+    use super::super::nack::RepairScheduler;
     use super::*;
+    use crate::SimNet;
+    use crate::ici::classes::ClassSet;
+    use crate::ici::frame::{Frame, Lifecycle};
+    use crate::ici::{IciConfig, module_class};
+
+    fn ms(n: u64) -> Duration {
+        Duration::from_millis(n)
+    }
+
+    /// Where the tests' time line starts.
+    const START: Duration = Duration::from_secs(10);
+
+    /// A state of `t/r0/m0` with the team protocol on (radio), on its own network.
+    fn state() -> (SimNet, State) {
+        let net = SimNet::new(1);
+        let me = addr("t/r0/m0");
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(me.clone())
+                .build(),
+        );
+        board.define(module_class()).unwrap();
+        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
+        let config = IciConfig::default().team_protocol(Some(TeamProtocol::radio()));
+        let mut state = State::new(board, net.join(&me), config, watch);
+        state.now = START;
+        (net, state)
+    }
+
+    fn tag_of(gateway: &Address) -> StreamTag {
+        StreamTag::of(gateway, 9)
+    }
+
+    /// The hello of `gateway`'s robot: one member, m1.
+    fn hello(gateway: &Address) -> Vec<u8> {
+        let m1 = Member {
+            name: "m1".into(),
+            incarnation: 5,
+            inner_seq: 0,
+            alive: true,
+            listener: true,
+        };
+        let hello = RobotHello {
+            version: 1,
+            tag: tag_of(gateway),
+            gw_incarnation: 9,
+            observer: false,
+            interest: ClassSet::all(),
+            exports: ClassSet::none(),
+            members: vec![m1],
+        };
+        TeamMsg::Hello(hello).encode()
+    }
+
+    fn lifecycle(seq: u64) -> Vec<u8> {
+        Frame::Lifecycle(Lifecycle {
+            seq,
+            ..Lifecycle::default()
+        })
+        .encode()
+    }
+
+    /// A frame at `seq` holding m1's lifecycle message `seq`.
+    fn frame(seq: u64) -> Vec<u8> {
+        let parts = vec![Part::member(0, lifecycle(seq))];
+        TeamMsg::Frame(TeamFrame { seq, parts }).encode()
+    }
+
+    fn nack(tag: StreamTag, from: u64, n: u64) -> Vec<u8> {
+        let entry = NackEntry {
+            tag,
+            frames: Some(Span { from, n }),
+            hello: false,
+            state: None,
+        };
+        TeamMsg::Nack(Nack {
+            entries: vec![entry],
+        })
+        .encode()
+    }
+
+    /// Team publications of `kind` this state made.
+    fn sent(st: &State, kind: MsgKind) -> u64 {
+        let traffic = st.stats.traffic.get(&(LinkKind::Team, kind));
+        traffic.map_or(0, |t| t.sent_msgs)
+    }
+
+    /// `st` hears gateway `t/r1/g` say its hello, then frames 1 and 3 at time 0.
+    fn with_a_gap(st: &mut State) -> Address {
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        st.on_team(&gw, &frame(1));
+        st.on_team(&gw, &frame(3));
+        gw
+    }
+
+    /// Runs the NACK timers `at` after the state's start.
+    fn tick_at(st: &mut State, at: Duration) {
+        st.now = START + at;
+        st.nack_tick();
+    }
+
+    #[test]
+    fn a_gap_in_a_robot_stream_is_nacked_once_after_the_grace_and_a_back_off() {
+        let (_net, mut st) = state();
+        with_a_gap(&mut st);
+        tick_at(&mut st, ms(99));
+        assert_eq!(sent(&st, MsgKind::Nack), 0, "within gap_grace");
+        tick_at(&mut st, ms(400));
+        assert_eq!(sent(&st, MsgKind::Nack), 1);
+        tick_at(&mut st, ms(900));
+        assert_eq!(sent(&st, MsgKind::Nack), 1, "the repair is awaited");
+    }
+
+    #[test]
+    fn another_robots_nack_for_the_same_positions_suppresses_ours() {
+        let (_net, mut st) = state();
+        let gw = with_a_gap(&mut st);
+        st.on_team(&addr("t/r2/g"), &nack(tag_of(&gw), 2, 1));
+        tick_at(&mut st, ms(400));
+        assert_eq!(sent(&st, MsgKind::Nack), 0);
+    }
+
+    #[test]
+    fn a_repair_hands_on_the_missing_position_and_skips_those_held() {
+        let (_net, mut st) = state();
+        let gw = with_a_gap(&mut st);
+        let bodies = (1..=3)
+            .map(|s| vec![Part::member(0, lifecycle(s))])
+            .collect();
+        let repair = TeamRepair {
+            from: 1,
+            content: RepairContent::Replay(bodies),
+        };
+        st.on_team(&gw, &TeamMsg::Repair(repair).encode());
+        let outer = st.team.speakers[&gw].outer.as_ref().unwrap();
+        assert_eq!((outer.have(), outer.has_gap()), (3, false));
+        let tag = tag_of(&gw).0;
+        assert!(st.team.nacks.as_ref().unwrap().missing(tag).is_empty());
+        tick_at(&mut st, ms(2000));
+        assert_eq!(sent(&st, MsgKind::Nack), 0);
+    }
+
+    #[test]
+    fn a_hello_is_nacked_while_frames_are_parked_and_not_once_it_came() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &frame(1));
+        st.on_team(&gw, &frame(2));
+        tick_at(&mut st, ms(400));
+        assert_eq!(
+            sent(&st, MsgKind::Nack),
+            1,
+            "one NACK for both parked frames"
+        );
+        st.on_team(&gw, &hello(&gw));
+        assert_eq!(
+            st.team.speakers[&gw].outer.as_ref().map(|o| o.have()),
+            Some(2)
+        );
+        tick_at(&mut st, ms(5000));
+        assert_eq!(sent(&st, MsgKind::Nack), 1);
+    }
+
+    /// Makes `st` the gateway of a stream whose frames 1..=3 it sent at time 0.
+    fn gateway_of_three(st: &mut State, age: Duration) {
+        let limits = HistoryLimits { bytes: 4096, age };
+        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
+        gw.repairs = RepairScheduler::new(repair_timing(&TeamProtocol::radio()));
+        for s in 1..=3u64 {
+            let mut closed = gw.framer.push(0, lifecycle(s), START);
+            closed.extend(gw.framer.flush());
+            for f in closed {
+                let bytes: Arc<[u8]> = TeamMsg::Frame(f.clone()).encode().into();
+                gw.history.push(f.seq, bytes, START, &[]).unwrap();
+            }
+        }
+        st.team.gateway = Some(gw);
+    }
+
+    #[test]
+    fn nacks_from_many_robots_for_one_loss_get_one_broadcast_repair() {
+        let (_net, mut st) = state();
+        gateway_of_three(&mut st, Duration::from_secs(60));
+        for robot in 1..=5 {
+            st.on_team(&addr(&format!("t/r{robot}/g")), &nack(StreamTag(77), 2, 2));
+        }
+        st.now = START + ms(49);
+        st.repair_tick();
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 0, "still gathering");
+        st.now = START + ms(50);
+        st.repair_tick();
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 1);
+        st.on_team(&addr("t/r6/g"), &nack(StreamTag(77), 2, 1));
+        st.now = START + ms(200);
+        st.repair_tick();
+        assert_eq!(
+            sent(&st, MsgKind::TeamRepair),
+            1,
+            "held off: repaired lately"
+        );
+    }
+
+    #[test]
+    fn positions_the_history_no_longer_holds_are_answered_with_gone() {
+        let (_net, mut st) = state();
+        gateway_of_three(&mut st, ms(10));
+        st.now = START + ms(100);
+        st.on_team(&addr("t/r1/g"), &nack(StreamTag(77), 1, 3));
+        st.now = START + ms(150);
+        st.repair_tick();
+        assert_eq!(sent(&st, MsgKind::Gone), 1);
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 0);
+    }
 
     fn part(member: u8, len: usize) -> Part {
         Part::member(member, vec![0x11; len])
