@@ -14,7 +14,9 @@ use slate_ici::{
 };
 use slate_model::{Address, Context, NewObject, Value};
 
-use crate::support::{Member, Team, addr, open, secs};
+use slate_ici::Rng;
+
+use crate::support::{Member, Team, addr, open, secs, workload};
 
 /// A transport that counts its team-link publications by kind.
 struct Counting {
@@ -83,9 +85,20 @@ fn counted(
     modules: usize,
     protocol: &dyn Fn(&mut TeamProtocol),
 ) -> Counted {
+    counted_on(seed, LinkConfig::clean(), robots, modules, protocol)
+}
+
+/// As `counted`, both links with the faults of `link`.
+fn counted_on(
+    seed: u64,
+    link: LinkConfig,
+    robots: usize,
+    modules: usize,
+    protocol: &dyn Fn(&mut TeamProtocol),
+) -> Counted {
     let sim = SimConfig {
-        robot: LinkConfig::clean().delay(secs(0.0001)),
-        team: LinkConfig::clean().delay(secs(0.02)),
+        robot: link.delay(secs(0.0001)),
+        team: link.delay(secs(0.02)),
         ..SimConfig::default()
     };
     let mut team = Team::with(seed, sim);
@@ -181,4 +194,48 @@ fn a_range_the_history_no_longer_holds_gets_gone_and_the_receiver_asks_for_state
     assert!(asked(&c) > before, "the receiver asked the member's state");
     assert!(holds_everywhere(&c.team, "rock_gone", 5));
     c.team.assert_converges(30);
+}
+
+/// faults.rs's scenario with the switch on: 3 robots × 2 modules, random work on
+/// links with `link`'s faults, then the boards must agree (faults still on).
+fn converge_under(seed: u64, link: LinkConfig) -> Counted {
+    let c = counted_on(seed, link, 3, 2, &radio);
+    c.team.run(0.5);
+    workload(&c.team, &mut Rng::new(seed), 150, 0.05);
+    c.team.assert_converges(60);
+    c
+}
+
+#[test]
+fn boards_converge_with_10_percent_loss_by_repairs() {
+    let c = converge_under(21, LinkConfig::clean().loss(0.1));
+    assert!(c.published(MsgKind::TeamRepair) > 0);
+}
+
+#[test]
+fn boards_converge_with_30_percent_loss() {
+    converge_under(22, LinkConfig::clean().loss(0.3));
+}
+
+#[test]
+fn boards_converge_with_50_percent_loss() {
+    converge_under(23, LinkConfig::clean().loss(0.5));
+}
+
+#[test]
+fn boards_converge_on_a_slow_lossy_radio() {
+    converge_under(26, LinkConfig::clean().bandwidth(9600).loss(0.1));
+}
+
+/// The back-offs are drawn from a seed per ICI (its address and its clock's start), so
+/// one network seed replays the same NACKs and repairs.
+#[test]
+fn the_same_seed_gives_the_same_nacks_and_repairs() {
+    let counts = |c: &Counted| -> Vec<BTreeMap<MsgKind, u64>> {
+        c.counters.iter().map(|k| k.team.lock().clone()).collect()
+    };
+    let first = counts(&converge_under(27, LinkConfig::clean().loss(0.1)));
+    let again = counts(&converge_under(27, LinkConfig::clean().loss(0.1)));
+    assert_eq!(first, again);
+    assert!(first.iter().any(|k| k.contains_key(&MsgKind::Nack)));
 }
