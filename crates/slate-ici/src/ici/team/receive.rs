@@ -4,9 +4,9 @@
 //! `State::on_message(member, inner)`, today's per-source machinery. Frames that come
 //! before their robot's hello are parked.
 //!
-//! Hooks left for step 10 (NACK and repair) and 11 (state): `stream_changed` is where a
-//! gap is found (`revealed`) or a state must be asked (`ask_state`); repairs, NACKs and
-//! `Gone` are decoded and dropped in `on_team`.
+//! Gaps found here (`stream_changed`), repairs, NACKs and `Gone` go to `repair.rs`
+//! (step 10). Left for step 11: `Want`, `StateRequest` and addressed parts are decoded
+//! and dropped; a state is asked with today's per-member catch-up.
 
 use std::collections::VecDeque;
 
@@ -213,8 +213,12 @@ impl State {
         {
             return; // A late hello of an earlier epoch.
         }
+        let mut ended = None;
         match &mut s.outer {
-            Some(o) if o.tag() != hello.tag.0 => o.restart(hello.tag.0),
+            Some(o) if o.tag() != hello.tag.0 => {
+                ended = Some(o.tag());
+                o.restart(hello.tag.0);
+            }
             Some(_) => {}
             None => s.outer = Some(Outer::new(hello.tag.0, max_nack)),
         }
@@ -237,6 +241,10 @@ impl State {
         }
         let s = self.speaker(from);
         (s.hello, s.hello_ask) = (Some(hello), None);
+        // The old epoch's missing positions will never be repaired: stop NACKing them.
+        if let (Some(tag), Some(n)) = (ended, self.team.nacks.as_mut()) {
+            n.forget(tag);
+        }
         self.team.interest_dirty = true;
         self.apply_alive(from);
         let parked: Vec<TeamFrame> = self.speaker(from).parked.drain(..).collect();

@@ -534,6 +534,11 @@ mod tests {
 
     /// The hello of `gateway`'s robot: one member, m1.
     fn hello(gateway: &Address) -> Vec<u8> {
+        hello_of(gateway, 9)
+    }
+
+    /// The hello of the epoch the gateway began at `epoch`.
+    fn hello_of(gateway: &Address, epoch: u64) -> Vec<u8> {
         let m1 = Member {
             name: "m1".into(),
             incarnation: 5,
@@ -543,8 +548,8 @@ mod tests {
         };
         let hello = RobotHello {
             version: 1,
-            tag: tag_of(gateway),
-            gw_incarnation: 9,
+            tag: StreamTag::of(gateway, epoch),
+            gw_incarnation: epoch,
             observer: false,
             interest: ClassSet::all(),
             exports: ClassSet::none(),
@@ -611,6 +616,17 @@ mod tests {
         assert_eq!(sent(&st, MsgKind::Nack), 1);
         tick_at(&mut st, ms(900));
         assert_eq!(sent(&st, MsgKind::Nack), 1, "the repair is awaited");
+    }
+
+    #[test]
+    fn a_new_epoch_of_the_robot_stream_stops_the_nacks_of_the_old_one() {
+        let (_net, mut st) = state();
+        let gw = with_a_gap(&mut st);
+        st.on_team(&gw, &hello_of(&gw, 10));
+        let old = tag_of(&gw).0;
+        assert!(st.team.nacks.as_ref().unwrap().missing(old).is_empty());
+        tick_at(&mut st, ms(5000));
+        assert_eq!(sent(&st, MsgKind::Nack), 0);
     }
 
     #[test]
