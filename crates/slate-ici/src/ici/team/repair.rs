@@ -308,9 +308,12 @@ impl State {
         if let (Some(n), Some(range)) = (self.team.nacks.as_mut(), range_of(gone.span)) {
             n.received(gone.tag.0, range);
         }
-        let mut positions = vec![0; super::frame::MAX_MEMBERS as usize];
+        let mut positions = vec![0; usize::from(super::frame::MAX_MEMBERS)];
         for (member, seq) in &gone.positions {
-            positions[usize::from(*member)] = *seq;
+            // The decoder refuses indices past `MAX_MEMBERS`; `get_mut` needs no trust.
+            if let Some(p) = positions.get_mut(usize::from(*member)) {
+                *p = *seq;
+            }
         }
         self.announce_positions(from, &positions);
     }
@@ -389,14 +392,20 @@ impl State {
     }
 
     /// The hello NACK entries due now; each is asked again after `repair_wait` until
-    /// the hello comes.
+    /// the hello comes, or until nothing was heard from that gateway for the team
+    /// timeout (a dead gateway is not asked forever).
     fn hello_asks_due(&mut self) -> Vec<NackEntry> {
         let now = self.now;
         let Some(wait) = self.config.team_protocol.as_ref().map(|p| p.repair_wait) else {
             return vec![];
         };
+        let silent_since = now.saturating_sub(self.config.team.timeout);
         let mut tags: Vec<StreamTag> = Vec::new();
         for s in self.team.speakers.values_mut() {
+            if s.last_heard < silent_since {
+                // A robot silent past the timeout is not asked again until heard.
+                s.hello_ask = None;
+            }
             if let Some(ask) = s.hello_ask.as_mut().filter(|a| a.due <= now) {
                 ask.due = now + wait;
                 tags.push(ask.tag);
@@ -468,22 +477,28 @@ impl State {
             span: Span { from, n },
             positions: gw.inner_positions(),
         });
-        let bodies: Vec<(u64, Vec<Part>)> = lookup
-            .held
-            .iter()
-            .filter_map(|(seq, bytes)| match TeamMsg::decode(bytes) {
-                Ok(TeamMsg::Frame(f)) => Some((*seq, f.parts)),
-                _ => None,
-            })
-            .collect();
         if let Some(gone) = gone {
             self.publish_now(LinkKind::Team, MsgKind::Gone, &TeamMsg::Gone(gone).encode());
         }
-        for repair in replays(bodies, mtu) {
+        for repair in replays(bodies_of(&lookup.held), mtu) {
             let bytes = TeamMsg::Repair(repair).encode();
             self.publish_now(LinkKind::Team, MsgKind::TeamRepair, &bytes);
         }
     }
+}
+
+/// The parts of the frames a history holds, by position (the history keeps encoded
+/// frames, so each is decoded again; one that does not decode is left out).
+fn bodies_of(held: &[(u64, std::sync::Arc<[u8]>)]) -> Vec<(u64, Vec<Part>)> {
+    let decoded = held
+        .iter()
+        .map(|(seq, bytes)| (*seq, TeamMsg::decode(bytes)));
+    decoded
+        .filter_map(|(seq, msg)| match msg {
+            Ok(TeamMsg::Frame(f)) => Some((seq, f.parts)),
+            _ => None,
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -677,6 +692,18 @@ mod tests {
         );
         tick_at(&mut st, ms(5000));
         assert_eq!(sent(&st, MsgKind::Nack), 1);
+    }
+
+    #[test]
+    fn a_hello_is_asked_again_until_its_gateway_is_silent_past_the_timeout() {
+        let (_net, mut st) = state();
+        st.on_team(&addr("t/r1/g"), &frame(1));
+        for at in (400..60_000).step_by(100) {
+            tick_at(&mut st, ms(at));
+        }
+        let asked = sent(&st, MsgKind::Nack);
+        assert!(asked >= 2, "asked again after repair_wait");
+        assert!(asked <= 6, "not past the 5 s timeout: {asked}");
     }
 
     /// Makes `st` the gateway of a stream whose frames 1..=3 it sent at time 0.
