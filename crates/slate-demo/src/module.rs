@@ -1,7 +1,7 @@
 //! A module: a `slate_node::Node` (one board with its own ICI, plan engine and plan
 //! circuits) on the demo's network, as a separate board on a real network would be. What
-//! each kind of module models (its interest) and lets out of the robot (its export
-//! policy) is decided here.
+//! each kind of module models (its interest) and which files it loads (among them its
+//! export policy, a `link team` block) is decided here.
 
 use std::time::Duration;
 
@@ -61,37 +61,29 @@ impl Role {
         }
     }
 
-    /// What may leave the robot on the team link: the robot's export policy, at the
-    /// highest abstraction. Sensor data (Pose, Obstacle, Contact, Sighting) never does.
-    fn export(self) -> ClassSet {
-        match self {
-            Role::Exec => ClassSet::none()
-                .class_in("Robot", &[Context::Self_])
-                .class("Target")
-                .class("Waypoint"),
-            Role::Vision => ClassSet::none().class("Target"),
-            Role::Console => ClassSet::none().class("Mission").class("Waypoint"),
-            Role::Nav | Role::Prox | Role::Loco => ClassSet::none(),
-        }
+    /// Whether the module has anything for the team: its role's file exports classes on
+    /// the team link (`link team { export ...; }` in exec.slate, vision.slate and
+    /// console.slate; the export policy lives in the files, not here).
+    fn exports_to_team(self) -> bool {
+        matches!(self, Role::Exec | Role::Vision | Role::Console)
     }
 
-    /// The ICI settings: interest, export policy, and a slower team heartbeat for the
-    /// modules that have nothing for the team (saves team-link bytes).
+    /// The ICI settings: interest, and a slower team heartbeat for the modules that have
+    /// nothing for the team (saves team-link bytes). The export policy comes from the
+    /// role's files when they load.
     pub fn ici_config(self) -> IciConfig {
-        let mut config = IciConfig::default()
-            .interest(self.interest())
-            .export(self.export());
+        let mut config = IciConfig::default().interest(self.interest());
         // A catch-up answer can wait behind others on a 9600 bit/s radio: asking again
         // after the default 3 s would only queue more answers.
         config.catch_up_retry = Duration::from_secs(10);
-        if self.export().is_empty() {
+        if self.exports_to_team() {
+            config
+        } else {
             config.liveliness(
                 LinkKind::Team,
                 Duration::from_secs(2),
                 Duration::from_secs(5),
             )
-        } else {
-            config
         }
     }
 
@@ -99,6 +91,7 @@ impl Role {
     fn files(self) -> &'static [SlateFile] {
         match self {
             Role::Exec => &[files::ROBOT_OBJECTS, files::EXEC],
+            Role::Vision => &[files::ROBOT_OBJECTS, files::VISION],
             Role::Console => &[files::CONSOLE],
             _ => &[files::ROBOT_OBJECTS],
         }
