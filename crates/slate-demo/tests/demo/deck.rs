@@ -36,3 +36,67 @@ fn each_roles_team_export_from_its_files_equals_the_old_rust_one() {
         );
     }
 }
+
+/// A guard against hangs (a debug build runs one mission in about 10 s).
+const LIMIT: std::time::Duration = std::time::Duration::from_secs(300);
+
+/// The default mission for `seed` with a deck phase of 10 s.
+fn on_deck(seed: u64) -> DemoConfig {
+    DemoConfig::default()
+        .seed(seed)
+        .deck(Some(std::time::Duration::from_secs(10)))
+}
+
+/// The console's sent plans that their destination accepted.
+fn accepted_by_the_execs(demo: &Demo) -> usize {
+    let sent = demo.team.console().node.circuits().sent();
+    sent.iter()
+        .filter(|c| c.steps.contains(&slate_wire::PlanStep::Accepted))
+        .count()
+}
+
+#[test]
+fn on_deck_the_mission_plans_are_accepted_before_launch_and_wait_for_run() {
+    let demo = within(LIMIT, || {
+        let mut demo = Demo::start(on_deck(7)).unwrap();
+        while demo.time() < 9.5 {
+            demo.step();
+        }
+        demo
+    });
+    assert_eq!(demo.mission_phase(), "ready");
+    assert_eq!(accepted_by_the_execs(&demo), 3 * demo.team.robots.len());
+    for i in 0..demo.team.robots.len() {
+        let exec = demo.team.module(i, Role::Exec).node.board();
+        let phase = exec.read(&demo.team.robots[i], "phase").unwrap().value;
+        assert_eq!(phase, "ready".into(), "robot {i} left the deck");
+    }
+}
+
+#[test]
+fn a_deck_run_completes_at_three_robots_on_the_radio_with_its_bytes_set_apart() {
+    let s = within(LIMIT, || slate_demo::run(on_deck(7), &mut |_| {}).unwrap());
+    let text = s.to_text();
+    assert!(s.mission_complete, "{text}");
+    assert_eq!(s.duplicate_investigations, 0, "{text}");
+    assert_eq!(s.deck_seconds, Some(10.0));
+    assert!(
+        s.deck_bytes > 0 && s.deck_bytes < s.team_link_bytes,
+        "{text}"
+    );
+    let fault_at = s.fault.as_ref().map_or(0.0, |f| f.1);
+    assert!(
+        (fault_at - 40.0).abs() < 0.05,
+        "the fault is 30 s after launch: {fault_at}"
+    );
+    assert!(s.detection_seconds.is_some(), "{text}");
+    let json = s.to_json();
+    assert_eq!(json["deck_bytes"], s.deck_bytes);
+}
+
+#[test]
+fn a_deck_shorter_than_the_minimum_is_refused() {
+    let short = DemoConfig::default().deck(Some(std::time::Duration::from_secs(2)));
+    assert!(short.validate().is_err());
+    assert!(on_deck(7).validate().is_ok());
+}
