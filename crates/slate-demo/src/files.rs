@@ -35,8 +35,19 @@ pub const MISSION: SlateFile = file!("mission.slate");
 /// The console's own plans.
 pub const CONSOLE: SlateFile = file!("console.slate");
 
+/// The team link's filters on the acoustic channel (every module, after its own files).
+pub const LINK_ACOUSTIC: SlateFile = file!("link-acoustic.slate");
+
 /// Every file, in the order `slate check` can load them.
-pub const ALL: [SlateFile; 6] = [CLASSES, ROBOT_OBJECTS, EXEC, VISION, MISSION, CONSOLE];
+pub const ALL: [SlateFile; 7] = [
+    CLASSES,
+    ROBOT_OBJECTS,
+    EXEC,
+    VISION,
+    MISSION,
+    CONSOLE,
+    LINK_ACOUSTIC,
+];
 
 impl SlateFile {
     /// The text for robot `robot`: every `ROBOT` replaced by its name.

@@ -9,6 +9,7 @@ use slate_ici::{ClassSet, IciConfig, LinkKind};
 use slate_model::{Address, Context};
 use slate_node::Node;
 
+use crate::config::TeamMedium;
 use crate::error::DemoError;
 use crate::files::{self, SlateFile};
 use crate::net::Network;
@@ -87,6 +88,16 @@ impl Role {
         }
     }
 
+    /// The files this module loads after the classes and its role's files, for the team
+    /// link's medium: the acoustic channel's filters (every module writes some of the
+    /// attributes they filter, so every module loads them).
+    fn medium_files(medium: TeamMedium) -> &'static [SlateFile] {
+        match medium {
+            TeamMedium::Radio => &[],
+            TeamMedium::Acoustic => &[files::LINK_ACOUSTIC],
+        }
+    }
+
     /// The files this module loads after the classes: (file, robot it is for).
     fn files(self) -> &'static [SlateFile] {
         match self {
@@ -117,13 +128,15 @@ pub struct Module {
 impl Module {
     /// Starts a module on `net`: a node with the role's ICI settings, into which it then
     /// loads the classes and its role's files for its robot (the console also the mission
-    /// of each robot in `team`), as an operator loads files into a running node. The
+    /// of each robot in `team`), then the team link's files for `medium`, as an operator
+    /// loads files into a running node. The
     /// order is the demo's: its seeds' runs are what they were with the ICI started first.
     pub(crate) fn start(
         net: &Network,
         robot: &str,
         role: Role,
         team: &[String],
+        medium: TeamMedium,
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
@@ -144,6 +157,9 @@ impl Module {
             for r in team {
                 module.load_terse(files::MISSION, r)?;
             }
+        }
+        for file in Role::medium_files(medium) {
+            module.load(*file, robot)?;
         }
         Ok(module)
     }

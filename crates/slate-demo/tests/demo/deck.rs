@@ -2,7 +2,9 @@
 //! (mission plans sent before launch on a fast clean radio), and the acoustic link's
 //! report filters (`link-acoustic.slate`).
 
-use slate_demo::{Demo, DemoConfig, Role};
+use std::time::Duration;
+
+use slate_demo::{Demo, DemoConfig, Role, TeamLink, TeamMedium};
 use slate_ici::{ClassSet, LinkKind};
 use slate_model::Context;
 
@@ -23,7 +25,7 @@ fn export_once_in_rust(role: Role) -> ClassSet {
 
 #[test]
 fn each_roles_team_export_from_its_files_equals_the_old_rust_one() {
-    let demo = within(std::time::Duration::from_secs(20), || {
+    let demo = within(Duration::from_secs(20), || {
         Demo::start(DemoConfig::default().seed(3)).unwrap()
     });
     for m in &demo.team.modules {
@@ -38,13 +40,13 @@ fn each_roles_team_export_from_its_files_equals_the_old_rust_one() {
 }
 
 /// A guard against hangs (a debug build runs one mission in about 10 s).
-const LIMIT: std::time::Duration = std::time::Duration::from_secs(300);
+const LIMIT: Duration = Duration::from_secs(300);
 
 /// The default mission for `seed` with a deck phase of 10 s.
 fn on_deck(seed: u64) -> DemoConfig {
     DemoConfig::default()
         .seed(seed)
-        .deck(Some(std::time::Duration::from_secs(10)))
+        .deck(Some(Duration::from_secs(10)))
 }
 
 /// The console's sent plans that their destination accepted.
@@ -96,7 +98,53 @@ fn a_deck_run_completes_at_three_robots_on_the_radio_with_its_bytes_set_apart() 
 
 #[test]
 fn a_deck_shorter_than_the_minimum_is_refused() {
-    let short = DemoConfig::default().deck(Some(std::time::Duration::from_secs(2)));
+    let short = DemoConfig::default().deck(Some(Duration::from_secs(2)));
     assert!(short.validate().is_err());
     assert!(on_deck(7).validate().is_ok());
+}
+
+#[test]
+fn every_module_on_the_acoustic_channel_loads_its_filters_and_keeps_its_export() {
+    let config = DemoConfig::default()
+        .seed(3)
+        .team_link(TeamLink::of(TeamMedium::Acoustic, Some(400)));
+    let demo = within(LIMIT, || Demo::start(config).unwrap());
+    for m in &demo.team.modules {
+        let policy = m.node.ici().link_policy(LinkKind::Team).unwrap();
+        assert_eq!(
+            policy.heartbeat,
+            Some(Duration::from_secs(20)),
+            "{}",
+            m.address()
+        );
+        assert_eq!(
+            policy.timeout,
+            Some(Duration::from_secs(90)),
+            "{}",
+            m.address()
+        );
+        let heading = ("Robot".to_owned(), "heading".to_owned());
+        assert!(policy.reports.contains_key(&heading), "{}", m.address());
+        assert_eq!(
+            policy.export,
+            export_once_in_rust(m.role),
+            "{}",
+            m.address()
+        );
+    }
+}
+
+#[test]
+fn on_the_radio_no_module_has_team_filters() {
+    let demo = within(LIMIT, || {
+        Demo::start(DemoConfig::default().seed(3)).unwrap()
+    });
+    for m in &demo.team.modules {
+        let policy = m.node.ici().link_policy(LinkKind::Team).unwrap_or_default();
+        assert!(
+            policy.reports.is_empty() && policy.heartbeat.is_none(),
+            "{}",
+            m.address()
+        );
+    }
 }
