@@ -124,10 +124,14 @@ impl TeamLink {
         }
     }
 
-    /// The deck's link before launch: radios of [`DECK_BPS`], no loss.
-    pub fn deck() -> TeamLink {
+    /// The deck's link before launch, for a mission on `mission`: radios of
+    /// [`DECK_BPS`], no loss, cut into the mission link's frames (with no frame
+    /// overhead) so that the largest frame the summary reports is the mission link's
+    /// whatever the deck carried; frames cost nothing on a clean fast link.
+    pub fn deck(mission: &TeamLink) -> TeamLink {
         TeamLink {
             loss: 0.0,
+            frame_bytes: mission.frame_bytes,
             ..TeamLink::radio(DECK_BPS)
         }
     }

@@ -59,6 +59,8 @@ pub struct Demo {
     step: u64,
     /// Has the mission launched (always, without a deck phase)?
     launched: bool,
+    /// Team-link bytes per message kind sent on deck (empty without a deck phase).
+    deck_by_kind: std::collections::BTreeMap<slate_ici::MsgKind, u64>,
     fault_done: bool,
     started: Instant,
 }
@@ -82,6 +84,7 @@ impl Demo {
             .plan(&layout, layout.targets.len(), return_after);
         Ok(Demo {
             launched: config.deck.is_none(),
+            deck_by_kind: Default::default(),
             traffic: LinkRates::new(config.team_link.budget_bps),
             config,
             net,
@@ -134,6 +137,7 @@ impl Demo {
         self.launched = true;
         self.traffic.sample(&self.net, &self.team, self.world.time);
         self.traffic.launch();
+        self.deck_by_kind = by_kind(&self.team, LinkKind::Team);
         self.net.set_team_link(&self.config.team_link);
     }
 
@@ -220,12 +224,7 @@ impl Demo {
         let found = targets.iter().filter(|t| !t.found_by.is_empty()).count();
         let fault = self.observer.fault.as_ref();
         let (sent, accepted, rejected) = self.plan_counts();
-        let kinds = |link| {
-            by_kind(&self.team, link)
-                .into_iter()
-                .map(|(k, b)| (k.name().to_owned(), b))
-                .collect()
-        };
+        let kinds = |link| names(&by_kind(&self.team, link));
         let team_bytes = self.traffic.bytes(LinkKind::Team);
         Summary {
             seed: self.config.seed,
@@ -269,6 +268,7 @@ impl Demo {
             team_channel: crate::traffic::team_channel(&self.net, &self.config.team_link),
             deck_seconds: self.config.deck.map(|d| d.as_secs_f64()),
             deck_bytes: self.traffic.deck_bytes,
+            deck_bytes_by_kind: names(&self.deck_by_kind),
         }
     }
 
@@ -325,10 +325,20 @@ impl Demo {
     }
 }
 
+/// Bytes per message kind, by the kinds' names.
+fn names(
+    by_kind: &std::collections::BTreeMap<slate_ici::MsgKind, u64>,
+) -> std::collections::BTreeMap<String, u64> {
+    by_kind
+        .iter()
+        .map(|(k, b)| (k.name().to_owned(), *b))
+        .collect()
+}
+
 /// The team link the run starts on: the deck's fast clean radio, or the mission's link.
 fn first_team_link(config: &DemoConfig) -> crate::config::TeamLink {
     match config.deck {
-        Some(_) => crate::config::TeamLink::deck(),
+        Some(_) => crate::config::TeamLink::deck(&config.team_link),
         None => config.team_link.clone(),
     }
 }

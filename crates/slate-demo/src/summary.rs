@@ -131,6 +131,9 @@ pub struct Summary {
     pub deck_seconds: Option<f64>,
     /// Team-link bytes on deck, before launch (0 without a deck phase).
     pub deck_bytes: u64,
+    /// Team-link bytes on deck per message kind, as the ICIs sent them (part of
+    /// [`Self::team_bytes_by_kind`]; empty without a deck phase).
+    pub deck_bytes_by_kind: BTreeMap<String, u64>,
 }
 
 impl Summary {
@@ -246,6 +249,7 @@ impl Summary {
         if let Some(seconds) = self.deck_seconds {
             map.insert("deck_seconds".into(), json!(round(seconds)));
             map.insert("deck_bytes".into(), json!(self.deck_bytes));
+            map.insert("deck_bytes_by_kind".into(), json!(self.deck_bytes_by_kind));
         }
         map
     }

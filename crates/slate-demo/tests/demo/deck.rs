@@ -148,3 +148,29 @@ fn on_the_radio_no_module_has_team_filters() {
         );
     }
 }
+
+#[test]
+fn the_plans_sent_on_deck_before_an_acoustic_mission_travel_in_its_frames() {
+    let config = DemoConfig::default()
+        .seed(3)
+        .robots(1)
+        .duration(Duration::from_secs(10))
+        .fault_at(None)
+        .deck(Some(Duration::from_secs(5)))
+        .team_link(TeamLink::of(TeamMedium::Acoustic, Some(400)));
+    let s = within(LIMIT, || slate_demo::run(config, &mut |_| {}).unwrap());
+    let channel = s.team_channel.clone().expect("the simulator's channel");
+    assert!(channel.largest_frame_bytes <= 32, "{}", s.to_text());
+    assert!(
+        channel.largest_message_bytes > 32,
+        "the plans: {}",
+        s.to_text()
+    );
+    assert!(
+        s.deck_bytes_by_kind.get("plan").is_some_and(|b| *b > 0),
+        "{:?}",
+        s.deck_bytes_by_kind
+    );
+    assert!(s.plans_accepted >= 3, "{}", s.to_text());
+    assert_eq!(s.plans_accepted, s.plans_sent, "{}", s.to_text());
+}
