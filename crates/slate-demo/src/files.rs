@@ -30,6 +30,8 @@ pub const ROBOT_OBJECTS: SlateFile = file!("robot.slate");
 pub const EXEC: SlateFile = file!("exec.slate");
 /// The vision module's team export (per robot).
 pub const VISION: SlateFile = file!("vision.slate");
+/// The team heartbeat of the modules that export nothing (per robot).
+pub const QUIET: SlateFile = file!("quiet.slate");
 /// The console's mission for one robot (per robot, loaded on the console).
 pub const MISSION: SlateFile = file!("mission.slate");
 /// The console's own plans.
@@ -39,11 +41,12 @@ pub const CONSOLE: SlateFile = file!("console.slate");
 pub const LINK_ACOUSTIC: SlateFile = file!("link-acoustic.slate");
 
 /// Every file, in the order `slate check` can load them.
-pub const ALL: [SlateFile; 7] = [
+pub const ALL: [SlateFile; 8] = [
     CLASSES,
     ROBOT_OBJECTS,
     EXEC,
     VISION,
+    QUIET,
     MISSION,
     CONSOLE,
     LINK_ACOUSTIC,

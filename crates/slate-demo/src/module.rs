@@ -5,7 +5,7 @@
 
 use std::time::Duration;
 
-use slate_ici::{ClassSet, IciConfig, LinkKind};
+use slate_ici::{ClassSet, IciConfig};
 use slate_model::{Address, Context};
 use slate_node::Node;
 
@@ -62,30 +62,15 @@ impl Role {
         }
     }
 
-    /// Whether the module has anything for the team: its role's file exports classes on
-    /// the team link (`link team { export ...; }` in exec.slate, vision.slate and
-    /// console.slate; the export policy lives in the files, not here).
-    fn exports_to_team(self) -> bool {
-        matches!(self, Role::Exec | Role::Vision | Role::Console)
-    }
-
-    /// The ICI settings: interest, and a slower team heartbeat for the modules that have
-    /// nothing for the team (saves team-link bytes). The export policy comes from the
-    /// role's files when they load.
+    /// The ICI settings: interest. The export policy and the slower team heartbeat of
+    /// the modules that export nothing come from the role's files when they load
+    /// (`link team` blocks).
     pub fn ici_config(self) -> IciConfig {
         let mut config = IciConfig::default().interest(self.interest());
         // A catch-up answer can wait behind others on a 9600 bit/s radio: asking again
         // after the default 3 s would only queue more answers.
         config.catch_up_retry = Duration::from_secs(10);
-        if self.exports_to_team() {
-            config
-        } else {
-            config.liveliness(
-                LinkKind::Team,
-                Duration::from_secs(2),
-                Duration::from_secs(5),
-            )
-        }
+        config
     }
 
     /// The files this module loads after the classes and its role's files, for the team
@@ -104,7 +89,7 @@ impl Role {
             Role::Exec => &[files::ROBOT_OBJECTS, files::EXEC],
             Role::Vision => &[files::ROBOT_OBJECTS, files::VISION],
             Role::Console => &[files::CONSOLE],
-            _ => &[files::ROBOT_OBJECTS],
+            Role::Nav | Role::Prox | Role::Loco => &[files::ROBOT_OBJECTS, files::QUIET],
         }
     }
 }

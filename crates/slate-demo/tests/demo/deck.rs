@@ -134,18 +134,23 @@ fn every_module_on_the_acoustic_channel_loads_its_filters_and_keeps_its_export()
     }
 }
 
+/// The team heartbeat the modules that export nothing had in Rust (`Role::ici_config`):
+/// 2 s, timeout 5 s; the others kept the default.
+fn heartbeat_once_in_rust(role: Role) -> Option<(Duration, Duration)> {
+    let quiet = (Duration::from_secs(2), Duration::from_secs(5));
+    matches!(role, Role::Nav | Role::Prox | Role::Loco).then_some(quiet)
+}
+
 #[test]
-fn on_the_radio_no_module_has_team_filters() {
+fn on_the_radio_no_module_has_team_filters_and_the_quiet_ones_heartbeat_slower() {
     let demo = within(LIMIT, || {
         Demo::start(DemoConfig::default().seed(3)).unwrap()
     });
     for m in &demo.team.modules {
         let policy = m.node.ici().link_policy(LinkKind::Team).unwrap_or_default();
-        assert!(
-            policy.reports.is_empty() && policy.heartbeat.is_none(),
-            "{}",
-            m.address()
-        );
+        assert!(policy.reports.is_empty(), "{}", m.address());
+        let heartbeat = policy.heartbeat.zip(policy.timeout);
+        assert_eq!(heartbeat, heartbeat_once_in_rust(m.role), "{}", m.address());
     }
 }
 
