@@ -181,6 +181,22 @@ pub struct DemoConfig {
     /// becomes [`Self::team_link`] and the mission runs. The mission's duration, its
     /// deadline and the fault count from launch.
     pub deck: Option<Duration>,
+    /// Who speaks on the team link: every module (today's protocol, the default) or one
+    /// gateway per robot (the team protocol being built, docs/team-protocol.md).
+    pub speakers: Speakers,
+}
+
+/// Who speaks on the team link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Speakers {
+    /// Every module greets, heartbeats and catches up with every module of the other
+    /// robots (the protocol in docs/ici.md).
+    #[default]
+    Modules,
+    /// One gateway per robot relays its modules' exports as one robot stream, repaired by
+    /// NACK (`IciConfig::team_protocol`; docs/team-protocol.md). Being built: not every
+    /// step of its plan is in yet.
+    Robots,
 }
 
 impl Default for DemoConfig {
@@ -196,6 +212,7 @@ impl Default for DemoConfig {
             fault_at: Some(30.0),
             team_link: TeamLink::default(),
             deck: None,
+            speakers: Speakers::Modules,
         }
     }
 }
@@ -241,6 +258,12 @@ impl DemoConfig {
     /// Sets the team link.
     pub fn team_link(mut self, link: TeamLink) -> Self {
         self.team_link = link;
+        self
+    }
+
+    /// Sets who speaks on the team link.
+    pub fn speakers(mut self, speakers: Speakers) -> Self {
+        self.speakers = speakers;
         self
     }
 

@@ -40,7 +40,7 @@ pub mod world;
 
 pub use config::{
     ACOUSTIC_FRAME_BYTES, ACOUSTIC_FRAME_OVERHEAD, ACOUSTIC_MAX_QUEUE, DECK_BPS, DemoConfig,
-    MAX_ROBOTS, MIN_DECK, TeamLink, TeamMedium,
+    MAX_ROBOTS, MIN_DECK, Speakers, TeamLink, TeamMedium,
 };
 pub use consistency::{TEAM_CLASSES, disagreement};
 pub use error::DemoError;

@@ -5,11 +5,11 @@
 
 use std::time::Duration;
 
-use slate_ici::{ClassSet, IciConfig};
+use slate_ici::{ClassSet, IciConfig, TeamProtocol};
 use slate_model::{Address, Context};
 use slate_node::Node;
 
-use crate::config::TeamMedium;
+use crate::config::{Speakers, TeamMedium};
 use crate::error::DemoError;
 use crate::files::{self, SlateFile};
 use crate::net::Network;
@@ -65,12 +65,31 @@ impl Role {
     /// The ICI settings: interest. The export policy and the slower team heartbeat of
     /// the modules that export nothing come from the role's files when they load
     /// (`link team` blocks).
-    pub fn ici_config(self) -> IciConfig {
+    pub fn ici_config(self, speakers: Speakers, medium: TeamMedium) -> IciConfig {
         let mut config = IciConfig::default().interest(self.interest());
         // A catch-up answer can wait behind others on a 9600 bit/s radio: asking again
         // after the default 3 s would only queue more answers.
         config.catch_up_retry = Duration::from_secs(10);
+        if speakers == Speakers::Robots {
+            let preset = match medium {
+                TeamMedium::Radio => TeamProtocol::radio(),
+                TeamMedium::Acoustic => TeamProtocol::acoustic(),
+            };
+            config = config.team_protocol(Some(preset.priority(Some(self.gateway_priority()))));
+        }
         config
+    }
+
+    /// Its place in its robot's gateway election (lowest first): the execution
+    /// controller, which exports the most, then vision; the console is alone at the base.
+    fn gateway_priority(self) -> u8 {
+        match self {
+            Role::Exec | Role::Console => 0,
+            Role::Vision => 1,
+            Role::Nav => 2,
+            Role::Loco => 3,
+            Role::Prox => 4,
+        }
     }
 
     /// The files this module loads after the classes and its role's files, for the team
@@ -121,14 +140,14 @@ impl Module {
         robot: &str,
         role: Role,
         team: &[String],
-        medium: TeamMedium,
+        (medium, speakers): (TeamMedium, Speakers),
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
         let node = Node::builder(address.clone())
             .transport(net.join(&address)?)
             .clock(net.clock())
-            .ici(role.ici_config())
+            .ici(role.ici_config(speakers, medium))
             .start()?;
         let module = Module {
             role,

@@ -75,7 +75,12 @@ impl Demo {
         };
         let layout = Layout::generate(config.seed, config.robots);
         let world = World::new(&layout, config.seed);
-        let mut team = Team::start(&net, &layout, config.seed, config.team_link.medium)?;
+        let mut team = Team::start(
+            &net,
+            &layout,
+            config.seed,
+            (config.team_link.medium, config.speakers),
+        )?;
         let return_after = config.duration.as_secs_f64() * 0.8;
         if config.deck.is_some() {
             team.operator.deck_until(config.launch_seconds());

@@ -1,7 +1,7 @@
 //! The team: the operator console and the robots, each robot five modules (five boards,
 //! five ICIs) and the drivers of its sensors and effector.
 
-use crate::config::TeamMedium;
+use crate::config::{Speakers, TeamMedium};
 use crate::drivers::{Loco, Nav, Operator, Prox, RobotDrivers, Vision};
 use crate::error::DemoError;
 use crate::module::{Module, Role};
@@ -26,20 +26,21 @@ pub struct Team {
 }
 
 impl Team {
-    /// Starts every module on `net` (with the files of the team link's `medium`) and the
-    /// drivers (the console first).
+    /// Starts every module on `net` (with the files of the team link's medium, and its
+    /// speakers: every module or one gateway per robot) and the drivers (the console
+    /// first).
     pub(crate) fn start(
         net: &Network,
         layout: &Layout,
         seed: u64,
-        medium: TeamMedium,
+        link: (TeamMedium, Speakers),
     ) -> Result<Team, DemoError> {
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
-        let console = Module::start(net, BASE, Role::Console, &robots, medium)?;
+        let console = Module::start(net, BASE, Role::Console, &robots, link)?;
         let mut modules = vec![console];
         for robot in &robots {
             for role in Role::ROBOT {
-                modules.push(Module::start(net, robot, role, &robots, medium)?);
+                modules.push(Module::start(net, robot, role, &robots, link)?);
             }
         }
         let operator = Operator::new(modules[0].node.board().clone());

@@ -15,6 +15,9 @@ mod mission;
 // The team at scale (up to 32 robots) and the acoustic channel.
 #[path = "demo/scale.rs"]
 mod scale;
+// `--speakers robots`: one gateway per robot (the team protocol being built).
+#[path = "demo/speakers.rs"]
+mod speakers;
 // Shared helpers: fast configurations (and the shared timeout guard).
 #[path = "demo/support.rs"]
 mod support;

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::ValueEnum;
-use slate_demo::{DemoConfig, NetworkKind, Progress, TeamLink, TeamMedium};
+use slate_demo::{DemoConfig, NetworkKind, Progress, Speakers, TeamLink, TeamMedium};
 
 use crate::cli::Format;
 
@@ -46,6 +46,12 @@ pub struct DemoArgs {
     /// deadline, fault and rates count from launch; the summary reports deck_bytes.
     #[arg(long, value_name = "SECONDS")]
     pub deck: Option<f64>,
+
+    /// Who speaks on the team link: every module (the protocol in docs/ici.md), or one
+    /// gateway per robot relaying its modules' exports as one stream repaired by NACK
+    /// (docs/team-protocol.md; being built, opt-in until it passes every test).
+    #[arg(long, value_enum, default_value_t = SpeakersArg::Modules)]
+    pub speakers: SpeakersArg,
 
     /// Serve the live dashboard at this address, like 127.0.0.1:8080 (the simulator then
     /// runs at real time so people can watch).
@@ -97,6 +103,15 @@ pub enum TeamLinkArg {
     Acoustic,
 }
 
+/// Who speaks on the team link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SpeakersArg {
+    /// Every module (the per-module protocol).
+    Modules,
+    /// One gateway per robot (the team protocol being built).
+    Robots,
+}
+
 /// Runs the demo; exits 0 when the mission completes, 1 when it does not.
 pub fn run(args: &DemoArgs, format: Format) -> anyhow::Result<ExitCode> {
     let config = config(args)?;
@@ -141,6 +156,10 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         .duration(Duration::from_secs_f64(args.duration))
         .fault_at((!args.no_fault).then_some(args.fault_at))
         .deck(args.deck.map(Duration::from_secs_f64))
+        .speakers(match args.speakers {
+            SpeakersArg::Modules => Speakers::Modules,
+            SpeakersArg::Robots => Speakers::Robots,
+        })
         .team_link(TeamLink::of(
             match args.team_link {
                 TeamLinkArg::Radio => TeamMedium::Radio,
