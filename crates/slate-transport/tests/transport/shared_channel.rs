@@ -93,9 +93,10 @@ fn a_100_byte_message_on_a_32_byte_frame_channel_takes_4_frames() {
     assert_eq!(got, vec![(expected, addr("team/r1/m"), 100)]);
 }
 
-#[test]
-fn two_senders_on_a_shared_channel_queue_behind_each_other() {
-    let net = net_with(acoustic(0.0), 2);
+/// Two senders publish one full frame each at the same instant; returns the net, the
+/// instant they sent at and when each message arrived.
+fn two_senders_one_frame_each(team_link: LinkConfig) -> (SimNet, Duration, Vec<Duration>) {
+    let net = net_with(team_link, 2);
     let (tx, arrivals) = team(&net, &["team/r1/m", "team/r2/m"]);
     let sent_at = net.now();
     for t in &tx {
@@ -104,6 +105,12 @@ fn two_senders_on_a_shared_channel_queue_behind_each_other() {
     }
     net.run_for(Duration::from_secs(5));
     let times: Vec<Duration> = arrivals.got.lock().unwrap().iter().map(|g| g.0).collect();
+    (net, sent_at, times)
+}
+
+#[test]
+fn two_senders_on_a_shared_channel_queue_behind_each_other() {
+    let (net, sent_at, times) = two_senders_one_frame_each(acoustic(0.0));
     let first = sent_at + frame_airtime() + DELAY;
     assert_eq!(times, vec![first, first + frame_airtime()]);
     let r2 = net.stats().radios[&(addr("team/r2/m"), LinkKind::Team)];
@@ -113,15 +120,7 @@ fn two_senders_on_a_shared_channel_queue_behind_each_other() {
 #[test]
 fn senders_with_their_own_radios_do_not_queue_behind_each_other() {
     let own_radios = LinkConfig::clean().delay(DELAY).bandwidth(RATE);
-    let net = net_with(own_radios, 2);
-    let (tx, arrivals) = team(&net, &["team/r1/m", "team/r2/m"]);
-    let sent_at = net.now();
-    for t in &tx {
-        t.publish(LinkKind::Team, MsgKind::Report, &[1; FRAME])
-            .unwrap();
-    }
-    net.run_for(Duration::from_secs(5));
-    let times: Vec<Duration> = arrivals.got.lock().unwrap().iter().map(|g| g.0).collect();
+    let (net, sent_at, times) = two_senders_one_frame_each(own_radios);
     let both = sent_at + Duration::from_millis(320) + DELAY;
     assert_eq!(times, vec![both, both]);
     assert_eq!(net.stats().channels[&LinkKind::Team].frames_sent, 2);

@@ -298,11 +298,10 @@ fn set_team_link_changes_delay_and_loss_from_then_on() {
     assert_eq!(net.config().team, LinkConfig::clean().loss(1.0));
 }
 
-#[test]
-fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
-    // 100 bytes at 800 bit/s: 1 s on the air.
-    let deck = LinkConfig::clean().bandwidth(800);
-    let net = net_with(deck, 9);
+/// Publishes 100 bytes from one of three robots, switches the team link to `after`, publishes
+/// again, and returns when the third robot heard each, counted from the first publication.
+fn arrivals_across_a_switch(before: LinkConfig, after: LinkConfig, seed: u64) -> Vec<Duration> {
+    let net = net_with(before, seed);
     let addresses = ["team/r1/a", "team/r2/b", "team/r3/c"].map(str::to_owned);
     let t = join_all(&net, &addresses);
     net.run_for(Duration::from_millis(500));
@@ -310,33 +309,33 @@ fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
     t[0].0
         .publish(LinkKind::Team, MsgKind::Report, &[1; 100])
         .expect("publish");
-    net.set_team_link(deck.shared());
+    net.set_team_link(after);
     t[1].0
         .publish(LinkKind::Team, MsgKind::Report, &[2; 100])
         .expect("publish");
     net.run_for(Duration::from_secs(3));
+    t[2].1.times().into_iter().map(|at| at - start).collect()
+}
+
+#[test]
+fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
+    // 100 bytes at 800 bit/s: 1 s on the air.
+    let deck = LinkConfig::clean().bandwidth(800);
     let second = Duration::from_secs(1);
-    assert_eq!(t[2].1.times(), vec![start + second, start + second * 2]);
+    assert_eq!(
+        arrivals_across_a_switch(deck, deck.shared(), 9),
+        vec![second, second * 2]
+    );
 }
 
 #[test]
 fn leaving_a_shared_channel_waits_for_what_is_on_the_air() {
     let acoustic = LinkConfig::clean().bandwidth(800).shared();
-    let net = net_with(acoustic, 12);
-    let addresses = ["team/r1/a", "team/r2/b", "team/r3/c"].map(str::to_owned);
-    let t = join_all(&net, &addresses);
-    net.run_for(Duration::from_millis(500));
-    let start = net.now();
-    t[0].0
-        .publish(LinkKind::Team, MsgKind::Report, &[1; 100])
-        .expect("publish");
-    net.set_team_link(LinkConfig::clean().bandwidth(800));
-    t[1].0
-        .publish(LinkKind::Team, MsgKind::Report, &[2; 100])
-        .expect("publish");
-    net.run_for(Duration::from_secs(3));
     let second = Duration::from_secs(1);
-    assert_eq!(t[2].1.times(), vec![start + second, start + second * 2]);
+    assert_eq!(
+        arrivals_across_a_switch(acoustic, LinkConfig::clean().bandwidth(800), 12),
+        vec![second, second * 2]
+    );
 }
 
 #[test]
