@@ -300,10 +300,7 @@ fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
     // Only r1 has an object of the class: r2 finds the conflict, and r1 must hear of it.
     let nav = team.board("t/r1/nav");
     nav.create("Sonar", "s1").unwrap();
-    for i in 0..5 {
-        nav.write("s1", "ping", f64::from(i)).unwrap();
-        team.run(1.0);
-    }
+    team.write_series("t/r1/nav", "s1", "ping", 0..5, 1.0);
     let sonar = || "Sonar".to_owned();
     assert_eq!(conflicts(&other_events), [(sonar(), "t/r1/nav".to_owned())]);
     assert_eq!(conflicts(&nav_events), [(sonar(), "t/r2/nav".to_owned())]);

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use slate_ici::{Ici, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
+use slate_ici::{Ici, IciConfig, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
 use slate_model::{Context, NewObject, Timestamp, Update, Value};
 
 use crate::support::{Member, Team, addr, classes, open, secs, workload};
@@ -313,8 +313,7 @@ fn a_restarted_module_leaves_the_team_its_newer_values_and_gets_them_back() {
         .unwrap();
     team.run(1.0);
     assert_eq!(speed(&team, "t/r1/nav"), Some(5.0));
-    team.net.kill(&addr("t/r2/operator"));
-    team.members.retain(|n| n.address != addr("t/r2/operator"));
+    team.kill("t/r2/operator");
     team.run(0.3);
     team.net.kill(&addr("t/r1/nav"));
     team.run(0.3);
@@ -345,6 +344,18 @@ fn initial_values_written_while_running_reach_the_team_and_are_not_stale() {
     assert_eq!(stats.rejects.stale, 0, "{:?}", stats.rejects);
 }
 
+/// Ten modules `t/r1/cli-{i}` with `config` join one after another, each killed half a
+/// second after it joined.
+fn come_and_go(team: &mut Team, config: IciConfig) {
+    for i in 0..10 {
+        let cli = format!("t/r1/cli-{i}");
+        team.add(&cli, config.clone());
+        team.run(0.5);
+        team.kill(&cli);
+        team.run(0.5);
+    }
+}
+
 #[test]
 fn modules_that_come_and_go_leave_no_lasting_module_objects() {
     let mut team = Team::new(36);
@@ -354,14 +365,7 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
     team.run(1.0);
     let objects = |team: &Team, n: &str| team.board(n).stats().objects;
     let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
-    for i in 0..10 {
-        let cli = format!("t/r1/cli-{i}");
-        team.add(&cli, open());
-        team.run(0.5);
-        team.net.kill(&addr(&cli));
-        team.members.retain(|n| n.address != addr(&cli));
-        team.run(0.5);
-    }
+    come_and_go(&mut team, open());
     assert!(
         objects(&team, "t/r1/nav") > before.0,
         "each was a module while it lived"
@@ -384,14 +388,7 @@ fn observers_leave_no_module_object_once_they_are_gone() {
     team.run(1.0);
     let objects = |team: &Team, n: &str| team.board(n).stats().objects;
     let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
-    for i in 0..10 {
-        let cli = format!("t/r1/cli-{i}");
-        team.add(&cli, open().observer(true));
-        team.run(0.5);
-        team.net.kill(&addr(&cli));
-        team.members.retain(|n| n.address != addr(&cli));
-        team.run(0.5);
-    }
+    come_and_go(&mut team, open().observer(true));
     // Well within the default forget_dead (10 min): a module would still be there.
     team.run(5.0);
     let after = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
@@ -401,8 +398,7 @@ fn observers_leave_no_module_object_once_they_are_gone() {
     // A module that is no observer is remembered, dead, for forget_dead.
     team.add("t/r1/vision", open());
     team.run(0.5);
-    team.net.kill(&addr("t/r1/vision"));
-    team.members.retain(|n| n.address != addr("t/r1/vision"));
+    team.kill("t/r1/vision");
     team.run(5.0);
     let vision = module_object_name(&addr("t/r1/vision"));
     let alive = team

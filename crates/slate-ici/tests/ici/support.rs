@@ -136,6 +136,30 @@ impl Team {
         self.net.run_for(secs(s));
     }
 
+    /// Kills the module at `address` on the network and drops it from the team.
+    pub fn kill(&mut self, address: &str) {
+        let a = addr(address);
+        self.net.kill(&a);
+        self.members.retain(|n| n.address != a);
+    }
+
+    /// Writes each of `values` to `object.attr` on the board at `board`, running the team
+    /// `dt` seconds after each write.
+    pub fn write_series(
+        &self,
+        board: &str,
+        object: &str,
+        attr: &str,
+        values: impl IntoIterator<Item = u32>,
+        dt: f64,
+    ) {
+        let board = self.board(board);
+        for v in values {
+            board.write(object, attr, f64::from(v)).unwrap();
+            self.run(dt);
+        }
+    }
+
     /// Runs in one-second steps until the boards agree or `max` seconds pass; returns
     /// the last disagreement.
     pub fn settle(&self, max: u32) -> Option<String> {
