@@ -241,13 +241,17 @@ fn a_publication_nobody_listens_to_still_goes_on_the_air() {
     assert!(t[0].1.tags().is_empty() && t[1].1.tags().is_empty());
 }
 
-#[test]
-fn without_team_liveliness_no_peer_events_cross_robots() {
+fn without_team_liveliness(seed: u64) -> SimNet {
     let config = SimConfig {
         team_liveliness: false,
         ..SimConfig::default()
     };
-    let net = SimNet::with_config(6, config);
+    SimNet::with_config(seed, config)
+}
+
+#[test]
+fn without_team_liveliness_no_peer_events_cross_robots() {
+    let net = without_team_liveliness(6);
     let t = trio(&net);
     assert_eq!(t[0].0.peers(), vec![addr("team/r1/b")]);
     assert!(t[2].0.peers().is_empty());
@@ -263,11 +267,7 @@ fn without_team_liveliness_no_peer_events_cross_robots() {
 
 #[test]
 fn without_team_liveliness_team_messages_still_cross() {
-    let config = SimConfig {
-        team_liveliness: false,
-        ..SimConfig::default()
-    };
-    let net = SimNet::with_config(7, config);
+    let net = without_team_liveliness(7);
     let t = trio(&net);
     publish(&t[0].0, LinkKind::Team, 1);
     t[0].0
