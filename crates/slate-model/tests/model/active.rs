@@ -508,6 +508,17 @@ fn a_function_on_another_thread_starts_its_own_chain() {
     assert_eq!(runs(), 3);
 }
 
+/// Runs `f` on a thread with a large stack (and waits for it), so that a board without
+/// the bound on nesting fails the assertion, not the run.
+fn on_a_large_stack(f: impl FnOnce() + Send + 'static) {
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap();
+}
+
 #[test]
 fn a_thread_nests_no_more_functions_than_its_stack_allows_whatever_the_limit() {
     let b = Arc::new(
@@ -535,14 +546,8 @@ fn a_thread_nests_no_more_functions_than_its_stack_allows_whatever_the_limit() {
     })
     .unwrap();
     let events = b.events();
-    // A large stack, so that a board without the bound fails the assertion, not the run.
     let b2 = b.clone();
-    std::thread::Builder::new()
-        .stack_size(256 << 20)
-        .spawn(move || b2.read("h0", "x").unwrap())
-        .unwrap()
-        .join()
-        .unwrap();
+    on_a_large_stack(move || drop(b2.read("h0", "x").unwrap()));
     assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
     let cut = events.try_iter().find_map(|e| match e {
         BoardEvent::ChainCut(c) => Some(c),
@@ -573,12 +578,7 @@ fn functions_hopping_across_many_boards_are_bounded_too() {
         .unwrap();
     }
     let first = boards[0].clone();
-    std::thread::Builder::new()
-        .stack_size(256 << 20)
-        .spawn(move || first.read("v", "mode").unwrap())
-        .unwrap()
-        .join()
-        .unwrap();
+    on_a_large_stack(move || drop(first.read("v", "mode").unwrap()));
     assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
 }
 
