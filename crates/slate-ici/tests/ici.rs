@@ -36,6 +36,9 @@ mod plans;
 // Random fault mixes on a small team, from many seeds: every board must agree.
 #[path = "ici/random.rs"]
 mod random;
+// Robot-stream repair: NACK with suppression, one broadcast repair, hello NACK, Gone.
+#[path = "ici/repair.rs"]
+mod repair;
 // A team on a simulated network, and the convergence check (the helper module).
 #[path = "ici/support.rs"]
 mod support;

@@ -373,9 +373,9 @@ pub trait Transport: Send + Sync {
     /// publications are concerned: sends addressed to the endpoint and peer events still
     /// arrive, and the endpoint may still publish and send on `link`.
     ///
-    /// Returns whether the transport honours the choice. `false` (this default, and
-    /// transports that cannot choose what they receive, e.g. slate-zenoh until it
-    /// undeclares its team subscriber) means nothing changed: the endpoint keeps
+    /// Returns whether the transport honours the choice (the simulator and slate-zenoh
+    /// do). `false` (this default, for transports that cannot choose what they
+    /// receive) means nothing changed: the endpoint keeps
     /// receiving every publication, whatever `on` says, and the ICI must expect them.
     fn listen(&self, link: LinkKind, on: bool) -> bool {
         let _ = (link, on);

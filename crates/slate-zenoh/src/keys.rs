@@ -4,6 +4,7 @@
 //! slate/pub/{link}/{team}/{robot}/{module}                         publications
 //! slate/to/{team}/{robot}/{module}/from/{team}/{robot}/{module}    direct sends
 //! slate/alive/{team}/{robot}/{module}                              liveliness tokens
+//! slate/sync/{team}/{robot}/{module}                               listen barriers
 //! ```
 //! A key names the sending module (and the addressee); the message kind is the first byte
 //! of the payload, so that a module needs one key per link kind and one per addressee,
@@ -61,6 +62,22 @@ pub fn alive_in(team: &str) -> String {
     format!("{ROOT}/alive/{team}/*/*")
 }
 
+/// Where `me` answers the listen barrier: a query on it is answered once every message
+/// the querier sent before it has been processed (one link, in order), so a subscription
+/// declared before the query is known here when the answer leaves.
+pub fn sync(me: &Address) -> String {
+    format!("{ROOT}/sync/{me}")
+}
+
+/// The barriers of every module that publishes on `link` to `me`: its robot's modules for
+/// the robot link, the whole team for the team link (as [`publications_for`]).
+pub fn sync_for(me: &Address, link: LinkKind) -> String {
+    match link {
+        LinkKind::Robot => format!("{ROOT}/sync/{}/{}/*", me.team(), me.robot()),
+        LinkKind::Team => format!("{ROOT}/sync/{}/*/*", me.team()),
+    }
+}
+
 /// The sending module of a publication or direct key, or of a liveliness key.
 pub fn source(key: &str) -> Option<Address> {
     let parts: Vec<&str> = key.split('/').collect();
@@ -109,6 +126,14 @@ mod tests {
         );
         assert_eq!(inbox(&nav), "slate/to/t/r1/nav/from/*/*/*");
         assert_eq!(alive_in("t"), "slate/alive/t/*/*");
+    }
+
+    #[test]
+    fn a_listen_barrier_reaches_the_modules_that_publish_on_the_link() {
+        let nav = a("t/r1/nav");
+        assert_eq!(sync(&nav), "slate/sync/t/r1/nav");
+        assert_eq!(sync_for(&nav, LinkKind::Robot), "slate/sync/t/r1/*");
+        assert_eq!(sync_for(&nav, LinkKind::Team), "slate/sync/t/*/*");
     }
 
     /// A peer's declared keys are ones this module's subscriptions match.

@@ -1,7 +1,8 @@
 //! The ICI transport over Eclipse Zenoh.
 //!
 //! [`ZenohTransport`] implements [`slate_transport::Transport`]: publications per link kind,
-//! reliable direct sends, and liveliness tokens for peer up/down. By default a
+//! reliable direct sends, liveliness tokens for peer up/down, and listening per link kind
+//! (a link not listened to has no subscriber, so nothing of it is routed here). By default a
 //! node runs in peer mode with explicit endpoints and no multicast scouting, so a team on
 //! one LAN needs no router; a team that spans networks connects its nodes to Zenoh routers.
 //! Every key expression is built in [`keys`].

@@ -4,6 +4,7 @@ use std::collections::{BTreeSet, HashMap};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Weak, mpsc};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 use parking_lot::{Mutex, RwLock};
 use rustc_hash::FxHashMap;
@@ -14,6 +15,7 @@ use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
 use zenoh::qos::CongestionControl;
+use zenoh::query::{ConsolidationMode, Query, QueryTarget, Queryable};
 use zenoh::sample::{Locality, Sample, SampleKind};
 
 use crate::keys;
@@ -118,6 +120,12 @@ impl ZenohConfig {
     }
 }
 
+/// Longest wait, when a link is listened to again, for the modules that publish on it to
+/// confirm they know the new subscription ([`keys::sync`]): a peer that has not answered
+/// by then (slow or gone) may miss what it publishes meanwhile, which the ICI repairs as
+/// it does any loss.
+const LISTEN_BARRIER_TIMEOUT: Duration = Duration::from_secs(2);
+
 /// Key expressions whose source is remembered, at most (a few per peer are used).
 const MAX_SOURCES: usize = 4096;
 
@@ -136,16 +144,26 @@ pub(crate) struct Inner {
     handler: RwLock<Option<Arc<dyn Handler>>>,
     peers: Mutex<BTreeSet<Address>>,
     stats: Mutex<LinkStats>,
+    /// The inbox and liveliness subscribers.
     subscribers: Mutex<Vec<Subscriber<()>>>,
+    /// The queryable that answers other modules' listen barriers ([`keys::sync`]).
+    barrier: Mutex<Option<Queryable<()>>>,
+    /// The publication subscriber of each link kind listened to. A link not listened to
+    /// has none, so the other sessions route none of its publications here: a module not
+    /// listening costs the network nothing (`Transport::listen`).
+    listening: Mutex<FxHashMap<LinkKind, Subscriber<()>>>,
     /// A declared publisher per destination (Zenoh resolves its routes once, not on
     /// every put): one per link kind and one per peer.
     publishers: Mutex<FxHashMap<Dest, Arc<Publisher<'static>>>>,
     /// Each live peer's queue of reliable sends ([`Outbox`]), made on first send.
     outboxes: Mutex<FxHashMap<Address, Outbox>>,
-    /// The keys of each live peer's messages to this module, declared to this session
+    /// The keys of live peers' messages to this module, declared to this session
     /// ([`keys::from_peer`]): a message on a declared key is routed through a table; on
     /// any other, Zenoh matches its key against every subscription (about 10 µs of the
-    /// latency on 127.0.0.1).
+    /// latency on 127.0.0.1). Declared for each robot mate when it comes up, and for a
+    /// module of another robot only once a publication of it is heard on the team link
+    /// (with the team protocol, only gateways publish there): an empty entry is one
+    /// being declared.
     declared: Mutex<HashMap<Address, Vec<KeyExpr<'static>>>>,
     /// Peers up (`true`) and down, for the thread that declares their keys: a
     /// declaration made in a Zenoh callback may deadlock.
@@ -174,6 +192,8 @@ impl ZenohTransport {
             peers: Mutex::new(BTreeSet::new()),
             stats: Mutex::new(LinkStats::default()),
             subscribers: Mutex::new(Vec::new()),
+            barrier: Mutex::new(None),
+            listening: Mutex::new(FxHashMap::default()),
             publishers: Mutex::new(FxHashMap::default()),
             outboxes: Mutex::new(FxHashMap::default()),
             declared: Mutex::new(HashMap::new()),
@@ -195,61 +215,88 @@ impl ZenohTransport {
     }
 }
 
-/// Declares the subscriptions (robot and team publications, the inbox) and liveliness.
+/// Declares the subscriptions (robot and team publications, the inbox), the listen
+/// barrier and liveliness.
 fn declare(inner: &Arc<Inner>) -> zenoh::Result<()> {
-    let me = &inner.address;
-    let mut subs = Vec::new();
-    for (key, link) in [
-        (
-            keys::publications_for(me, LinkKind::Robot),
-            Some(LinkKind::Robot),
-        ),
-        (
-            keys::publications_for(me, LinkKind::Team),
-            Some(LinkKind::Team),
-        ),
-        (keys::inbox(me), None),
-    ] {
-        let weak = Arc::downgrade(inner);
-        let sub = inner
-            .session
-            .declare_subscriber(key)
-            .callback(move |s: Sample| {
-                if let Some(inner) = weak.upgrade() {
-                    inner.received(&s, link);
-                }
-            })
-            .wait()?;
-        subs.push(sub);
+    for link in [LinkKind::Robot, LinkKind::Team] {
+        let sub = subscribe(
+            inner,
+            keys::publications_for(&inner.address, link),
+            Some(link),
+        )?;
+        inner.listening.lock().insert(link, sub);
     }
+    let inbox = subscribe(inner, keys::inbox(&inner.address), None)?;
+    let alive = watch_liveliness(inner)?;
+    *inner.subscribers.lock() = vec![inbox, alive];
+    *inner.barrier.lock() = Some(declare_barrier(&inner.session, &inner.address)?);
+    *inner.token.lock() = Some(
+        inner
+            .session
+            .liveliness()
+            .declare_token(keys::alive(&inner.address))
+            .wait()?,
+    );
+    Ok(())
+}
+
+/// A subscriber on `key` whose samples `inner` receives as publications on `link`, or as
+/// direct sends when `link` is `None`.
+fn subscribe(
+    inner: &Arc<Inner>,
+    key: String,
+    link: Option<LinkKind>,
+) -> zenoh::Result<Subscriber<()>> {
     let weak = Arc::downgrade(inner);
-    let alive = inner
+    inner
+        .session
+        .declare_subscriber(key)
+        .callback(move |s: Sample| {
+            if let Some(inner) = weak.upgrade() {
+                inner.received(&s, link);
+            }
+        })
+        .wait()
+}
+
+/// The liveliness subscriber of the team: peers up and down.
+fn watch_liveliness(inner: &Arc<Inner>) -> zenoh::Result<Subscriber<()>> {
+    let weak = Arc::downgrade(inner);
+    inner
         .session
         .liveliness()
-        .declare_subscriber(keys::alive_in(me.team()))
+        .declare_subscriber(keys::alive_in(inner.address.team()))
         .history(true)
         .callback(move |s: Sample| {
             if let Some(inner) = weak.upgrade() {
                 inner.liveliness(&s);
             }
         })
-        .wait()?;
-    subs.push(alive);
-    *inner.subscribers.lock() = subs;
-    *inner.token.lock() = Some(
-        inner
-            .session
-            .liveliness()
-            .declare_token(keys::alive(me))
-            .wait()?,
-    );
-    Ok(())
+        .wait()
+}
+
+/// The queryable that answers listen barriers ([`keys::sync`]) with an empty reply. It
+/// holds no reference to the transport: answering needs only the session.
+fn declare_barrier(session: &zenoh::Session, me: &Address) -> zenoh::Result<Queryable<()>> {
+    let key = keys::sync(me);
+    let reply_key = key.clone();
+    session
+        .declare_queryable(key)
+        .callback(move |q: Query| {
+            if let Err(e) = q.reply(reply_key.as_str(), Vec::<u8>::new()).wait() {
+                tracing::debug!(error = %e, "listen barrier not answered");
+            }
+        })
+        .wait()
 }
 
 /// What the declarer thread does for a peer.
 enum Task {
-    /// The peer came up (`true`) or went down: declare or drop its keys.
+    /// The peer came up (`true`) or went down: declare (robot mates) or drop its keys.
     Keys(bool),
+    /// A publication of the peer, a module of another robot, was heard on the team link:
+    /// declare its keys.
+    Heard,
     /// The peer fell behind (`true`) or caught up with its queue: tell the handler it
     /// is down or up (never from inside a send).
     Congestion(bool),
@@ -269,6 +316,7 @@ fn spawn_declarer(inner: Weak<Inner>) -> std::io::Result<Declarer> {
                 let Some(inner) = inner.upgrade() else { return };
                 match task {
                     Task::Keys(up) => inner.declare_keys(&peer, up),
+                    Task::Heard => inner.declare_heard(&peer),
                     Task::Congestion(behind) => inner.report_congestion(&peer, behind),
                 }
             }
@@ -291,6 +339,9 @@ impl Inner {
         let link = link.unwrap_or(between);
         if link == LinkKind::Team && between == LinkKind::Robot {
             return; // team publications of my own robot's modules are not for me
+        }
+        if link == LinkKind::Team {
+            self.heard_on_team(&from);
         }
         let payload = s.payload().to_bytes();
         self.stats
@@ -380,13 +431,47 @@ impl Inner {
         peers.iter().filter(|p| !behind(p)).cloned().collect()
     }
 
-    /// Declares the keys of `peer`'s messages to this module (`up`), or drops them.
+    /// A publication of `from` (another robot's module, live or not yet seen up) was
+    /// heard on the team link: has the declarer declare its keys, once while it is up.
+    fn heard_on_team(&self, from: &Address) {
+        if !self.peers.lock().contains(from) {
+            return; // asked again at its next publication once it is up
+        }
+        let mut declared = self.declared.lock();
+        if declared.contains_key(from) {
+            return;
+        }
+        declared.insert(from.clone(), Vec::new());
+        drop(declared);
+        self.tell(from, Task::Heard);
+    }
+
+    /// Declares the keys of `peer`'s messages to this module when it comes up (`up`) if
+    /// it is a robot mate, or drops them when it goes down. A module of another robot has
+    /// its keys declared once it is heard on the team link ([`Inner::declare_heard`]).
     fn declare_keys(&self, peer: &Address, up: bool) {
         if !up {
             let gone = self.declared.lock().remove(peer);
             drop(gone); // undeclares, outside the lock
             return;
         }
+        if LinkKind::between(&self.address, peer) == LinkKind::Robot {
+            self.declare_peer_keys(peer);
+        }
+    }
+
+    /// Declares the keys of `peer`, heard on the team link, if it is still up. A later
+    /// down event of the peer runs on the same thread, after this, and drops them.
+    fn declare_heard(&self, peer: &Address) {
+        if self.peers.lock().contains(peer) {
+            self.declare_peer_keys(peer);
+        } else {
+            self.declared.lock().remove(peer);
+        }
+    }
+
+    /// Declares the keys ([`keys::from_peer`]) of `peer`'s messages to this module.
+    fn declare_peer_keys(&self, peer: &Address) {
         if self.closed.load(Ordering::Acquire) {
             return;
         }
@@ -398,6 +483,63 @@ impl Inner {
             }
         }
         self.declared.lock().insert(peer.clone(), declared);
+    }
+
+    /// Starts (`on`) or stops receiving the publications on `link` by declaring or
+    /// undeclaring its subscriber: the other sessions stop routing them here, so not
+    /// listening costs the network nothing. Listening again returns once the modules that
+    /// publish on `link` know the subscription ([`Inner::barrier`]).
+    fn listen(self: &Arc<Self>, link: LinkKind, on: bool) -> bool {
+        if self.closed.load(Ordering::Acquire) {
+            return true;
+        }
+        if !on {
+            let sub = self.listening.lock().remove(&link);
+            if let Some(sub) = sub {
+                let _ = sub.undeclare().wait();
+            }
+            return true;
+        }
+        if self.listening.lock().contains_key(&link) {
+            return true;
+        }
+        self.resubscribe(link);
+        true
+    }
+
+    /// Declares `link`'s subscriber again and waits for the publishers to know it.
+    fn resubscribe(self: &Arc<Self>, link: LinkKind) {
+        match subscribe(
+            self,
+            keys::publications_for(&self.address, link),
+            Some(link),
+        ) {
+            Ok(sub) => {
+                self.listening.lock().insert(link, sub);
+                self.barrier(link);
+            }
+            Err(e) => tracing::warn!(link = link.name(), error = %zenoh_text(&e), "cannot listen"),
+        }
+    }
+
+    /// Waits (at most [`LISTEN_BARRIER_TIMEOUT`]) until every module publishing on `link`
+    /// has answered a query sent after the subscriber's declaration. Zenoh processes a
+    /// link's messages in order, so a module that answered holds the declaration and
+    /// routes its next publications here. Without it, a publication made just after
+    /// `listen` returned would be routed by the old tables and missed.
+    fn barrier(&self, link: LinkKind) {
+        let replies = self
+            .session
+            .get(keys::sync_for(&self.address, link))
+            .target(QueryTarget::All)
+            .consolidation(ConsolidationMode::None)
+            .allowed_destination(Locality::Remote)
+            .timeout(LISTEN_BARRIER_TIMEOUT)
+            .wait();
+        match replies {
+            Ok(replies) => while replies.recv().is_ok() {},
+            Err(e) => tracing::debug!(error = %zenoh_text(&e), "listen barrier not sent"),
+        }
     }
 
     /// Publishes on `link` (Zenoh drops it if the link is congested).
@@ -516,6 +658,10 @@ impl Transport for ZenohTransport {
         self.inner.stats.lock().clone()
     }
 
+    fn listen(&self, link: LinkKind, on: bool) -> bool {
+        self.inner.listen(link, on)
+    }
+
     fn close(&self) {
         if self.inner.closed.swap(true, Ordering::AcqRel) {
             return;
@@ -532,6 +678,19 @@ impl Transport for ZenohTransport {
         }
         for sub in self.inner.subscribers.lock().drain(..) {
             let _ = sub.undeclare().wait();
+        }
+        let listening: Vec<_> = self
+            .inner
+            .listening
+            .lock()
+            .drain()
+            .map(|(_, s)| s)
+            .collect();
+        for sub in listening {
+            let _ = sub.undeclare().wait();
+        }
+        if let Some(barrier) = self.inner.barrier.lock().take() {
+            let _ = barrier.undeclare().wait();
         }
         self.inner.publishers.lock().clear();
         // An outbox's thread stuck in a congested put ends when Zenoh gives up on it.
@@ -592,28 +751,62 @@ mod tests {
         done()
     }
 
-    #[test]
-    fn a_peer_that_leaves_takes_its_keys_and_publishers_along() {
+    fn free_endpoint() -> String {
         let port = TcpListener::bind("127.0.0.1:0")
             .and_then(|l| l.local_addr())
             .map(|a| a.port())
             .expect("a free port");
-        let endpoint = format!("tcp/127.0.0.1:{port}");
-        let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
-            let config = ZenohConfig {
-                listen,
-                connect,
-                ..ZenohConfig::default()
-            };
-            ZenohTransport::open(Address::new(name).unwrap(), &config).expect("opens")
+        format!("tcp/127.0.0.1:{port}")
+    }
+
+    fn open(name: &str, listen: Vec<String>, connect: Vec<String>) -> Arc<ZenohTransport> {
+        let config = ZenohConfig {
+            listen,
+            connect,
+            ..ZenohConfig::default()
         };
+        ZenohTransport::open(Address::new(name).unwrap(), &config).expect("opens")
+    }
+
+    /// How many keys of `peer` `t` has declared.
+    fn declared(t: &ZenohTransport, peer: &Address) -> usize {
+        t.inner.declared.lock().get(peer).map_or(0, Vec::len)
+    }
+
+    #[test]
+    fn another_robots_module_has_its_keys_declared_once_heard_on_the_team_link() {
+        let endpoint = free_endpoint();
+        let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
+        let b = open("t/r1/b", vec![], vec![endpoint.clone()]);
+        let c = open("t/r2/c", vec![], vec![endpoint]);
+        let (b_address, c_address) = (b.address().clone(), c.address().clone());
+        assert!(wait(|| a.peers().len() == 2), "a sees b and c");
+        assert!(wait(|| declared(&a, &b_address) == 2), "a mate's, at once");
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!a.inner.declared.lock().contains_key(&c_address));
+        c.publish(LinkKind::Robot, MsgKind::Report, &[0x11])
+            .unwrap();
+        b.publish(LinkKind::Team, MsgKind::Report, &[0x11]).unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(!a.inner.declared.lock().contains_key(&c_address));
+        c.publish(LinkKind::Team, MsgKind::Report, &[0x11]).unwrap();
+        assert!(
+            wait(|| declared(&a, &c_address) == 2),
+            "heard on the team link"
+        );
+        c.close();
+        assert!(wait(|| !a.inner.declared.lock().contains_key(&c_address)));
+        b.close();
+        a.close();
+    }
+
+    #[test]
+    fn a_peer_that_leaves_takes_its_keys_and_publishers_along() {
+        let endpoint = free_endpoint();
         let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
         let b = open("t/r1/b", vec![], vec![endpoint]);
         let b_address = b.address().clone();
         assert!(wait(|| a.peers().contains(&b_address)), "a sees b");
-        let declared = |t: &ZenohTransport, peer: &Address| {
-            t.inner.declared.lock().get(peer).map_or(0, Vec::len)
-        };
         assert!(
             wait(|| declared(&a, &b_address) == 2),
             "a declares b's keys"

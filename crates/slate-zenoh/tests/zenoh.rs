@@ -1,4 +1,5 @@
-//! The transport conformance suite, over real Zenoh sessions on 127.0.0.1.
+//! The transport conformance suite, over real Zenoh sessions on 127.0.0.1, and what
+//! listening (`Transport::listen`) changes in Zenoh's routing.
 
 use std::sync::Arc;
 use std::thread;
@@ -6,7 +7,11 @@ use std::time::{Duration, Instant};
 
 use slate_model::Address;
 use slate_testing::free_port;
+use slate_transport::conformance::{Inbox, TransportFactory};
+use slate_transport::{LinkKind, MsgKind, Transport};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
+use zenoh::Wait;
+use zenoh::sample::Locality;
 
 /// A fresh Zenoh network per test: every endpoint listens on its own loopback port and
 /// connects to the ones before it.
@@ -15,7 +20,7 @@ pub struct Loopback {
     endpoints: Vec<String>,
 }
 
-impl slate_transport::conformance::TransportFactory for Loopback {
+impl TransportFactory for Loopback {
     type Transport = ZenohTransport;
 
     fn join(&mut self, address: &Address) -> Arc<ZenohTransport> {
@@ -46,3 +51,84 @@ impl slate_transport::conformance::TransportFactory for Loopback {
 }
 
 slate_transport::transport_conformance!(Loopback::default());
+
+/// What a module hears, with the network the test made.
+struct Endpoint {
+    transport: Arc<ZenohTransport>,
+    inbox: Arc<Inbox>,
+}
+
+fn endpoint(net: &mut Loopback, address: &str) -> Endpoint {
+    let transport = net.join(&Address::new(address).unwrap());
+    let inbox = Arc::new(Inbox::default());
+    transport.set_handler(inbox.clone());
+    Endpoint { transport, inbox }
+}
+
+/// Does a publication of `from` on `link` go out to any other session? Zenoh routes a
+/// put only to the sessions whose subscriptions match, so `false` means it costs the
+/// network nothing.
+fn routed_anywhere(from: &ZenohTransport, link: LinkKind) -> bool {
+    let publisher = from
+        .session()
+        .declare_publisher(slate_zenoh::keys::publication(from.address(), link))
+        .allowed_destination(Locality::Remote)
+        .wait()
+        .expect("publisher");
+    publisher
+        .matching_status()
+        .wait()
+        .expect("status")
+        .matching()
+}
+
+fn payloads(e: &Endpoint) -> Vec<Vec<u8>> {
+    let mut got: Vec<Vec<u8>> = e.inbox.messages().into_iter().map(|m| m.1).collect();
+    got.sort();
+    got
+}
+
+/// Two modules of one robot stop listening to the team link: the other robot's team
+/// publications are routed to neither session (its publisher matches no one), while
+/// robot-link publications and sends still arrive; listening again brings them back.
+#[test]
+fn a_zenoh_module_not_listening_to_the_team_is_routed_no_team_publications() {
+    let mut net = Loopback::default();
+    let a = endpoint(&mut net, "t/r1/a");
+    let b = endpoint(&mut net, "t/r1/b");
+    let c = endpoint(&mut net, "t/r2/c");
+    let all_up = |e: &Endpoint| e.transport.peers().len() == 2;
+    assert!(net.run_until(&mut || all_up(&a) && all_up(&b) && all_up(&c)));
+    assert!(net.run_until(&mut || routed_anywhere(&c.transport, LinkKind::Team)));
+    assert!(a.transport.listen(LinkKind::Team, false));
+    assert!(b.transport.listen(LinkKind::Team, false));
+    assert!(net.run_until(&mut || !routed_anywhere(&c.transport, LinkKind::Team)));
+    c.transport
+        .publish(LinkKind::Team, MsgKind::Report, b"team 1")
+        .unwrap();
+    b.transport
+        .publish(LinkKind::Robot, MsgKind::Report, b"robot")
+        .unwrap();
+    c.transport
+        .send(a.transport.address(), MsgKind::Plan, b"sent")
+        .unwrap();
+    a.transport
+        .send(c.transport.address(), MsgKind::PlanAck, b"ack")
+        .unwrap();
+    assert!(net.run_until(&mut || a.inbox.len() == 2 && c.inbox.len() == 1));
+    net.settle();
+    assert_eq!(payloads(&a), vec![b"robot".to_vec(), b"sent".to_vec()]);
+    assert!(b.inbox.is_empty(), "{:?}", payloads(&b));
+    assert!(a.transport.listen(LinkKind::Team, true));
+    assert!(
+        routed_anywhere(&c.transport, LinkKind::Team),
+        "known on return"
+    );
+    c.transport
+        .publish(LinkKind::Team, MsgKind::Report, b"team 2")
+        .unwrap();
+    assert!(net.run_until(&mut || a.inbox.len() == 3));
+    assert_eq!(a.inbox.messages()[2].1, b"team 2".to_vec());
+    net.settle();
+    assert!(b.inbox.is_empty(), "{:?}", payloads(&b));
+}

@@ -40,6 +40,13 @@ pub struct DemoArgs {
     #[arg(long, value_name = "BPS")]
     pub team_rate: Option<u64>,
 
+    /// A deck phase of this many seconds before launch (at least 5): the team link is a
+    /// fast clean radio (1 Mbit/s, no loss) while the console sends the mission plans;
+    /// at launch it becomes the --team-link and the mission runs. The mission's time,
+    /// deadline, fault and rates count from launch; the summary reports deck_bytes.
+    #[arg(long, value_name = "SECONDS")]
+    pub deck: Option<f64>,
+
     /// Serve the live dashboard at this address, like 127.0.0.1:8080 (the simulator then
     /// runs at real time so people can watch).
     #[arg(long, value_name = "ADDR")]
@@ -120,6 +127,10 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         args.linger.is_finite() && args.linger >= 0.0,
         "--linger must be >= 0"
     );
+    anyhow::ensure!(
+        args.deck.is_none_or(|d| d.is_finite() && d >= 0.0),
+        "--deck must be a number of seconds"
+    );
     let mut config = DemoConfig::default()
         .seed(args.seed)
         .robots(usize::from(args.robots))
@@ -129,6 +140,7 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         })
         .duration(Duration::from_secs_f64(args.duration))
         .fault_at((!args.no_fault).then_some(args.fault_at))
+        .deck(args.deck.map(Duration::from_secs_f64))
         .team_link(TeamLink::of(
             match args.team_link {
                 TeamLinkArg::Radio => TeamMedium::Radio,

@@ -169,7 +169,9 @@ impl State {
 
     fn on_heartbeat(&mut self, from: &Address, h: Heartbeat) {
         let now = self.now;
-        self.peer(from).stream.announce(h.seq, now);
+        let p = self.peer(from);
+        p.stream.announce(h.seq, now);
+        p.top = p.top.max(h.seq);
     }
 
     fn on_hello(&mut self, from: &Address, hello: Hello) {
@@ -230,10 +232,13 @@ impl State {
     }
 
     /// The restart rule: what was known of a source's previous incarnation (stream
-    /// position, names, catch-up, the origins of its objects) is forgotten. Shared by
-    /// the module hello and the robot hello's member list.
+    /// position, names, catch-up, the origins of its objects) is forgotten, and a fence
+    /// keeps its late messages from being read as the new incarnation's. Shared by the
+    /// module hello and the robot hello's member list.
     pub(crate) fn member_restarted(&mut self, from: &Address) {
+        let fence_until = self.now + self.config.link(LinkKind::between(&self.me, from)).timeout;
         let p = self.peer(from);
+        p.put_up_fence(fence_until);
         p.stream = Inbound::default();
         p.newest = None;
         p.catch_up = None;
@@ -323,15 +328,21 @@ impl State {
     }
 
     /// Takes position `seq` of `from`'s stream, whose own newest stamp is `newest`;
-    /// false (counted) for a duplicate.
+    /// false (counted) for a duplicate, or for a position a restart's fence refuses
+    /// ([`Peer::fenced`](super::state::Peer::fenced)).
     fn take_position(&mut self, from: &Address, seq: u64, newest: Option<Timestamp>) -> bool {
         let now = self.now;
         let p = self.peer(from);
+        if p.fenced(seq, now) {
+            self.stats.rejects.stale += 1;
+            return false;
+        }
         if !p.stream.receive(seq, now) {
             self.stats.rejects.duplicates += 1;
             return false;
         }
         p.newest = p.newest.max(newest);
+        p.top = p.top.max(seq);
         true
     }
 

@@ -61,6 +61,14 @@ pub(crate) struct Peer {
     pub alive: Option<bool>,
     pub seen_written: Duration,
     pub stream: Inbound,
+    /// The highest position taken from its current incarnation's stream (or announced
+    /// by its heartbeats): where the fence goes if it restarts.
+    pub top: u64,
+    /// Up for a while after it restarted: a message of its previous incarnation may
+    /// still arrive (queued on a slow radio when it restarted) and be decoded against
+    /// the new incarnation's names and epoch, which misreads it with stamps after the
+    /// restart (docs/ici.md, "Limits and known gaps"); see [`Peer::fenced`].
+    pub fence: Option<Fence>,
     pub catch_up: Option<Request>,
     /// A part of the answer being received was refused: do not count it as complete.
     pub failed: bool,
@@ -96,6 +104,8 @@ impl Peer {
             alive: None,
             seen_written: Duration::ZERO,
             stream: Inbound::default(),
+            top: 0,
+            fence: None,
             catch_up: None,
             failed: false,
             caught_up: false,
@@ -108,6 +118,58 @@ impl Peer {
             listener: false,
         }
     }
+
+    /// The source restarted: until `until` at the latest, fence its new stream at the
+    /// highest position heard of the incarnation that ended (taken, announced, or given
+    /// by a catch-up), or of a fence still up; no fence if nothing of its stream was
+    /// heard. Call it before the stream is reset.
+    pub fn put_up_fence(&mut self, until: Duration) {
+        let heard = self.top.max(self.stream.have());
+        let top = heard.max(self.fence.map_or(0, |f| f.top));
+        self.fence = (top > 0).then_some(Fence { top, until });
+        self.top = 0;
+    }
+
+    /// Is position `seq` of a restarted source to be refused as possibly its previous
+    /// incarnation's? Reports carry no incarnation, and one of the previous incarnation
+    /// decodes against the new one's names and epoch as other packets stamped after the
+    /// restart, so neither its stamps nor its names tell it apart. Its position does,
+    /// mostly: the new stream starts from 1 (or the catch-up answer's position) and
+    /// comes in order, while the previous one's late messages are ahead of it. So while
+    /// the fence is up, only the next position in order is taken; one ahead of a gap is
+    /// refused without being recorded and raises the fence, and a real one is found
+    /// again from the source's heartbeats (a gap, then a catch-up). The fence comes
+    /// down once `have` passes it (every later message of the previous incarnation is
+    /// then a duplicate), or at `until` (the link's timeout after the restart was
+    /// found): a message held longer than that is not waited for, and the refusals'
+    /// catch-ups stop.
+    pub fn fenced(&mut self, seq: u64, now: Duration) -> bool {
+        let Some(fence) = self.fence else {
+            return false;
+        };
+        let have = self.stream.have();
+        if have > fence.top || now >= fence.until {
+            self.fence = None;
+            return false;
+        }
+        if seq <= have + 1 {
+            return false;
+        }
+        self.fence = Some(Fence {
+            top: fence.top.max(seq),
+            ..fence
+        });
+        true
+    }
+}
+
+/// The fence on a restarted source's stream: the highest position heard of its previous
+/// incarnation's stream (raised by every position refused since), and when the fence
+/// comes down at the latest.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Fence {
+    pub top: u64,
+    pub until: Duration,
 }
 
 /// Where an object created on receipt came from, to decide whether a catch-up's object
@@ -356,4 +418,101 @@ impl State {
 /// incarnation writes alike.
 pub(crate) fn predates(stamp: Timestamp, incarnation: u64) -> bool {
     stamp != Timestamp::ZERO && stamp.raw() < incarnation
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const UNTIL: Duration = Duration::from_secs(5);
+
+    /// A peer on the team link that had taken positions up to `top` when it restarted.
+    /// A team peer, never heard.
+    fn peer() -> Peer {
+        let me = Address::new("t/r0/m0").unwrap();
+        Peer::new(&me, &Address::new("t/r1/m0").unwrap())
+    }
+
+    fn restarted_at(top: u64) -> Peer {
+        let mut p = peer();
+        for seq in 1..=top {
+            p.stream.receive(seq, Duration::ZERO);
+        }
+        p.top = top;
+        p.put_up_fence(UNTIL);
+        p.stream = Inbound::default();
+        p
+    }
+
+    fn take(p: &mut Peer, seq: u64, now: Duration) -> bool {
+        !p.fenced(seq, now) && p.stream.receive(seq, now)
+    }
+
+    #[test]
+    fn a_position_ahead_of_the_new_stream_is_refused_after_a_restart() {
+        let mut p = restarted_at(10);
+        assert!(p.fenced(10, Duration::ZERO));
+        assert_eq!(p.stream.have(), 0, "a refused position is not recorded");
+    }
+
+    #[test]
+    fn the_new_stream_is_taken_in_order_behind_the_fence() {
+        let mut p = restarted_at(10);
+        assert!(take(&mut p, 1, Duration::ZERO));
+        assert!(take(&mut p, 2, Duration::ZERO));
+        assert!(!take(&mut p, 4, Duration::ZERO), "ahead of a gap");
+        assert_eq!(p.stream.have(), 2);
+    }
+
+    #[test]
+    fn a_refused_position_raises_the_fence() {
+        let mut p = restarted_at(3);
+        assert!(p.fenced(8, Duration::ZERO));
+        for seq in 1..=4 {
+            assert!(take(&mut p, seq, Duration::ZERO));
+        }
+        assert!(p.fenced(7, Duration::ZERO), "the fence is at 8 now");
+    }
+
+    #[test]
+    fn the_fence_comes_down_once_the_new_stream_passes_it() {
+        let mut p = restarted_at(2);
+        for seq in 1..=3 {
+            assert!(take(&mut p, seq, Duration::ZERO));
+        }
+        assert!(!p.fenced(9, Duration::ZERO));
+        assert!(p.fence.is_none());
+    }
+
+    #[test]
+    fn the_fence_comes_down_after_the_links_timeout() {
+        let mut p = restarted_at(10);
+        assert!(p.fenced(9, UNTIL - Duration::from_millis(1)));
+        assert!(!p.fenced(9, UNTIL));
+        assert!(p.fence.is_none());
+    }
+
+    #[test]
+    fn a_restart_of_a_source_whose_stream_was_never_heard_puts_up_no_fence() {
+        let mut p = restarted_at(0);
+        assert!(p.fence.is_none());
+        assert!(!p.fenced(5, Duration::ZERO));
+    }
+
+    #[test]
+    fn a_restart_fences_at_the_position_a_catch_up_gave() {
+        let mut p = peer();
+        p.stream.caught_up(6, Duration::ZERO);
+        p.put_up_fence(UNTIL);
+        assert_eq!(p.fence.map(|f| f.top), Some(6));
+    }
+
+    #[test]
+    fn a_second_restart_keeps_the_higher_fence() {
+        let mut p = restarted_at(10);
+        assert!(take(&mut p, 1, Duration::ZERO));
+        p.top = 1;
+        p.put_up_fence(UNTIL);
+        assert_eq!(p.fence.map(|f| f.top), Some(10));
+    }
 }

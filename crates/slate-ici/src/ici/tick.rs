@@ -177,7 +177,10 @@ impl State {
     fn catch_up_timers(&mut self) {
         let (now, retry, grace) = (self.now, self.config.catch_up_retry, self.config.gap_grace);
         let peers: Vec<Address> = self.peers.keys().cloned().collect();
+        // A member's inner gap waits while its robot stream is being repaired.
+        let gapped = self.team_gapped_robots();
         for a in peers {
+            let repairing = gapped.iter().any(|(t, r)| a.team() == t && a.robot() == r);
             let Some(p) = self.peers.get_mut(&a) else {
                 continue;
             };
@@ -190,7 +193,10 @@ impl State {
                     self.send_request(&a, r);
                 }
                 Some(_) => {}
-                None if p.up && p.stream.gap_age(now).is_some_and(|age| age >= grace) => {
+                None if p.up
+                    && !repairing
+                    && p.stream.gap_age(now).is_some_and(|age| age >= grace) =>
+                {
                     self.stats.catch_up.gaps += 1;
                     self.request_catch_up(&a, false, false);
                 }
@@ -219,8 +225,9 @@ impl State {
         }
         let link = LinkKind::between(&self.me, peer);
         if link == LinkKind::Team && self.config.team_protocol.is_some() {
-            // Liveliness only: no per-pair hello or catch-up on the team link.
-            return self.team_peer_up();
+            // Liveliness only: no per-pair hello or catch-up on the team link (a
+            // receiver that lacks the robot hello NACKs it).
+            return;
         }
         self.send_hello(peer);
         self.request_catch_up(peer, false, false);

@@ -2,6 +2,7 @@
 //! faults end and traffic settles, every board must agree. A failure names its seed.
 
 use slate_ici::{LinkConfig, Rng, SimConfig};
+use slate_model::{NewObject, Value};
 
 use crate::support::{Team, open, secs, workload};
 
@@ -119,4 +120,45 @@ fn replay_seeds_from_the_environment() {
         .filter(|seed| std::panic::catch_unwind(|| run(*seed)).is_err())
         .collect();
     assert!(failed.is_empty(), "failed seeds: {failed:?}");
+}
+
+/// Seed 635's cause (the loop failed it from commit 30fd9eb until c007497 changed the
+/// timing of catch-up answers, which hid it): a module restarts while reports of its
+/// previous incarnation still queue on its slow radio. A peer learns of the restart,
+/// resets that source's stream and learns the new incarnation's names; then a late
+/// report of the previous incarnation arrives. Decoded against the new dictionary and
+/// timestamp epoch, it reads as a packet of an object the new incarnation also named,
+/// stamped after the restart (the new epoch is later), at a position the reset stream
+/// takes as new: a value nobody wrote that outlives what the module writes since.
+#[test]
+fn a_late_report_of_a_previous_incarnation_is_not_misread_after_its_restart() {
+    let radio = LinkConfig::clean().delay(secs(0.1)).bandwidth(9600);
+    let mut team = Team::with(
+        635,
+        SimConfig {
+            team: radio,
+            ..SimConfig::default()
+        },
+    );
+    team.add("t/r0/m0", open());
+    team.add("t/r1/m0", open());
+    team.run(0.5);
+    let rock = || NewObject::new("Rock", "rock_a");
+    team.board("t/r0/m0").create_with(rock()).unwrap();
+    // Two seconds of reports queue on the 9600 bit/s radio.
+    for i in 0..120 {
+        team.board("t/r0/m0")
+            .write("rock_a", "x", f64::from(i))
+            .unwrap();
+        team.run(0.002);
+    }
+    // It restarts past the next second (its new epoch is later) and makes its object
+    // again, as a module does from its files.
+    team.run(0.4);
+    team.add("t/r0/m0", open());
+    team.board("t/r0/m0").create_with(rock()).unwrap();
+    team.board("t/r0/m0").write("rock_a", "x", -1.0).unwrap();
+    team.assert_converges(20);
+    let x = team.board("t/r1/m0").read("rock_a", "x").unwrap();
+    assert_eq!(x.value, Value::Real(-1.0), "{x:?}");
 }

@@ -270,17 +270,15 @@ fn a_killed_remote_module_is_dead_on_every_other_board() {
     }
 }
 
-/// Fails today (13 of seeds 89..108): a receiver that loses a robot's hello parks that
-/// robot's frames until the next hello, which nothing asks for yet (seed 89: both
-/// other robots' hellos lost to one receiver), and lost frames are not repaired, only
-/// caught up member by member when a later message or a full heartbeat shows the
-/// hole. Step 10 (NACK for frames and hellos, repair) makes it pass.
+/// Lost frames are NACKed and repaired from the gateway's history, and a lost robot
+/// hello is NACKed (before step 10, 13 of these 20 seeds did not converge: a lost hello
+/// left a robot's frames parked, and lost frames were never repaired).
 #[test]
-#[ignore = "needs step 10: robot-stream NACK and repair"]
 fn boards_converge_with_5_percent_loss() {
-    // Seed 89 fails today, as 13 of seeds 89..108 do.
-    let (team, _) = grid(89, LinkConfig::clean().loss(0.05), 1024, true);
-    work_and_converge(&team, 89);
+    for seed in 89..109 {
+        let (team, _) = grid(seed, LinkConfig::clean().loss(0.05), 1024, true);
+        work_and_converge(&team, seed);
+    }
 }
 
 /// Does every board hold `object` with `attr` = `value`?

@@ -665,6 +665,34 @@ impl Net {
         (max, false)
     }
 
+    /// A reliable send that met a cut its sender has not noticed (the lease has not run
+    /// out: the sender still holds the addressee up) is retransmitted after the retry
+    /// timeout, as a reliable transport keeps trying a peer it holds reachable; once the
+    /// sender holds it down, the send is dropped. Publications are never retried.
+    fn retry_across_cut(
+        &mut self,
+        from: &Address,
+        to: usize,
+        kind: MsgKind,
+        payload: Arc<[u8]>,
+        reliable_from: Option<usize>,
+    ) {
+        let receiver = &self.endpoints[to].address;
+        let Some(sender) = reliable_from.filter(|&s| self.endpoints[s].view.contains_key(receiver))
+        else {
+            return;
+        };
+        let at = self.now + self.config.rto;
+        let action = Action::Deliver {
+            from: from.clone(),
+            to,
+            kind,
+            payload,
+            reliable_from,
+        };
+        self.schedule_in_order(sender, to, at, action);
+    }
+
     /// Takes a delivery: counts it, or drops it if the receiver is dead or cut off, or
     /// if it is a reliable send whose sender died before it got through (a dead process
     /// retransmits nothing).
@@ -685,6 +713,7 @@ impl Net {
         }
         if self.is_cut(from, &receiver) {
             self.stats.link(from, &receiver, kind).cut += 1;
+            self.retry_across_cut(from, to, kind, payload, reliable_from);
             return None;
         }
         let counter = self.stats.link(from, &receiver, kind);

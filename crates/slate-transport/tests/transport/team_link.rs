@@ -409,3 +409,55 @@ fn a_transport_that_cannot_choose_what_it_hears_says_so() {
     assert!(!t.listen(LinkKind::Team, false));
     assert!(!t.listen(LinkKind::Team, true));
 }
+
+/// A reliable send keeps trying while its addressee stays reachable: a cut shorter than
+/// the liveliness lease goes unnoticed (no peer event), so a send that meets it is
+/// retransmitted after the retry timeout and arrives after the heal, as TCP's would.
+/// Dropping it instead lost a catch-up answer whose object list then arrived alone.
+#[test]
+fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
+    let net = net_with(LinkConfig::clean(), 5);
+    let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
+    net.run_for(Duration::from_millis(300));
+    net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
+    all[0]
+        .0
+        .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
+        .unwrap();
+    net.run_for(Duration::from_millis(800));
+    assert!(all[1].1.tags().is_empty(), "nothing crosses the cut");
+    net.heal();
+    net.run_for(Duration::from_millis(1500));
+    assert_eq!(all[1].1.tags(), [7]);
+    assert!(all[1].1.peers.lock().unwrap().iter().all(|(_, up)| *up));
+}
+
+/// A cut longer than the lease is noticed: once the sender holds the addressee down it
+/// stops retransmitting (the send is dropped, as the contract allows), so a long
+/// partition does not keep sends alive for ever.
+#[test]
+fn a_reliable_send_is_dropped_once_the_cut_outlasts_the_lease() {
+    let net = net_with(LinkConfig::clean(), 6);
+    let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
+    net.run_for(Duration::from_millis(300));
+    net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
+    all[0]
+        .0
+        .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
+        .unwrap();
+    net.run_for(Duration::from_secs(5));
+    assert!(
+        all[0]
+            .1
+            .peers
+            .lock()
+            .unwrap()
+            .contains(&(addr("t/r2/b"), false))
+    );
+    net.heal();
+    net.run_for(Duration::from_secs(3));
+    assert!(
+        all[1].1.tags().is_empty(),
+        "the send was dropped with the peer"
+    );
+}

@@ -13,6 +13,7 @@ use std::time::Duration;
 
 use super::frame::{MAX_MEMBERS, Member, Part, PartOf, SINGLE_PART_MEMBERS, StreamTag, TeamFrame};
 use super::history::{History, HistoryLimits};
+use super::nack::{RepairScheduler, RepairTiming};
 
 /// Packs parts into frames of at most `mtu` bytes.
 ///
@@ -187,6 +188,8 @@ pub(crate) struct Gateway {
     pub last_full: Duration,
     /// Messages dropped because their member had no index (more than `MAX_MEMBERS`).
     pub unindexed: u64,
+    /// The NACKs heard for this epoch, gathered for one repair.
+    pub repairs: RepairScheduler,
 }
 
 impl Gateway {
@@ -206,7 +209,14 @@ impl Gateway {
             heartbeats: 0,
             last_full: Duration::ZERO,
             unindexed: 0,
+            repairs: RepairScheduler::new(RepairTiming::radio()),
         }
+    }
+
+    /// Every member's last inner position, by index (what a `Gone` tells).
+    pub fn inner_positions(&self) -> Vec<(u8, u64)> {
+        let each = self.members.iter().enumerate();
+        each.map(|(i, m)| (i as u8, m.inner_seq)).collect()
     }
 
     /// The index of the member called `name`, if it has one.

@@ -11,6 +11,7 @@ mod history;
 mod nack;
 mod outer;
 mod receive;
+mod repair;
 mod send;
 
 use std::collections::{BTreeMap, VecDeque};
@@ -43,6 +44,8 @@ pub(crate) struct TeamState {
     pub interest_dirty: bool,
     /// The streams of other robots' gateways, by gateway address.
     pub speakers: BTreeMap<Address, Speaker>,
+    /// The receiver's NACK scheduler (made on first use, seeded per ICI).
+    pub nacks: Option<nack::NackScheduler>,
     /// Counters until step 16 puts them in `IciStats`.
     pub counts: TeamCounts,
 }
@@ -58,6 +61,12 @@ pub(crate) struct TeamCounts {
     /// the park past its limit.
     pub parked: u64,
     pub parked_dropped: u64,
+    /// Positions received in repairs (held already or not).
+    pub repaired: u64,
+    /// `Gone`s heard for a stream followed.
+    pub gone_heard: u64,
+    /// Times a robot's members were asked for their state (one catch-up each).
+    pub state_asked: u64,
     /// Team protocol frames that did not decode, or came with the switch off.
     pub refused: u64,
 }

@@ -581,6 +581,12 @@ impl NackScheduler {
         (!entries.is_empty()).then_some(NackAction::Nack(entries))
     }
 
+    /// A back-off `U(0, max)` from this scheduler's seeded draws (the hello NACK's,
+    /// so that one seed gives one schedule for hellos too).
+    pub fn draw(&mut self, max: Duration) -> Duration {
+        self.rng.duration(max)
+    }
+
     /// The positions of stream `tag` still missing (pending or awaiting a repair).
     pub fn missing(&self, tag: StreamTag) -> Spans {
         let mut spans = Spans::default();

@@ -4,9 +4,9 @@
 //! `State::on_message(member, inner)`, today's per-source machinery. Frames that come
 //! before their robot's hello are parked.
 //!
-//! Hooks left for step 10 (NACK and repair) and 11 (state): `stream_changed` is where a
-//! gap is found (`revealed`) or a state must be asked (`ask_state`); repairs, NACKs and
-//! `Gone` are decoded and dropped in `on_team`.
+//! Gaps found here (`stream_changed`), repairs, NACKs and `Gone` go to `repair.rs`
+//! (step 10). Left for step 11: `Want`, `StateRequest` and addressed parts are decoded
+//! and dropped; a state is asked with today's per-member catch-up.
 
 use std::collections::VecDeque;
 
@@ -33,6 +33,8 @@ pub(crate) struct Speaker {
     pub alive: u32,
     /// Frames waiting for the hello (at most `MAX_PARKED`).
     pub parked: VecDeque<TeamFrame>,
+    /// The NACK of its hello, while frames are parked and the hello is missing.
+    pub hello_ask: Option<super::repair::HelloAsk>,
     /// When anything was last heard from it (to forget the stalest past the limit).
     pub last_heard: std::time::Duration,
 }
@@ -77,7 +79,10 @@ impl State {
             TeamMsg::Heartbeat(hb) if team_link => self.on_robot_heartbeat(from, hb),
             TeamMsg::Uplink(up) if !team_link => self.on_uplink(from, up),
             TeamMsg::Interest(i) if !team_link => self.on_team_interest(i),
-            // Repairs, NACKs, Gone, Want, StateRequest, Fill: steps 10 and 11.
+            TeamMsg::Repair(r) if team_link => self.on_repair(from, r),
+            TeamMsg::Nack(n) if team_link => self.on_nack(n),
+            TeamMsg::Gone(g) if team_link => self.on_gone(from, g),
+            // Want, StateRequest, Fill: step 11 (and 13).
             _ => self.team.counts.refused += 1,
         }
     }
@@ -97,7 +102,7 @@ impl State {
         s
     }
 
-    fn on_team_frame(&mut self, from: &Address, frame: TeamFrame) {
+    pub(super) fn on_team_frame(&mut self, from: &Address, frame: TeamFrame) {
         let (now, max_nack) = (self.now, self.max_nack_frames());
         let s = self.speaker(from);
         let Some(tag) = s.hello.as_ref().map(|h| h.tag.0) else {
@@ -108,6 +113,7 @@ impl State {
             return;
         };
         self.stream_changed(from, change);
+        self.team_received(tag, frame.seq);
         self.vouch(from);
         self.unwrap_frame(from, frame);
     }
@@ -119,9 +125,10 @@ impl State {
             .map_or(64, |p| p.max_nack_frames)
     }
 
-    /// Keeps a frame until its robot's hello comes (step 10 NACKs the hello here).
+    /// Keeps a frame until its robot's hello comes, and NACKs the hello.
     fn park(&mut self, from: &Address, frame: TeamFrame) {
         self.team.counts.parked += 1;
+        self.ask_hello(from, None);
         let s = self.speaker(from);
         if s.parked.len() >= MAX_PARKED {
             s.parked.pop_front();
@@ -130,15 +137,20 @@ impl State {
         self.speaker(from).parked.push_back(frame);
     }
 
-    /// What a frame or heartbeat showed of the stream. The hooks of steps 10 and 11.
-    fn stream_changed(&mut self, from: &Address, change: Change) {
+    /// What a frame or heartbeat showed of the stream: newly missing positions are
+    /// NACKed (after the grace and a back-off); a jump over a gap too large to repair
+    /// asks the members' state (2.6, case b; today's catch-up until step 11).
+    pub(super) fn stream_changed(&mut self, from: &Address, change: Change) {
         if let Some((first, n)) = change.revealed {
-            // Step 10: `NackScheduler::gap_found` for these positions.
             tracing::trace!(gateway = %from, first, n, "robot stream gap");
+            self.team_gap(from, first, n);
         }
         if change.ask_state {
-            // Step 11: ask the members' state (2.6, case b).
             tracing::debug!(gateway = %from, "robot stream jumped a gap too large to repair");
+            if let (Some(tag), Some(n)) = (self.speaker_tag(from), self.team.nacks.as_mut()) {
+                n.forget(tag);
+            }
+            self.ask_members_state(from);
         }
     }
 
@@ -170,7 +182,7 @@ impl State {
     fn on_control_part(&mut self, from: &Address, bytes: &[u8]) {
         match TeamMsg::decode(bytes) {
             Ok(TeamMsg::Heartbeat(hb)) => self.on_robot_heartbeat(from, hb),
-            // Step 10: a NACK riding in a data frame.
+            Ok(TeamMsg::Nack(n)) => self.on_nack(n),
             _ => self.team.counts.refused += 1,
         }
     }
@@ -201,8 +213,12 @@ impl State {
         {
             return; // A late hello of an earlier epoch.
         }
+        let mut ended = None;
         match &mut s.outer {
-            Some(o) if o.tag() != hello.tag.0 => o.restart(hello.tag.0),
+            Some(o) if o.tag() != hello.tag.0 => {
+                ended = Some(o.tag());
+                o.restart(hello.tag.0);
+            }
             Some(_) => {}
             None => s.outer = Some(Outer::new(hello.tag.0, max_nack)),
         }
@@ -223,7 +239,12 @@ impl State {
             };
             self.member_hello(&addr, m.incarnation);
         }
-        self.speaker(from).hello = Some(hello);
+        let s = self.speaker(from);
+        (s.hello, s.hello_ask) = (Some(hello), None);
+        // The old epoch's missing positions will never be repaired: stop NACKing them.
+        if let (Some(tag), Some(n)) = (ended, self.team.nacks.as_mut()) {
+            n.forget(tag);
+        }
         self.team.interest_dirty = true;
         self.apply_alive(from);
         let parked: Vec<TeamFrame> = self.speaker(from).parked.drain(..).collect();
@@ -252,10 +273,11 @@ impl State {
         let now = self.now;
         let s = self.speaker(from);
         let Some(hello) = &s.hello else {
-            return; // Step 10: NACK the hello.
+            return self.ask_hello_of(from, hb.tag);
         };
         if hello.tag != hb.tag {
-            return; // Another epoch whose hello was not heard (step 10: NACK it).
+            // Another epoch whose hello was not heard.
+            return self.ask_hello_of(from, hb.tag);
         }
         let Some(change) = s
             .outer
@@ -276,7 +298,7 @@ impl State {
     /// A full heartbeat's inner positions: a member's lost tail shows as a gap in its
     /// stream (the backstop of 2.3, item 5), which today's catch-up closes until state
     /// requests come (step 11).
-    fn announce_positions(&mut self, from: &Address, positions: &[u64]) {
+    pub(super) fn announce_positions(&mut self, from: &Address, positions: &[u64]) {
         let now = self.now;
         let members = self.speaker(from).members.clone();
         for (member, seq) in members.iter().zip(positions) {
@@ -285,6 +307,12 @@ impl State {
             };
             p.stream.announce(*seq, now);
         }
+    }
+
+    /// A heartbeat of a stream whose hello is missing (none heard, or of another
+    /// epoch): the hello is NACKed by the tag the heartbeat gives.
+    fn ask_hello_of(&mut self, from: &Address, tag: super::frame::StreamTag) {
+        self.ask_hello(from, Some(tag));
     }
 
     /// Members the robot says are alive are heard (vouched for); those it says are

@@ -19,6 +19,7 @@ use super::frame::{
 };
 use super::gateway::{Framer, Gateway, Seen};
 use super::history::HistoryLimits;
+use super::nack::RepairScheduler;
 use crate::ici::Listen;
 use crate::ici::classes::{ClassSet, context_bit};
 use crate::ici::state::State;
@@ -161,6 +162,7 @@ impl State {
         };
         let tag = StreamTag::of(&self.me, epoch);
         let mut gateway = Gateway::new(tag, epoch, framer, limits);
+        gateway.repairs = RepairScheduler::new(super::repair::repair_timing(protocol));
         // The hello opens the stream; the idle heartbeat counts from it.
         (gateway.last_sent, gateway.last_full) = (self.now, self.now);
         self.team.gateway = Some(gateway);
@@ -231,10 +233,12 @@ impl State {
         }
         self.team_elect();
         self.team_listen();
+        self.nack_tick();
         if self.team.gateway.is_none() {
             return;
         }
         self.team_review();
+        self.repair_tick();
         let now = self.now;
         let due = self.team.gateway.as_mut().and_then(|gw| gw.framer.due(now));
         due.into_iter().for_each(|f| self.publish_frame(f));
@@ -373,15 +377,6 @@ impl State {
     pub(crate) fn team_hello_changed(&mut self) {
         if let Some(gw) = self.team.gateway.as_mut() {
             gw.version = gw.version.wrapping_add(1);
-            gw.hello_due = true;
-        }
-    }
-
-    /// A team peer came up: the gateway says its hello again (at most once per
-    /// `hello_min_interval`), so a module that missed it stops parking frames. A
-    /// stopgap until receivers NACK the hello (step 10).
-    pub(crate) fn team_peer_up(&mut self) {
-        if let Some(gw) = self.team.gateway.as_mut() {
             gw.hello_due = true;
         }
     }

@@ -1,0 +1,809 @@
+//! The ICI's glue for repair by NACK (docs/team-protocol.md 2.5, step 10, replay):
+//!
+//! * receivers feed the stream tracker's gaps, the NACKs they hear and the positions
+//!   they receive to the [`NackScheduler`], publish the NACKs it fires, and ask the
+//!   members' state (today's per-member catch-up, until step 11) when it gives up;
+//! * a receiver holding parked frames of a robot whose hello it lacks NACKs the hello,
+//!   with the same suppression ([`HelloAsk`]);
+//! * the source gateway gathers the NACKs for its stream in its [`RepairScheduler`]
+//!   and answers once, by broadcast: `TeamRepair` replays from its history, split at
+//!   the MTU, and `Gone` for what the history no longer holds.
+//!
+//! Every listener NACKs for itself (no `Want` to the gateway, no foreign cache): the
+//! suppression bounds the cost to about one NACK per loss, whoever lost it.
+
+use std::time::Duration;
+
+use slate_model::Address;
+use slate_transport::Rng;
+
+use super::frame::{
+    Gone, Nack, NackEntry, Part, RepairContent, Span, StreamTag, TeamFrame, TeamMsg, TeamRepair,
+};
+use super::nack::{MissingRange, NackAction, NackScheduler, NackTiming, RepairTiming, SeqRange};
+use crate::ici::TeamProtocol;
+use crate::ici::state::State;
+use crate::{LinkKind, MsgKind};
+
+/// The stream tag a hello NACK carries when the receiver never heard the tag of the
+/// robot it lacks the hello of (frames carry no tag): every gateway takes it as its own.
+/// A real tag of 0 (1 in 65 536) only makes that gateway answer such NACKs too.
+pub(crate) const ANY_TAG: StreamTag = StreamTag(0);
+
+/// Entries per `Nack` published: a NACK of many streams goes as several.
+const ENTRIES_PER_NACK: usize = 32;
+
+/// A receiver's pending NACK of one robot's hello (at most one per remote gateway).
+///
+/// Invariant: `due` is the next time the hello may be NACKed; a NACK heard from
+/// another robot for the same hello pushes it back by `repair_wait`, as for frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct HelloAsk {
+    /// The tag the NACK names (`ANY_TAG` until a heartbeat told the robot's tag).
+    pub tag: StreamTag,
+    pub due: Duration,
+}
+
+impl HelloAsk {
+    /// Is this ask suppressed by another robot's hello NACK for `tag`?
+    pub fn covered_by(&self, tag: StreamTag) -> bool {
+        tag == self.tag || tag == ANY_TAG
+    }
+}
+
+/// The receiver's timing from the ICI's settings; an MTU under 64 bytes takes the
+/// acoustic bounds (a `Nack` must fit one modem frame).
+pub(crate) fn nack_timing(p: &TeamProtocol) -> NackTiming {
+    let base = if p.mtu < 64 {
+        NackTiming::acoustic()
+    } else {
+        NackTiming::radio()
+    };
+    NackTiming {
+        gap_grace: p.gap_grace,
+        nack_backoff: p.nack_backoff,
+        repair_wait: p.repair_wait,
+        max_nack_frames: p.max_nack_frames,
+        ..base
+    }
+}
+
+/// The source gateway's timing from the ICI's settings (bounds as `nack_timing`'s).
+pub(crate) fn repair_timing(p: &TeamProtocol) -> RepairTiming {
+    let base = if p.mtu < 64 {
+        RepairTiming::acoustic()
+    } else {
+        RepairTiming::radio()
+    };
+    RepairTiming {
+        repair_gather: p.repair_gather,
+        repair_holdoff: p.repair_holdoff,
+        ..base
+    }
+}
+
+/// The seed of one ICI's back-off draws: its address (FNV-1a 64) and the clock's time
+/// when it first needed one. The simulator's clock is virtual, so one seed of the
+/// network gives one run; two modules never share a sequence.
+pub(crate) fn nack_seed(me: &Address, started_raw: u64) -> u64 {
+    let fnv = me
+        .to_string()
+        .bytes()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        });
+    fnv ^ started_raw.rotate_left(32)
+}
+
+/// Replays of `bodies` (consecutive positions from the first one's, each with its
+/// original parts), split so that every repair is at most `mtu` bytes. A body too
+/// large to fit with a repair's header alone goes alone (the transport may refuse it).
+pub(crate) fn replays(bodies: Vec<(u64, Vec<Part>)>, mtu: usize) -> Vec<TeamRepair> {
+    let mut out: Vec<TeamRepair> = Vec::new();
+    let (mut from, mut open): (u64, Vec<Vec<Part>>) = (0, Vec::new());
+    for (seq, parts) in bodies {
+        let follows = !open.is_empty() && from + open.len() as u64 == seq;
+        if follows && fits(from, &mut open, &parts, mtu) {
+            continue;
+        }
+        if !open.is_empty() {
+            out.push(replay(from, std::mem::take(&mut open)));
+        }
+        (from, open) = (seq, vec![parts]);
+    }
+    if !open.is_empty() {
+        out.push(replay(from, open));
+    }
+    out
+}
+
+/// Adds `parts` to the open replay if the repair stays within `mtu`.
+fn fits(from: u64, open: &mut Vec<Vec<Part>>, parts: &[Part], mtu: usize) -> bool {
+    open.push(parts.to_vec());
+    let candidate = replay(from, std::mem::take(open));
+    let ok = candidate.encoded_len() <= mtu;
+    if let RepairContent::Replay(back) = candidate.content {
+        *open = back;
+    }
+    if !ok {
+        open.pop();
+    }
+    ok
+}
+
+fn replay(from: u64, bodies: Vec<Vec<Part>>) -> TeamRepair {
+    TeamRepair {
+        from,
+        content: RepairContent::Replay(bodies),
+    }
+}
+
+fn range_of(span: Span) -> Option<SeqRange> {
+    SeqRange::from_wire(span.from, span.n).ok()
+}
+
+// ----- the receiver -----
+
+impl State {
+    /// The NACK scheduler, made on first use with this ICI's seed.
+    fn nacks(&mut self) -> Option<&mut NackScheduler> {
+        let protocol = self.config.team_protocol.as_ref()?;
+        if self.team.nacks.is_none() {
+            let seed = nack_seed(&self.me, self.board.clock().now().raw());
+            let timing = nack_timing(protocol);
+            self.team.nacks = Some(NackScheduler::new(timing, Rng::new(seed)));
+        }
+        self.team.nacks.as_mut()
+    }
+
+    /// The tracker of gateway `from` found positions `first .. first + n` missing.
+    pub(super) fn team_gap(&mut self, from: &Address, first: u64, n: u64) {
+        let (now, tag) = (self.now, self.speaker_tag(from));
+        let range = SeqRange::from_wire(first, n).ok();
+        if let (Some(tag), Some(range)) = (tag, range)
+            && let Some(s) = self.nacks()
+        {
+            s.gap_found(tag, range, now);
+        }
+    }
+
+    /// Position `seq` of stream `tag` arrived (the original, late or not).
+    pub(super) fn team_received(&mut self, tag: u16, seq: u64) {
+        if let (Some(s), Some(range)) = (self.team.nacks.as_mut(), SeqRange::one(seq)) {
+            s.received(tag, range);
+        }
+    }
+
+    /// The tag of the stream followed for gateway `from`, if any.
+    pub(super) fn speaker_tag(&self, from: &Address) -> Option<u16> {
+        let s = self.team.speakers.get(from)?;
+        s.outer.as_ref().map(|o| o.tag())
+    }
+
+    /// A NACK heard on the team link: our stream's entries go to the repair
+    /// scheduler (gateway); the others suppress our own NACKs for the same positions.
+    pub(super) fn on_nack(&mut self, nack: Nack) {
+        for entry in nack.entries {
+            self.gateway_nack_heard(&entry);
+            if let Some(span) = entry.frames {
+                self.nack_heard(entry.tag.0, span);
+            }
+            if entry.hello {
+                self.hello_nack_heard(entry.tag);
+            }
+        }
+    }
+
+    /// Another robot NACKed `span` of stream `tag`: positions we did not know were
+    /// sent (a lost tail) are announced first, so they join its round.
+    fn nack_heard(&mut self, tag: u16, span: Span) {
+        let now = self.now;
+        let Some(range) = range_of(span) else { return };
+        let speaker =
+            self.team.speakers.iter_mut().find(|(_, s)| {
+                s.hello.is_some() && s.outer.as_ref().is_some_and(|o| o.tag() == tag)
+            });
+        let Some((gateway, s)) = speaker else { return };
+        let gateway = gateway.clone();
+        let change = s
+            .outer
+            .as_mut()
+            .and_then(|o| o.announce(tag, range.last(), now));
+        if let Some(change) = change {
+            self.stream_changed(&gateway, change);
+        }
+        if let Some(s) = self.nacks() {
+            s.nack_heard(tag, range, now);
+        }
+    }
+
+    /// Runs the receiver's NACK timers and carries out what they fired.
+    pub(super) fn nack_tick(&mut self) {
+        let now = self.now;
+        let mut entries = self.hello_asks_due();
+        if let Some(s) = self.team.nacks.as_mut() {
+            s.tick(now);
+        }
+        while let Some(action) = self.team.nacks.as_mut().and_then(NackScheduler::poll) {
+            match action {
+                NackAction::Nack(missing) => entries.extend(missing.iter().map(frames_entry)),
+                NackAction::AskState { tag, through } => self.ask_stream_state(tag, through),
+            }
+        }
+        self.publish_nacks(entries);
+    }
+
+    fn publish_nacks(&mut self, entries: Vec<NackEntry>) {
+        for chunk in entries.chunks(ENTRIES_PER_NACK) {
+            let nack = Nack {
+                entries: chunk.to_vec(),
+            };
+            let bytes = TeamMsg::Nack(nack).encode();
+            self.publish_now(LinkKind::Team, MsgKind::Nack, &bytes);
+        }
+    }
+
+    /// The NACK gave up stream `tag` up to `through`: its positions count as covered
+    /// and every member of its robot is asked for its state (today's catch-up, one
+    /// request per member, until step 11's broadcast state answers).
+    pub(super) fn ask_stream_state(&mut self, tag: u16, through: u64) {
+        let now = self.now;
+        let speaker = self
+            .team
+            .speakers
+            .iter_mut()
+            .find(|(_, s)| s.outer.as_ref().is_some_and(|o| o.tag() == tag));
+        let Some((gateway, s)) = speaker else { return };
+        let gateway = gateway.clone();
+        if let Some(o) = s.outer.as_mut() {
+            o.cover(1, through, now);
+        }
+        self.ask_members_state(&gateway);
+    }
+
+    /// Asks each member of gateway `from`'s robot for its current state.
+    pub(super) fn ask_members_state(&mut self, from: &Address) {
+        self.team.counts.state_asked += 1;
+        let members: Vec<Address> = self
+            .team
+            .speakers
+            .get(from)
+            .map_or(vec![], |s| s.members.iter().flatten().cloned().collect());
+        members
+            .iter()
+            .for_each(|m| self.request_catch_up(m, false, false));
+    }
+
+    /// A repair of gateway `from`'s stream: each position not held yet is taken as if
+    /// its frame had come; those held are skipped. Before the hello, they are parked.
+    pub(super) fn on_repair(&mut self, from: &Address, repair: TeamRepair) {
+        let RepairContent::Replay(bodies) = repair.content else {
+            // Repairs by difference come with step 13.
+            self.team.counts.refused += 1;
+            return;
+        };
+        for (i, parts) in bodies.into_iter().enumerate() {
+            let frame = TeamFrame {
+                seq: repair.from + i as u64,
+                parts,
+            };
+            self.team.counts.repaired += 1;
+            self.on_team_frame(from, frame);
+        }
+    }
+
+    /// Positions gateway `from` can no longer repair: they are closed, and the
+    /// members' inner positions it gives are announced, so a member whose messages
+    /// were lost with them shows an inner gap and is asked for its state.
+    pub(super) fn on_gone(&mut self, from: &Address, gone: Gone) {
+        let now = self.now;
+        let Some(s) = self.team.speakers.get_mut(from) else {
+            return;
+        };
+        let Some(outer) = s.outer.as_mut().filter(|o| o.tag() == gone.tag.0) else {
+            return;
+        };
+        outer.cover(gone.span.from, gone.span.n, now);
+        self.team.counts.gone_heard += 1;
+        if let (Some(n), Some(range)) = (self.team.nacks.as_mut(), range_of(gone.span)) {
+            n.received(gone.tag.0, range);
+        }
+        let mut positions = vec![0; usize::from(super::frame::MAX_MEMBERS)];
+        for (member, seq) in &gone.positions {
+            // The decoder refuses indices past `MAX_MEMBERS`; `get_mut` needs no trust.
+            if let Some(p) = positions.get_mut(usize::from(*member)) {
+                *p = *seq;
+            }
+        }
+        self.announce_positions(from, &positions);
+    }
+
+    /// The robots (team, robot) whose stream has a gap, so that their members' inner
+    /// gaps wait for its repair (2.6) instead of asking the members for their state.
+    /// Empty with the switch off. O(speakers), once per tick.
+    pub(crate) fn team_gapped_robots(&self) -> Vec<(String, String)> {
+        let gapped = self
+            .team
+            .speakers
+            .iter()
+            .filter(|(_, s)| s.outer.as_ref().is_some_and(|o| o.has_gap()));
+        gapped
+            .map(|(g, _)| (g.team().to_string(), g.robot().to_string()))
+            .collect()
+    }
+}
+
+fn frames_entry(missing: &MissingRange) -> NackEntry {
+    NackEntry {
+        tag: StreamTag(missing.tag),
+        frames: Some(Span {
+            from: missing.range.first(),
+            n: missing.range.n(),
+        }),
+        hello: false,
+        state: None,
+    }
+}
+
+// ----- the hello NACK -----
+
+impl State {
+    /// A frame of gateway `from` was parked: its hello is NACKed after `gap_grace`
+    /// and a back-off, unless already asked. `tag` is the robot's, if a heartbeat said it.
+    pub(super) fn ask_hello(&mut self, from: &Address, tag: Option<StreamTag>) {
+        let Some(s) = self.team.speakers.get(from) else {
+            return;
+        };
+        let known = s.hello.as_ref().map(|h| h.tag);
+        if known.is_some() && (tag.is_none() || tag == known) {
+            return;
+        }
+        let asked = s.hello_ask;
+        let Some(p) = self.config.team_protocol.clone() else {
+            return;
+        };
+        let due = match asked {
+            Some(a) => a.due,
+            None => {
+                self.now
+                    + p.gap_grace
+                    + self
+                        .nacks()
+                        .map_or(Duration::ZERO, |n| n.draw(p.nack_backoff))
+            }
+        };
+        let tag = tag.or(asked.map(|a| a.tag)).unwrap_or(ANY_TAG);
+        if let Some(s) = self.team.speakers.get_mut(from) {
+            s.hello_ask = Some(HelloAsk { tag, due });
+        }
+    }
+
+    /// Another robot NACKed the hello of stream `tag`: ours waits `repair_wait` more.
+    fn hello_nack_heard(&mut self, tag: StreamTag) {
+        let Some(wait) = self.config.team_protocol.as_ref().map(|p| p.repair_wait) else {
+            return;
+        };
+        let later = self.now + wait;
+        for s in self.team.speakers.values_mut() {
+            if let Some(ask) = s.hello_ask.as_mut().filter(|a| a.covered_by(tag)) {
+                ask.due = ask.due.max(later);
+            }
+        }
+    }
+
+    /// The hello NACK entries due now; each is asked again after `repair_wait` until
+    /// the hello comes, or until nothing was heard from that gateway for the team
+    /// timeout (a dead gateway is not asked forever).
+    fn hello_asks_due(&mut self) -> Vec<NackEntry> {
+        let now = self.now;
+        let Some(wait) = self.config.team_protocol.as_ref().map(|p| p.repair_wait) else {
+            return vec![];
+        };
+        let silent_since = now.saturating_sub(self.config.team.timeout);
+        let mut tags: Vec<StreamTag> = Vec::new();
+        for s in self.team.speakers.values_mut() {
+            if s.last_heard < silent_since {
+                // A robot silent past the timeout is not asked again until heard.
+                s.hello_ask = None;
+            }
+            if let Some(ask) = s.hello_ask.as_mut().filter(|a| a.due <= now) {
+                ask.due = now + wait;
+                tags.push(ask.tag);
+            }
+        }
+        tags.sort_by_key(|t| t.0);
+        tags.dedup();
+        tags.into_iter().map(hello_entry).collect()
+    }
+}
+
+fn hello_entry(tag: StreamTag) -> NackEntry {
+    NackEntry {
+        tag,
+        frames: None,
+        hello: true,
+        state: None,
+    }
+}
+
+// ----- the source gateway -----
+
+impl State {
+    /// A NACK entry for this gateway's stream: frames gathered for a repair, a hello
+    /// said again (at most once per `hello_min_interval`).
+    fn gateway_nack_heard(&mut self, entry: &NackEntry) {
+        let now = self.now;
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if entry.hello && (entry.tag == gw.tag || entry.tag == ANY_TAG) {
+            gw.hello_due = true;
+        }
+        if entry.tag != gw.tag {
+            return;
+        }
+        let head = gw.framer.position();
+        if let Some(range) = entry.frames.and_then(range_of) {
+            gw.repairs.nack_heard(range, head, now);
+        }
+    }
+
+    /// The repair due now, if the gathering window closed: replays of what the
+    /// history holds, `Gone` for the rest.
+    pub(super) fn repair_tick(&mut self) {
+        let now = self.now;
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        let Some(ranges) = gw.repairs.poll(now) else {
+            return;
+        };
+        for range in ranges {
+            self.repair_range(range);
+        }
+    }
+
+    /// Replays `range` from the history, split at the MTU, and says `Gone` for the
+    /// positions it no longer holds.
+    fn repair_range(&mut self, range: SeqRange) {
+        let now = self.now;
+        let mtu = self.config.team_protocol.as_ref().map_or(1024, |p| p.mtu);
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        let lookup = gw.history.get(range.first(), range.n(), now);
+        let gone = lookup.gone.map(|(from, n)| Gone {
+            tag: gw.tag,
+            span: Span { from, n },
+            positions: gw.inner_positions(),
+        });
+        if let Some(gone) = gone {
+            self.publish_now(LinkKind::Team, MsgKind::Gone, &TeamMsg::Gone(gone).encode());
+        }
+        for repair in replays(bodies_of(&lookup.held), mtu) {
+            let bytes = TeamMsg::Repair(repair).encode();
+            self.publish_now(LinkKind::Team, MsgKind::TeamRepair, &bytes);
+        }
+    }
+}
+
+/// The parts of the frames a history holds, by position (the history keeps encoded
+/// frames, so each is decoded again; one that does not decode is left out).
+fn bodies_of(held: &[(u64, std::sync::Arc<[u8]>)]) -> Vec<(u64, Vec<Part>)> {
+    let decoded = held
+        .iter()
+        .map(|(seq, bytes)| (*seq, TeamMsg::decode(bytes)));
+    decoded
+        .filter_map(|(seq, msg)| match msg {
+            Ok(TeamMsg::Frame(f)) => Some((seq, f.parts)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use slate_model::{Board, Filter};
+    use slate_testing::addr;
+
+    use super::super::frame::{Member, RobotHello};
+    use super::super::gateway::{Framer, Gateway};
+    use super::super::history::HistoryLimits;
+    use super::super::nack::RepairScheduler;
+    use super::*;
+    use crate::SimNet;
+    use crate::ici::classes::ClassSet;
+    use crate::ici::frame::{Frame, Lifecycle};
+    use crate::ici::{IciConfig, module_class};
+
+    fn ms(n: u64) -> Duration {
+        Duration::from_millis(n)
+    }
+
+    /// Where the tests' time line starts.
+    const START: Duration = Duration::from_secs(10);
+
+    /// A state of `t/r0/m0` with the team protocol on (radio), on its own network.
+    fn state() -> (SimNet, State) {
+        let net = SimNet::new(1);
+        let me = addr("t/r0/m0");
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(me.clone())
+                .build(),
+        );
+        board.define(module_class()).unwrap();
+        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
+        let config = IciConfig::default().team_protocol(Some(TeamProtocol::radio()));
+        let mut state = State::new(board, net.join(&me), config, watch);
+        state.now = START;
+        (net, state)
+    }
+
+    fn tag_of(gateway: &Address) -> StreamTag {
+        StreamTag::of(gateway, 9)
+    }
+
+    /// The hello of `gateway`'s robot: one member, m1.
+    fn hello(gateway: &Address) -> Vec<u8> {
+        hello_of(gateway, 9)
+    }
+
+    /// The hello of the epoch the gateway began at `epoch`.
+    fn hello_of(gateway: &Address, epoch: u64) -> Vec<u8> {
+        let m1 = Member {
+            name: "m1".into(),
+            incarnation: 5,
+            inner_seq: 0,
+            alive: true,
+            listener: true,
+        };
+        let hello = RobotHello {
+            version: 1,
+            tag: StreamTag::of(gateway, epoch),
+            gw_incarnation: epoch,
+            observer: false,
+            interest: ClassSet::all(),
+            exports: ClassSet::none(),
+            members: vec![m1],
+        };
+        TeamMsg::Hello(hello).encode()
+    }
+
+    fn lifecycle(seq: u64) -> Vec<u8> {
+        Frame::Lifecycle(Lifecycle {
+            seq,
+            ..Lifecycle::default()
+        })
+        .encode()
+    }
+
+    /// A frame at `seq` holding m1's lifecycle message `seq`.
+    fn frame(seq: u64) -> Vec<u8> {
+        let parts = vec![Part::member(0, lifecycle(seq))];
+        TeamMsg::Frame(TeamFrame { seq, parts }).encode()
+    }
+
+    fn nack(tag: StreamTag, from: u64, n: u64) -> Vec<u8> {
+        let entry = NackEntry {
+            tag,
+            frames: Some(Span { from, n }),
+            hello: false,
+            state: None,
+        };
+        TeamMsg::Nack(Nack {
+            entries: vec![entry],
+        })
+        .encode()
+    }
+
+    /// Team publications of `kind` this state made.
+    fn sent(st: &State, kind: MsgKind) -> u64 {
+        let traffic = st.stats.traffic.get(&(LinkKind::Team, kind));
+        traffic.map_or(0, |t| t.sent_msgs)
+    }
+
+    /// `st` hears gateway `t/r1/g` say its hello, then frames 1 and 3 at time 0.
+    fn with_a_gap(st: &mut State) -> Address {
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        st.on_team(&gw, &frame(1));
+        st.on_team(&gw, &frame(3));
+        gw
+    }
+
+    /// Runs the NACK timers `at` after the state's start.
+    fn tick_at(st: &mut State, at: Duration) {
+        st.now = START + at;
+        st.nack_tick();
+    }
+
+    #[test]
+    fn a_gap_in_a_robot_stream_is_nacked_once_after_the_grace_and_a_back_off() {
+        let (_net, mut st) = state();
+        with_a_gap(&mut st);
+        tick_at(&mut st, ms(99));
+        assert_eq!(sent(&st, MsgKind::Nack), 0, "within gap_grace");
+        tick_at(&mut st, ms(400));
+        assert_eq!(sent(&st, MsgKind::Nack), 1);
+        tick_at(&mut st, ms(900));
+        assert_eq!(sent(&st, MsgKind::Nack), 1, "the repair is awaited");
+    }
+
+    #[test]
+    fn a_new_epoch_of_the_robot_stream_stops_the_nacks_of_the_old_one() {
+        let (_net, mut st) = state();
+        let gw = with_a_gap(&mut st);
+        st.on_team(&gw, &hello_of(&gw, 10));
+        let old = tag_of(&gw).0;
+        assert!(st.team.nacks.as_ref().unwrap().missing(old).is_empty());
+        tick_at(&mut st, ms(5000));
+        assert_eq!(sent(&st, MsgKind::Nack), 0);
+    }
+
+    #[test]
+    fn another_robots_nack_for_the_same_positions_suppresses_ours() {
+        let (_net, mut st) = state();
+        let gw = with_a_gap(&mut st);
+        st.on_team(&addr("t/r2/g"), &nack(tag_of(&gw), 2, 1));
+        tick_at(&mut st, ms(400));
+        assert_eq!(sent(&st, MsgKind::Nack), 0);
+    }
+
+    #[test]
+    fn a_repair_hands_on_the_missing_position_and_skips_those_held() {
+        let (_net, mut st) = state();
+        let gw = with_a_gap(&mut st);
+        let bodies = (1..=3)
+            .map(|s| vec![Part::member(0, lifecycle(s))])
+            .collect();
+        let repair = TeamRepair {
+            from: 1,
+            content: RepairContent::Replay(bodies),
+        };
+        st.on_team(&gw, &TeamMsg::Repair(repair).encode());
+        let outer = st.team.speakers[&gw].outer.as_ref().unwrap();
+        assert_eq!((outer.have(), outer.has_gap()), (3, false));
+        let tag = tag_of(&gw).0;
+        assert!(st.team.nacks.as_ref().unwrap().missing(tag).is_empty());
+        tick_at(&mut st, ms(2000));
+        assert_eq!(sent(&st, MsgKind::Nack), 0);
+    }
+
+    #[test]
+    fn a_hello_is_nacked_while_frames_are_parked_and_not_once_it_came() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &frame(1));
+        st.on_team(&gw, &frame(2));
+        tick_at(&mut st, ms(400));
+        assert_eq!(
+            sent(&st, MsgKind::Nack),
+            1,
+            "one NACK for both parked frames"
+        );
+        st.on_team(&gw, &hello(&gw));
+        assert_eq!(
+            st.team.speakers[&gw].outer.as_ref().map(|o| o.have()),
+            Some(2)
+        );
+        tick_at(&mut st, ms(5000));
+        assert_eq!(sent(&st, MsgKind::Nack), 1);
+    }
+
+    #[test]
+    fn a_hello_is_asked_again_until_its_gateway_is_silent_past_the_timeout() {
+        let (_net, mut st) = state();
+        st.on_team(&addr("t/r1/g"), &frame(1));
+        for at in (400..60_000).step_by(100) {
+            tick_at(&mut st, ms(at));
+        }
+        let asked = sent(&st, MsgKind::Nack);
+        assert!(asked >= 2, "asked again after repair_wait");
+        assert!(asked <= 6, "not past the 5 s timeout: {asked}");
+    }
+
+    /// Makes `st` the gateway of a stream whose frames 1..=3 it sent at time 0.
+    fn gateway_of_three(st: &mut State, age: Duration) {
+        let limits = HistoryLimits { bytes: 4096, age };
+        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
+        gw.repairs = RepairScheduler::new(repair_timing(&TeamProtocol::radio()));
+        for s in 1..=3u64 {
+            let mut closed = gw.framer.push(0, lifecycle(s), START);
+            closed.extend(gw.framer.flush());
+            for f in closed {
+                let bytes: Arc<[u8]> = TeamMsg::Frame(f.clone()).encode().into();
+                gw.history.push(f.seq, bytes, START, &[]).unwrap();
+            }
+        }
+        st.team.gateway = Some(gw);
+    }
+
+    #[test]
+    fn nacks_from_many_robots_for_one_loss_get_one_broadcast_repair() {
+        let (_net, mut st) = state();
+        gateway_of_three(&mut st, Duration::from_secs(60));
+        for robot in 1..=5 {
+            st.on_team(&addr(&format!("t/r{robot}/g")), &nack(StreamTag(77), 2, 2));
+        }
+        st.now = START + ms(49);
+        st.repair_tick();
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 0, "still gathering");
+        st.now = START + ms(50);
+        st.repair_tick();
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 1);
+        st.on_team(&addr("t/r6/g"), &nack(StreamTag(77), 2, 1));
+        st.now = START + ms(200);
+        st.repair_tick();
+        assert_eq!(
+            sent(&st, MsgKind::TeamRepair),
+            1,
+            "held off: repaired lately"
+        );
+    }
+
+    #[test]
+    fn positions_the_history_no_longer_holds_are_answered_with_gone() {
+        let (_net, mut st) = state();
+        gateway_of_three(&mut st, ms(10));
+        st.now = START + ms(100);
+        st.on_team(&addr("t/r1/g"), &nack(StreamTag(77), 1, 3));
+        st.now = START + ms(150);
+        st.repair_tick();
+        assert_eq!(sent(&st, MsgKind::Gone), 1);
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 0);
+    }
+
+    fn part(member: u8, len: usize) -> Part {
+        Part::member(member, vec![0x11; len])
+    }
+
+    #[test]
+    fn consecutive_bodies_share_a_repair_up_to_the_mtu() {
+        let bodies: Vec<(u64, Vec<Part>)> = (5..10).map(|s| (s, vec![part(0, 30)])).collect();
+        let repairs = replays(bodies, 80);
+        assert!(repairs.len() > 1);
+        let mut next = 5;
+        for r in &repairs {
+            assert!(r.encoded_len() <= 80, "{} bytes", r.encoded_len());
+            assert_eq!(r.from, next);
+            assert_eq!(TeamMsg::Repair(r.clone()).encode().len(), r.encoded_len());
+            next = r.span().end();
+        }
+        assert_eq!(next, 10);
+    }
+
+    #[test]
+    fn a_hole_in_the_positions_starts_a_new_repair() {
+        let bodies = vec![
+            (3, vec![part(0, 4)]),
+            (4, vec![part(1, 4)]),
+            (9, vec![part(0, 4)]),
+        ];
+        let repairs = replays(bodies, 1024);
+        let spans: Vec<(u64, u64)> = repairs.iter().map(|r| (r.from, r.span().n)).collect();
+        assert_eq!(spans, vec![(3, 2), (9, 1)]);
+    }
+
+    #[test]
+    fn a_hello_nack_for_any_tag_or_the_same_tag_covers_an_ask() {
+        let ask = HelloAsk {
+            tag: StreamTag(7),
+            due: Duration::ZERO,
+        };
+        assert!(ask.covered_by(StreamTag(7)));
+        assert!(ask.covered_by(ANY_TAG));
+        assert!(!ask.covered_by(StreamTag(8)));
+    }
+
+    #[test]
+    fn two_modules_draw_different_back_offs() {
+        let a = nack_seed(&slate_testing::addr("t/r1/m0"), 5);
+        let b = nack_seed(&slate_testing::addr("t/r1/m1"), 5);
+        assert_ne!(a, b);
+        assert_eq!(a, nack_seed(&slate_testing::addr("t/r1/m0"), 5));
+    }
+}
