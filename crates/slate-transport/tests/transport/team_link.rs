@@ -47,6 +47,9 @@ impl Handler for Inbox {
     }
 }
 
+/// An endpoint and what it received.
+type Endpoint = (Arc<SimTransport>, Arc<Inbox>);
+
 fn addr(s: &str) -> Address {
     Address::new(s).expect("address")
 }
@@ -60,7 +63,7 @@ fn net_with(team: LinkConfig, seed: u64) -> SimNet {
 }
 
 /// Joins one endpoint per address, each with an inbox, in order.
-fn join_all(net: &SimNet, addresses: &[String]) -> Vec<(Arc<SimTransport>, Arc<Inbox>)> {
+fn join_all(net: &SimNet, addresses: &[String]) -> Vec<Endpoint> {
     addresses
         .iter()
         .map(|a| {
@@ -82,7 +85,7 @@ fn publish(t: &SimTransport, link: LinkKind, tag: u8) {
 }
 
 /// A sender `team/r0/tx` and `robots` robots of `modules` endpoints each.
-fn team(net: &SimNet, robots: usize, modules: usize) -> Vec<(Arc<SimTransport>, Arc<Inbox>)> {
+fn team(net: &SimNet, robots: usize, modules: usize) -> Vec<Endpoint> {
     let mut addresses = vec!["team/r0/tx".to_owned()];
     for r in 1..=robots {
         addresses.extend((0..modules).map(|m| format!("team/r{r}/m{m}")));
@@ -94,7 +97,7 @@ fn team(net: &SimNet, robots: usize, modules: usize) -> Vec<(Arc<SimTransport>, 
 
 /// Publishes `n` team messages from the sender (tags 0..n), lets them arrive, and
 /// returns the tags each receiving endpoint got.
-fn publish_n(net: &SimNet, all: &[(Arc<SimTransport>, Arc<Inbox>)], n: u8) -> Vec<Vec<u8>> {
+fn publish_n(net: &SimNet, all: &[Endpoint], n: u8) -> Vec<Vec<u8>> {
     for tag in 0..n {
         publish(&all[0].0, LinkKind::Team, tag);
     }
@@ -165,7 +168,7 @@ fn the_default_team_link_draws_loss_per_endpoint() {
 }
 
 /// `team/r1/a`, `team/r1/b`, `team/r2/c`, each seeing the others.
-fn trio(net: &SimNet) -> Vec<(Arc<SimTransport>, Arc<Inbox>)> {
+fn trio(net: &SimNet) -> Vec<Endpoint> {
     let addresses = ["team/r1/a", "team/r1/b", "team/r2/c"].map(str::to_owned);
     let all = join_all(net, &addresses);
     net.run_for(Duration::from_millis(500));
@@ -410,13 +413,10 @@ fn a_transport_that_cannot_choose_what_it_hears_says_so() {
     assert!(!t.listen(LinkKind::Team, true));
 }
 
-/// A reliable send keeps trying while its addressee stays reachable: a cut shorter than
-/// the liveliness lease goes unnoticed (no peer event), so a send that meets it is
-/// retransmitted after the retry timeout and arrives after the heal, as TCP's would.
-/// Dropping it instead lost a catch-up answer whose object list then arrived alone.
-#[test]
-fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
-    let net = net_with(LinkConfig::clean(), 5);
+/// t/r1/a and t/r2/b on a clean network, cut apart just before a sends b a reliable
+/// message (tag 7).
+fn send_across_a_cut(seed: u64) -> (SimNet, Vec<Endpoint>) {
+    let net = net_with(LinkConfig::clean(), seed);
     let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
     net.run_for(Duration::from_millis(300));
     net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
@@ -424,6 +424,16 @@ fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
         .0
         .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
         .unwrap();
+    (net, all)
+}
+
+/// A reliable send keeps trying while its addressee stays reachable: a cut shorter than
+/// the liveliness lease goes unnoticed (no peer event), so a send that meets it is
+/// retransmitted after the retry timeout and arrives after the heal, as TCP's would.
+/// Dropping it instead lost a catch-up answer whose object list then arrived alone.
+#[test]
+fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
+    let (net, all) = send_across_a_cut(5);
     net.run_for(Duration::from_millis(800));
     assert!(all[1].1.tags().is_empty(), "nothing crosses the cut");
     net.heal();
@@ -437,14 +447,7 @@ fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
 /// partition does not keep sends alive for ever.
 #[test]
 fn a_reliable_send_is_dropped_once_the_cut_outlasts_the_lease() {
-    let net = net_with(LinkConfig::clean(), 6);
-    let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
-    net.run_for(Duration::from_millis(300));
-    net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
-    all[0]
-        .0
-        .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
-        .unwrap();
+    let (net, all) = send_across_a_cut(6);
     net.run_for(Duration::from_secs(5));
     assert!(
         all[0]
