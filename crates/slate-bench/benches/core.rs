@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use std::hint::black_box;
 
 use divan::Bencher;
+use slate_bench::Cycle;
 use slate_bench::core::{packet, world};
 use slate_model::{Board, Key, Packet, Update};
 
@@ -19,6 +20,11 @@ fn board() -> Board {
 
 fn key(b: &Board, object: &str, attr: &str) -> Key {
     b.key(object, attr).expect("key")
+}
+
+/// Writes the next of `values` to `key` per iteration.
+fn write_cycle(bencher: Bencher, b: &Board, key: Key, mut values: Cycle) {
+    bencher.bench_local(|| b.write_key(key, values.next_value()));
 }
 
 /// 10 objects of 8 attributes, as `(object, attr)` ids.
@@ -65,20 +71,16 @@ fn read_by_name(bencher: Bencher) {
 fn write(bencher: Bencher) {
     let b = board();
     let own = key(&b, "v0", "speed");
-    let mut v = 0.0;
-    bencher.bench_local(|| {
-        v = if v >= 49.0 { 0.0 } else { v + 1.0 };
-        b.write_key(own, v)
-    });
+    write_cycle(bencher, &b, own, Cycle::new(0.0, 49.0));
 }
 
 #[divan::bench]
 fn write_full_packet(bencher: Bencher) {
     let b = board();
     let own = key(&b, "v0", "speed");
-    let mut v = 0.0;
+    let mut values = Cycle::new(0.0, 49.0);
     bencher.bench_local(|| {
-        v = if v >= 49.0 { 0.0 } else { v + 1.0 };
+        let v = values.next_value();
         b.write_key(own, Update::new(v).accuracy(0.1).confidence(0.9))
     });
 }
@@ -87,9 +89,9 @@ fn write_full_packet(bencher: Bencher) {
 fn batch10(bencher: Bencher) {
     let b = board();
     let keys: Vec<Key> = (0..10).map(|i| key(&b, &format!("v{i}"), "x")).collect();
-    let mut v = 0.0;
+    let mut values = Cycle::new(0.0, 49.0);
     bencher.bench_local(|| {
-        v = if v >= 49.0 { 0.0 } else { v + 1.0 };
+        let v = values.next_value();
         let mut batch = b.batch();
         for k in &keys {
             batch.write_key(*k, v);
@@ -103,11 +105,7 @@ fn write_active_fn(bencher: Bencher) {
     let b = board();
     b.on_write("v9", "heading", |_| Ok(())).expect("attach");
     let heading = key(&b, "v9", "heading");
-    let mut v = 0.0;
-    bencher.bench_local(|| {
-        v = if v >= 7.0 { 0.0 } else { v + 1.0 };
-        b.write_key(heading, v)
-    });
+    write_cycle(bencher, &b, heading, Cycle::new(0.0, 7.0));
 }
 
 #[divan::bench]

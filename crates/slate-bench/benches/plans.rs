@@ -5,6 +5,7 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use divan::Bencher;
+use slate_bench::Cycle;
 use slate_bench::plans::{DEPENDENT, WORLD, acting, crowd, engine, unrelated};
 use slate_model::{Board, Clock, Key};
 use slate_plans::Engine;
@@ -23,11 +24,12 @@ fn write_loop(bencher: Bencher, plans: &[&str]) {
             .expect("plans load");
     }
     let key: Key = board.key("x", "v").expect("key");
-    let mut v = 0.0;
-    bencher.bench_local(|| {
-        v = if v >= 100.0 { 0.0 } else { v + 1.0 };
-        board.write_key(key, v)
-    });
+    write_cycle(bencher, &board, key, Cycle::new(0.0, 100.0));
+}
+
+/// Writes the next of `values` to `key` per iteration.
+fn write_cycle(bencher: Bencher, board: &Board, key: Key, mut values: Cycle) {
+    bencher.bench_local(|| board.write_key(key, values.next_value()));
 }
 
 #[divan::bench]
@@ -58,11 +60,7 @@ fn write_to_action_pair(bencher: Bencher) {
 #[divan::bench]
 fn quantifier_10k(bencher: Bencher) {
     let (board, _engine, key) = crowd();
-    let mut v = 50.0;
-    bencher.bench_local(|| {
-        v = if v >= 90.0 { 50.0 } else { v + 1.0 };
-        board.write_key(key, v)
-    });
+    write_cycle(bencher, &board, key, Cycle::new(50.0, 90.0));
 }
 
 /// Loading 1000 plans into a fresh engine (the board and engine are made untimed).

@@ -325,6 +325,32 @@ fn round(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 
+/// Values for a write loop, so that every write is a change: `low + 1`, `low + 2`, ...
+/// up to `high`, then `low`, and round again.
+#[derive(Clone, Copy, Debug)]
+pub struct Cycle {
+    v: f64,
+    low: f64,
+    high: f64,
+}
+
+impl Cycle {
+    /// A cycle between `low` and `high`, whose first value is `low + 1`.
+    pub fn new(low: f64, high: f64) -> Self {
+        Cycle { v: low, low, high }
+    }
+
+    /// The next value.
+    pub fn next_value(&mut self) -> f64 {
+        self.v = if self.v >= self.high {
+            self.low
+        } else {
+            self.v + 1.0
+        };
+        self.v
+    }
+}
+
 /// The median of `xs` (the upper one of an even count); NaN without samples.
 pub fn median(mut xs: Vec<f64>) -> f64 {
     xs.sort_by(f64::total_cmp);

@@ -21,10 +21,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::anyhow;
-use crossbeam_channel::{Receiver, Sender};
+use crossbeam_channel::Receiver;
 use serde_json::json;
 use slate_ici::{LinkKind, MsgKind, Rng};
-use slate_model::{Board, ChangeHook, Key, ObjectId, TouchKind, Touched};
+use slate_model::{Board, ChangeHook, Key, TouchKind, Touched};
 use zenoh::Wait;
 use zenoh::qos::CongestionControl;
 use zenoh::sample::Locality;
@@ -188,19 +188,25 @@ fn round_budget(cfg: &Config) -> Duration {
     Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / 3)
 }
 
-/// Tells when a write to one object reaches the board (in the applying thread).
-struct Arrivals {
-    object: ObjectId,
-    tx: Sender<Instant>,
+/// Hands `seen`, in the applying thread, how many of a revision's writes `picks` picks,
+/// when it picks any.
+struct OnWrites<P, S> {
+    picks: P,
+    seen: S,
 }
 
-impl ChangeHook for Arrivals {
+impl<P, S> ChangeHook for OnWrites<P, S>
+where
+    P: Fn(&Touched) -> bool + Send + Sync,
+    S: Fn(u64) + Send + Sync,
+{
     fn changed(&self, _: &Board, _: u64, touched: &[Touched]) {
-        let hit = touched
+        let n = touched
             .iter()
-            .any(|t| t.object == self.object && t.kind == TouchKind::Write);
-        if hit {
-            let _ = self.tx.send(Instant::now());
+            .filter(|t| t.kind == TouchKind::Write && (self.picks)(t))
+            .count();
+        if n > 0 {
+            (self.seen)(n as u64);
         }
     }
 }
@@ -300,9 +306,12 @@ impl<'p> Latency<'p> {
             .info("t0")
             .ok_or_else(|| anyhow!("the receiver lacks t0"))?;
         let (tx, arrived) = crossbeam_channel::unbounded();
-        pair.b.board.add_hook(Arc::new(Arrivals {
-            object: info.id,
-            tx,
+        // When a write to t0 reaches B's board.
+        pair.b.board.add_hook(Arc::new(OnWrites {
+            picks: move |t: &Touched| t.object == info.id,
+            seen: move |_| {
+                let _ = tx.send(Instant::now());
+            },
         }));
         let (raw_tx, raw_arrived) = crossbeam_channel::unbounded();
         let on_sample = move || {
@@ -432,24 +441,6 @@ impl Counter {
     }
 }
 
-/// Counts the packets of one class B's board takes.
-struct Applied {
-    class: ObjectId,
-    counter: Arc<Counter>,
-}
-
-impl ChangeHook for Applied {
-    fn changed(&self, _: &Board, _: u64, touched: &[Touched]) {
-        let n = touched
-            .iter()
-            .filter(|t| t.kind == TouchKind::Write && t.class == self.class)
-            .count();
-        if n > 0 {
-            self.counter.hit(n as u64);
-        }
-    }
-}
-
 /// Updates written but not yet applied by B, at most (a sender is not to run ahead
 /// of its receiver without bound: that measures a queue, not a link).
 const WINDOW: u64 = 20_000;
@@ -502,9 +493,11 @@ impl<'p> Throughput<'p> {
             .info("Tracked")
             .ok_or_else(|| anyhow!("the receiver lacks Tracked"))?
             .id;
-        pair.b.board.add_hook(Arc::new(Applied {
-            class,
-            counter: applied.clone(),
+        // The packets of class Tracked B's board takes.
+        let counter = applied.clone();
+        pair.b.board.add_hook(Arc::new(OnWrites {
+            picks: move |t: &Touched| t.class == class,
+            seen: move |n| counter.hit(n),
         }));
         let keys = (0..OBJECTS)
             .map(|i| {

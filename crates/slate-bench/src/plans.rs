@@ -101,9 +101,9 @@ fn compile_1000(cfg: &Config) -> f64 {
 }
 
 fn write_loop(cfg: &Config, board: &Board, key: Key) -> f64 {
-    let mut v = 0.0;
+    let mut values = crate::Cycle::new(0.0, 100.0);
     measure(cfg, || {
-        v = if v >= 100.0 { 0.0 } else { v + 1.0 };
+        let v = values.next_value();
         drop(black_box(board.write_key(key, v)));
     })
 }
@@ -161,9 +161,9 @@ fn write_to_action(cfg: &Config, r: &mut Figures) {
 
 fn quantifier(cfg: &Config, r: &mut Figures) {
     let (board, _engine, key) = crowd();
-    let mut v = 50.0;
+    let mut values = crate::Cycle::new(50.0, 90.0);
     let ns = measure(cfg, || {
-        v = if v >= 90.0 { 50.0 } else { v + 1.0 };
+        let v = values.next_value();
         drop(black_box(board.write_key(key, v)));
     });
     r.add("quantifier_10k_ns", ns);

@@ -55,6 +55,13 @@ pub const ACOUSTIC_FRAME_OVERHEAD: Duration = Duration::from_millis(250);
 /// loses messages rather than delivering them hours late. A modelling choice.
 pub const ACOUSTIC_MAX_QUEUE: Duration = Duration::from_secs(60);
 
+/// The deck's team link: a fast clean radio, bit/s (the robots are side by side).
+pub const DECK_BPS: u64 = 1_000_000;
+
+/// The shortest deck phase: the operator declares the mission ready 3 s into the run
+/// (the modules have met), and the plans need a moment to be accepted.
+pub const MIN_DECK: Duration = Duration::from_secs(5);
+
 /// The team link between robots: its medium, its declared budget and, on the
 /// simulator, its faults.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,6 +124,18 @@ impl TeamLink {
         }
     }
 
+    /// The deck's link before launch, for a mission on `mission`: radios of
+    /// [`DECK_BPS`], no loss, cut into the mission link's frames (with no frame
+    /// overhead) so that the largest frame the summary reports is the mission link's
+    /// whatever the deck carried; frames cost nothing on a clean fast link.
+    pub fn deck(mission: &TeamLink) -> TeamLink {
+        TeamLink {
+            loss: 0.0,
+            frame_bytes: mission.frame_bytes,
+            ..TeamLink::radio(DECK_BPS)
+        }
+    }
+
     /// The medium's link at `bps` (its default rate when `None`).
     pub fn of(medium: TeamMedium, bps: Option<u64>) -> TeamLink {
         let bps = bps.unwrap_or(medium.default_bps());
@@ -156,6 +175,28 @@ pub struct DemoConfig {
     pub fault_at: Option<f64>,
     /// The team link.
     pub team_link: TeamLink,
+    /// A deck phase this long before launch (`None`: none, the mission starts 3 s into
+    /// the run, once the modules have met): the team link is a fast clean radio
+    /// ([`TeamLink::deck`]), the console sends the mission plans, and at launch the link
+    /// becomes [`Self::team_link`] and the mission runs. The mission's duration, its
+    /// deadline and the fault count from launch.
+    pub deck: Option<Duration>,
+    /// Who speaks on the team link: every module (today's protocol, the default) or one
+    /// gateway per robot (the team protocol being built, docs/team-protocol.md).
+    pub speakers: Speakers,
+}
+
+/// Who speaks on the team link.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Speakers {
+    /// Every module greets, heartbeats and catches up with every module of the other
+    /// robots (the protocol in docs/ici.md).
+    #[default]
+    Modules,
+    /// One gateway per robot relays its modules' exports as one robot stream, repaired by
+    /// NACK (`IciConfig::team_protocol`; docs/team-protocol.md). Being built: not every
+    /// step of its plan is in yet.
+    Robots,
 }
 
 impl Default for DemoConfig {
@@ -170,6 +211,8 @@ impl Default for DemoConfig {
             pace: None,
             fault_at: Some(30.0),
             team_link: TeamLink::default(),
+            deck: None,
+            speakers: Speakers::Modules,
         }
     }
 }
@@ -218,6 +261,23 @@ impl DemoConfig {
         self
     }
 
+    /// Sets who speaks on the team link.
+    pub fn speakers(mut self, speakers: Speakers) -> Self {
+        self.speakers = speakers;
+        self
+    }
+
+    /// Sets the deck phase before launch.
+    pub fn deck(mut self, deck: Option<Duration>) -> Self {
+        self.deck = deck;
+        self
+    }
+
+    /// Seconds from the start of the run to launch (0 without a deck phase).
+    pub fn launch_seconds(&self) -> f64 {
+        self.deck.map_or(0.0, |d| d.as_secs_f64())
+    }
+
     /// Sets when the last robot dies.
     pub fn fault_at(mut self, at: Option<f64>) -> Self {
         self.fault_at = at;
@@ -243,6 +303,12 @@ impl DemoConfig {
             return bad(
                 "--team-link acoustic is a simulated channel: use it with --network sim".into(),
             );
+        }
+        if self.deck.is_some_and(|d| d < MIN_DECK) {
+            return bad(format!(
+                "--deck must be at least {} s (the mission is declared ready at 3 s)",
+                MIN_DECK.as_secs()
+            ));
         }
         if self.pace.is_some_and(|p| !(p > 0.0 && p.is_finite())) {
             return bad("the pace must be a positive number".into());

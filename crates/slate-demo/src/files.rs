@@ -28,13 +28,29 @@ pub const CLASSES: SlateFile = file!("classes.slate");
 pub const ROBOT_OBJECTS: SlateFile = file!("robot.slate");
 /// The execution controller's standing plans (per robot).
 pub const EXEC: SlateFile = file!("exec.slate");
+/// The vision module's team export (per robot).
+pub const VISION: SlateFile = file!("vision.slate");
+/// The team heartbeat of the modules that export nothing (per robot).
+pub const QUIET: SlateFile = file!("quiet.slate");
 /// The console's mission for one robot (per robot, loaded on the console).
 pub const MISSION: SlateFile = file!("mission.slate");
 /// The console's own plans.
 pub const CONSOLE: SlateFile = file!("console.slate");
 
+/// The team link's filters on the acoustic channel (every module, after its own files).
+pub const LINK_ACOUSTIC: SlateFile = file!("link-acoustic.slate");
+
 /// Every file, in the order `slate check` can load them.
-pub const ALL: [SlateFile; 5] = [CLASSES, ROBOT_OBJECTS, EXEC, MISSION, CONSOLE];
+pub const ALL: [SlateFile; 8] = [
+    CLASSES,
+    ROBOT_OBJECTS,
+    EXEC,
+    VISION,
+    QUIET,
+    MISSION,
+    CONSOLE,
+    LINK_ACOUSTIC,
+];
 
 impl SlateFile {
     /// The text for robot `robot`: every `ROBOT` replaced by its name.

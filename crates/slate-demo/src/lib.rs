@@ -39,8 +39,8 @@ mod traffic;
 pub mod world;
 
 pub use config::{
-    ACOUSTIC_FRAME_BYTES, ACOUSTIC_FRAME_OVERHEAD, ACOUSTIC_MAX_QUEUE, DemoConfig, MAX_ROBOTS,
-    TeamLink, TeamMedium,
+    ACOUSTIC_FRAME_BYTES, ACOUSTIC_FRAME_OVERHEAD, ACOUSTIC_MAX_QUEUE, DECK_BPS, DemoConfig,
+    MAX_ROBOTS, MIN_DECK, Speakers, TeamLink, TeamMedium,
 };
 pub use consistency::{TEAM_CLASSES, disagreement};
 pub use error::DemoError;

@@ -1,14 +1,15 @@
 //! A module: a `slate_node::Node` (one board with its own ICI, plan engine and plan
 //! circuits) on the demo's network, as a separate board on a real network would be. What
-//! each kind of module models (its interest) and lets out of the robot (its export
-//! policy) is decided here.
+//! each kind of module models (its interest) and which files it loads (among them its
+//! export policy, a `link team` block) is decided here.
 
 use std::time::Duration;
 
-use slate_ici::{ClassSet, IciConfig, LinkKind};
+use slate_ici::{ClassSet, IciConfig, TeamProtocol};
 use slate_model::{Address, Context};
 use slate_node::Node;
 
+use crate::config::{Speakers, TeamMedium};
 use crate::error::DemoError;
 use crate::files::{self, SlateFile};
 use crate::net::Network;
@@ -61,37 +62,43 @@ impl Role {
         }
     }
 
-    /// What may leave the robot on the team link: the robot's export policy, at the
-    /// highest abstraction. Sensor data (Pose, Obstacle, Contact, Sighting) never does.
-    fn export(self) -> ClassSet {
-        match self {
-            Role::Exec => ClassSet::none()
-                .class_in("Robot", &[Context::Self_])
-                .class("Target")
-                .class("Waypoint"),
-            Role::Vision => ClassSet::none().class("Target"),
-            Role::Console => ClassSet::none().class("Mission").class("Waypoint"),
-            Role::Nav | Role::Prox | Role::Loco => ClassSet::none(),
-        }
-    }
-
-    /// The ICI settings: interest, export policy, and a slower team heartbeat for the
-    /// modules that have nothing for the team (saves team-link bytes).
-    pub fn ici_config(self) -> IciConfig {
-        let mut config = IciConfig::default()
-            .interest(self.interest())
-            .export(self.export());
+    /// The ICI settings: interest. The export policy and the slower team heartbeat of
+    /// the modules that export nothing come from the role's files when they load
+    /// (`link team` blocks).
+    pub fn ici_config(self, speakers: Speakers, medium: TeamMedium) -> IciConfig {
+        let mut config = IciConfig::default().interest(self.interest());
         // A catch-up answer can wait behind others on a 9600 bit/s radio: asking again
         // after the default 3 s would only queue more answers.
         config.catch_up_retry = Duration::from_secs(10);
-        if self.export().is_empty() {
-            config.liveliness(
-                LinkKind::Team,
-                Duration::from_secs(2),
-                Duration::from_secs(5),
-            )
-        } else {
-            config
+        if speakers == Speakers::Robots {
+            let preset = match medium {
+                TeamMedium::Radio => TeamProtocol::radio(),
+                TeamMedium::Acoustic => TeamProtocol::acoustic(),
+            };
+            config = config.team_protocol(Some(preset.priority(Some(self.gateway_priority()))));
+        }
+        config
+    }
+
+    /// Its place in its robot's gateway election (lowest first): the execution
+    /// controller, which exports the most, then vision; the console is alone at the base.
+    fn gateway_priority(self) -> u8 {
+        match self {
+            Role::Exec | Role::Console => 0,
+            Role::Vision => 1,
+            Role::Nav => 2,
+            Role::Loco => 3,
+            Role::Prox => 4,
+        }
+    }
+
+    /// The files this module loads after the classes and its role's files, for the team
+    /// link's medium: the acoustic channel's filters (every module writes some of the
+    /// attributes they filter, so every module loads them).
+    fn medium_files(medium: TeamMedium) -> &'static [SlateFile] {
+        match medium {
+            TeamMedium::Radio => &[],
+            TeamMedium::Acoustic => &[files::LINK_ACOUSTIC],
         }
     }
 
@@ -99,8 +106,9 @@ impl Role {
     fn files(self) -> &'static [SlateFile] {
         match self {
             Role::Exec => &[files::ROBOT_OBJECTS, files::EXEC],
+            Role::Vision => &[files::ROBOT_OBJECTS, files::VISION],
             Role::Console => &[files::CONSOLE],
-            _ => &[files::ROBOT_OBJECTS],
+            Role::Nav | Role::Prox | Role::Loco => &[files::ROBOT_OBJECTS, files::QUIET],
         }
     }
 }
@@ -124,20 +132,22 @@ pub struct Module {
 impl Module {
     /// Starts a module on `net`: a node with the role's ICI settings, into which it then
     /// loads the classes and its role's files for its robot (the console also the mission
-    /// of each robot in `team`), as an operator loads files into a running node. The
+    /// of each robot in `team`), then the team link's files for `medium`, as an operator
+    /// loads files into a running node. The
     /// order is the demo's: its seeds' runs are what they were with the ICI started first.
     pub(crate) fn start(
         net: &Network,
         robot: &str,
         role: Role,
         team: &[String],
+        (medium, speakers): (TeamMedium, Speakers),
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
         let node = Node::builder(address.clone())
             .transport(net.join(&address)?)
             .clock(net.clock())
-            .ici(role.ici_config())
+            .ici(role.ici_config(speakers, medium))
             .start()?;
         let module = Module {
             role,
@@ -151,6 +161,9 @@ impl Module {
             for r in team {
                 module.load_terse(files::MISSION, r)?;
             }
+        }
+        for file in Role::medium_files(medium) {
+            module.load(*file, robot)?;
         }
         Ok(module)
     }

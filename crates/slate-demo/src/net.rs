@@ -47,6 +47,14 @@ impl Network {
         Network::Sim(SimNet::with_config(seed, config))
     }
 
+    /// From now on the team link is shaped as `team` (the simulator's; Zenoh's links are
+    /// what they are): the deck's radio gives way to the mission's link at launch.
+    pub fn set_team_link(&self, team: &TeamLink) {
+        if let Network::Sim(net) = self {
+            net.set_team_link(team_link_config(team));
+        }
+    }
+
     /// The team link's air on the simulator: its counters and the fraction of the time
     /// its transmitters spent on the air.
     pub fn team_channel(&self) -> Option<(Channel, SimStats, f64)> {

@@ -140,6 +140,9 @@ impl Observer {
         let phase = text(console, "mission", "phase");
         if let Some(Some(_)) | Some(None) = self.changed("mission".into(), phase.clone()) {
             let what = match phase.as_str() {
+                "ready" => {
+                    "on deck: the operator declares the mission ready; the console sends the mission plans"
+                }
                 "run" => "the operator starts the mission: patrol, investigate, return",
                 "return" => "the console calls everybody home",
                 "complete" => "mission complete: every robot alive is home",

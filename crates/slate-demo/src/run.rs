@@ -57,6 +57,10 @@ pub struct Demo {
     /// How long changes took to reach every board of the team view.
     pub propagation: Propagation,
     step: u64,
+    /// Has the mission launched (always, without a deck phase)?
+    launched: bool,
+    /// Team-link bytes per message kind sent on deck (empty without a deck phase).
+    deck_by_kind: std::collections::BTreeMap<slate_ici::MsgKind, u64>,
     fault_done: bool,
     started: Instant,
 }
@@ -66,16 +70,26 @@ impl Demo {
     pub fn start(config: DemoConfig) -> Result<Demo, DemoError> {
         config.validate()?;
         let net = match config.network {
-            NetworkKind::Sim => Network::sim(config.seed, &config.team_link),
+            NetworkKind::Sim => Network::sim(config.seed, &first_team_link(&config)),
             NetworkKind::Zenoh => Network::zenoh(),
         };
         let layout = Layout::generate(config.seed, config.robots);
         let world = World::new(&layout, config.seed);
-        let mut team = Team::start(&net, &layout, config.seed)?;
+        let mut team = Team::start(
+            &net,
+            &layout,
+            config.seed,
+            (config.team_link.medium, config.speakers),
+        )?;
         let return_after = config.duration.as_secs_f64() * 0.8;
+        if config.deck.is_some() {
+            team.operator.deck_until(config.launch_seconds());
+        }
         team.operator
             .plan(&layout, layout.targets.len(), return_after);
         Ok(Demo {
+            launched: config.deck.is_none(),
+            deck_by_kind: Default::default(),
             traffic: LinkRates::new(config.team_link.budget_bps),
             config,
             net,
@@ -99,6 +113,7 @@ impl Demo {
     /// network runs for `DT`, the observer looks.
     pub fn step(&mut self) {
         self.world.step(DT);
+        self.maybe_launch();
         self.team.tick(&mut self.world, self.step, DT);
         self.step += 1;
         self.maybe_fault();
@@ -118,11 +133,29 @@ impl Demo {
         self.net.advance(Duration::from_secs_f64(DT));
     }
 
+    /// At launch, the deck's radio gives way to the mission's team link, and what the
+    /// deck carried is set apart (the operator writes `"run"` in this same step).
+    fn maybe_launch(&mut self) {
+        if self.launched || self.world.time < self.config.launch_seconds() {
+            return;
+        }
+        self.launched = true;
+        self.traffic.sample(&self.net, &self.team, self.world.time);
+        self.traffic.launch();
+        self.deck_by_kind = by_kind(&self.team, LinkKind::Team);
+        self.net.set_team_link(&self.config.team_link);
+    }
+
+    /// Seconds since launch (world time, the deck phase excluded).
+    pub fn mission_time(&self) -> f64 {
+        self.world.time - self.config.launch_seconds()
+    }
+
     fn maybe_fault(&mut self) {
         let Some(at) = self.config.fault_at else {
             return;
         };
-        if self.fault_done || self.world.time < at || self.team.robots.len() < 2 {
+        if self.fault_done || self.mission_time() < at || self.team.robots.len() < 2 {
             return;
         }
         self.fault_done = true;
@@ -139,7 +172,8 @@ impl Demo {
 
     /// Is the mission over (complete, or out of time)?
     pub fn done(&self) -> bool {
-        self.mission_phase() == "complete" || self.world.time >= self.config.duration.as_secs_f64()
+        self.mission_phase() == "complete"
+            || self.mission_time() >= self.config.duration.as_secs_f64()
     }
 
     /// The simulator's counters, if simulated.
@@ -150,7 +184,7 @@ impl Demo {
     /// Ends the run: the drivers stop (nothing changes any more), the network runs until
     /// the team's boards agree, and the summary is made.
     pub fn finish(&mut self) -> Summary {
-        let mission_seconds = self.world.time;
+        let mission_seconds = self.mission_time();
         self.traffic.sample(&self.net, &self.team, self.world.time);
         let (lag, left) = self.settle();
         self.summary(mission_seconds, lag, left)
@@ -195,12 +229,7 @@ impl Demo {
         let found = targets.iter().filter(|t| !t.found_by.is_empty()).count();
         let fault = self.observer.fault.as_ref();
         let (sent, accepted, rejected) = self.plan_counts();
-        let kinds = |link| {
-            by_kind(&self.team, link)
-                .into_iter()
-                .map(|(k, b)| (k.name().to_owned(), b))
-                .collect()
-        };
+        let kinds = |link| names(&by_kind(&self.team, link));
         let team_bytes = self.traffic.bytes(LinkKind::Team);
         Summary {
             seed: self.config.seed,
@@ -227,7 +256,8 @@ impl Demo {
             team_channel_peak_bps: self.traffic.peak_channel_bps,
             team_link_offered_peak_bps: self.traffic.peak_offered_bps,
             team_link_max_backlog_seconds: self.traffic.max_backlog_s,
-            team_link_mean_bps: team_bytes as f64 * 8.0 / mission_seconds.max(1e-9),
+            team_link_mean_bps: team_bytes.saturating_sub(self.traffic.deck_bytes) as f64 * 8.0
+                / mission_seconds.max(1e-9),
             team_bytes_by_kind: kinds(LinkKind::Team),
             intra_bytes_by_kind: kinds(LinkKind::Robot),
             consistency_lag_seconds: lag,
@@ -241,6 +271,9 @@ impl Demo {
             plans_rejected: rejected,
             events: self.observer.events.len(),
             team_channel: crate::traffic::team_channel(&self.net, &self.config.team_link),
+            deck_seconds: self.config.deck.map(|d| d.as_secs_f64()),
+            deck_bytes: self.traffic.deck_bytes,
+            deck_bytes_by_kind: names(&self.deck_by_kind),
         }
     }
 
@@ -294,6 +327,24 @@ impl Demo {
                 NetworkKind::Zenoh => " (measured, not enforced)".into(),
             }
         )
+    }
+}
+
+/// Bytes per message kind, by the kinds' names.
+fn names(
+    by_kind: &std::collections::BTreeMap<slate_ici::MsgKind, u64>,
+) -> std::collections::BTreeMap<String, u64> {
+    by_kind
+        .iter()
+        .map(|(k, b)| (k.name().to_owned(), *b))
+        .collect()
+}
+
+/// The team link the run starts on: the deck's fast clean radio, or the mission's link.
+fn first_team_link(config: &DemoConfig) -> crate::config::TeamLink {
+    match config.deck {
+        Some(_) => crate::config::TeamLink::deck(&config.team_link),
+        None => config.team_link.clone(),
     }
 }
 

@@ -125,6 +125,15 @@ pub struct Summary {
     pub events: usize,
     /// The team link's air on the simulator (`None` on Zenoh).
     pub team_channel: Option<TeamChannel>,
+    /// The deck phase before launch, seconds (`None`: none). With one, the mission's
+    /// time, rates, peaks and backlogs count from launch; its bytes count in
+    /// [`Self::team_link_bytes`] too.
+    pub deck_seconds: Option<f64>,
+    /// Team-link bytes on deck, before launch (0 without a deck phase).
+    pub deck_bytes: u64,
+    /// Team-link bytes on deck per message kind, as the ICIs sent them (part of
+    /// [`Self::team_bytes_by_kind`]; empty without a deck phase).
+    pub deck_bytes_by_kind: BTreeMap<String, u64>,
 }
 
 impl Summary {
@@ -165,8 +174,8 @@ impl Summary {
         }
     }
 
-    /// Team-link bytes (on the air, retransmissions included) per robot per minute of
-    /// mission: the load each robot adds to the team link.
+    /// Team-link bytes (on the air, retransmissions included, the deck's too) per robot
+    /// per minute of mission from launch: the load each robot adds to the team link.
     pub fn team_bytes_per_robot_minute(&self) -> f64 {
         let minutes = self.mission_seconds / 60.0;
         if self.robots == 0 || minutes <= 0.0 {
@@ -228,8 +237,21 @@ impl Summary {
         });
         if let Value::Object(map) = &mut summary {
             map.extend(self.channel_json());
+            map.extend(self.deck_json());
         }
         summary
+    }
+
+    /// The deck phase, as JSON fields: none without one (a run without a deck reports
+    /// what it always did).
+    fn deck_json(&self) -> serde_json::Map<String, Value> {
+        let mut map = serde_json::Map::new();
+        if let Some(seconds) = self.deck_seconds {
+            map.insert("deck_seconds".into(), json!(round(seconds)));
+            map.insert("deck_bytes".into(), json!(self.deck_bytes));
+            map.insert("deck_bytes_by_kind".into(), json!(self.deck_bytes_by_kind));
+        }
+        map
     }
 
     /// The team link's medium and air, as JSON fields.
@@ -358,6 +380,13 @@ impl Summary {
             self.intra_robot_bytes,
             self.team_link_budget_bps
         );
+        if let Some(deck) = self.deck_seconds {
+            let _ = writeln!(
+                s,
+                "  on deck    {} bytes in the {deck:.0} s before launch, on a fast clean radio (the mission's time, rates and backlogs count from launch)",
+                self.deck_bytes
+            );
+        }
         self.channel_text(s);
         if self.team_medium() == "radio" {
             self.radios_text(s);

@@ -1,6 +1,7 @@
 //! The team: the operator console and the robots, each robot five modules (five boards,
 //! five ICIs) and the drivers of its sensors and effector.
 
+use crate::config::{Speakers, TeamMedium};
 use crate::drivers::{Loco, Nav, Operator, Prox, RobotDrivers, Vision};
 use crate::error::DemoError;
 use crate::module::{Module, Role};
@@ -25,13 +26,21 @@ pub struct Team {
 }
 
 impl Team {
-    /// Starts every module on `net` and the drivers (the console first).
-    pub(crate) fn start(net: &Network, layout: &Layout, seed: u64) -> Result<Team, DemoError> {
+    /// Starts every module on `net` (with the files of the team link's medium, and its
+    /// speakers: every module or one gateway per robot) and the drivers (the console
+    /// first).
+    pub(crate) fn start(
+        net: &Network,
+        layout: &Layout,
+        seed: u64,
+        link: (TeamMedium, Speakers),
+    ) -> Result<Team, DemoError> {
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
-        let mut modules = vec![Module::start(net, BASE, Role::Console, &robots)?];
+        let console = Module::start(net, BASE, Role::Console, &robots, link)?;
+        let mut modules = vec![console];
         for robot in &robots {
             for role in Role::ROBOT {
-                modules.push(Module::start(net, robot, role, &robots)?);
+                modules.push(Module::start(net, robot, role, &robots, link)?);
             }
         }
         let operator = Operator::new(modules[0].node.board().clone());

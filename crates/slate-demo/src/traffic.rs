@@ -40,6 +40,8 @@ pub struct LinkRates {
     pub peak_channel_bps: f64,
     /// Cumulative bytes at the last sample.
     pub total: Counts,
+    /// Team-link bytes before launch (the deck phase; 0 without one).
+    pub deck_bytes: u64,
 }
 
 impl LinkRates {
@@ -97,6 +99,18 @@ impl LinkRates {
         *backlog -= sent;
         self.max_backlog_s = self.max_backlog_s.max(*backlog / self.budget_bps);
         sent / dt
+    }
+
+    /// Launch: what the team link carried so far was the deck's ([`Self::deck_bytes`]),
+    /// on a radio much faster than the budget, so peaks and backlogs start again here
+    /// (call right after a [`Self::sample`] at launch).
+    pub(crate) fn launch(&mut self) {
+        self.deck_bytes = self.bytes(LinkKind::Team);
+        self.backlog_bits.clear();
+        self.peak_radio_bps = (0.0, String::new());
+        self.peak_offered_bps = 0.0;
+        self.max_backlog_s = 0.0;
+        self.peak_channel_bps = 0.0;
     }
 
     /// Total bytes on one kind of link.

@@ -3,7 +3,7 @@
 use std::time::Duration;
 
 use pyo3::prelude::*;
-use slate_model::Clock;
+use slate_model::{Clock, ClockError};
 
 use crate::errors::{self, Kind};
 
@@ -43,31 +43,17 @@ impl PyClock {
     /// Moves a manual clock forward by `seconds`, then runs what became due (plan
     /// deadlines), in this thread. Raises `ClockError` on a system clock.
     fn advance(&self, py: Python<'_>, seconds: f64) -> PyResult<()> {
-        let by = Duration::try_from_secs_f64(seconds).map_err(|_| {
-            errors::new(
-                py,
-                Kind::Clock,
-                format!("cannot advance the clock by {seconds} s: time only moves forward"),
-            )
-        })?;
-        let clock = self.inner.clone();
-        py.detach(move || clock.advance(by))
-            .map_err(|e| errors::clock(py, e))
+        let refusal =
+            || format!("cannot advance the clock by {seconds} s: time only moves forward");
+        self.move_with(py, seconds, refusal, Clock::advance)
     }
 
     /// Sets a manual clock to `seconds` since the Unix epoch (never backwards), then runs
     /// what became due.
     fn set(&self, py: Python<'_>, seconds: f64) -> PyResult<()> {
-        let to = Duration::try_from_secs_f64(seconds).map_err(|_| {
-            errors::new(
-                py,
-                Kind::Clock,
-                format!("cannot set the clock to {seconds}: not a time since the Unix epoch"),
-            )
-        })?;
-        let clock = self.inner.clone();
-        py.detach(move || clock.set(to))
-            .map_err(|e| errors::clock(py, e))
+        let refusal =
+            || format!("cannot set the clock to {seconds}: not a time since the Unix epoch");
+        self.move_with(py, seconds, refusal, Clock::set)
     }
 
     fn __repr__(&self) -> String {
@@ -77,6 +63,24 @@ impl PyClock {
             "system"
         };
         format!("Clock('{kind}', now={:.6})", self.now())
+    }
+}
+
+impl PyClock {
+    /// Moves the clock with `step` (advance or set) to or by `seconds`, outside the GIL;
+    /// `refusal` says why `seconds` is no duration.
+    fn move_with(
+        &self,
+        py: Python<'_>,
+        seconds: f64,
+        refusal: impl FnOnce() -> String,
+        step: fn(&Clock, Duration) -> Result<(), ClockError>,
+    ) -> PyResult<()> {
+        let by = Duration::try_from_secs_f64(seconds)
+            .map_err(|_| errors::new(py, Kind::Clock, refusal()))?;
+        let clock = self.inner.clone();
+        py.detach(move || step(&clock, by))
+            .map_err(|e| errors::clock(py, e))
     }
 }
 

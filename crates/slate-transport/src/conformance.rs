@@ -155,13 +155,7 @@ pub fn publish_on_the_team_link_reaches_other_robots<F: TransportFactory>(f: &mu
     let t = trio(f);
     t.a.publish(LinkKind::Team, MsgKind::Heartbeat, b"team")
         .unwrap_or_else(|e| panic!("{e}"));
-    assert!(f.run_until(&mut || t.inboxes[2].len() == 1));
-    f.settle();
-    assert_eq!(
-        t.inboxes[2].messages(),
-        vec![(address("conf/r1/a"), b"team".to_vec())]
-    );
-    assert!(t.inboxes[0].is_empty() && t.inboxes[1].is_empty());
+    only_one_arrives(f, &t, 2, ("conf/r1/a", b"team"));
 }
 
 /// A send reaches its addressee only, which learns who sent it.
@@ -169,13 +163,24 @@ pub fn send_reaches_only_the_addressee<F: TransportFactory>(f: &mut F) {
     let t = trio(f);
     t.c.send(t.b.address(), MsgKind::Plan, b"to b")
         .unwrap_or_else(|e| panic!("{e}"));
-    assert!(f.run_until(&mut || t.inboxes[1].len() == 1));
+    only_one_arrives(f, &t, 1, ("conf/r2/c", b"to b"));
+}
+
+/// Waits until the inbox `to` holds a message and the network settles, then asserts
+/// that it holds only `(from, payload)` and that the two other inboxes are empty.
+fn only_one_arrives<F: TransportFactory>(
+    f: &mut F,
+    t: &Trio<F::Transport>,
+    to: usize,
+    (from, payload): (&str, &[u8]),
+) {
+    assert!(f.run_until(&mut || t.inboxes[to].len() == 1));
     f.settle();
     assert_eq!(
-        t.inboxes[1].messages(),
-        vec![(address("conf/r2/c"), b"to b".to_vec())]
+        t.inboxes[to].messages(),
+        vec![(address(from), payload.to_vec())]
     );
-    assert!(t.inboxes[0].is_empty() && t.inboxes[2].is_empty());
+    assert!((0..3).filter(|&i| i != to).all(|i| t.inboxes[i].is_empty()));
 }
 
 /// Sends to one peer arrive once each, in order.

@@ -190,14 +190,16 @@ mod tests {
             .attr(AttrDecl::new("speed", ValueType::Real).bounds(0.0, max_speed))
     }
 
+    /// `Gsr`, a subclass of `parent` with a `mode` of its own.
+    fn gsr(parent: &str) -> ClassDef {
+        ClassDef::new("Gsr")
+            .parent(parent)
+            .attr(AttrDecl::new("mode", ValueType::Str))
+    }
+
     #[test]
     fn subclasses_inherit_their_ancestors_declarations() {
-        let schema = Schema::new(&[
-            ClassDef::new("Gsr")
-                .parent("Vehicle")
-                .attr(AttrDecl::new("mode", ValueType::Str)),
-            vehicle(20.0),
-        ]);
+        let schema = Schema::new(&[gsr("Vehicle"), vehicle(20.0)]);
         assert!(schema.attr("Gsr", "speed").is_some());
         assert!(schema.attr("Gsr", "mode").is_some());
         assert!(schema.attr("Vehicle", "mode").is_none());
@@ -241,9 +243,7 @@ mod tests {
     #[test]
     fn fingerprints_of_a_three_level_tree_are_pinned() {
         let schema = Schema::new(&[
-            ClassDef::new("Gsr")
-                .parent("Ground")
-                .attr(AttrDecl::new("mode", ValueType::Str)),
+            gsr("Ground"),
             ClassDef::new("Vehicle")
                 .attr(
                     AttrDecl::new("speed", ValueType::Real)

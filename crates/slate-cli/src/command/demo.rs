@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::ValueEnum;
-use slate_demo::{DemoConfig, NetworkKind, Progress, TeamLink, TeamMedium};
+use slate_demo::{DemoConfig, NetworkKind, Progress, Speakers, TeamLink, TeamMedium};
 
 use crate::cli::Format;
 
@@ -39,6 +39,19 @@ pub struct DemoArgs {
     /// channel (default 80, the WHOI Micro-Modem's lowest rate).
     #[arg(long, value_name = "BPS")]
     pub team_rate: Option<u64>,
+
+    /// A deck phase of this many seconds before launch (at least 5): the team link is a
+    /// fast clean radio (1 Mbit/s, no loss) while the console sends the mission plans;
+    /// at launch it becomes the --team-link and the mission runs. The mission's time,
+    /// deadline, fault and rates count from launch; the summary reports deck_bytes.
+    #[arg(long, value_name = "SECONDS")]
+    pub deck: Option<f64>,
+
+    /// Who speaks on the team link: every module (the protocol in docs/ici.md), or one
+    /// gateway per robot relaying its modules' exports as one stream repaired by NACK
+    /// (docs/team-protocol.md; being built, opt-in until it passes every test).
+    #[arg(long, value_enum, default_value_t = SpeakersArg::Modules)]
+    pub speakers: SpeakersArg,
 
     /// Serve the live dashboard at this address, like 127.0.0.1:8080 (the simulator then
     /// runs at real time so people can watch).
@@ -90,6 +103,15 @@ pub enum TeamLinkArg {
     Acoustic,
 }
 
+/// Who speaks on the team link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SpeakersArg {
+    /// Every module (the per-module protocol).
+    Modules,
+    /// One gateway per robot (the team protocol being built).
+    Robots,
+}
+
 /// Runs the demo; exits 0 when the mission completes, 1 when it does not.
 pub fn run(args: &DemoArgs, format: Format) -> anyhow::Result<ExitCode> {
     let config = config(args)?;
@@ -120,6 +142,10 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         args.linger.is_finite() && args.linger >= 0.0,
         "--linger must be >= 0"
     );
+    anyhow::ensure!(
+        args.deck.is_none_or(|d| d.is_finite() && d >= 0.0),
+        "--deck must be a number of seconds"
+    );
     let mut config = DemoConfig::default()
         .seed(args.seed)
         .robots(usize::from(args.robots))
@@ -129,6 +155,11 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         })
         .duration(Duration::from_secs_f64(args.duration))
         .fault_at((!args.no_fault).then_some(args.fault_at))
+        .deck(args.deck.map(Duration::from_secs_f64))
+        .speakers(match args.speakers {
+            SpeakersArg::Modules => Speakers::Modules,
+            SpeakersArg::Robots => Speakers::Robots,
+        })
         .team_link(TeamLink::of(
             match args.team_link {
                 TeamLinkArg::Radio => TeamMedium::Radio,

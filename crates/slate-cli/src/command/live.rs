@@ -277,13 +277,18 @@ mod tests {
         board
     }
 
+    /// How `o.attr` of [`board`] shows: as text, and as JSON.
+    fn shown(attr: &str) -> (String, serde_json::Value) {
+        let board = board();
+        let packet = board.read("o", attr).unwrap();
+        let text = packet_text(&board, None, &packet);
+        (text, packet_json(&board, attr, None, &packet))
+    }
+
     #[test]
     fn a_never_written_default_shows_as_a_default_not_as_fresh() {
-        let board = board();
-        let mode = board.read("o", "mode").unwrap();
-        let text = packet_text(&board, None, &mode);
+        let (text, j) = shown("mode");
         assert_eq!(text, "auto  confidence 1.00  default, never written");
-        let j = packet_json(&board, "mode", None, &mode);
         assert_eq!(j["default"], true);
         assert!(j["age"].is_null() && j["timestamp"].is_null(), "{j}");
         assert!(j["source"].is_null(), "{j}");
@@ -291,11 +296,8 @@ mod tests {
 
     #[test]
     fn a_written_packet_shows_its_age_and_source() {
-        let board = board();
-        let speed = board.read("o", "speed").unwrap();
-        let text = packet_text(&board, None, &speed);
+        let (text, j) = shown("speed");
         assert!(text.contains("age 0.0 s  from "), "{text}");
-        let j = packet_json(&board, "speed", None, &speed);
         assert_eq!(j["default"], false);
         assert!(j["age"].is_f64() && j["timestamp"].is_f64(), "{j}");
         assert!(j["source"].is_string(), "{j}");
@@ -303,14 +305,11 @@ mod tests {
 
     #[test]
     fn an_initial_value_from_a_file_shows_its_source_and_no_age() {
-        let board = board();
-        let goal = board.read("o", "goal").unwrap();
-        let text = packet_text(&board, None, &goal);
+        let (text, j) = shown("goal");
         assert!(
             text.ends_with("initial value from local/robot/module, no time"),
             "{text}"
         );
-        let j = packet_json(&board, "goal", None, &goal);
         assert_eq!(j["default"], false);
         assert!(j["age"].is_null() && j["timestamp"].is_null(), "{j}");
         assert_eq!(j["source"], "local/robot/module", "{j}");

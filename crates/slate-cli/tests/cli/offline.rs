@@ -21,18 +21,8 @@ fn bench_core_prints_one_json_object_with_every_field() {
     assert!(out.status.success(), "{}", show(&out));
     let j: serde_json::Value =
         serde_json::from_slice(&out.stdout).expect("stdout is one JSON object");
-    for f in [
-        "read_ns",
-        "read_inherited_ns",
-        "write_ns",
-        "batch10_ns",
-        "write_active_fn_ns",
-        "query_10k_ns",
-        "hashmap_get_ns",
-        "hashmap_insert_ns",
-        "read_ratio",
-        "write_ratio",
-    ] {
+    let ratios = ["read_ratio", "write_ratio"];
+    for f in slate_bench::core::TIMED_FIELDS.iter().chain(&ratios) {
         assert!(
             j[f].as_f64().is_some_and(|x| x > 0.0),
             "{f} missing or not positive: {j}"

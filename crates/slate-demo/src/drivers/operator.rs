@@ -1,6 +1,10 @@
 //! The operator at the console: lays out each robot's patrol route (Waypoint objects,
 //! which the console exports to the team), sets the mission's parameters, and starts it.
 //! Everything else the console does is plans (console.slate, mission.slate).
+//!
+//! With a deck phase the start has two steps: `mission.phase = "ready"` once the modules
+//! have met (mission.slate then sends the plans, which wait for `"run"`), and
+//! `mission.phase = "run"` at launch, one short report on the mission's link.
 
 use std::sync::Arc;
 
@@ -9,13 +13,24 @@ use slate_model::{Board, Value};
 use super::{Sbip, measured};
 use crate::world::Layout;
 
-/// When the operator starts the mission, seconds into the run (the modules have met).
+/// When the operator starts the mission (or, with a deck phase, declares it ready),
+/// seconds into the run (the modules have met).
 pub const START_AT: f64 = 3.0;
 
 /// The operator.
 pub struct Operator {
     sbip: Sbip,
-    started: bool,
+    /// How many of [`Self::phases`] are written (at most two).
+    written: usize,
+    /// Launch, seconds into the run, with a deck phase; `None`: no deck, the mission
+    /// runs from [`START_AT`].
+    launch_at: Option<f64>,
+}
+
+/// A phase the operator writes into `mission.phase`, and when.
+struct Phase {
+    value: &'static str,
+    at: f64,
 }
 
 impl Operator {
@@ -23,7 +38,35 @@ impl Operator {
     pub fn new(board: Arc<Board>) -> Operator {
         Operator {
             sbip: Sbip::new(board),
-            started: false,
+            written: 0,
+            launch_at: None,
+        }
+    }
+
+    /// A deck phase until `launch` seconds into the run: the mission is declared
+    /// `ready` at [`START_AT`] and runs from `launch` (which is after it).
+    pub fn deck_until(&mut self, launch: f64) {
+        self.launch_at = Some(launch);
+    }
+
+    /// The phases to write, in order: `run` at [`START_AT`], or with a deck `ready`
+    /// at [`START_AT`] and `run` at launch.
+    fn phases(&self) -> Vec<Phase> {
+        match self.launch_at {
+            None => vec![Phase {
+                value: "run",
+                at: START_AT,
+            }],
+            Some(launch) => vec![
+                Phase {
+                    value: "ready",
+                    at: START_AT,
+                },
+                Phase {
+                    value: "run",
+                    at: launch,
+                },
+            ],
         }
     }
 
@@ -45,7 +88,8 @@ impl Operator {
                 self.sbip.write_object("Waypoint", &name, &writes);
             }
         }
-        let deadline = self.sbip.board.clock().physical().as_secs_f64() + return_after;
+        let launch = self.launch_at.unwrap_or(0.0);
+        let deadline = self.sbip.board.clock().physical().as_secs_f64() + launch + return_after;
         let mut batch = self.sbip.board.batch();
         batch
             .write("mission", "targets_expected", targets as i64)
@@ -57,11 +101,15 @@ impl Operator {
         }
     }
 
-    /// Starts the mission once it is time.
+    /// Writes the next phase once it is due (one per call at most).
     pub fn tick(&mut self, now: f64) {
-        if !self.started && now >= START_AT {
-            self.started = true;
-            self.sbip.write("mission", "phase", "run");
+        let phases = self.phases();
+        let Some(next) = phases.get(self.written) else {
+            return;
+        };
+        if now >= next.at {
+            self.written += 1;
+            self.sbip.write("mission", "phase", next.value);
         }
     }
 }

@@ -204,11 +204,7 @@ fn a_board_lacking_a_class_asks_for_it_and_gets_the_values() {
     let sonar = ClassDef::new("Sonar").attr(AttrDecl::new("ping", ValueType::Real));
     team.add_with("t/r1/nav", open(), &classes_and(&sonar));
     team.add("t/r2/nav", open());
-    team.run(0.5);
-    let nav = team.board("t/r1/nav");
-    nav.create("Sonar", "s1").unwrap();
-    nav.write("s1", "ping", 0.25).unwrap();
-    team.run(2.0);
+    ping_once(&team, 2.0);
     let other = team.board("t/r2/nav");
     assert_eq!(other.class_def("Sonar"), Some(sonar));
     assert_eq!(other.read("s1", "ping").unwrap().value.as_f64(), Some(0.25));
@@ -218,11 +214,7 @@ fn a_board_lacking_a_class_asks_for_it_and_gets_the_values() {
 #[test]
 fn a_class_defined_differently_is_refused_and_counted_not_merged() {
     let (team, b) = sonar_conflict(3);
-    team.run(0.5);
-    let nav = team.board("t/r1/nav");
-    nav.create("Sonar", "s1").unwrap();
-    nav.write("s1", "ping", 0.25).unwrap();
-    team.run(5.0);
+    ping_once(&team, 5.0);
     let other = team.member("t/r2/nav");
     assert_eq!(other.board.class_def("Sonar"), Some(b));
     assert!(other.board.info("s1").is_none());
@@ -300,10 +292,7 @@ fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
     // Only r1 has an object of the class: r2 finds the conflict, and r1 must hear of it.
     let nav = team.board("t/r1/nav");
     nav.create("Sonar", "s1").unwrap();
-    for i in 0..5 {
-        nav.write("s1", "ping", f64::from(i)).unwrap();
-        team.run(1.0);
-    }
+    team.write_series("t/r1/nav", "s1", "ping", 0..5, 1.0);
     let sonar = || "Sonar".to_owned();
     assert_eq!(conflicts(&other_events), [(sonar(), "t/r1/nav".to_owned())]);
     assert_eq!(conflicts(&nav_events), [(sonar(), "t/r2/nav".to_owned())]);
@@ -312,6 +301,16 @@ fn a_class_conflict_is_an_event_on_both_boards_once_per_peer_and_class() {
 }
 
 /// The test classes and `extra`.
+/// Half a second after the start, t/r1/nav creates the sonar `s1` and writes its ping,
+/// 0.25; then the team runs `then` seconds.
+fn ping_once(team: &Team, then: f64) {
+    team.run(0.5);
+    let nav = team.board("t/r1/nav");
+    nav.create("Sonar", "s1").unwrap();
+    nav.write("s1", "ping", 0.25).unwrap();
+    team.run(then);
+}
+
 fn classes_and(extra: &ClassDef) -> Vec<ClassDef> {
     let mut defs = classes();
     defs.push(extra.clone());

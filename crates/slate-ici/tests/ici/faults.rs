@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 
-use slate_ici::{Ici, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
+use slate_ici::{Ici, IciConfig, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
 use slate_model::{Context, NewObject, Timestamp, Update, Value};
 
 use crate::support::{Member, Team, addr, classes, open, secs, workload};
@@ -41,22 +41,14 @@ fn boards_converge_with_30_percent_loss() {
 #[test]
 fn boards_converge_with_50_percent_loss() {
     let team = converge_under(23, LinkConfig::clean().loss(0.5));
-    let requested: u64 = team
-        .members
-        .iter()
-        .map(|n| n.ici.stats().catch_up.completed)
-        .sum();
+    let requested: u64 = team.total(|s| s.catch_up.completed);
     assert!(requested > 0, "loss was recovered by catch-ups");
 }
 
 #[test]
 fn boards_converge_with_duplication() {
     let team = converge_under(24, LinkConfig::clean().duplicate(0.5));
-    let dups: u64 = team
-        .members
-        .iter()
-        .map(|n| n.ici.stats().rejects.duplicates)
-        .sum();
+    let dups: u64 = team.total(|s| s.rejects.duplicates);
     assert!(dups > 0);
 }
 
@@ -122,11 +114,7 @@ fn a_restarted_module_catches_up_and_is_caught_up_with() {
     team.add("t/r1/m0", open());
     workload(&team, &mut rng, 60, 0.05);
     team.assert_converges(30);
-    let restarts: u64 = team
-        .members
-        .iter()
-        .map(|n| n.ici.stats().liveliness.restarts)
-        .sum();
+    let restarts: u64 = team.total(|s| s.liveliness.restarts);
     assert!(restarts >= 1);
 }
 
@@ -313,8 +301,7 @@ fn a_restarted_module_leaves_the_team_its_newer_values_and_gets_them_back() {
         .unwrap();
     team.run(1.0);
     assert_eq!(speed(&team, "t/r1/nav"), Some(5.0));
-    team.net.kill(&addr("t/r2/operator"));
-    team.members.retain(|n| n.address != addr("t/r2/operator"));
+    team.kill("t/r2/operator");
     team.run(0.3);
     team.net.kill(&addr("t/r1/nav"));
     team.run(0.3);
@@ -345,6 +332,33 @@ fn initial_values_written_while_running_reach_the_team_and_are_not_stale() {
     assert_eq!(stats.rejects.stale, 0, "{:?}", stats.rejects);
 }
 
+/// How many objects the boards of t/r1/nav and t/r2/loco hold.
+fn objects(team: &Team) -> (usize, usize) {
+    let count = |n: &str| team.board(n).stats().objects;
+    (count("t/r1/nav"), count("t/r2/loco"))
+}
+
+/// Asserts that the boards hold what they held `before` the modules came and went, with
+/// no object left for t/r1/cli-3 on t/r2/loco; returns that object's name.
+fn assert_forgotten(team: &Team, before: (usize, usize)) -> String {
+    assert_eq!(objects(team), before);
+    let name = module_object_name(&addr("t/r1/cli-3"));
+    assert!(team.board("t/r2/loco").info(&name).is_none());
+    name
+}
+
+/// Ten modules `t/r1/cli-{i}` with `config` join one after another, each killed half a
+/// second after it joined.
+fn come_and_go(team: &mut Team, config: IciConfig) {
+    for i in 0..10 {
+        let cli = format!("t/r1/cli-{i}");
+        team.add(&cli, config.clone());
+        team.run(0.5);
+        team.kill(&cli);
+        team.run(0.5);
+    }
+}
+
 #[test]
 fn modules_that_come_and_go_leave_no_lasting_module_objects() {
     let mut team = Team::new(36);
@@ -352,25 +366,14 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
     team.add("t/r1/nav", config.clone());
     team.add("t/r2/loco", config);
     team.run(1.0);
-    let objects = |team: &Team, n: &str| team.board(n).stats().objects;
-    let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
-    for i in 0..10 {
-        let cli = format!("t/r1/cli-{i}");
-        team.add(&cli, open());
-        team.run(0.5);
-        team.net.kill(&addr(&cli));
-        team.members.retain(|n| n.address != addr(&cli));
-        team.run(0.5);
-    }
+    let before = objects(&team);
+    come_and_go(&mut team, open());
     assert!(
-        objects(&team, "t/r1/nav") > before.0,
+        objects(&team).0 > before.0,
         "each was a module while it lived"
     );
     team.run(30.0);
-    let after = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
-    assert_eq!(after, before);
-    let name = module_object_name(&addr("t/r1/cli-3"));
-    assert!(team.board("t/r2/loco").info(&name).is_none());
+    let name = assert_forgotten(&team, before);
     // One that comes back is found again.
     team.add("t/r1/cli-3", open());
     team.run(1.0);
@@ -382,27 +385,15 @@ fn modules_that_come_and_go_leave_no_lasting_module_objects() {
 fn observers_leave_no_module_object_once_they_are_gone() {
     let mut team = Team::of(37, [("t/r1/nav", open()), ("t/r2/loco", open())]);
     team.run(1.0);
-    let objects = |team: &Team, n: &str| team.board(n).stats().objects;
-    let before = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
-    for i in 0..10 {
-        let cli = format!("t/r1/cli-{i}");
-        team.add(&cli, open().observer(true));
-        team.run(0.5);
-        team.net.kill(&addr(&cli));
-        team.members.retain(|n| n.address != addr(&cli));
-        team.run(0.5);
-    }
+    let before = objects(&team);
+    come_and_go(&mut team, open().observer(true));
     // Well within the default forget_dead (10 min): a module would still be there.
     team.run(5.0);
-    let after = (objects(&team, "t/r1/nav"), objects(&team, "t/r2/loco"));
-    assert_eq!(after, before);
-    let name = module_object_name(&addr("t/r1/cli-3"));
-    assert!(team.board("t/r2/loco").info(&name).is_none());
+    assert_forgotten(&team, before);
     // A module that is no observer is remembered, dead, for forget_dead.
     team.add("t/r1/vision", open());
     team.run(0.5);
-    team.net.kill(&addr("t/r1/vision"));
-    team.members.retain(|n| n.address != addr("t/r1/vision"));
+    team.kill("t/r1/vision");
     team.run(5.0);
     let vision = module_object_name(&addr("t/r1/vision"));
     let alive = team

@@ -31,11 +31,7 @@ fn the_final_value_inside_a_min_interval_is_delivered_at_the_trailing_edge() {
         ..Default::default()
     };
     let team = with_policy(policy);
-    let sensor = team.board("t/r1/sensor");
-    for i in 1..=10 {
-        sensor.write("tank", "level", f64::from(i)).unwrap();
-        team.run(0.05);
-    }
+    team.write_series("t/r1/sensor", "tank", "level", 1..=10, 0.05);
     // 0.5 s after the first write: only it went out.
     assert_eq!(level(&team, "t/r1/console"), Some(1.0));
     team.run(0.6);

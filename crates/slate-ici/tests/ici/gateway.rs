@@ -54,8 +54,7 @@ fn the_lowest_priority_live_module_is_gateway_on_every_board_of_its_robot() {
 fn a_killed_gateway_is_replaced_by_the_next_on_all_mates_within_1_2_s() {
     let mut team = two_robots(71);
     team.run(1.0);
-    team.net.kill(&addr("t/r0/b"));
-    team.members.retain(|m| m.address != addr("t/r0/b"));
+    team.kill("t/r0/b");
     team.run(1.2);
     assert_all_see(&team, "r0", "t/r0/c");
     assert_all_see(&team, "r1", "t/r1/y");

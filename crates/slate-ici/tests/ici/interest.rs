@@ -22,10 +22,7 @@ fn nothing_is_sent_that_no_board_models() {
     team.run(0.5);
     let sensor = team.board("t/r1/sensor");
     sensor.create("Raw", "imu").unwrap();
-    for i in 0..20 {
-        sensor.write("imu", "sample", f64::from(i)).unwrap();
-        team.run(0.05);
-    }
+    team.write_series("t/r1/sensor", "imu", "sample", 0..20, 0.05);
     let stats = team.member("t/r1/sensor").ici.stats();
     for link in LinkKind::ALL {
         assert_eq!(stats.get(link, MsgKind::Report).sent_msgs, 0, "{link}");

@@ -40,11 +40,7 @@ fn every(s: u64) -> LinkReport {
 #[test]
 fn a_team_filter_holds_a_value_the_robot_link_sends_and_its_trailing_edge_reaches_the_team() {
     let team = team_with(LinkPolicy::default().report("Vehicle", "speed", every(5)));
-    let sensor = team.board("t/r1/sensor");
-    for i in 1..=10 {
-        sensor.write("gsr", "speed", f64::from(i)).unwrap();
-        team.run(0.1);
-    }
+    team.write_series("t/r1/sensor", "gsr", "speed", 1..=10, 0.1);
     assert_eq!(speed(&team, "t/r1/console"), Some(10.0), "the robot link");
     assert_eq!(
         speed(&team, "t/r2/base"),

@@ -3,7 +3,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::{ClassSet, Ici, IciConfig, MODULE_CLASS, Rng, SimConfig, SimNet};
+use slate_ici::{ClassSet, Ici, IciConfig, IciStats, MODULE_CLASS, Rng, SimConfig, SimNet};
 use slate_model::{
     Address, AttrDecl, Board, ClassDef, Context, MergePolicy, NewObject, ObjectInfo, Packet,
     Update, Value, ValueType,
@@ -134,6 +134,35 @@ impl Team {
 
     pub fn run(&self, s: f64) {
         self.net.run_for(secs(s));
+    }
+
+    /// `figure` of every member's ICI statistics, summed over the team.
+    pub fn total(&self, figure: impl Fn(&IciStats) -> u64) -> u64 {
+        self.members.iter().map(|n| figure(&n.ici.stats())).sum()
+    }
+
+    /// Kills the module at `address` on the network and drops it from the team.
+    pub fn kill(&mut self, address: &str) {
+        let a = addr(address);
+        self.net.kill(&a);
+        self.members.retain(|n| n.address != a);
+    }
+
+    /// Writes each of `values` to `object.attr` on the board at `board`, running the team
+    /// `dt` seconds after each write.
+    pub fn write_series(
+        &self,
+        board: &str,
+        object: &str,
+        attr: &str,
+        values: impl IntoIterator<Item = u32>,
+        dt: f64,
+    ) {
+        let board = self.board(board);
+        for v in values {
+            board.write(object, attr, f64::from(v)).unwrap();
+            self.run(dt);
+        }
     }
 
     /// Runs in one-second steps until the boards agree or `max` seconds pass; returns

@@ -24,12 +24,7 @@ impl Board {
     where
         F: Fn(&mut Call<'_>) -> Result<(), FnError> + Send + Sync + 'static,
     {
-        self.attach(
-            target,
-            attr,
-            Trigger::Read,
-            self.native(target, attr, Trigger::Read, f),
-        )
+        self.attach_native(target, attr, Trigger::Read, f)
     }
 
     /// Attaches a native function run after `target.attr` is written.
@@ -37,23 +32,26 @@ impl Board {
     where
         F: Fn(&mut Call<'_>) -> Result<(), FnError> + Send + Sync + 'static,
     {
-        self.attach(
-            target,
-            attr,
-            Trigger::Write,
-            self.native(target, attr, Trigger::Write, f),
-        )
+        self.attach_native(target, attr, Trigger::Write, f)
     }
 
-    fn native<F>(&self, target: &str, attr: &str, trigger: Trigger, f: F) -> FnRef
+    /// Attaches `f` as a native function, named after where it runs and its number.
+    fn attach_native<F>(
+        &self,
+        target: &str,
+        attr: &str,
+        trigger: Trigger,
+        f: F,
+    ) -> Result<(), LookupError>
     where
         F: Fn(&mut Call<'_>) -> Result<(), FnError> + Send + Sync + 'static,
     {
         let n = self.fn_seq.fetch_add(1, Ordering::Relaxed);
-        Arc::new(NativeFn {
+        let native: FnRef = Arc::new(NativeFn {
             name: format!("{target}.{attr} on {trigger} #{n}"),
             f,
-        })
+        });
+        self.attach(target, attr, trigger, native)
     }
 
     /// Attaches any active function (native or declarative) to `target.attr`. Functions

@@ -764,22 +764,25 @@ pub(crate) fn object_info(st: &State, id: ObjectId) -> Option<ObjectInfo> {
 }
 
 fn resolve_filter(st: &State, f: &Filter) -> Result<watch::Spec, LookupError> {
-    let object = f
-        .object
-        .as_deref()
-        .map(|o| {
-            st.id(o)
-                .ok_or_else(|| LookupError::UnknownObject(o.to_owned()))
-        })
-        .transpose()?;
-    let class = f
-        .class
-        .as_deref()
-        .map(|c| {
-            st.class_id(c)
-                .ok_or_else(|| LookupError::UnknownClass(c.to_owned()))
-        })
-        .transpose()?;
+    /// `name` looked up with `find`, if there is one; not found, it is `unknown(name)`.
+    fn named<T>(
+        name: Option<&str>,
+        find: impl FnOnce(&str) -> Option<T>,
+        unknown: fn(String) -> LookupError,
+    ) -> Result<Option<T>, LookupError> {
+        name.map(|n| find(n).ok_or_else(|| unknown(n.to_owned())))
+            .transpose()
+    }
+    let object = named(
+        f.object.as_deref(),
+        |o| st.id(o),
+        LookupError::UnknownObject,
+    )?;
+    let class = named(
+        f.class.as_deref(),
+        |c| st.class_id(c),
+        LookupError::UnknownClass,
+    )?;
     let attr = match f.attr.as_deref() {
         None => None,
         Some(a) => Some(st.attr_id(a).ok_or_else(|| {

@@ -433,39 +433,41 @@ fn a_read_function_that_reads_through_the_board_is_cut_as_a_cycle() {
     assert_eq!(b.stats().function_failures, 0);
 }
 
-#[test]
-fn a_write_function_that_writes_its_attribute_through_the_board_is_cut_as_a_cycle() {
+/// Writes 5.0 to `v.speed` on a board whose write function of `speed` runs `access`
+/// through the board; asserts the function ran once and the cycle was cut at v.speed,
+/// and returns the speed read then.
+fn speed_after_a_cut_write_cycle(access: impl Fn(&Board) + Send + Sync + 'static) -> Option<f64> {
     let b = Arc::new(board());
     b.create("Vehicle", "v").unwrap();
-    let runs = recurse_through_the_board(&b, "speed", Trigger::Write, 100, |board| {
+    let runs = recurse_through_the_board(&b, "speed", Trigger::Write, 100, access);
+    let events = b.events();
+    b.write("v", "speed", 5.0).unwrap();
+    assert_eq!(runs(), 1);
+    assert_eq!(cycle_cut(&events).unwrap(), ["v.speed", "v.speed"]);
+    b.read("v", "speed").unwrap().value.as_f64()
+}
+
+#[test]
+fn a_write_function_that_writes_its_attribute_through_the_board_is_cut_as_a_cycle() {
+    let speed = speed_after_a_cut_write_cycle(|board| {
         let again = board.write("v", "speed", 1.0);
         assert!(
             matches!(again, Err(WriteError::Chain(ChainError::Cycle { .. }))),
             "{again:?}"
         );
     });
-    let events = b.events();
-    b.write("v", "speed", 5.0).unwrap();
-    assert_eq!(runs(), 1);
-    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(5.0));
-    assert_eq!(cycle_cut(&events).unwrap(), ["v.speed", "v.speed"]);
+    assert_eq!(speed, Some(5.0));
 }
 
 #[test]
 fn a_batch_committed_by_a_function_stays_in_its_chain() {
-    let b = Arc::new(board());
-    b.create("Vehicle", "v").unwrap();
-    let runs = recurse_through_the_board(&b, "speed", Trigger::Write, 100, |board| {
+    let speed = speed_after_a_cut_write_cycle(|board| {
         let mut batch = board.batch();
         batch.write("v", "speed", 2.0);
         // The batch is stored; the function it would run again is cut.
         batch.commit().unwrap();
     });
-    let events = b.events();
-    b.write("v", "speed", 5.0).unwrap();
-    assert_eq!(runs(), 1);
-    assert_eq!(b.read("v", "speed").unwrap().value.as_f64(), Some(2.0));
-    assert_eq!(cycle_cut(&events).unwrap(), ["v.speed", "v.speed"]);
+    assert_eq!(speed, Some(2.0));
 }
 
 #[test]
@@ -506,6 +508,17 @@ fn a_function_on_another_thread_starts_its_own_chain() {
     assert_eq!(runs(), 3);
 }
 
+/// Runs `f` on a thread with a large stack (and waits for it), so that a board without
+/// the bound on nesting fails the assertion, not the run.
+fn on_a_large_stack(f: impl FnOnce() + Send + 'static) {
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(f)
+        .unwrap()
+        .join()
+        .unwrap();
+}
+
 #[test]
 fn a_thread_nests_no_more_functions_than_its_stack_allows_whatever_the_limit() {
     let b = Arc::new(
@@ -533,14 +546,8 @@ fn a_thread_nests_no_more_functions_than_its_stack_allows_whatever_the_limit() {
     })
     .unwrap();
     let events = b.events();
-    // A large stack, so that a board without the bound fails the assertion, not the run.
     let b2 = b.clone();
-    std::thread::Builder::new()
-        .stack_size(256 << 20)
-        .spawn(move || b2.read("h0", "x").unwrap())
-        .unwrap()
-        .join()
-        .unwrap();
+    on_a_large_stack(move || drop(b2.read("h0", "x").unwrap()));
     assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
     let cut = events.try_iter().find_map(|e| match e {
         BoardEvent::ChainCut(c) => Some(c),
@@ -571,12 +578,7 @@ fn functions_hopping_across_many_boards_are_bounded_too() {
         .unwrap();
     }
     let first = boards[0].clone();
-    std::thread::Builder::new()
-        .stack_size(256 << 20)
-        .spawn(move || first.read("v", "mode").unwrap())
-        .unwrap()
-        .join()
-        .unwrap();
+    on_a_large_stack(move || drop(first.read("v", "mode").unwrap()));
     assert_eq!(count(), slate_model::MAX_NESTED_FUNCTIONS);
 }
 

@@ -29,29 +29,28 @@ fn packet(value: f64, ts: u64, conf: f64, source: &str) -> Packet {
     }
 }
 
+/// Merges `packet(value, ts, conf, source)` into `t.attr` and says what happened:
+/// `"applied"`, `"kept"`, or `"not owner"`.
+fn merge(b: &Board, attr: &str, (value, ts, conf, source): (f64, u64, f64, &str)) -> &'static str {
+    match b.merge("t", attr, packet(value, ts, conf, source)).unwrap() {
+        Merged::Applied(_) => "applied",
+        Merged::Kept => "kept",
+        Merged::NotOwner => "not owner",
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn latest_wins_by_timestamp_then_source() {
     let b = board();
-    assert!(matches!(
-        b.merge("t", "latest", packet(1.0, 10, 1.0, "team/r1/a"))
-            .unwrap(),
-        Merged::Applied(_)
-    ));
-    assert_eq!(
-        b.merge("t", "latest", packet(2.0, 9, 1.0, "team/r1/b"))
-            .unwrap(),
-        Merged::Kept
-    );
-    assert!(matches!(
-        b.merge("t", "latest", packet(3.0, 10, 1.0, "team/r1/b"))
-            .unwrap(),
-        Merged::Applied(_)
-    ));
-    assert_eq!(
-        b.merge("t", "latest", packet(4.0, 10, 1.0, "team/r1/a"))
-            .unwrap(),
-        Merged::Kept
-    );
+    let outcomes = [
+        (1.0, 10, 1.0, "team/r1/a"),
+        (2.0, 9, 1.0, "team/r1/b"),
+        (3.0, 10, 1.0, "team/r1/b"),
+        (4.0, 10, 1.0, "team/r1/a"),
+    ]
+    .map(|p| merge(&b, "latest", p));
+    assert_eq!(outcomes, ["applied", "kept", "applied", "kept"]);
     let p = b.read("t", "latest").unwrap();
     assert_eq!(
         (p.value.as_f64(), p.source.as_str()),
@@ -62,24 +61,14 @@ fn latest_wins_by_timestamp_then_source() {
 #[test]
 fn confident_wins_by_confidence_and_owned_only_from_the_owner() {
     let b = board();
-    b.merge("t", "confident", packet(1.0, 10, 0.9, "team/r1/a"))
-        .unwrap();
-    assert_eq!(
-        b.merge("t", "confident", packet(2.0, 20, 0.5, "team/r1/b"))
-            .unwrap(),
-        Merged::Kept
-    );
+    merge(&b, "confident", (1.0, 10, 0.9, "team/r1/a"));
+    assert_eq!(merge(&b, "confident", (2.0, 20, 0.5, "team/r1/b")), "kept");
     assert_eq!(b.read("t", "confident").unwrap().value.as_f64(), Some(1.0));
     assert_eq!(
-        b.merge("t", "owned", packet(5.0, 10, 1.0, "team/r2/nav"))
-            .unwrap(),
-        Merged::NotOwner
+        merge(&b, "owned", (5.0, 10, 1.0, "team/r2/nav")),
+        "not owner"
     );
-    assert!(matches!(
-        b.merge("t", "owned", packet(6.0, 10, 1.0, "team/r1/nav"))
-            .unwrap(),
-        Merged::Applied(_)
-    ));
+    assert_eq!(merge(&b, "owned", (6.0, 10, 1.0, "team/r1/nav")), "applied");
     assert_eq!(b.read("t", "owned").unwrap().value.as_f64(), Some(6.0));
 }
 

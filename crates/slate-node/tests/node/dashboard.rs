@@ -4,19 +4,14 @@ use std::time::Duration;
 
 use slate_ici::SimNet;
 
-use crate::support::{WORLD, addr, eventually};
+use crate::support::{WORLD, addr, eventually, on_net};
 use slate_node::Node;
 use slate_testing::{entry, http_get, keys};
 
-/// t/r1/nav on `net`, loading [`WORLD`] and `objects`, serving its dashboard on a free
-/// loopback port.
+/// t/r1/nav on `net`, loading [`WORLD`](crate::support::WORLD) and `objects`, serving its
+/// dashboard on a free loopback port.
 fn nav_serving(net: &SimNet, objects: &str) -> Node {
-    let a = addr("t/r1/nav");
-    Node::builder(a.clone())
-        .transport(net.join(&a))
-        .clock(net.clock())
-        .source("w.slate", WORLD)
-        .source("o.slate", objects)
+    on_net(net, "t/r1/nav", objects)
         .dashboard("127.0.0.1:0".parse().unwrap())
         .start()
         .unwrap()

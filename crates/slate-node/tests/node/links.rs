@@ -4,17 +4,13 @@
 use slate_ici::{ClassSet, IciConfig, LinkKind, SimNet};
 use slate_node::Node;
 
-use crate::support::{WORLD, addr, run_until};
+use crate::support::{on_net, run_until};
 
-/// A node on `net` that exports nothing in Rust and loads [`WORLD`] then `extra`.
+/// A node on `net` that exports nothing in Rust and loads
+/// [`WORLD`](crate::support::WORLD) then `extra`.
 fn start_closed(net: &SimNet, address: &str, extra: &str) -> Node {
-    let a = addr(address);
-    Node::builder(a.clone())
-        .transport(net.join(&a))
-        .clock(net.clock())
+    on_net(net, address, extra)
         .ici(IciConfig::default())
-        .source("world.slate", WORLD)
-        .source("extra.slate", extra)
         .start()
         .expect("node starts")
 }

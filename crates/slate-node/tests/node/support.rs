@@ -3,21 +3,30 @@
 use std::time::Duration;
 
 use slate_ici::{ClassSet, IciConfig, SimNet};
-use slate_node::Node;
+use slate_node::{Node, NodeBuilder};
 pub use slate_testing::{WORLD, addr};
+
+/// A node on `net`, on its clock, that loads [`WORLD`] then `extra` (if any); the
+/// caller adds the rest and starts it.
+pub fn on_net(net: &SimNet, address: &str, extra: &str) -> NodeBuilder {
+    let a = addr(address);
+    let b = Node::builder(a.clone())
+        .transport(net.join(&a))
+        .clock(net.clock())
+        .source("world.slate", WORLD);
+    if extra.is_empty() {
+        b
+    } else {
+        b.source(&format!("{address}.slate"), extra)
+    }
+}
 
 /// A node on `net` that exports everything and loads [`WORLD`] then `extra`.
 pub fn start(net: &SimNet, address: &str, extra: &str) -> Node {
-    let a = addr(address);
-    let mut b = Node::builder(a.clone())
-        .transport(net.join(&a))
-        .clock(net.clock())
+    on_net(net, address, extra)
         .ici(IciConfig::default().export(ClassSet::all()))
-        .source("world.slate", WORLD);
-    if !extra.is_empty() {
-        b = b.source(&format!("{address}.slate"), extra);
-    }
-    b.start().expect("node starts")
+        .start()
+        .expect("node starts")
 }
 
 /// Runs the network until `done` (at most `max` of virtual time).

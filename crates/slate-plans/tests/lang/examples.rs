@@ -1,12 +1,19 @@
 //! The example files at the repository root parse, and say what they are meant to say.
 
 use slate_model::Context;
-use slate_plans::{ActionKind, ExprKind, File, PlanRef, QuantifierKind, parse};
+use slate_plans::{ActionKind, ExprKind, File, PlanDecl, PlanRef, QuantifierKind, parse};
 
 const GSR: &str = include_str!("../../../../examples/gsr.slate");
 
 fn gsr() -> File {
     parse(GSR).unwrap_or_else(|errors| panic!("{}", errors.render("examples/gsr.slate", GSR)))
+}
+
+/// The plan `name` of `file`.
+fn plan<'f>(file: &'f File, name: &str) -> &'f PlanDecl {
+    file.plans()
+        .find(|p| p.name.name == name)
+        .unwrap_or_else(|| panic!("no plan {name}"))
 }
 
 #[test]
@@ -103,10 +110,7 @@ fn gsr_plans_cover_the_cooperations_of_the_paper() {
 #[test]
 fn gsr_proximity_hands_targets_to_vision_with_a_narrowing_plan() {
     let file = gsr();
-    let hand = file
-        .plans()
-        .find(|p| p.name.name == "hand_target_to_vision")
-        .expect("plan");
+    let hand = plan(&file, "hand_target_to_vision");
     let sent = hand.action.iter().find_map(|a| match &a.kind {
         ActionKind::Send {
             plan: PlanRef::Inline(plan),
@@ -130,10 +134,7 @@ fn gsr_proximity_hands_targets_to_vision_with_a_narrowing_plan() {
 #[test]
 fn gsr_stops_near_the_nearest_obstacle() {
     let file = gsr();
-    let stop = file
-        .plans()
-        .find(|p| p.name.name == "stop_near_obstacle")
-        .expect("plan");
+    let stop = plan(&file, "stop_near_obstacle");
     let Some(ExprKind::Quantifier(nearest)) = stop.trigger.as_ref().map(|t| &t.kind) else {
         panic!("{stop:?}")
     };

@@ -2,8 +2,8 @@
 
 use slate_model::Context;
 use slate_plans::{
-    Action, ActionKind, AttributeDecl, ClassDecl, Item, ObjectDecl, PlanDecl, PlanRef, RuleDecl,
-    Span, Type,
+    Action, ActionKind, AttributeDecl, ClassDecl, Item, ObjectDecl, PacketExpr, PlanDecl, PlanRef,
+    RuleDecl, Span, Type,
 };
 
 use crate::support::{messages, only_item, parse_ok, text};
@@ -17,6 +17,15 @@ const VEHICLE: &str = r#"class Vehicle : Thing {
     count: int in 0 .. 1000;
     abs_position: vec<2> [m] derived = self.observer.position + polar(self.range, self.observer.heading + self.bearing) accuracy self.range.accuracy + 0.5;
 }"#;
+
+/// The text of a packet's value, accuracy and confidence.
+fn packet_texts(p: &PacketExpr) -> (String, Option<String>, Option<String>) {
+    (
+        p.value.to_string(),
+        text(p.accuracy.as_ref()),
+        text(p.confidence.as_ref()),
+    )
+}
 
 fn class(source: &str) -> ClassDecl {
     match only_item(source) {
@@ -82,13 +91,7 @@ fn attribute_options_are_all_kept() {
         .map(|b| (b.min.to_string(), b.max.to_string()));
     assert_eq!(bounds, Some(("0".to_owned(), "50".to_owned())));
     assert_eq!(text(speed.step.as_ref()).as_deref(), Some("0.01"));
-    let default = speed.default.as_ref().map(|d| {
-        (
-            d.value.to_string(),
-            text(d.accuracy.as_ref()),
-            text(d.confidence.as_ref()),
-        )
-    });
+    let default = speed.default.as_ref().map(packet_texts);
     assert_eq!(
         default,
         Some(("0.0".into(), Some("0.1".into()), Some("1.0".into())))
@@ -197,28 +200,15 @@ fn object_with_context_owner_and_values() {
     let values: Vec<_> = gsr
         .values
         .iter()
-        .map(|v| {
-            let p = &v.packet;
-            (
-                v.name.name.as_str(),
-                p.value.to_string(),
-                text(p.accuracy.as_ref()),
-                text(p.confidence.as_ref()),
-            )
-        })
+        .map(|v| (v.name.name.as_str(), packet_texts(&v.packet)))
         .collect();
-    assert_eq!(
-        values,
-        [
-            (
-                "speed",
-                "2.5".to_owned(),
-                Some("0.1".to_owned()),
-                Some("0.9".to_owned())
-            ),
-            ("mode", "\"auto\"".to_owned(), None, None)
-        ]
+    let speed = (
+        "2.5".to_owned(),
+        Some("0.1".to_owned()),
+        Some("0.9".to_owned()),
     );
+    let mode = ("\"auto\"".to_owned(), None, None);
+    assert_eq!(values, [("speed", speed), ("mode", mode)]);
 }
 
 #[test]
@@ -350,26 +340,19 @@ fn set_action_writes_several_packets() {
     };
     let written: Vec<_> = assignments
         .iter()
-        .map(|a| {
-            let p = &a.packet;
-            (
-                a.target.to_string(),
-                p.value.to_string(),
-                text(p.accuracy.as_ref()),
-                text(p.confidence.as_ref()),
-            )
-        })
+        .map(|a| (a.target.to_string(), packet_texts(&a.packet)))
         .collect();
+    let speed = (
+        "0.0".to_owned(),
+        Some("0.0".to_owned()),
+        Some("1.0".to_owned()),
+    );
+    let goal = ("o.position".to_owned(), None, None);
     assert_eq!(
         written,
         [
-            (
-                "gsr.speed".to_owned(),
-                "0.0".to_owned(),
-                Some("0.0".to_owned()),
-                Some("1.0".to_owned())
-            ),
-            ("gsr.goal".to_owned(), "o.position".to_owned(), None, None),
+            ("gsr.speed".to_owned(), speed),
+            ("gsr.goal".to_owned(), goal)
         ]
     );
     assert_eq!(action[0].span.start, 18);

@@ -29,6 +29,13 @@ fn link_errors(link: &str) -> Vec<(u32, u32, String)> {
     positions(&engine.load("link.slate", link).unwrap_err())
 }
 
+/// The first error of loading `link` is at `at` (line, column) and says `says`.
+fn assert_first_error(link: &str, at: (u32, u32), says: &str) {
+    let e = link_errors(link);
+    assert_eq!((e[0].0, e[0].1), at, "{e:?}");
+    assert!(e[0].2.contains(says), "{e:?}");
+}
+
 fn team(engine: &slate_plans::Engine) -> LinkPolicy {
     engine.link_policies()[&LinkName::Team].clone()
 }
@@ -164,23 +171,29 @@ fn unknown_classes_and_attributes_are_reported_where_they_are_written() {
 
 #[test]
 fn a_filter_on_a_derived_attribute_is_refused() {
-    let e = link_errors("link team { report Robot.ahead every 1s; }");
-    assert_eq!((e[0].0, e[0].1), (1, 26), "{e:?}");
-    assert!(e[0].2.contains("derived"), "{e:?}");
+    assert_first_error(
+        "link team { report Robot.ahead every 1s; }",
+        (1, 26),
+        "derived",
+    );
 }
 
 #[test]
 fn a_filter_on_a_module_attribute_is_refused() {
-    let e = link_errors("link team { report Module.alive never; }");
-    assert_eq!((e[0].0, e[0].1), (1, 27), "{e:?}");
-    assert!(e[0].2.contains("never reported"), "{e:?}");
+    assert_first_error(
+        "link team { report Module.alive never; }",
+        (1, 27),
+        "never reported",
+    );
 }
 
 #[test]
 fn a_link_report_names_a_class_attribute() {
-    let e = link_errors("link team { report Robot never; }");
-    assert_eq!((e[0].0, e[0].1), (1, 20), "{e:?}");
-    assert!(e[0].2.contains("`Class.attribute`"), "{e:?}");
+    assert_first_error(
+        "link team { report Robot never; }",
+        (1, 20),
+        "`Class.attribute`",
+    );
 }
 
 #[test]
@@ -207,9 +220,11 @@ fn an_entry_written_twice_in_one_block_is_an_error() {
 
 #[test]
 fn the_robot_link_has_no_export() {
-    let e = link_errors("link robot { export Robot; }");
-    assert_eq!((e[0].0, e[0].1), (1, 14), "{e:?}");
-    assert!(e[0].2.contains("`export` is for `link team`"), "{e:?}");
+    assert_first_error(
+        "link robot { export Robot; }",
+        (1, 14),
+        "`export` is for `link team`",
+    );
 }
 
 #[test]

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_model::{Board, Value};
+use slate_model::{Board, Clock, Value};
 use slate_plans::{Engine, Outgoing, PlanEvent, PlanState};
 
 use crate::support::{engine, loaded, refused_after};
@@ -285,8 +285,9 @@ fn the_nearest_obstacle_closer_than_5_m_stops_the_vehicle() {
     );
 }
 
-#[test]
-fn an_age_condition_fires_exactly_when_its_deadline_passes() {
+/// The vehicles with `position_lost` (fires once `gsr.position` is older than 2 s), just
+/// after a position was written; returns the board's clock too, to advance.
+fn position_lost() -> (Arc<Board>, Engine, Clock) {
     let (b, e) = vehicles(
         r#"plan position_lost {
             trigger: age(gsr.position) > 2s;
@@ -295,19 +296,25 @@ fn an_age_condition_fires_exactly_when_its_deadline_passes() {
     );
     let clock = b.clock().clone();
     b.write("gsr", "position", [0.0, 0.0]).unwrap();
+    (b, e, clock)
+}
+
+fn lost_fired(e: &Engine) -> u64 {
+    e.status("position_lost").unwrap().fired
+}
+
+#[test]
+fn an_age_condition_fires_exactly_when_its_deadline_passes() {
+    let (b, e, clock) = position_lost();
     clock.advance(Duration::from_millis(1999)).unwrap();
-    assert_eq!(e.status("position_lost").unwrap().fired, 0);
+    assert_eq!(lost_fired(&e), 0);
     clock.advance(Duration::from_millis(2)).unwrap();
-    assert_eq!(
-        e.status("position_lost").unwrap().fired,
-        1,
-        "the deadline was a timer, not a poll"
-    );
+    assert_eq!(lost_fired(&e), 1, "the deadline was a timer, not a poll");
     assert_eq!(b.read("gsr", "mode").unwrap().value, Value::from("lost"));
     // A fresh position re-arms it: the next deadline is 2 s after the new write.
     b.write("gsr", "position", [1.0, 0.0]).unwrap();
     clock.advance(Duration::from_millis(2001)).unwrap();
-    assert_eq!(e.status("position_lost").unwrap().fired, 2);
+    assert_eq!(lost_fired(&e), 2);
 }
 
 #[test]
@@ -341,26 +348,11 @@ fn a_derived_attribute_reading_its_own_name_through_a_reference_loads_and_tracks
 
 #[test]
 fn an_age_condition_fires_after_the_clock_stopped_exactly_on_its_deadline() {
-    let (b, e) = vehicles(
-        r#"plan position_lost {
-            trigger: age(gsr.position) > 2s;
-            action { set gsr.mode = "lost"; }
-        }"#,
-    );
-    let clock = b.clock().clone();
-    b.write("gsr", "position", [0.0, 0.0]).unwrap();
+    let (_b, e, clock) = position_lost();
     clock.advance(Duration::from_secs(2)).unwrap();
-    assert_eq!(
-        e.status("position_lost").unwrap().fired,
-        0,
-        "at exactly 2 s, age > 2s is false"
-    );
+    assert_eq!(lost_fired(&e), 0, "at exactly 2 s, age > 2s is false");
     clock.advance(Duration::from_millis(1)).unwrap();
-    assert_eq!(
-        e.status("position_lost").unwrap().fired,
-        1,
-        "just after, it fires without a write"
-    );
+    assert_eq!(lost_fired(&e), 1, "just after, it fires without a write");
 }
 
 #[test]

@@ -446,17 +446,24 @@ impl Net {
         airtime.saturating_sub(ahead).as_secs_f64() / self.now.as_secs_f64()
     }
 
-    fn check_send(&self, from: usize, payload: &[u8]) -> Result<(), SendError> {
-        if !self.endpoints[from].alive {
-            return Err(SendError::Closed);
-        }
-        if payload.len() > slate_wire::MAX_MESSAGE_BYTES {
-            return Err(SendError::TooLarge {
+    /// Refuses a send from a closed endpoint or of an oversized payload, counting the
+    /// refusal; otherwise returns the sender's address.
+    fn check_send(&mut self, from: usize, payload: &[u8]) -> Result<Address, SendError> {
+        let endpoint = &mut self.endpoints[from];
+        let checked = if !endpoint.alive {
+            Err(SendError::Closed)
+        } else if payload.len() > slate_wire::MAX_MESSAGE_BYTES {
+            Err(SendError::TooLarge {
                 len: payload.len(),
                 max: slate_wire::MAX_MESSAGE_BYTES,
-            });
+            })
+        } else {
+            Ok(endpoint.address.clone())
+        };
+        if checked.is_err() {
+            endpoint.stats.refused += 1;
         }
-        Ok(())
+        checked
     }
 
     /// Best effort to every live endpoint on `link` that listens to it: one
@@ -470,9 +477,7 @@ impl Net {
         kind: MsgKind,
         payload: &[u8],
     ) -> Result<(), SendError> {
-        self.check_send(from, payload)
-            .inspect_err(|_| self.endpoints[from].stats.refused += 1)?;
-        let sender = self.endpoints[from].address.clone();
+        let sender = self.check_send(from, payload)?;
         let receivers = self.live_on(&sender, link);
         self.endpoints[from].stats.sent(link, kind, payload.len());
         let dropped_at = self.take_drop(&sender, link);
@@ -591,9 +596,7 @@ impl Net {
         kind: MsgKind,
         payload: &[u8],
     ) -> Result<(), SendError> {
-        self.check_send(from, payload)
-            .inspect_err(|_| self.endpoints[from].stats.refused += 1)?;
-        let sender = self.endpoints[from].address.clone();
+        let sender = self.check_send(from, payload)?;
         let link = LinkKind::between(&sender, to);
         self.endpoints[from].stats.sent(link, kind, payload.len());
         let Some(target) = self.current.get(to).copied() else {

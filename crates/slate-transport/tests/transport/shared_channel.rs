@@ -6,7 +6,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use slate_model::Address;
-use slate_transport::{Handler, LinkConfig, LinkKind, MsgKind, SimConfig, SimNet, Transport};
+use slate_transport::{
+    Handler, LinkConfig, LinkKind, MsgKind, SendError, SimConfig, SimNet, SimTransport, Transport,
+};
 
 /// 800 bit/s: a 32-byte frame is 320 ms of airtime, plus the per-frame overhead.
 const RATE: u64 = 800;
@@ -55,10 +57,7 @@ fn addr(s: &str) -> Address {
 }
 
 /// Joins `senders` and one receiver (`team/rx/m`), lets liveliness settle.
-fn team(
-    net: &SimNet,
-    senders: &[&str],
-) -> (Vec<Arc<slate_transport::SimTransport>>, Arc<Arrivals>) {
+fn team(net: &SimNet, senders: &[&str]) -> (Vec<Arc<SimTransport>>, Arc<Arrivals>) {
     let out: Vec<_> = senders.iter().map(|s| net.join(&addr(s))).collect();
     let rx = net.join(&addr("team/rx/m"));
     let arrivals = Arc::new(Arrivals {
@@ -93,9 +92,10 @@ fn a_100_byte_message_on_a_32_byte_frame_channel_takes_4_frames() {
     assert_eq!(got, vec![(expected, addr("team/r1/m"), 100)]);
 }
 
-#[test]
-fn two_senders_on_a_shared_channel_queue_behind_each_other() {
-    let net = net_with(acoustic(0.0), 2);
+/// Two senders publish one full frame each at the same instant; returns the net, the
+/// instant they sent at and when each message arrived.
+fn two_senders_one_frame_each(team_link: LinkConfig) -> (SimNet, Duration, Vec<Duration>) {
+    let net = net_with(team_link, 2);
     let (tx, arrivals) = team(&net, &["team/r1/m", "team/r2/m"]);
     let sent_at = net.now();
     for t in &tx {
@@ -104,6 +104,12 @@ fn two_senders_on_a_shared_channel_queue_behind_each_other() {
     }
     net.run_for(Duration::from_secs(5));
     let times: Vec<Duration> = arrivals.got.lock().unwrap().iter().map(|g| g.0).collect();
+    (net, sent_at, times)
+}
+
+#[test]
+fn two_senders_on_a_shared_channel_queue_behind_each_other() {
+    let (net, sent_at, times) = two_senders_one_frame_each(acoustic(0.0));
     let first = sent_at + frame_airtime() + DELAY;
     assert_eq!(times, vec![first, first + frame_airtime()]);
     let r2 = net.stats().radios[&(addr("team/r2/m"), LinkKind::Team)];
@@ -113,30 +119,33 @@ fn two_senders_on_a_shared_channel_queue_behind_each_other() {
 #[test]
 fn senders_with_their_own_radios_do_not_queue_behind_each_other() {
     let own_radios = LinkConfig::clean().delay(DELAY).bandwidth(RATE);
-    let net = net_with(own_radios, 2);
-    let (tx, arrivals) = team(&net, &["team/r1/m", "team/r2/m"]);
-    let sent_at = net.now();
-    for t in &tx {
-        t.publish(LinkKind::Team, MsgKind::Report, &[1; FRAME])
-            .unwrap();
-    }
-    net.run_for(Duration::from_secs(5));
-    let times: Vec<Duration> = arrivals.got.lock().unwrap().iter().map(|g| g.0).collect();
+    let (net, sent_at, times) = two_senders_one_frame_each(own_radios);
     let both = sent_at + Duration::from_millis(320) + DELAY;
     assert_eq!(times, vec![both, both]);
     assert_eq!(net.stats().channels[&LinkKind::Team].frames_sent, 2);
 }
 
-#[test]
-fn a_lost_frame_loses_the_whole_message() {
-    let net = net_with(acoustic(0.2), 3);
+/// One sender sends `n` messages with `send` on the acoustic channel losing 20 % of its
+/// frames; runs until every retransmission is over.
+fn through_20_percent_frame_loss(
+    seed: u64,
+    n: usize,
+    send: impl Fn(&SimTransport) -> Result<(), SendError>,
+) -> (SimNet, Arc<Arrivals>) {
+    let net = net_with(acoustic(0.2), seed);
     let (tx, arrivals) = team(&net, &["team/r1/m"]);
-    for _ in 0..1000 {
-        tx[0]
-            .publish(LinkKind::Team, MsgKind::Report, &[5; 100])
-            .unwrap();
+    for _ in 0..n {
+        send(&tx[0]).unwrap();
     }
     net.run_for(Duration::from_secs(5000));
+    (net, arrivals)
+}
+
+#[test]
+fn a_lost_frame_loses_the_whole_message() {
+    let (net, arrivals) = through_20_percent_frame_loss(3, 1000, |tx| {
+        tx.publish(LinkKind::Team, MsgKind::Report, &[5; 100])
+    });
     let stats = net.stats();
     let channel = stats.channels[&LinkKind::Team];
     let link = stats.kind(LinkKind::Team, MsgKind::Report);
@@ -153,14 +162,9 @@ fn a_lost_frame_loses_the_whole_message() {
 
 #[test]
 fn a_reliable_send_retransmits_every_frame_of_a_message_a_frame_of_which_was_lost() {
-    let net = net_with(acoustic(0.2), 4);
-    let (tx, arrivals) = team(&net, &["team/r1/m"]);
-    for _ in 0..100 {
-        tx[0]
-            .send(&addr("team/rx/m"), MsgKind::Plan, &[9; 100])
-            .unwrap();
-    }
-    net.run_for(Duration::from_secs(5000));
+    let (net, arrivals) = through_20_percent_frame_loss(4, 100, |tx| {
+        tx.send(&addr("team/rx/m"), MsgKind::Plan, &[9; 100])
+    });
     let stats = net.stats();
     let channel = stats.channels[&LinkKind::Team];
     let link = stats.kind(LinkKind::Team, MsgKind::Plan);

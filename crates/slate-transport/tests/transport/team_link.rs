@@ -47,6 +47,9 @@ impl Handler for Inbox {
     }
 }
 
+/// An endpoint and what it received.
+type Endpoint = (Arc<SimTransport>, Arc<Inbox>);
+
 fn addr(s: &str) -> Address {
     Address::new(s).expect("address")
 }
@@ -60,7 +63,7 @@ fn net_with(team: LinkConfig, seed: u64) -> SimNet {
 }
 
 /// Joins one endpoint per address, each with an inbox, in order.
-fn join_all(net: &SimNet, addresses: &[String]) -> Vec<(Arc<SimTransport>, Arc<Inbox>)> {
+fn join_all(net: &SimNet, addresses: &[String]) -> Vec<Endpoint> {
     addresses
         .iter()
         .map(|a| {
@@ -82,7 +85,7 @@ fn publish(t: &SimTransport, link: LinkKind, tag: u8) {
 }
 
 /// A sender `team/r0/tx` and `robots` robots of `modules` endpoints each.
-fn team(net: &SimNet, robots: usize, modules: usize) -> Vec<(Arc<SimTransport>, Arc<Inbox>)> {
+fn team(net: &SimNet, robots: usize, modules: usize) -> Vec<Endpoint> {
     let mut addresses = vec!["team/r0/tx".to_owned()];
     for r in 1..=robots {
         addresses.extend((0..modules).map(|m| format!("team/r{r}/m{m}")));
@@ -94,7 +97,7 @@ fn team(net: &SimNet, robots: usize, modules: usize) -> Vec<(Arc<SimTransport>, 
 
 /// Publishes `n` team messages from the sender (tags 0..n), lets them arrive, and
 /// returns the tags each receiving endpoint got.
-fn publish_n(net: &SimNet, all: &[(Arc<SimTransport>, Arc<Inbox>)], n: u8) -> Vec<Vec<u8>> {
+fn publish_n(net: &SimNet, all: &[Endpoint], n: u8) -> Vec<Vec<u8>> {
     for tag in 0..n {
         publish(&all[0].0, LinkKind::Team, tag);
     }
@@ -165,7 +168,7 @@ fn the_default_team_link_draws_loss_per_endpoint() {
 }
 
 /// `team/r1/a`, `team/r1/b`, `team/r2/c`, each seeing the others.
-fn trio(net: &SimNet) -> Vec<(Arc<SimTransport>, Arc<Inbox>)> {
+fn trio(net: &SimNet) -> Vec<Endpoint> {
     let addresses = ["team/r1/a", "team/r1/b", "team/r2/c"].map(str::to_owned);
     let all = join_all(net, &addresses);
     net.run_for(Duration::from_millis(500));
@@ -241,13 +244,17 @@ fn a_publication_nobody_listens_to_still_goes_on_the_air() {
     assert!(t[0].1.tags().is_empty() && t[1].1.tags().is_empty());
 }
 
-#[test]
-fn without_team_liveliness_no_peer_events_cross_robots() {
+fn without_team_liveliness(seed: u64) -> SimNet {
     let config = SimConfig {
         team_liveliness: false,
         ..SimConfig::default()
     };
-    let net = SimNet::with_config(6, config);
+    SimNet::with_config(seed, config)
+}
+
+#[test]
+fn without_team_liveliness_no_peer_events_cross_robots() {
+    let net = without_team_liveliness(6);
     let t = trio(&net);
     assert_eq!(t[0].0.peers(), vec![addr("team/r1/b")]);
     assert!(t[2].0.peers().is_empty());
@@ -263,11 +270,7 @@ fn without_team_liveliness_no_peer_events_cross_robots() {
 
 #[test]
 fn without_team_liveliness_team_messages_still_cross() {
-    let config = SimConfig {
-        team_liveliness: false,
-        ..SimConfig::default()
-    };
-    let net = SimNet::with_config(7, config);
+    let net = without_team_liveliness(7);
     let t = trio(&net);
     publish(&t[0].0, LinkKind::Team, 1);
     t[0].0
@@ -298,11 +301,10 @@ fn set_team_link_changes_delay_and_loss_from_then_on() {
     assert_eq!(net.config().team, LinkConfig::clean().loss(1.0));
 }
 
-#[test]
-fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
-    // 100 bytes at 800 bit/s: 1 s on the air.
-    let deck = LinkConfig::clean().bandwidth(800);
-    let net = net_with(deck, 9);
+/// Publishes 100 bytes from one of three robots, switches the team link to `after`, publishes
+/// again, and returns when the third robot heard each, counted from the first publication.
+fn arrivals_across_a_switch(before: LinkConfig, after: LinkConfig, seed: u64) -> Vec<Duration> {
+    let net = net_with(before, seed);
     let addresses = ["team/r1/a", "team/r2/b", "team/r3/c"].map(str::to_owned);
     let t = join_all(&net, &addresses);
     net.run_for(Duration::from_millis(500));
@@ -310,33 +312,33 @@ fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
     t[0].0
         .publish(LinkKind::Team, MsgKind::Report, &[1; 100])
         .expect("publish");
-    net.set_team_link(deck.shared());
+    net.set_team_link(after);
     t[1].0
         .publish(LinkKind::Team, MsgKind::Report, &[2; 100])
         .expect("publish");
     net.run_for(Duration::from_secs(3));
+    t[2].1.times().into_iter().map(|at| at - start).collect()
+}
+
+#[test]
+fn switching_to_a_shared_channel_waits_for_what_is_on_the_air() {
+    // 100 bytes at 800 bit/s: 1 s on the air.
+    let deck = LinkConfig::clean().bandwidth(800);
     let second = Duration::from_secs(1);
-    assert_eq!(t[2].1.times(), vec![start + second, start + second * 2]);
+    assert_eq!(
+        arrivals_across_a_switch(deck, deck.shared(), 9),
+        vec![second, second * 2]
+    );
 }
 
 #[test]
 fn leaving_a_shared_channel_waits_for_what_is_on_the_air() {
     let acoustic = LinkConfig::clean().bandwidth(800).shared();
-    let net = net_with(acoustic, 12);
-    let addresses = ["team/r1/a", "team/r2/b", "team/r3/c"].map(str::to_owned);
-    let t = join_all(&net, &addresses);
-    net.run_for(Duration::from_millis(500));
-    let start = net.now();
-    t[0].0
-        .publish(LinkKind::Team, MsgKind::Report, &[1; 100])
-        .expect("publish");
-    net.set_team_link(LinkConfig::clean().bandwidth(800));
-    t[1].0
-        .publish(LinkKind::Team, MsgKind::Report, &[2; 100])
-        .expect("publish");
-    net.run_for(Duration::from_secs(3));
     let second = Duration::from_secs(1);
-    assert_eq!(t[2].1.times(), vec![start + second, start + second * 2]);
+    assert_eq!(
+        arrivals_across_a_switch(acoustic, LinkConfig::clean().bandwidth(800), 12),
+        vec![second, second * 2]
+    );
 }
 
 #[test]
@@ -411,13 +413,10 @@ fn a_transport_that_cannot_choose_what_it_hears_says_so() {
     assert!(!t.listen(LinkKind::Team, true));
 }
 
-/// A reliable send keeps trying while its addressee stays reachable: a cut shorter than
-/// the liveliness lease goes unnoticed (no peer event), so a send that meets it is
-/// retransmitted after the retry timeout and arrives after the heal, as TCP's would.
-/// Dropping it instead lost a catch-up answer whose object list then arrived alone.
-#[test]
-fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
-    let net = net_with(LinkConfig::clean(), 5);
+/// t/r1/a and t/r2/b on a clean network, cut apart just before a sends b a reliable
+/// message (tag 7).
+fn send_across_a_cut(seed: u64) -> (SimNet, Vec<Endpoint>) {
+    let net = net_with(LinkConfig::clean(), seed);
     let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
     net.run_for(Duration::from_millis(300));
     net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
@@ -425,6 +424,16 @@ fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
         .0
         .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
         .unwrap();
+    (net, all)
+}
+
+/// A reliable send keeps trying while its addressee stays reachable: a cut shorter than
+/// the liveliness lease goes unnoticed (no peer event), so a send that meets it is
+/// retransmitted after the retry timeout and arrives after the heal, as TCP's would.
+/// Dropping it instead lost a catch-up answer whose object list then arrived alone.
+#[test]
+fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
+    let (net, all) = send_across_a_cut(5);
     net.run_for(Duration::from_millis(800));
     assert!(all[1].1.tags().is_empty(), "nothing crosses the cut");
     net.heal();
@@ -438,14 +447,7 @@ fn a_reliable_send_that_meets_a_short_cut_arrives_after_the_heal() {
 /// partition does not keep sends alive for ever.
 #[test]
 fn a_reliable_send_is_dropped_once_the_cut_outlasts_the_lease() {
-    let net = net_with(LinkConfig::clean(), 6);
-    let all = join_all(&net, &["t/r1/a".into(), "t/r2/b".into()]);
-    net.run_for(Duration::from_millis(300));
-    net.partition(&[addr("t/r1/a")], &[addr("t/r2/b")]);
-    all[0]
-        .0
-        .send(&addr("t/r2/b"), MsgKind::CatchUpAnswer, &[7; 8])
-        .unwrap();
+    let (net, all) = send_across_a_cut(6);
     net.run_for(Duration::from_secs(5));
     assert!(
         all[0]

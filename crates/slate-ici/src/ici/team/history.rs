@@ -274,6 +274,15 @@ mod tests {
         }
     }
 
+    /// A history of `bytes` holding positions 1 and 2 (10 bytes each), after a push of
+    /// `len` bytes at `seq`: the history, and what the push returned.
+    fn two_then_push(bytes: usize, seq: u64, len: usize) -> (History, Result<(), HistoryError>) {
+        let mut h = history(bytes, 600);
+        filled(&mut h, 2, 10);
+        let pushed = h.push(seq, frame(len), T0, &[]);
+        (h, pushed)
+    }
+
     fn seqs(l: &Lookup) -> Vec<u64> {
         l.held.iter().map(|(s, _)| *s).collect()
     }
@@ -356,9 +365,7 @@ mod tests {
 
     #[test]
     fn a_position_out_of_order_is_refused() {
-        let mut h = history(1_000, 600);
-        filled(&mut h, 2, 10);
-        let err = h.push(5, frame(10), T0, &[]);
+        let (h, err) = two_then_push(1_000, 5, 10);
         assert_eq!(
             err,
             Err(HistoryError::OutOfOrder {
@@ -371,9 +378,7 @@ mod tests {
 
     #[test]
     fn a_frame_larger_than_the_limit_is_gone_with_everything_before_it() {
-        let mut h = history(100, 600);
-        filled(&mut h, 2, 10);
-        let err = h.push(3, frame(101), T0, &[]);
+        let (mut h, err) = two_then_push(100, 3, 101);
         assert_eq!(
             err,
             Err(HistoryError::TooLarge {

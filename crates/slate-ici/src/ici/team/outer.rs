@@ -637,6 +637,15 @@ mod tests {
         Heard::Fresh(Change::default())
     }
 
+    /// A stream that received position 1: `head`, the start of a message of member 0
+    /// that goes on at position 2.
+    fn with_a_head(head: &[u8]) -> Outer {
+        let mut o = outer();
+        o.receive(TAG, 1, T0);
+        o.fragment(1, part(0, false, true, head));
+        o
+    }
+
     fn receive_all(o: &mut Outer, seqs: impl IntoIterator<Item = u64>) {
         for seq in seqs {
             o.receive(TAG, seq, T0);
@@ -887,9 +896,7 @@ mod tests {
 
     #[test]
     fn one_position_ends_one_message_and_begins_the_next() {
-        let mut o = outer();
-        o.receive(TAG, 1, T0);
-        o.fragment(1, part(0, false, true, b"x1"));
+        let mut o = with_a_head(b"x1");
         o.receive(TAG, 2, T0);
         let first = o.fragment(2, part(0, true, false, b"x2"));
         assert_eq!(first.map(|m| m.bytes), Some(b"x1x2".to_vec()));
@@ -910,9 +917,7 @@ mod tests {
 
     #[test]
     fn a_head_whose_next_position_was_lost_is_dropped_when_have_passes_it() {
-        let mut o = outer();
-        o.receive(TAG, 1, T0);
-        o.fragment(1, part(0, false, true, b"head"));
+        let mut o = with_a_head(b"head");
         o.announce(TAG, 2, T0);
         o.cover(2, 1, T0);
         o.receive(TAG, 3, T0);
@@ -922,9 +927,7 @@ mod tests {
 
     #[test]
     fn fragments_of_different_members_do_not_join() {
-        let mut o = outer();
-        o.receive(TAG, 1, T0);
-        o.fragment(1, part(0, false, true, b"a"));
+        let mut o = with_a_head(b"a");
         o.receive(TAG, 2, T0);
         assert_eq!(o.fragment(2, part(1, true, false, b"b")), None);
         assert_eq!(o.counts().fragments_dropped, 2);
