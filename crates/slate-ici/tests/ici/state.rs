@@ -1,0 +1,109 @@
+//! State requests through the robot stream (docs/team-protocol.md 2.6, step 11): a
+//! newcomer, a restarted robot and the two halves of a healed partition get the
+//! members' current state, answered once by broadcast in the robot stream; no per-pair
+//! catch-up request, answer or object list is sent on the team link.
+
+use slate_ici::{IciConfig, LinkConfig, LinkKind, MsgKind, Rng, SimConfig, TeamProtocol};
+use slate_model::Address;
+
+use crate::support::{Team, open, secs, workload};
+
+/// Module m{j} has priority j (m0 is its robot's gateway), the radio preset.
+fn config(module: usize) -> IciConfig {
+    let protocol = TeamProtocol::radio().priority(Some(module as u8));
+    open().team_protocol(Some(protocol))
+}
+
+/// A robot's modules `t/r{robot}/m0 ..`, joining the team (again, after a restart).
+fn join_robot(team: &mut Team, robot: usize, modules: usize) {
+    for m in 0..modules {
+        team.add(&format!("t/r{robot}/m{m}"), config(m));
+    }
+}
+
+/// `robots` × `modules` with the switch on; a clean robot link, `link` as the team link.
+fn robots(seed: u64, link: LinkConfig, robots: usize, modules: usize) -> Team {
+    let sim = SimConfig {
+        robot: LinkConfig::clean().delay(secs(0.0001)),
+        team: link.delay(secs(0.02)),
+        ..SimConfig::default()
+    };
+    let mut team = Team::with(seed, sim);
+    for r in 0..robots {
+        join_robot(&mut team, r, modules);
+    }
+    team
+}
+
+/// Messages of `kind` sent on the team link, every pair together.
+fn team_sent(team: &Team, kind: MsgKind) -> u64 {
+    team.net.stats().kind(LinkKind::Team, kind).sent_msgs
+}
+
+/// Today's per-pair catch-up traffic on the team link must be gone.
+fn assert_no_per_pair_catch_up(team: &Team) {
+    for kind in [
+        MsgKind::CatchUpRequest,
+        MsgKind::CatchUpAnswer,
+        MsgKind::ObjectList,
+        MsgKind::Classes,
+    ] {
+        assert_eq!(team_sent(team, kind), 0, "{kind} sent on the team link");
+    }
+}
+
+/// Current states answered by the modules of the robots `sources`.
+fn answered(team: &Team, sources: &[usize]) -> u64 {
+    let of = |a: &Address| sources.iter().any(|r| a.robot() == format!("r{r}"));
+    let members = team.members.iter().filter(|m| of(&m.address));
+    members.map(|m| m.ici.stats().catch_up.answered).sum()
+}
+
+#[test]
+fn a_late_joining_robot_gets_the_whole_state() {
+    let mut team = robots(111, LinkConfig::clean(), 3, 2);
+    team.run(0.5);
+    workload(&team, &mut Rng::new(111), 100, 0.05);
+    // Long after the start: robot 3's modules heard none of the streams from 1.
+    team.run(3.0);
+    let before = answered(&team, &[0, 1, 2]);
+    join_robot(&mut team, 3, 2);
+    team.assert_converges(30);
+    let answers = answered(&team, &[0, 1, 2]) - before;
+    // One broadcast answer per source member (6), not one per joining module (12).
+    assert!((1..=6).contains(&answers), "{answers} state answers");
+    let late = team.member("t/r3/m1").ici.stats();
+    assert!(late.catch_up.completed >= 3, "{:?}", late.catch_up);
+    assert_no_per_pair_catch_up(&team);
+}
+
+#[test]
+fn a_partition_between_two_halves_heals_and_converges() {
+    let team = robots(113, LinkConfig::clean(), 6, 2);
+    team.run(0.5);
+    let mut rng = Rng::new(113);
+    workload(&team, &mut rng, 40, 0.05);
+    let half = |a: &Address| a.robot() < "r3";
+    let all: Vec<Address> = team.members.iter().map(|m| m.address.clone()).collect();
+    let (a, b): (Vec<Address>, Vec<Address>) = all.into_iter().partition(|a| half(a));
+    team.net.partition(&a, &b);
+    // 20 s of virtual time cut, with work on both sides.
+    workload(&team, &mut rng, 200, 0.1);
+    assert!(
+        crate::support::divergence(&team.members).is_some(),
+        "the partition made a difference"
+    );
+    team.net.heal();
+    team.assert_converges(60);
+    assert_no_per_pair_catch_up(&team);
+}
+
+#[test]
+fn no_per_pair_team_catch_up_sends_remain_with_the_switch_on() {
+    let team = robots(114, LinkConfig::clean().loss(0.1), 3, 2);
+    team.run(0.5);
+    workload(&team, &mut Rng::new(114), 150, 0.05);
+    team.assert_converges(60);
+    assert_no_per_pair_catch_up(&team);
+    assert!(team_sent(&team, MsgKind::TeamFrame) > 0);
+}
