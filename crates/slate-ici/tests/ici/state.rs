@@ -4,7 +4,7 @@
 //! catch-up request, answer or object list is sent on the team link.
 
 use slate_ici::{IciConfig, LinkConfig, LinkKind, MsgKind, Rng, SimConfig, TeamProtocol};
-use slate_model::Address;
+use slate_model::{Address, Context, NewObject, Value};
 
 use crate::support::{Team, open, secs, workload};
 
@@ -59,6 +59,12 @@ fn answered(team: &Team, sources: &[usize]) -> u64 {
     members.map(|m| m.ici.stats().catch_up.answered).sum()
 }
 
+fn rock(team: &Team, at: &str, name: &str, hits: i64) {
+    let board = team.board(at);
+    let _ = board.create_with(NewObject::new("Rock", name).context(Context::Surroundings));
+    board.write(name, "hits", Value::Int(hits)).unwrap();
+}
+
 #[test]
 fn a_late_joining_robot_gets_the_whole_state() {
     let mut team = robots(111, LinkConfig::clean(), 3, 2);
@@ -74,6 +80,22 @@ fn a_late_joining_robot_gets_the_whole_state() {
     assert!((1..=6).contains(&answers), "{answers} state answers");
     let late = team.member("t/r3/m1").ici.stats();
     assert!(late.catch_up.completed >= 3, "{:?}", late.catch_up);
+    assert_no_per_pair_catch_up(&team);
+}
+
+#[test]
+fn a_restarted_robot_gets_the_whole_state() {
+    let mut team = robots(112, LinkConfig::clean(), 3, 2);
+    team.run(0.5);
+    let mut rng = Rng::new(112);
+    workload(&team, &mut rng, 80, 0.05);
+    rock(&team, "t/r0/m1", "rock_before", 4);
+    team.run(3.0);
+    // Robot 1 restarts whole: same addresses, new incarnations, empty boards.
+    join_robot(&mut team, 1, 2);
+    team.assert_converges(30);
+    let held = team.board("t/r1/m0").read("rock_before", "hits").ok();
+    assert_eq!(held.map(|p| p.value), Some(Value::Int(4)));
     assert_no_per_pair_catch_up(&team);
 }
 

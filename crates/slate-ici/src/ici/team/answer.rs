@@ -58,10 +58,10 @@ impl State {
         true
     }
 
-    /// The gateway heard most lately whose hello lists `member`, and its index.
+    /// The gateway heard most lately whose hello lists `member`, and its index (the
+    /// hello being handled may not be stored yet: its tag is read when the ask is due).
     fn gateway_of(&self, member: &Address) -> Option<(Address, u8)> {
-        let speakers = self.team.speakers.iter().filter(|(_, s)| s.hello.is_some());
-        let found = speakers.filter_map(|(g, s)| {
+        let found = self.team.speakers.iter().filter_map(|(g, s)| {
             let index = s.members.iter().position(|m| m.as_ref() == Some(member))?;
             Some((s.last_heard, g, u8::try_from(index).ok()?))
         });

@@ -255,7 +255,9 @@ impl State {
     }
 
     /// A member's incarnation as its robot's hello says it: a new one runs today's
-    /// restart rule for that member (its new stream comes from inner position 1).
+    /// restart rule for that member (its new stream comes from inner position 1), and
+    /// asks for its state: only its new incarnation's object list sweeps what the
+    /// previous one owned (one broadcast answer for every robot, 2.6).
     fn member_hello(&mut self, member: &Address, incarnation: u64) {
         if self
             .peer(member)
@@ -268,6 +270,7 @@ impl State {
         if self.take_incarnation(member, incarnation) {
             self.member_restarted(member);
             self.relay_orphans(member);
+            self.request_catch_up(member, false, false);
         }
     }
 
