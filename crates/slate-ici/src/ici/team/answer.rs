@@ -261,3 +261,211 @@ fn merge_requests(old: Option<StateRequest>, new: StateRequest) -> StateRequest 
     }
     merged
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use slate_model::{Board, Filter};
+    use slate_testing::addr;
+
+    use super::super::frame::{Member, Nack, RobotHello};
+    use super::super::gateway::{Framer, Gateway};
+    use super::super::history::HistoryLimits;
+    use super::*;
+    use crate::SimNet;
+    use crate::ici::{IciConfig, TeamProtocol, module_class};
+
+    fn ms(n: u64) -> Duration {
+        Duration::from_millis(n)
+    }
+
+    /// Where the tests' time line starts.
+    const START: Duration = Duration::from_secs(10);
+
+    /// A state of `me` with `config` and the team protocol on (radio).
+    fn state_with(me: &str, config: IciConfig) -> (SimNet, State) {
+        let net = SimNet::new(1);
+        let me = addr(me);
+        let board = Arc::new(
+            Board::builder()
+                .clock(net.clock())
+                .address(me.clone())
+                .build(),
+        );
+        board.define(module_class()).unwrap();
+        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
+        let config = config.team_protocol(Some(TeamProtocol::radio()));
+        let mut state = State::new(board, net.join(&me), config, watch);
+        state.now = START;
+        (net, state)
+    }
+
+    fn state() -> (SimNet, State) {
+        state_with("t/r0/m0", IciConfig::default())
+    }
+
+    fn member(name: &str) -> Member {
+        Member {
+            name: name.into(),
+            incarnation: 5,
+            inner_seq: 0,
+            alive: true,
+            listener: true,
+        }
+    }
+
+    /// `st` hears the hello of gateway `t/r1/g`, whose robot has m1 and m2.
+    fn hear_robot_1(st: &mut State) -> StreamTag {
+        let gw = addr("t/r1/g");
+        let tag = StreamTag::of(&gw, 9);
+        let hello = RobotHello {
+            version: 1,
+            tag,
+            gw_incarnation: 9,
+            observer: false,
+            interest: ClassSet::all(),
+            exports: ClassSet::all(),
+            members: vec![member("m1"), member("m2")],
+        };
+        st.on_team(&gw, &TeamMsg::Hello(hello).encode());
+        tag
+    }
+
+    /// Another robot's state ask (names re-announced if `names`).
+    fn state_nack(tag: StreamTag, members: u32, names: bool) -> Vec<u8> {
+        let ask = StateAsk {
+            members,
+            names,
+            classes: false,
+        };
+        TeamMsg::Nack(Nack {
+            entries: vec![state_entry(tag, ask)],
+        })
+        .encode()
+    }
+
+    /// Messages of `kind` this state sent on `link`.
+    fn sent(st: &State, link: LinkKind, kind: MsgKind) -> u64 {
+        let traffic = st.stats.traffic.get(&(link, kind));
+        traffic.map_or(0, |t| t.sent_msgs)
+    }
+
+    fn tick_at(st: &mut State, at: Duration) {
+        st.now = START + at;
+        st.nack_tick();
+    }
+
+    #[test]
+    fn catching_up_with_two_members_of_a_robot_is_one_state_entry_after_the_back_off() {
+        let (_net, mut st) = state();
+        hear_robot_1(&mut st);
+        st.request_catch_up(&addr("t/r1/m1"), false, false);
+        st.request_catch_up(&addr("t/r1/m2"), true, false);
+        let ask = st.team.speakers[&addr("t/r1/g")].state_ask.unwrap().ask;
+        assert_eq!((ask.members, ask.names, ask.classes), (0b11, true, false));
+        tick_at(&mut st, ms(99));
+        assert_eq!(
+            sent(&st, LinkKind::Team, MsgKind::Nack),
+            0,
+            "within gap_grace"
+        );
+        tick_at(&mut st, ms(400));
+        assert_eq!(sent(&st, LinkKind::Team, MsgKind::Nack), 1);
+        assert_eq!(sent(&st, LinkKind::Team, MsgKind::CatchUpRequest), 0);
+    }
+
+    #[test]
+    fn another_robots_state_ask_for_the_same_members_suppresses_ours() {
+        let (_net, mut st) = state();
+        let tag = hear_robot_1(&mut st);
+        st.request_catch_up(&addr("t/r1/m1"), false, false);
+        st.request_catch_up(&addr("t/r1/m2"), false, false);
+        // A member never heard from is asked with its names: so is the ask heard.
+        st.on_team(&addr("t/r2/g"), &state_nack(tag, 0b01, true));
+        let left = st.team.speakers[&addr("t/r1/g")]
+            .state_ask
+            .map(|a| a.ask.members);
+        assert_eq!(left, Some(0b10), "m2 is still to ask for");
+        st.on_team(&addr("t/r2/g"), &state_nack(tag, 0b10, true));
+        tick_at(&mut st, ms(5000));
+        assert_eq!(sent(&st, LinkKind::Team, MsgKind::Nack), 0);
+    }
+
+    #[test]
+    fn an_ask_heard_that_lacks_the_names_we_need_does_not_suppress_ours() {
+        let (_net, mut st) = state();
+        let tag = hear_robot_1(&mut st);
+        st.request_catch_up(&addr("t/r1/m1"), true, false);
+        st.on_team(&addr("t/r2/g"), &state_nack(tag, 0b01, false));
+        tick_at(&mut st, ms(400));
+        assert_eq!(sent(&st, LinkKind::Team, MsgKind::Nack), 1);
+    }
+
+    #[test]
+    fn an_observer_keeps_the_unicast_catch_up_request() {
+        let (_net, mut st) = state_with("t/cli/get", IciConfig::default().observer(true));
+        hear_robot_1(&mut st);
+        st.request_catch_up(&addr("t/r1/m1"), false, false);
+        assert_eq!(sent(&st, LinkKind::Team, MsgKind::CatchUpRequest), 1);
+        assert!(st.team.speakers[&addr("t/r1/g")].state_ask.is_none());
+    }
+
+    #[test]
+    fn the_gateway_forwards_a_state_ask_to_each_member_named() {
+        let (_net, mut st) = state();
+        let limits = HistoryLimits {
+            bytes: 4096,
+            age: Duration::from_secs(60),
+        };
+        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
+        gw.members = vec![member("m0"), member("m1"), member("m2")];
+        st.team.gateway = Some(gw);
+        st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, false));
+        assert_eq!(sent(&st, LinkKind::Robot, MsgKind::StateRequest), 2);
+        st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(78), 0b110, false));
+        assert_eq!(
+            sent(&st, LinkKind::Robot, MsgKind::StateRequest),
+            2,
+            "another stream's ask"
+        );
+    }
+
+    fn request(robot: &str) -> StateRequest {
+        StateRequest {
+            names: false,
+            classes: false,
+            robots: vec![Arc::from(robot)],
+        }
+    }
+
+    #[test]
+    fn requests_within_the_answer_interval_are_merged_into_one_answer() {
+        let (_net, mut st) = state();
+        st.on_state_request(request("r1"));
+        st.now = START + ms(500);
+        st.on_state_request(request("r2"));
+        st.on_state_request(request("r3"));
+        assert_eq!(st.stats.catch_up.answered, 1);
+        let deferred = st.team.answering.deferred.clone().unwrap();
+        assert_eq!(deferred.robots, vec![Arc::from("r2"), Arc::from("r3")]);
+        st.now = START + ms(1999);
+        st.deferred_state_answer();
+        assert_eq!(st.stats.catch_up.answered, 1, "within answer_interval");
+        st.now = START + ms(2000);
+        st.deferred_state_answer();
+        assert_eq!(st.stats.catch_up.answered, 2);
+        assert!(st.team.answering.deferred.is_none());
+    }
+
+    #[test]
+    fn a_merged_request_names_at_most_max_items_robots() {
+        let mut merged = request("r0");
+        for i in 1..=(MAX_ITEMS + 10) {
+            merged = merge_requests(Some(merged), request(&format!("r{i}")));
+        }
+        assert_eq!(merged.robots.len(), MAX_ITEMS as usize);
+        let again = merge_requests(Some(merged.clone()), request("r0"));
+        assert_eq!(again.robots.len(), merged.robots.len(), "no robot twice");
+    }
+}
