@@ -153,3 +153,21 @@ fn no_per_pair_team_catch_up_sends_remain_with_the_switch_on() {
     assert_no_per_pair_catch_up(&team);
     assert!(team_sent(&team, MsgKind::TeamFrame) > 0);
 }
+
+#[test]
+fn a_widened_interest_gets_through_a_state_answer_what_it_did_not_model() {
+    let mut team = robots(115, LinkConfig::clean(), 1, 1);
+    let narrow = config(0).interest(slate_ici::ClassSet::none().class("Vehicle"));
+    team.add("t/r1/m0", narrow);
+    team.run(1.0);
+    rock(&team, "t/r0/m0", "rock_early", 2);
+    team.run(2.0);
+    assert!(team.board("t/r1/m0").read("rock_early", "hits").is_err());
+    team.member("t/r1/m0")
+        .ici
+        .set_interest(slate_ici::ClassSet::all());
+    team.run(5.0);
+    let held = team.board("t/r1/m0").read("rock_early", "hits").ok();
+    assert_eq!(held.map(|p| p.value), Some(Value::Int(2)));
+    assert_no_per_pair_catch_up(&team);
+}
