@@ -188,3 +188,36 @@ fn a_widened_interest_gets_through_a_state_answer_what_it_did_not_model() {
     assert_eq!(held.map(|p| p.value), Some(Value::Int(2)));
     assert_no_per_pair_catch_up(&team);
 }
+
+/// A robot that models only rocks hears the answer to a robot that models only
+/// vehicles (robot 0 keeps no history, so the newcomer asks for its state): the
+/// answer is filtered by the union of both, so its sweep keeps the rock.
+#[test]
+fn an_unasked_state_answer_sweeps_nothing_a_listener_models() {
+    let only = |class: &str| config(0).interest(slate_ici::ClassSet::none().class(class));
+    let mut team = robots(116, LinkConfig::clean(), 0, 0);
+    // Robot 0 keeps no history: a newcomer cannot be repaired and asks for state.
+    let mut protocol = TeamProtocol::radio().priority(Some(0));
+    protocol.history_age = std::time::Duration::from_millis(1);
+    team.add("t/r0/m0", open().team_protocol(Some(protocol)));
+    team.add("t/r1/m0", only("Rock"));
+    team.run(1.0);
+    rock(&team, "t/r0/m0", "rock_kept", 6);
+    let board = team.board("t/r0/m0");
+    let _ = board.create_with(NewObject::new("Vehicle", "car").context(Context::Surroundings));
+    board.write("car", "speed", Value::Real(3.0)).unwrap();
+    team.run(3.0);
+    let lists = |team: &Team| team.member("t/r1/m0").ici.stats().catch_up.completed;
+    let before = lists(&team);
+    team.add("t/r2/m0", only("Vehicle"));
+    team.run(5.0);
+    assert!(
+        lists(&team) > before,
+        "r1 applied the answer it did not ask for"
+    );
+    let kept = team.board("t/r1/m0").read("rock_kept", "hits").ok();
+    assert_eq!(kept.map(|p| p.value), Some(Value::Int(6)));
+    let car = team.board("t/r2/m0").read("car", "speed").ok();
+    assert_eq!(car.map(|p| p.value), Some(Value::Real(3.0)));
+    assert_no_per_pair_catch_up(&team);
+}
