@@ -491,3 +491,38 @@ impl State {
         self.config.interest.contains(&lineage, info.context)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use slate_testing::addr;
+
+    use super::*;
+
+    #[test]
+    fn a_team_answer_relays_others_packets_on_objects_of_every_robot_asking() {
+        let robots: Vec<Arc<str>> = vec!["r1".into(), "r2".into()];
+        let team = Audience::Team(&robots);
+        assert!(team.owns(&addr("t/r1/m0")));
+        assert!(team.owns(&addr("t/r2/m5")));
+        assert!(!team.owns(&addr("t/r3/m0")), "a robot that did not ask");
+    }
+
+    #[test]
+    fn a_peer_answer_relays_others_packets_on_objects_of_that_peer_only() {
+        let peer = addr("t/r1/m0");
+        let to = Audience::Peer(&peer);
+        assert!(to.owns(&peer));
+        assert!(!to.owns(&addr("t/r1/m1")));
+    }
+
+    #[test]
+    fn this_robots_self_objects_are_system_in_a_team_answer() {
+        let me = addr("t/r0/m0");
+        let team = Audience::Team(&[]);
+        let own = team.context_of(Context::Self_, &addr("t/r0/m1"), &me);
+        assert_eq!(own, Context::System);
+        let held = team.context_of(Context::Surroundings, &addr("t/r0/m1"), &me);
+        assert_eq!(held, Context::Surroundings);
+        assert_eq!(team.link(&me), LinkKind::Team);
+    }
+}
