@@ -39,6 +39,9 @@ mod random;
 // Robot-stream repair: NACK with suppression, one broadcast repair, hello NACK, Gone.
 #[path = "ici/repair.rs"]
 mod repair;
+// State requests through the robot stream: newcomers, restarts, healed partitions.
+#[path = "ici/state.rs"]
+mod state;
 // A team on a simulated network, and the convergence check (the helper module).
 #[path = "ici/support.rs"]
 mod support;

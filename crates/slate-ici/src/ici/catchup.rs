@@ -8,7 +8,7 @@
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
-use slate_model::{Address, ClassDef, ObjectInfo, Packet, Query, THING};
+use slate_model::{Address, ClassDef, Context, ObjectInfo, Packet, Query, THING};
 use slate_wire::{Assertion, CatchUpRequest, Message, ObjectEntry, Report};
 
 use super::classes::ClassSet;
@@ -19,6 +19,52 @@ use crate::{LinkKind, MsgKind};
 
 /// Class definitions per `Classes` message.
 const CLASSES_PER_MESSAGE: usize = 32;
+
+/// Who a current state is for.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Audience<'a> {
+    /// One peer, by a reliable send (today's catch-up; with the team protocol on, the
+    /// robot link and observers).
+    Peer(&'a Address),
+    /// Every listener of the team, once, through the robot stream (2.6), on behalf of
+    /// the robots named (their segments): packets others wrote to objects their
+    /// modules own go too.
+    Team(&'a [Arc<str>]),
+}
+
+impl Audience<'_> {
+    /// The link the answer is encoded for.
+    fn link(self, me: &Address) -> LinkKind {
+        match self {
+            Audience::Peer(peer) => LinkKind::between(me, peer),
+            Audience::Team(_) => LinkKind::Team,
+        }
+    }
+
+    /// Is `owner` a module the answer is for (a module of a robot asking)?
+    fn owns(self, owner: &Address) -> bool {
+        match self {
+            Audience::Peer(peer) => owner == peer,
+            Audience::Team(robots) => robots.iter().any(|r| **r == *owner.robot()),
+        }
+    }
+
+    /// The context an object has on the receivers' boards: SELF off its owner's robot
+    /// is SYSTEM. A team answer goes to other robots, so this robot's SELF is SYSTEM.
+    fn context_of(self, context: Context, owner: &Address, me: &Address) -> Context {
+        match self {
+            Audience::Peer(peer) => State::context_on(context, owner, peer),
+            Audience::Team(_) => {
+                let here = LinkKind::between(owner, me) == LinkKind::Robot;
+                if here && context == Context::Self_ {
+                    Context::System
+                } else {
+                    context
+                }
+            }
+        }
+    }
+}
 
 impl State {
     /// Asks `source` for its current state, unless a request that covers this is out.
@@ -40,7 +86,13 @@ impl State {
     }
 
     /// Sends (or re-sends) a request.
+    /// With the team protocol on, a team source is asked through its robot stream
+    /// (a `Nack` entry `what = state`), not by a request of its own.
     pub fn send_request(&mut self, source: &Address, req: Request) {
+        let names = req.names || !self.decoder.knows(source);
+        if self.team_state_ask(source, names, req.classes) {
+            return;
+        }
         let have = self.peers.get(source).map_or(0, |p| p.stream.have());
         let msg = Message::CatchUpRequest(CatchUpRequest {
             have_seq: have,
@@ -127,26 +179,39 @@ impl State {
 
     /// Sends `from` the current state.
     fn answer(&mut self, from: &Address, req: CatchUpRequest) {
-        self.stats.catch_up.answered += 1;
-        self.refresh_catalog();
-        let link = LinkKind::between(&self.me, from);
-        if req.needs_names
-            && let Some(out) = self.out.get_mut(&link)
-        {
-            out.encoder.reset_announcements();
-        }
-        if req.needs_classes {
-            self.send_classes(from);
-        }
-        let seq = self.out.get(&link).map_or(0, |o| o.seq);
-        let (items, objects) = self.current_state(from, link);
-        for chunk in items.chunks(self.config.max_report_items.max(1)) {
-            self.send_answer(from, seq, chunk);
-        }
-        self.send_object_list(from, seq, objects);
+        self.answer_state(Audience::Peer(from), req.needs_names, req.needs_classes);
     }
 
-    fn send_classes(&mut self, to: &Address) {
+    /// Sends `to` the current state (names re-announced, class definitions first, if
+    /// asked): the packets, then the object list that completes it.
+    pub(super) fn answer_state(&mut self, to: Audience<'_>, names: bool, classes: bool) {
+        self.stats.catch_up.answered += 1;
+        self.refresh_catalog();
+        let link = to.link(&self.me);
+        if names && let Some(out) = self.out.get_mut(&link) {
+            out.encoder.reset_announcements();
+        }
+        if classes {
+            self.send_classes(to);
+        }
+        let seq = self.out.get(&link).map_or(0, |o| o.seq);
+        let (items, objects) = self.current_state(to, link);
+        for chunk in items.chunks(self.config.max_report_items.max(1)) {
+            self.send_answer(to, seq, chunk);
+        }
+        self.send_object_list(to, seq, objects);
+    }
+
+    /// Hands a part of an answer on: a reliable send to one peer, or into the robot
+    /// stream as a state answer for the whole team.
+    fn deliver_answer(&mut self, to: Audience<'_>, kind: MsgKind, bytes: &[u8]) {
+        match to {
+            Audience::Peer(peer) => self.send_to(peer, kind, bytes),
+            Audience::Team(_) => self.team_state_out(bytes),
+        }
+    }
+
+    fn send_classes(&mut self, to: Audience<'_>) {
         let defs: Vec<ClassDef> = self
             .board
             .class_defs()
@@ -156,25 +221,42 @@ impl State {
             .filter(|d| !slate_model::is_builtin(&d.name))
             .collect();
         for chunk in defs.chunks(CLASSES_PER_MESSAGE) {
-            if self.send_message(to, &Message::Classes(chunk.to_vec())) {
+            if self.send_encoded(to, &Message::Classes(chunk.to_vec())) {
                 self.stats.catch_up.classes_sent += chunk.len() as u64;
+            }
+        }
+    }
+
+    /// Encodes a message with the encoder of `to`'s link and delivers it.
+    fn send_encoded(&mut self, to: Audience<'_>, msg: &Message) -> bool {
+        let Some(out) = self.out.get_mut(&to.link(&self.me)) else {
+            return false;
+        };
+        match out.encoder.encode(msg, &self.catalog.schema) {
+            Ok(bytes) => {
+                self.deliver_answer(to, MsgKind::of_message(msg), &bytes);
+                true
+            }
+            Err(e) => {
+                self.stats.reports.encode_errors += 1;
+                tracing::warn!(error = %e, "message not encoded");
+                false
             }
         }
     }
 
     /// One part of an answer; a part that does not encode is split until the faulty
     /// packet is isolated and dropped.
-    pub(super) fn send_answer(&mut self, to: &Address, seq: u64, items: &[Assertion]) {
+    pub(super) fn send_answer(&mut self, to: Audience<'_>, seq: u64, items: &[Assertion]) {
         let msg = Message::CatchUpAnswer(Report {
             seq,
             items: items.to_vec(),
         });
-        let link = LinkKind::between(&self.me, to);
-        let Some(out) = self.out.get_mut(&link) else {
+        let Some(out) = self.out.get_mut(&to.link(&self.me)) else {
             return;
         };
         match out.encoder.encode(&msg, &self.catalog.schema) {
-            Ok(bytes) => self.send_to(to, MsgKind::CatchUpAnswer, &bytes),
+            Ok(bytes) => self.deliver_answer(to, MsgKind::CatchUpAnswer, &bytes),
             Err(_) if items.len() > 1 => {
                 let (a, b) = items.split_at(items.len() / 2);
                 self.send_answer(to, seq, a);
@@ -188,8 +270,13 @@ impl State {
     }
 
     /// What `to` is to hold of this board: packets, and the objects this board owns.
-    fn current_state(&self, to: &Address, link: LinkKind) -> (Vec<Assertion>, Vec<Listed>) {
-        let interest = self.peers.get(to).and_then(|p| p.interest.clone());
+    /// A team answer is filtered by the union of the remote robots' interests (all,
+    /// until it is known), so its object list is right for every receiver's sweep.
+    fn current_state(&self, to: Audience<'_>, link: LinkKind) -> (Vec<Assertion>, Vec<Listed>) {
+        let interest = match to {
+            Audience::Peer(peer) => self.peers.get(peer).and_then(|p| p.interest.clone()),
+            Audience::Team(_) => self.team_remote_interest(),
+        };
         let interest = interest.unwrap_or_else(ClassSet::all);
         let (mut items, mut objects) = (Vec::new(), Vec::new());
         let snap = self.board.snapshot();
@@ -227,12 +314,13 @@ impl State {
     /// Does a catch-up answer to `to` carry this packet? This module's own, all packets
     /// of the objects it owns, and (having no owner to relay them) class-level values and
     /// what a restarted module's previous incarnation wrote; and what others wrote to the
-    /// objects `to` owns: a restarted owner lost them, and their writer may be gone (an
-    /// operator's `slate put`). Never the fusion of a `fused` attribute (its source is
-    /// unknown): the estimates go instead.
-    fn relays(&self, info: &ObjectInfo, owned: bool, packet: &Packet, to: &Address) -> bool {
+    /// objects `to` owns (a team answer: objects owned by modules of the robots asking):
+    /// a restarted owner lost them, and their writer may be gone (an operator's `slate
+    /// put`). Never the fusion of a `fused` attribute (its source is unknown): the
+    /// estimates go instead.
+    fn relays(&self, info: &ObjectInfo, owned: bool, packet: &Packet, to: Audience<'_>) -> bool {
         let ours = packet.source == self.me || owned || info.is_class || self.orphan(packet);
-        let theirs = !info.is_class && info.owner == *to && packet.source != *to;
+        let theirs = !info.is_class && to.owns(&info.owner) && packet.source != info.owner;
         (ours || theirs) && !packet.source.is_unknown()
     }
 
@@ -251,7 +339,7 @@ impl State {
         link: LinkKind,
         info: &ObjectInfo,
         entry: &ObjectEntry,
-        to: &Address,
+        to: Audience<'_>,
     ) -> bool {
         let Some(lineage) = self.catalog.lineage(&entry.class) else {
             return false;
@@ -262,7 +350,7 @@ impl State {
             return interest.relates_to_class(&lineage, &self.catalog)
                 && (!team || export.relates_to_class(&lineage, &self.catalog));
         }
-        let context = State::context_on(info.context, &info.owner, to);
+        let context = to.context_of(info.context, &info.owner, &self.me);
         interest.contains(&lineage, context) && (!team || export.contains(&lineage, info.context))
     }
 
@@ -301,7 +389,7 @@ impl State {
     }
 
     /// Ends the answer with the owned objects, cut to fit one message if need be.
-    fn send_object_list(&mut self, to: &Address, seq: u64, mut objects: Vec<Listed>) {
+    fn send_object_list(&mut self, to: Audience<'_>, seq: u64, mut objects: Vec<Listed>) {
         let stamp = self.board.clock().now();
         let mut complete = objects.len() <= slate_wire::MAX_ITEMS;
         objects.truncate(slate_wire::MAX_ITEMS);
@@ -314,7 +402,7 @@ impl State {
             };
             let bytes = Frame::ObjectList(list).encode();
             if bytes.len() <= slate_wire::MAX_MESSAGE_BYTES || objects.is_empty() {
-                self.send_to(to, MsgKind::ObjectList, &bytes);
+                self.deliver_answer(to, MsgKind::ObjectList, &bytes);
                 return;
             }
             complete = false;
@@ -401,5 +489,40 @@ impl State {
             return false;
         };
         self.config.interest.contains(&lineage, info.context)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use slate_testing::addr;
+
+    use super::*;
+
+    #[test]
+    fn a_team_answer_relays_others_packets_on_objects_of_every_robot_asking() {
+        let robots: Vec<Arc<str>> = vec!["r1".into(), "r2".into()];
+        let team = Audience::Team(&robots);
+        assert!(team.owns(&addr("t/r1/m0")));
+        assert!(team.owns(&addr("t/r2/m5")));
+        assert!(!team.owns(&addr("t/r3/m0")), "a robot that did not ask");
+    }
+
+    #[test]
+    fn a_peer_answer_relays_others_packets_on_objects_of_that_peer_only() {
+        let peer = addr("t/r1/m0");
+        let to = Audience::Peer(&peer);
+        assert!(to.owns(&peer));
+        assert!(!to.owns(&addr("t/r1/m1")));
+    }
+
+    #[test]
+    fn this_robots_self_objects_are_system_in_a_team_answer() {
+        let me = addr("t/r0/m0");
+        let team = Audience::Team(&[]);
+        let own = team.context_of(Context::Self_, &addr("t/r0/m1"), &me);
+        assert_eq!(own, Context::System);
+        let held = team.context_of(Context::Surroundings, &addr("t/r0/m1"), &me);
+        assert_eq!(held, Context::Surroundings);
+        assert_eq!(team.link(&me), LinkKind::Team);
     }
 }

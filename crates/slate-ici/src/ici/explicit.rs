@@ -78,7 +78,7 @@ impl State {
         let link = LinkKind::between(&self.me, to);
         let seq = self.out.get(&link).map_or(0, |o| o.seq);
         for chunk in chosen.chunks(self.config.max_report_items.max(1)) {
-            self.send_answer(to, seq, chunk);
+            self.send_answer(super::catchup::Audience::Peer(to), seq, chunk);
         }
         chosen.len()
     }

@@ -293,7 +293,7 @@ pub(crate) struct RobotHeartbeat {
 
 /// A receiver's ask for a member's state. Invariant: `members` uses only the low
 /// `MAX_MEMBERS` bits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct StateAsk {
     /// Bit i: member i.
     pub members: u32,

@@ -5,6 +5,7 @@
 //! the remote robots' union interest, and the streams of the other robots' gateways.
 #![allow(dead_code)]
 
+mod answer;
 mod frame;
 mod gateway;
 mod history;
@@ -46,6 +47,8 @@ pub(crate) struct TeamState {
     pub speakers: BTreeMap<Address, Speaker>,
     /// The receiver's NACK scheduler (made on first use, seeded per ICI).
     pub nacks: Option<nack::NackScheduler>,
+    /// This member's state answers to the team (2.6).
+    pub answering: answer::Answering,
     /// Counters until step 16 puts them in `IciStats`.
     pub counts: TeamCounts,
 }
@@ -67,6 +70,8 @@ pub(crate) struct TeamCounts {
     pub gone_heard: u64,
     /// Times a robot's members were asked for their state (one catch-up each).
     pub state_asked: u64,
+    /// State answers this member put into the robot stream.
+    pub state_answers: u64,
     /// Team protocol frames that did not decode, or came with the switch off.
     pub refused: u64,
 }

@@ -5,8 +5,8 @@
 //! before their robot's hello are parked.
 //!
 //! Gaps found here (`stream_changed`), repairs, NACKs and `Gone` go to `repair.rs`
-//! (step 10). Left for step 11: `Want`, `StateRequest` and addressed parts are decoded
-//! and dropped; a state is asked with today's per-member catch-up.
+//! (step 10); state asks and `StateRequest`s to `answer.rs` (step 11). `Want` and
+//! addressed parts are decoded and dropped.
 
 use std::collections::VecDeque;
 
@@ -35,6 +35,8 @@ pub(crate) struct Speaker {
     pub parked: VecDeque<TeamFrame>,
     /// The NACK of its hello, while frames are parked and the hello is missing.
     pub hello_ask: Option<super::repair::HelloAsk>,
+    /// The state ask for members of this robot, waiting for its back-off.
+    pub state_ask: Option<super::answer::StateAskDue>,
     /// When anything was last heard from it (to forget the stalest past the limit).
     pub last_heard: std::time::Duration,
 }
@@ -80,9 +82,10 @@ impl State {
             TeamMsg::Uplink(up) if !team_link => self.on_uplink(from, up),
             TeamMsg::Interest(i) if !team_link => self.on_team_interest(i),
             TeamMsg::Repair(r) if team_link => self.on_repair(from, r),
-            TeamMsg::Nack(n) if team_link => self.on_nack(n),
+            TeamMsg::Nack(n) if team_link => self.on_nack(from, n),
+            TeamMsg::StateRequest(r) if !team_link => self.on_state_request(r),
             TeamMsg::Gone(g) if team_link => self.on_gone(from, g),
-            // Want, StateRequest, Fill: step 11 (and 13).
+            // Want, Fill: step 13.
             _ => self.team.counts.refused += 1,
         }
     }
@@ -182,7 +185,7 @@ impl State {
     fn on_control_part(&mut self, from: &Address, bytes: &[u8]) {
         match TeamMsg::decode(bytes) {
             Ok(TeamMsg::Heartbeat(hb)) => self.on_robot_heartbeat(from, hb),
-            Ok(TeamMsg::Nack(n)) => self.on_nack(n),
+            Ok(TeamMsg::Nack(n)) => self.on_nack(from, n),
             _ => self.team.counts.refused += 1,
         }
     }
@@ -252,7 +255,9 @@ impl State {
     }
 
     /// A member's incarnation as its robot's hello says it: a new one runs today's
-    /// restart rule for that member (its new stream comes from inner position 1).
+    /// restart rule for that member (its new stream comes from inner position 1), and
+    /// asks for its state: only its new incarnation's object list sweeps what the
+    /// previous one owned (one broadcast answer for every robot, 2.6).
     fn member_hello(&mut self, member: &Address, incarnation: u64) {
         if self
             .peer(member)
@@ -265,6 +270,7 @@ impl State {
         if self.take_incarnation(member, incarnation) {
             self.member_restarted(member);
             self.relay_orphans(member);
+            self.request_catch_up(member, false, false);
         }
     }
 

@@ -156,6 +156,11 @@ impl State {
         self.team.nacks.as_mut()
     }
 
+    /// A back-off `U(0, max)` from the NACK scheduler's seeded draws.
+    pub(super) fn nack_draw(&mut self, max: Duration) -> Duration {
+        self.nacks().map_or(Duration::ZERO, |n| n.draw(max))
+    }
+
     /// The tracker of gateway `from` found positions `first .. first + n` missing.
     pub(super) fn team_gap(&mut self, from: &Address, first: u64, n: u64) {
         let (now, tag) = (self.now, self.speaker_tag(from));
@@ -182,9 +187,13 @@ impl State {
 
     /// A NACK heard on the team link: our stream's entries go to the repair
     /// scheduler (gateway); the others suppress our own NACKs for the same positions.
-    pub(super) fn on_nack(&mut self, nack: Nack) {
+    pub(super) fn on_nack(&mut self, from: &Address, nack: Nack) {
         for entry in nack.entries {
             self.gateway_nack_heard(&entry);
+            self.gateway_state_asked(from, &entry);
+            if let Some(ask) = entry.state {
+                self.state_ask_heard(entry.tag, ask);
+            }
             if let Some(span) = entry.frames {
                 self.nack_heard(entry.tag.0, span);
             }
@@ -221,6 +230,7 @@ impl State {
     pub(super) fn nack_tick(&mut self) {
         let now = self.now;
         let mut entries = self.hello_asks_due();
+        entries.extend(self.state_asks_due());
         if let Some(s) = self.team.nacks.as_mut() {
             s.tick(now);
         }
@@ -245,7 +255,7 @@ impl State {
 
     /// The NACK gave up stream `tag` up to `through`: its positions count as covered
     /// and every member of its robot is asked for its state (today's catch-up, one
-    /// request per member, until step 11's broadcast state answers).
+    /// request per member, which `answer.rs` merges into one `Nack` entry `what = state`).
     pub(super) fn ask_stream_state(&mut self, tag: u16, through: u64) {
         let now = self.now;
         let speaker = self

@@ -234,6 +234,7 @@ impl State {
         self.team_elect();
         self.team_listen();
         self.nack_tick();
+        self.deferred_state_answer();
         if self.team.gateway.is_none() {
             return;
         }
