@@ -266,37 +266,20 @@ fn merge_requests(old: Option<StateRequest>, new: StateRequest) -> StateRequest 
 mod tests {
     use std::sync::Arc;
 
-    use slate_model::{Board, Filter};
     use slate_testing::addr;
 
     use super::super::frame::{Member, Nack, RobotHello};
     use super::super::gateway::{Framer, Gateway};
     use super::super::history::HistoryLimits;
+    use super::super::test_state::{START, ms, sent, tick_at};
     use super::*;
     use crate::SimNet;
-    use crate::ici::{IciConfig, TeamProtocol, module_class};
-
-    fn ms(n: u64) -> Duration {
-        Duration::from_millis(n)
-    }
-
-    /// Where the tests' time line starts.
-    const START: Duration = Duration::from_secs(10);
+    use crate::ici::{IciConfig, TeamProtocol};
 
     /// A state of `me` with `config` and the team protocol on (radio).
     fn state_with(me: &str, config: IciConfig) -> (SimNet, State) {
-        let net = SimNet::new(1);
-        let me = addr(me);
-        let board = Arc::new(
-            Board::builder()
-                .clock(net.clock())
-                .address(me.clone())
-                .build(),
-        );
-        board.define(module_class()).unwrap();
-        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
         let config = config.team_protocol(Some(TeamProtocol::radio()));
-        let mut state = State::new(board, net.join(&me), config, watch);
+        let (net, mut state) = super::super::test_state::alone(me, config);
         state.now = START;
         (net, state)
     }
@@ -346,16 +329,6 @@ mod tests {
     }
 
     /// Messages of `kind` this state sent on `link`.
-    fn sent(st: &State, link: LinkKind, kind: MsgKind) -> u64 {
-        let traffic = st.stats.traffic.get(&(link, kind));
-        traffic.map_or(0, |t| t.sent_msgs)
-    }
-
-    fn tick_at(st: &mut State, at: Duration) {
-        st.now = START + at;
-        st.nack_tick();
-    }
-
     #[test]
     fn catching_up_with_two_members_of_a_robot_is_one_state_entry_after_the_back_off() {
         let (_net, mut st) = state();

@@ -14,6 +14,8 @@ mod outer;
 mod receive;
 mod repair;
 mod send;
+#[cfg(test)]
+mod test_state;
 
 use std::collections::{BTreeMap, VecDeque};
 

@@ -391,22 +391,12 @@ mod tests {
     use crate::SimNet;
     use crate::ici::classes::ClassSet;
     use crate::ici::frame::{Frame, Lifecycle};
-    use crate::ici::{IciConfig, TeamProtocol, module_class};
+    use crate::ici::{IciConfig, TeamProtocol};
 
     /// A state of `t/r0/m0` with the team protocol on, on its own network.
     fn state() -> (SimNet, State) {
-        let net = SimNet::new(1);
-        let me = addr("t/r0/m0");
-        let board = Arc::new(
-            Board::builder()
-                .clock(net.clock())
-                .address(me.clone())
-                .build(),
-        );
-        board.define(module_class()).unwrap();
-        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
         let config = IciConfig::default().team_protocol(Some(TeamProtocol::radio()));
-        let state = State::new(board, net.join(&me), config, watch);
+        let (net, state) = super::super::test_state::alone("t/r0/m0", config);
         (net, state)
     }
 

@@ -515,40 +515,23 @@ fn bodies_of(held: &[(u64, std::sync::Arc<[u8]>)]) -> Vec<(u64, Vec<Part>)> {
 mod tests {
     use std::sync::Arc;
 
-    use slate_model::{Board, Filter};
     use slate_testing::addr;
 
     use super::super::frame::{Member, RobotHello};
     use super::super::gateway::{Framer, Gateway};
     use super::super::history::HistoryLimits;
     use super::super::nack::RepairScheduler;
+    use super::super::test_state::{START, ms, tick_at};
     use super::*;
     use crate::SimNet;
+    use crate::ici::IciConfig;
     use crate::ici::classes::ClassSet;
     use crate::ici::frame::{Frame, Lifecycle};
-    use crate::ici::{IciConfig, module_class};
-
-    fn ms(n: u64) -> Duration {
-        Duration::from_millis(n)
-    }
-
-    /// Where the tests' time line starts.
-    const START: Duration = Duration::from_secs(10);
 
     /// A state of `t/r0/m0` with the team protocol on (radio), on its own network.
     fn state() -> (SimNet, State) {
-        let net = SimNet::new(1);
-        let me = addr("t/r0/m0");
-        let board = Arc::new(
-            Board::builder()
-                .clock(net.clock())
-                .address(me.clone())
-                .build(),
-        );
-        board.define(module_class()).unwrap();
-        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
         let config = IciConfig::default().team_protocol(Some(TeamProtocol::radio()));
-        let mut state = State::new(board, net.join(&me), config, watch);
+        let (net, mut state) = super::super::test_state::alone("t/r0/m0", config);
         state.now = START;
         (net, state)
     }
@@ -612,8 +595,7 @@ mod tests {
 
     /// Team publications of `kind` this state made.
     fn sent(st: &State, kind: MsgKind) -> u64 {
-        let traffic = st.stats.traffic.get(&(LinkKind::Team, kind));
-        traffic.map_or(0, |t| t.sent_msgs)
+        super::super::test_state::sent(st, LinkKind::Team, kind)
     }
 
     /// `st` hears gateway `t/r1/g` say its hello, then frames 1 and 3 at time 0.
@@ -623,12 +605,6 @@ mod tests {
         st.on_team(&gw, &frame(1));
         st.on_team(&gw, &frame(3));
         gw
-    }
-
-    /// Runs the NACK timers `at` after the state's start.
-    fn tick_at(st: &mut State, at: Duration) {
-        st.now = START + at;
-        st.nack_tick();
     }
 
     #[test]

@@ -398,28 +398,17 @@ fn union_without<'a>(sets: impl Iterator<Item = &'a ClassSet>, drop: u8) -> Clas
 mod tests {
     use std::time::Duration;
 
-    use slate_model::{Board, Filter};
     use slate_testing::addr;
 
     use super::*;
     use crate::SimNet;
-    use crate::ici::{IciConfig, TeamProtocol, module_class};
+    use crate::ici::{IciConfig, TeamProtocol};
 
     /// `t/r0/m0` alone on its robot, with this election priority.
     fn state(priority: Option<u8>) -> (SimNet, State) {
-        let net = SimNet::new(1);
-        let me = addr("t/r0/m0");
-        let board = Arc::new(
-            Board::builder()
-                .clock(net.clock())
-                .address(me.clone())
-                .build(),
-        );
-        board.define(module_class()).unwrap();
-        let watch = board.watch(Filter::all().own_writes_only()).unwrap();
         let protocol = TeamProtocol::radio().priority(priority);
         let config = IciConfig::default().team_protocol(Some(protocol));
-        let state = State::new(board, net.join(&me), config, watch);
+        let (net, state) = super::super::test_state::alone("t/r0/m0", config);
         (net, state)
     }
 
