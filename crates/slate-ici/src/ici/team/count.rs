@@ -272,6 +272,8 @@ mod tests {
         st.publish_team_msg(MsgKind::TeamRepair, &repair);
         let radio = net.stats().radios[&(addr("t/r0/m0"), LinkKind::Team)];
         assert_eq!(st.stats.link(LinkKind::Team).sent_bytes, radio.bytes);
+        let endpoint = st.transport.stats().link(LinkKind::Team).sent_bytes;
+        assert_eq!(st.stats.link(LinkKind::Team).sent_bytes, endpoint);
         assert_eq!(sent_bytes(&st.stats, MsgKind::Report), 2 * 65);
     }
 }
