@@ -274,6 +274,7 @@ impl Demo {
             deck_seconds: self.config.deck.map(|d| d.as_secs_f64()),
             deck_bytes: self.traffic.deck_bytes,
             deck_bytes_by_kind: names(&self.deck_by_kind),
+            team_repair_bytes: crate::traffic::team_repair_bytes(&self.team),
         }
     }
 

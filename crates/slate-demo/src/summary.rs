@@ -45,7 +45,7 @@ pub struct TeamChannel {
 }
 
 /// Everything a run measured.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Summary {
     /// The seed.
     pub seed: u64,
@@ -134,6 +134,11 @@ pub struct Summary {
     /// Team-link bytes on deck per message kind, as the ICIs sent them (part of
     /// [`Self::team_bytes_by_kind`]; empty without a deck phase).
     pub deck_bytes_by_kind: BTreeMap<String, u64>,
+    /// Team-link bytes of the team protocol's repairs (`TeamRepair`), as the ICIs sent
+    /// them: already in [`Self::team_bytes_by_kind`], the replayed messages under their
+    /// kinds (repairs of reports are report bytes, docs/team-protocol.md 2.10), told
+    /// apart here so that the choice is visible. 0 without the team protocol.
+    pub team_repair_bytes: u64,
 }
 
 impl Summary {
@@ -238,6 +243,7 @@ impl Summary {
         if let Value::Object(map) = &mut summary {
             map.extend(self.channel_json());
             map.extend(self.deck_json());
+            map.extend(self.repair_json());
         }
         summary
     }
@@ -250,6 +256,16 @@ impl Summary {
             map.insert("deck_seconds".into(), json!(round(seconds)));
             map.insert("deck_bytes".into(), json!(self.deck_bytes));
             map.insert("deck_bytes_by_kind".into(), json!(self.deck_bytes_by_kind));
+        }
+        map
+    }
+
+    /// The team protocol's repair bytes, as a JSON field: none while there are none (so
+    /// a run without the team protocol reports what it always did).
+    fn repair_json(&self) -> serde_json::Map<String, Value> {
+        let mut map = serde_json::Map::new();
+        if self.team_repair_bytes > 0 {
+            map.insert("team_repair_bytes".into(), json!(self.team_repair_bytes));
         }
         map
     }
@@ -410,6 +426,13 @@ impl Summary {
             100.0 * self.team_overhead_fraction(),
             self.team_bytes_per_robot_minute()
         );
+        if self.team_repair_bytes > 0 {
+            let _ = writeln!(
+                s,
+                "  repairs: {} bytes (their reports count as reports above)",
+                self.team_repair_bytes
+            );
+        }
         let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));
         let _ = writeln!(s, "  robot by kind: {}", kinds(&self.intra_bytes_by_kind));
     }
@@ -462,4 +485,22 @@ impl Summary {
 
 fn round(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn repair_bytes_are_reported_only_when_there_are_some() {
+        let none = Summary::default();
+        assert!(none.to_json().get("team_repair_bytes").is_none());
+        assert!(!none.to_text().contains("repairs:"));
+        let some = Summary {
+            team_repair_bytes: 120,
+            ..Summary::default()
+        };
+        assert_eq!(some.to_json()["team_repair_bytes"], json!(120));
+        assert!(some.to_text().contains("repairs: 120 bytes"));
+    }
 }

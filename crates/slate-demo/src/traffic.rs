@@ -176,3 +176,12 @@ pub(crate) fn by_kind(team: &Team, link: LinkKind) -> BTreeMap<MsgKind, u64> {
     }
     out
 }
+
+/// Bytes of the team protocol's repairs sent by every module's ICI (0 with it off).
+pub(crate) fn team_repair_bytes(team: &Team) -> u64 {
+    let each = team
+        .modules
+        .iter()
+        .map(|m| m.node.ici().stats().team.repair_bytes);
+    each.sum()
+}

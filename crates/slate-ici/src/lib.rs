@@ -60,7 +60,8 @@ pub use error::Error;
 pub use ici::{
     CatchUpStats, ClassSet, Ici, IciConfig, IciStartError, IciStats, LinkPolicy, LinkReport,
     Listen, Liveliness, LivelinessStats, MODULE_CLASS, MergeStats, PlanHandler, RejectStats,
-    ReportStats, SendRawError, TeamProtocol, link_kind, module_class, module_object_name,
+    ReportStats, SendRawError, TeamProtocol, TeamStats, link_kind, module_class,
+    module_object_name,
 };
 pub use slate_transport::{
     Channel, Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng, SendError,

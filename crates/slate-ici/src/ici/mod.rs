@@ -34,7 +34,9 @@ pub use link::{LinkPolicy, LinkReport, link_kind};
 pub use module::{MODULE_CLASS, module_class, module_object_name};
 use ops::BoardOp;
 use state::State;
-pub use stats::{CatchUpStats, IciStats, LivelinessStats, MergeStats, RejectStats, ReportStats};
+pub use stats::{
+    CatchUpStats, IciStats, LivelinessStats, MergeStats, RejectStats, ReportStats, TeamStats,
+};
 
 use crate::{LinkKind, MsgKind, SendError, Transport};
 

@@ -17,11 +17,19 @@ use super::stream::Inbound;
 use crate::{LinkKind, MsgKind};
 
 impl State {
-    /// A message from `from`.
+    /// A message from `from`. Team frames and repairs are counted by inner kind when
+    /// they are decoded (`on_team`), so the messages inside them count once.
     pub fn on_message(&mut self, from: &Address, bytes: &[u8]) {
         let kind = MsgKind::of(bytes);
-        self.stats
-            .received(LinkKind::between(&self.me, from), kind, bytes.len());
+        if !matches!(kind, MsgKind::TeamFrame | MsgKind::TeamRepair) {
+            self.stats
+                .received(LinkKind::between(&self.me, from), kind, bytes.len());
+        }
+        self.on_inner(from, kind, bytes);
+    }
+
+    /// A message from `from`, counted already (by itself, or as part of its team frame).
+    pub(crate) fn on_inner(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) {
         if *from == self.me {
             return;
         }

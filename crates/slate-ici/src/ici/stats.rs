@@ -21,6 +21,8 @@ pub struct IciStats {
     pub catch_up: CatchUpStats,
     /// Liveliness.
     pub liveliness: LivelinessStats,
+    /// The team protocol (docs/team-protocol.md): all zero with it off.
+    pub team: TeamStats,
 }
 
 impl IciStats {
@@ -47,6 +49,111 @@ impl IciStats {
             .entry((link, kind))
             .or_default()
             .received(bytes);
+    }
+
+    /// Counts a sent team protocol message of `kind` and `total` bytes by what it holds:
+    /// each inner message under its own kind, the rest (the envelope) under `kind`.
+    /// Invariant: the bytes counted add up to `total`.
+    pub(crate) fn sent_team(
+        &mut self,
+        link: LinkKind,
+        kind: MsgKind,
+        total: usize,
+        inner: &[Inner],
+    ) {
+        inner.iter().for_each(|i| self.sent(link, i.kind, i.bytes));
+        let envelope = envelope_of(total, inner);
+        self.sent(link, kind, envelope);
+        self.team.sent(kind, total, envelope);
+    }
+
+    /// Counts a received team protocol message as [`sent_team`](Self::sent_team) does.
+    pub(crate) fn received_team(
+        &mut self,
+        link: LinkKind,
+        kind: MsgKind,
+        total: usize,
+        inner: &[Inner],
+    ) {
+        inner
+            .iter()
+            .for_each(|i| self.received(link, i.kind, i.bytes));
+        self.received(link, kind, envelope_of(total, inner));
+    }
+}
+
+/// One inner message of a team frame or repair: its kind and its bytes (without the
+/// part's own byte and length, which are the envelope's).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Inner {
+    pub kind: MsgKind,
+    pub bytes: usize,
+}
+
+/// The bytes of a message of `total` bytes that are not its inner messages'. Never
+/// negative: inner bytes are slices of the message (a wrong caller counts 0, not a wrap).
+fn envelope_of(total: usize, inner: &[Inner]) -> usize {
+    total.saturating_sub(inner.iter().map(|i| i.bytes).sum())
+}
+
+/// What the team protocol did (docs/ici.md, "Counters"). Sent and received bytes by kind
+/// are in [`IciStats::traffic`], where a frame's inner messages count under their own
+/// kinds and the frame's envelope under `TeamFrame` (`TeamRepair` for a repair's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TeamStats {
+    /// Robot-stream frames published (as gateway).
+    pub frames: u64,
+    /// Repairs published (as gateway).
+    pub repairs: u64,
+    /// Bytes of the repairs published, envelope and replayed messages together (the
+    /// replayed messages also count under their kinds in `traffic`).
+    pub repair_bytes: u64,
+    /// Bytes of frames and repairs published that are no inner message's: headers,
+    /// positions, part bytes and lengths.
+    pub envelope_bytes: u64,
+    /// `Nack`s published.
+    pub nacks_sent: u64,
+    /// Other robots' NACK entries heard for a stream this module had positions missing
+    /// from (its own NACK for them joins that round instead of going out).
+    pub nacks_suppressed: u64,
+    /// `Gone`s published (as gateway).
+    pub gone: u64,
+    /// `Gone`s heard for a stream followed.
+    pub gone_heard: u64,
+    /// State answers this member put into the robot stream.
+    pub state_answers: u64,
+    /// Times a robot's members were asked for their state (one catch-up each).
+    pub state_asked: u64,
+    /// Positions received in repairs (held already or not).
+    pub repaired: u64,
+    /// Pending messages dropped because no gateway came in time.
+    pub pending_dropped: u64,
+    /// Uplinks received by a module that is not gateway (dropped).
+    pub uplinks_misrouted: u64,
+    /// Frames parked because their robot's hello was not heard yet.
+    pub parked: u64,
+    /// Parked frames dropped past the park's limit.
+    pub parked_dropped: u64,
+    /// Team protocol frames that did not decode, or came with the switch off.
+    pub refused: u64,
+}
+
+impl TeamStats {
+    /// Counts one team protocol message sent.
+    fn sent(&mut self, kind: MsgKind, total: usize, envelope: usize) {
+        match kind {
+            MsgKind::TeamFrame => self.frames += 1,
+            MsgKind::TeamRepair => {
+                self.repairs += 1;
+                self.repair_bytes += total as u64;
+            }
+            MsgKind::Nack => self.nacks_sent += 1,
+            MsgKind::Gone => self.gone += 1,
+            _ => {}
+        }
+        if matches!(kind, MsgKind::TeamFrame | MsgKind::TeamRepair) {
+            self.envelope_bytes += envelope as u64;
+        }
     }
 }
 

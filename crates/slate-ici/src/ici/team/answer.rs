@@ -220,7 +220,7 @@ impl State {
 
     fn team_answer(&mut self, req: StateRequest) {
         self.team.answering.answered = Some(self.now);
-        self.team.counts.state_answers += 1;
+        self.stats.team.state_answers += 1;
         self.answer_state(Audience::Team(&req.robots), req.names, req.classes);
     }
 

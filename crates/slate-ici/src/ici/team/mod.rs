@@ -6,6 +6,7 @@
 #![allow(dead_code)]
 
 mod answer;
+mod count;
 mod frame;
 mod gateway;
 mod history;
@@ -51,29 +52,4 @@ pub(crate) struct TeamState {
     pub nacks: Option<nack::NackScheduler>,
     /// This member's state answers to the team (2.6).
     pub answering: answer::Answering,
-    /// Counters until step 16 puts them in `IciStats`.
-    pub counts: TeamCounts,
-}
-
-/// What the team protocol counted (step 16 moves these to `IciStats.team`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct TeamCounts {
-    /// Pending messages dropped because no gateway came in time.
-    pub pending_dropped: u64,
-    /// Uplinks received by a module that is not gateway (dropped).
-    pub uplinks_misrouted: u64,
-    /// Frames parked because their robot's hello was not heard yet, and dropped from
-    /// the park past its limit.
-    pub parked: u64,
-    pub parked_dropped: u64,
-    /// Positions received in repairs (held already or not).
-    pub repaired: u64,
-    /// `Gone`s heard for a stream followed.
-    pub gone_heard: u64,
-    /// Times a robot's members were asked for their state (one catch-up each).
-    pub state_asked: u64,
-    /// State answers this member put into the robot stream.
-    pub state_answers: u64,
-    /// Team protocol frames that did not decode, or came with the switch off.
-    pub refused: u64,
 }

@@ -63,14 +63,17 @@ pub(crate) fn is_team_kind(kind: MsgKind) -> bool {
 impl State {
     /// A team protocol frame from `from` (the switch off: refused and counted).
     pub(crate) fn on_team(&mut self, from: &Address, bytes: &[u8]) {
-        if self.config.team_protocol.is_none() {
-            self.team.counts.refused += 1;
-            return;
-        }
-        let msg = match TeamMsg::decode(bytes) {
-            Ok(msg) => msg,
-            Err(e) => {
-                self.team.counts.refused += 1;
+        let decoded = self
+            .config
+            .team_protocol
+            .as_ref()
+            .map(|_| TeamMsg::decode(bytes));
+        self.count_team_received(from, bytes, decoded.as_ref().and_then(|d| d.as_ref().ok()));
+        let msg = match decoded {
+            Some(Ok(msg)) => msg,
+            None => return self.stats.team.refused += 1,
+            Some(Err(e)) => {
+                self.stats.team.refused += 1;
                 return tracing::debug!(from = %from, error = %e, "team frame refused");
             }
         };
@@ -86,7 +89,7 @@ impl State {
             TeamMsg::StateRequest(r) if !team_link => self.on_state_request(r),
             TeamMsg::Gone(g) if team_link => self.on_gone(from, g),
             // Want, Fill: step 13.
-            _ => self.team.counts.refused += 1,
+            _ => self.stats.team.refused += 1,
         }
     }
 
@@ -130,12 +133,12 @@ impl State {
 
     /// Keeps a frame until its robot's hello comes, and NACKs the hello.
     fn park(&mut self, from: &Address, frame: TeamFrame) {
-        self.team.counts.parked += 1;
+        self.stats.team.parked += 1;
         self.ask_hello(from, None);
         let s = self.speaker(from);
         if s.parked.len() >= MAX_PARKED {
             s.parked.pop_front();
-            self.team.counts.parked_dropped += 1;
+            self.stats.team.parked_dropped += 1;
         }
         self.speaker(from).parked.push_back(frame);
     }
@@ -186,7 +189,7 @@ impl State {
         match TeamMsg::decode(bytes) {
             Ok(TeamMsg::Heartbeat(hb)) => self.on_robot_heartbeat(from, hb),
             Ok(TeamMsg::Nack(n)) => self.on_nack(from, n),
-            _ => self.team.counts.refused += 1,
+            _ => self.stats.team.refused += 1,
         }
     }
 
@@ -194,15 +197,17 @@ impl State {
     fn deliver(&mut self, from: &Address, member: u8, bytes: &[u8]) {
         let s = self.speaker(from);
         let Some(Some(source)) = s.members.get(usize::from(member)).cloned() else {
-            self.team.counts.refused += 1;
+            self.stats.team.refused += 1;
             return;
         };
-        if is_team_kind(MsgKind::of(bytes)) {
+        let kind = MsgKind::of(bytes);
+        if is_team_kind(kind) {
             // A team frame inside a team frame: refused, so nesting cannot recurse.
-            self.team.counts.refused += 1;
+            self.stats.team.refused += 1;
             return;
         }
-        self.on_message(&source, bytes);
+        // Counted with its frame (`count_team_received`), so not again here.
+        self.on_inner(&source, kind, bytes);
     }
 
     /// A robot hello: its members (incarnations, restarts, liveliness), a new epoch if
@@ -447,7 +452,7 @@ mod tests {
         let (_net, mut st) = state();
         let gw = addr("t/r1/g");
         st.on_team(&gw, &frame(1, lifecycle(1)));
-        assert_eq!(st.team.counts.parked, 1);
+        assert_eq!(st.stats.team.parked, 1);
         st.on_team(&gw, &hello(&gw));
         let s = &st.team.speakers[&gw];
         assert!(s.parked.is_empty());
@@ -464,7 +469,7 @@ mod tests {
             st.on_team(&gw, &frame(seq, lifecycle(seq)));
         }
         assert_eq!(st.team.speakers[&gw].parked.len(), MAX_PARKED);
-        assert_eq!(st.team.counts.parked_dropped, 6);
+        assert_eq!(st.stats.team.parked_dropped, 6);
     }
 
     #[test]
@@ -474,7 +479,7 @@ mod tests {
         st.on_team(&gw, &hello(&gw));
         let nested = frame(1, frame(1, lifecycle(1)));
         st.on_team(&gw, &nested);
-        assert_eq!(st.team.counts.refused, 1);
+        assert_eq!(st.stats.team.refused, 1);
     }
 
     #[test]
@@ -546,6 +551,6 @@ mod tests {
         let gw = addr("t/r1/g");
         st.on_team(&gw, &hello(&gw));
         assert!(st.team.speakers.is_empty());
-        assert_eq!(st.team.counts.refused, 1);
+        assert_eq!(st.stats.team.refused, 1);
     }
 }

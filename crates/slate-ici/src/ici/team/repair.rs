@@ -21,9 +21,9 @@ use super::frame::{
     Gone, Nack, NackEntry, Part, RepairContent, Span, StreamTag, TeamFrame, TeamMsg, TeamRepair,
 };
 use super::nack::{MissingRange, NackAction, NackScheduler, NackTiming, RepairTiming, SeqRange};
+use crate::MsgKind;
 use crate::ici::TeamProtocol;
 use crate::ici::state::State;
-use crate::{LinkKind, MsgKind};
 
 /// The stream tag a hello NACK carries when the receiver never heard the tag of the
 /// robot it lacks the hello of (frames carry no tag): every gateway takes it as its own.
@@ -222,7 +222,10 @@ impl State {
             self.stream_changed(&gateway, change);
         }
         if let Some(s) = self.nacks() {
+            let ours = (s.missing(tag).iter())
+                .any(|m| m.first() <= range.last() && range.first() <= m.last());
             s.nack_heard(tag, range, now);
+            self.stats.team.nacks_suppressed += u64::from(ours);
         }
     }
 
@@ -248,8 +251,7 @@ impl State {
             let nack = Nack {
                 entries: chunk.to_vec(),
             };
-            let bytes = TeamMsg::Nack(nack).encode();
-            self.publish_now(LinkKind::Team, MsgKind::Nack, &bytes);
+            self.publish_team_msg(MsgKind::Nack, &TeamMsg::Nack(nack));
         }
     }
 
@@ -273,7 +275,7 @@ impl State {
 
     /// Asks each member of gateway `from`'s robot for its current state.
     pub(super) fn ask_members_state(&mut self, from: &Address) {
-        self.team.counts.state_asked += 1;
+        self.stats.team.state_asked += 1;
         let members: Vec<Address> = self
             .team
             .speakers
@@ -289,7 +291,7 @@ impl State {
     pub(super) fn on_repair(&mut self, from: &Address, repair: TeamRepair) {
         let RepairContent::Replay(bodies) = repair.content else {
             // Repairs by difference come with step 13.
-            self.team.counts.refused += 1;
+            self.stats.team.refused += 1;
             return;
         };
         for (i, parts) in bodies.into_iter().enumerate() {
@@ -297,7 +299,7 @@ impl State {
                 seq: repair.from + i as u64,
                 parts,
             };
-            self.team.counts.repaired += 1;
+            self.stats.team.repaired += 1;
             self.on_team_frame(from, frame);
         }
     }
@@ -314,7 +316,7 @@ impl State {
             return;
         };
         outer.cover(gone.span.from, gone.span.n, now);
-        self.team.counts.gone_heard += 1;
+        self.stats.team.gone_heard += 1;
         if let (Some(n), Some(range)) = (self.team.nacks.as_mut(), range_of(gone.span)) {
             n.received(gone.tag.0, range);
         }
@@ -488,11 +490,10 @@ impl State {
             positions: gw.inner_positions(),
         });
         if let Some(gone) = gone {
-            self.publish_now(LinkKind::Team, MsgKind::Gone, &TeamMsg::Gone(gone).encode());
+            self.publish_team_msg(MsgKind::Gone, &TeamMsg::Gone(gone));
         }
         for repair in replays(bodies_of(&lookup.held), mtu) {
-            let bytes = TeamMsg::Repair(repair).encode();
-            self.publish_now(LinkKind::Team, MsgKind::TeamRepair, &bytes);
+            self.publish_team_msg(MsgKind::TeamRepair, &TeamMsg::Repair(repair));
         }
     }
 }
@@ -523,10 +524,10 @@ mod tests {
     use super::super::nack::RepairScheduler;
     use super::super::test_state::{START, ms, tick_at};
     use super::*;
-    use crate::SimNet;
     use crate::ici::IciConfig;
     use crate::ici::classes::ClassSet;
     use crate::ici::frame::{Frame, Lifecycle};
+    use crate::{LinkKind, SimNet};
 
     /// A state of `t/r0/m0` with the team protocol on (radio), on its own network.
     fn state() -> (SimNet, State) {

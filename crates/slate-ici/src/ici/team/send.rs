@@ -53,7 +53,7 @@ impl State {
     fn hold(&mut self, message: Vec<u8>) {
         if self.team.pending.len() >= MAX_PENDING {
             self.team.pending.pop_front();
-            self.team.counts.pending_dropped += 1;
+            self.stats.team.pending_dropped += 1;
         }
         self.team.pending.push_back(message);
     }
@@ -76,7 +76,7 @@ impl State {
     /// inner position shows as a gap at receivers).
     pub(super) fn on_uplink(&mut self, from: &Address, up: Uplink) {
         if self.team.gateway.is_none() {
-            self.team.counts.uplinks_misrouted += 1;
+            self.stats.team.uplinks_misrouted += 1;
             return;
         }
         if self.gateway_index(from).is_none() {
@@ -110,14 +110,15 @@ impl State {
     /// Publishes a closed frame and keeps it in the history.
     fn publish_frame(&mut self, frame: TeamFrame) {
         let (now, seq) = (self.now, frame.seq);
-        let bytes: Arc<[u8]> = TeamMsg::Frame(frame).encode().into();
+        let msg = TeamMsg::Frame(frame);
+        let bytes: Arc<[u8]> = msg.encode().into();
         if let Some(gw) = self.team.gateway.as_mut() {
             gw.last_sent = now;
             if let Err(e) = gw.history.push(seq, bytes.clone(), now, &[]) {
                 tracing::debug!(error = %e, "frame not kept in the history");
             }
         }
-        self.publish_now(LinkKind::Team, MsgKind::TeamFrame, &bytes);
+        self.publish_team(MsgKind::TeamFrame, &bytes, &super::count::inner_of(&msg));
     }
 
     /// Acts on the election: takes or leaves the gateway role, and hands the messages
@@ -420,7 +421,7 @@ mod tests {
             st.publish(LinkKind::Team, MsgKind::Report, &[0x11, i]);
         }
         assert_eq!(st.team.pending.len(), MAX_PENDING);
-        assert_eq!(st.team.counts.pending_dropped, 6);
+        assert_eq!(st.stats.team.pending_dropped, 6);
         assert_eq!(
             st.team.pending.front().map(|m| m[1]),
             Some(6),
@@ -463,9 +464,9 @@ mod tests {
             (1, 1)
         );
         assert_eq!(
-            sent(MsgKind::Report),
-            0,
-            "members' messages travel inside frames"
+            (sent(MsgKind::Report), sent(MsgKind::TeamFrame)),
+            (2, 1),
+            "members' messages count by kind inside their one frame"
         );
     }
 }
