@@ -271,7 +271,7 @@ mod tests {
     use super::super::frame::{Member, Nack, RobotHello};
     use super::super::gateway::{Framer, Gateway};
     use super::super::history::HistoryLimits;
-    use super::super::test_state::{START, ms, sent, tick_at};
+    use super::super::test_state::{START, ms, robot_hello, sent, tick_at};
     use super::*;
     use crate::SimNet;
     use crate::ici::{IciConfig, TeamProtocol};
@@ -303,13 +303,8 @@ mod tests {
         let gw = addr("t/r1/g");
         let tag = StreamTag::of(&gw, 9);
         let hello = RobotHello {
-            version: 1,
-            tag,
-            gw_incarnation: 9,
-            observer: false,
-            interest: ClassSet::all(),
             exports: ClassSet::all(),
-            members: vec![member("m1"), member("m2")],
+            ..robot_hello(&gw, 9, &["m1", "m2"])
         };
         st.on_team(&gw, &TeamMsg::Hello(hello).encode());
         tag

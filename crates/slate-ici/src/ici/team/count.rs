@@ -87,11 +87,10 @@ impl State {
 mod tests {
     use slate_testing::addr;
 
-    use super::super::frame::{Member, RobotHello, StreamTag, TeamFrame, TeamRepair};
-    use super::super::test_state::{START, alone};
+    use super::super::frame::{StreamTag, TeamFrame, TeamRepair};
+    use super::super::test_state::{START, alone, lifecycle, robot_hello};
     use super::*;
-    use crate::ici::classes::ClassSet;
-    use crate::ici::frame::{Frame, Lifecycle};
+
     use crate::ici::stats::IciStats;
     use crate::{IciConfig, TeamProtocol};
 
@@ -192,31 +191,7 @@ mod tests {
     }
 
     fn hello(gateway: &slate_model::Address) -> Vec<u8> {
-        let m1 = Member {
-            name: "m1".into(),
-            incarnation: 5,
-            inner_seq: 0,
-            alive: true,
-            listener: true,
-        };
-        let hello = RobotHello {
-            version: 1,
-            tag: StreamTag::of(gateway, 9),
-            gw_incarnation: 9,
-            observer: false,
-            interest: ClassSet::all(),
-            exports: ClassSet::none(),
-            members: vec![m1],
-        };
-        TeamMsg::Hello(hello).encode()
-    }
-
-    fn lifecycle(seq: u64) -> Vec<u8> {
-        Frame::Lifecycle(Lifecycle {
-            seq,
-            ..Lifecycle::default()
-        })
-        .encode()
+        TeamMsg::Hello(robot_hello(gateway, 9, &["m1"])).encode()
     }
 
     #[test]

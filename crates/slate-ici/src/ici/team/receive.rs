@@ -391,11 +391,11 @@ mod tests {
     use slate_model::{Board, Filter};
     use slate_testing::addr;
 
-    use super::super::frame::{Member, Part, StreamTag};
+    use super::super::frame::{Part, StreamTag};
+    use super::super::test_state::{lifecycle, robot_hello};
     use super::*;
     use crate::SimNet;
-    use crate::ici::classes::ClassSet;
-    use crate::ici::frame::{Frame, Lifecycle};
+
     use crate::ici::{IciConfig, TeamProtocol};
 
     /// A state of `t/r0/m0` with the team protocol on, on its own network.
@@ -407,23 +407,7 @@ mod tests {
 
     /// The hello of `gateway`'s robot: members m1 (index 0) and m2, both alive.
     fn hello(gateway: &Address) -> Vec<u8> {
-        let member = |name: &str| Member {
-            name: name.into(),
-            incarnation: 5,
-            inner_seq: 0,
-            alive: true,
-            listener: true,
-        };
-        let hello = RobotHello {
-            version: 1,
-            tag: StreamTag::of(gateway, 9),
-            gw_incarnation: 9,
-            observer: false,
-            interest: ClassSet::all(),
-            exports: ClassSet::none(),
-            members: vec![member("m1"), member("m2")],
-        };
-        TeamMsg::Hello(hello).encode()
+        TeamMsg::Hello(robot_hello(gateway, 9, &["m1", "m2"])).encode()
     }
 
     /// A frame at `seq` holding one message of member 0.
@@ -435,14 +419,6 @@ mod tests {
         TeamMsg::Frame(TeamFrame {
             seq,
             parts: vec![Part::member(member, message)],
-        })
-        .encode()
-    }
-
-    fn lifecycle(seq: u64) -> Vec<u8> {
-        Frame::Lifecycle(Lifecycle {
-            seq,
-            ..Lifecycle::default()
         })
         .encode()
     }

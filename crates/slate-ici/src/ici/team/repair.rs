@@ -518,15 +518,13 @@ mod tests {
 
     use slate_testing::addr;
 
-    use super::super::frame::{Member, RobotHello};
     use super::super::gateway::{Framer, Gateway};
     use super::super::history::HistoryLimits;
     use super::super::nack::RepairScheduler;
-    use super::super::test_state::{START, ms, tick_at};
+    use super::super::test_state::{START, lifecycle, ms, robot_hello, tick_at};
     use super::*;
     use crate::ici::IciConfig;
-    use crate::ici::classes::ClassSet;
-    use crate::ici::frame::{Frame, Lifecycle};
+
     use crate::{LinkKind, SimNet};
 
     /// A state of `t/r0/m0` with the team protocol on (radio), on its own network.
@@ -548,31 +546,7 @@ mod tests {
 
     /// The hello of the epoch the gateway began at `epoch`.
     fn hello_of(gateway: &Address, epoch: u64) -> Vec<u8> {
-        let m1 = Member {
-            name: "m1".into(),
-            incarnation: 5,
-            inner_seq: 0,
-            alive: true,
-            listener: true,
-        };
-        let hello = RobotHello {
-            version: 1,
-            tag: StreamTag::of(gateway, epoch),
-            gw_incarnation: epoch,
-            observer: false,
-            interest: ClassSet::all(),
-            exports: ClassSet::none(),
-            members: vec![m1],
-        };
-        TeamMsg::Hello(hello).encode()
-    }
-
-    fn lifecycle(seq: u64) -> Vec<u8> {
-        Frame::Lifecycle(Lifecycle {
-            seq,
-            ..Lifecycle::default()
-        })
-        .encode()
+        TeamMsg::Hello(robot_hello(gateway, epoch, &["m1"])).encode()
     }
 
     /// A frame at `seq` holding m1's lifecycle message `seq`.

@@ -5,9 +5,12 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_model::{Board, Filter};
+use slate_model::{Address, Board, Filter};
 use slate_testing::addr;
 
+use super::frame::{Member, RobotHello, StreamTag};
+use crate::ici::classes::ClassSet;
+use crate::ici::frame::{Frame, Lifecycle};
 use crate::ici::state::State;
 use crate::ici::{IciConfig, module_class};
 use crate::{LinkKind, MsgKind, SimNet};
@@ -45,4 +48,35 @@ pub(crate) fn sent(st: &State, link: LinkKind, kind: MsgKind) -> u64 {
 pub(crate) fn tick_at(st: &mut State, at: Duration) {
     st.now = START + at;
     st.nack_tick();
+}
+
+/// The hello of `gateway`'s robot in epoch `epoch` (the gateway's incarnation; the tag
+/// follows from both), listing `members` (their index is their place), alive and
+/// listening, interested in everything and exporting nothing.
+pub(crate) fn robot_hello(gateway: &Address, epoch: u64, members: &[&str]) -> RobotHello {
+    let member = |name: &&str| Member {
+        name: (*name).into(),
+        incarnation: 5,
+        inner_seq: 0,
+        alive: true,
+        listener: true,
+    };
+    RobotHello {
+        version: 1,
+        tag: StreamTag::of(gateway, epoch),
+        gw_incarnation: epoch,
+        observer: false,
+        interest: ClassSet::all(),
+        exports: ClassSet::none(),
+        members: members.iter().map(member).collect(),
+    }
+}
+
+/// An empty ICI lifecycle frame at stream position `seq`: the smallest inner message.
+pub(crate) fn lifecycle(seq: u64) -> Vec<u8> {
+    Frame::Lifecycle(Lifecycle {
+        seq,
+        ..Lifecycle::default()
+    })
+    .encode()
 }
