@@ -174,6 +174,10 @@ impl Transport for Chaos {
         Ok(())
     }
 
+    fn listen(&self, link: LinkKind, on: bool) -> bool {
+        self.inner.listen(link, on)
+    }
+
     fn peers(&self) -> Vec<Address> {
         self.inner.peers()
     }

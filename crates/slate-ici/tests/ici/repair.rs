@@ -7,65 +7,24 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
-use parking_lot::Mutex;
-use slate_ici::{
-    Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MsgKind, SendError, SimConfig,
-    TeamProtocol, Transport,
-};
+use slate_ici::{IciConfig, LinkConfig, MsgKind, SimConfig, TeamProtocol};
 use slate_model::{Address, Context, NewObject, Value};
 
 use slate_ici::Rng;
 
-use crate::support::{Member, Team, addr, open, secs, workload};
-
-/// A transport that counts its team-link publications by kind.
-struct Counting {
-    inner: Arc<dyn Transport>,
-    team: Mutex<BTreeMap<MsgKind, u64>>,
-}
-
-impl Transport for Counting {
-    fn address(&self) -> &Address {
-        self.inner.address()
-    }
-    fn set_handler(&self, handler: Arc<dyn Handler>) {
-        self.inner.set_handler(handler)
-    }
-    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        if link == LinkKind::Team {
-            *self.team.lock().entry(kind).or_default() += 1;
-        }
-        self.inner.publish(link, kind, payload)
-    }
-    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.inner.send(to, kind, payload)
-    }
-    fn listen(&self, link: LinkKind, on: bool) -> bool {
-        self.inner.listen(link, on)
-    }
-    fn peers(&self) -> Vec<Address> {
-        self.inner.peers()
-    }
-    fn stats(&self) -> LinkStats {
-        self.inner.stats()
-    }
-    fn close(&self) {
-        self.inner.close()
-    }
-}
+use crate::support::{Member, Tap, Team, addr, open, secs, workload};
 
 /// A team with each module's team publication counters.
 struct Counted {
     team: Team,
-    counters: Vec<Arc<Counting>>,
+    counters: Vec<Arc<Tap>>,
 }
 
 impl Counted {
     /// Team publications of `kind`, all modules together.
     fn published(&self, kind: MsgKind) -> u64 {
         let each = self.counters.iter();
-        each.map(|c| c.team.lock().get(&kind).copied().unwrap_or(0))
-            .sum()
+        each.map(|c| c.count(kind)).sum()
     }
 }
 
@@ -105,21 +64,8 @@ fn counted_on(
     let mut counters = Vec::new();
     for r in 0..robots {
         for m in 0..modules {
-            let address = addr(&format!("t/r{r}/m{m}"));
-            let board = team.board_at(&address, &crate::support::classes());
-            let counter = Arc::new(Counting {
-                inner: team.net.join(&address),
-                team: Mutex::new(BTreeMap::new()),
-            });
             let config = config(m, protocol);
-            let ici = Ici::new(board.clone(), counter.clone(), config.clone()).unwrap();
-            team.put(Member {
-                address,
-                board,
-                ici,
-                config,
-            });
-            counters.push(counter);
+            counters.push(team.join_tapped(&format!("t/r{r}/m{m}"), config));
         }
     }
     Counted { team, counters }
@@ -242,7 +188,7 @@ fn boards_converge_on_a_slow_lossy_radio() {
 #[test]
 fn the_same_seed_gives_the_same_nacks_and_repairs() {
     let counts = |c: &Counted| -> Vec<BTreeMap<MsgKind, u64>> {
-        c.counters.iter().map(|k| k.team.lock().clone()).collect()
+        c.counters.iter().map(|k| k.counts()).collect()
     };
     let first = counts(&converge_under(27, LinkConfig::clean().loss(0.1)));
     let again = counts(&converge_under(27, LinkConfig::clean().loss(0.1)));

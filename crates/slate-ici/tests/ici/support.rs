@@ -348,3 +348,91 @@ fn write_some(member: &Member, rng: &mut Rng) {
         ),
     };
 }
+
+/// A transport that records what it publishes on the team link (how many of each kind,
+/// the largest) and passes everything on unchanged.
+pub struct Tap {
+    inner: Arc<dyn slate_ici::Transport>,
+    counts: parking_lot::Mutex<std::collections::BTreeMap<slate_ici::MsgKind, u64>>,
+    largest: std::sync::atomic::AtomicUsize,
+}
+
+impl Tap {
+    /// Team publications of `kind`.
+    pub fn count(&self, kind: slate_ici::MsgKind) -> u64 {
+        self.counts.lock().get(&kind).copied().unwrap_or(0)
+    }
+
+    /// Team publications by kind.
+    pub fn counts(&self) -> std::collections::BTreeMap<slate_ici::MsgKind, u64> {
+        self.counts.lock().clone()
+    }
+
+    /// The largest team publication, in bytes.
+    pub fn largest(&self) -> usize {
+        self.largest.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+impl slate_ici::Transport for Tap {
+    fn address(&self) -> &Address {
+        self.inner.address()
+    }
+    fn set_handler(&self, handler: Arc<dyn slate_ici::Handler>) {
+        self.inner.set_handler(handler)
+    }
+    fn publish(
+        &self,
+        link: slate_ici::LinkKind,
+        kind: slate_ici::MsgKind,
+        payload: &[u8],
+    ) -> Result<(), slate_ici::SendError> {
+        if link == slate_ici::LinkKind::Team {
+            *self.counts.lock().entry(kind).or_default() += 1;
+            self.largest
+                .fetch_max(payload.len(), std::sync::atomic::Ordering::Relaxed);
+        }
+        self.inner.publish(link, kind, payload)
+    }
+    fn send(
+        &self,
+        to: &Address,
+        kind: slate_ici::MsgKind,
+        payload: &[u8],
+    ) -> Result<(), slate_ici::SendError> {
+        self.inner.send(to, kind, payload)
+    }
+    fn listen(&self, link: slate_ici::LinkKind, on: bool) -> bool {
+        self.inner.listen(link, on)
+    }
+    fn peers(&self) -> Vec<Address> {
+        self.inner.peers()
+    }
+    fn stats(&self) -> slate_ici::LinkStats {
+        self.inner.stats()
+    }
+    fn close(&self) {
+        self.inner.close()
+    }
+}
+
+impl Team {
+    /// Adds module `address` (the test classes, `config`) whose transport is a [`Tap`].
+    pub fn join_tapped(&mut self, address: &str, config: IciConfig) -> Arc<Tap> {
+        let address = addr(address);
+        let board = self.board_at(&address, &classes());
+        let tap = Arc::new(Tap {
+            inner: self.net.join(&address),
+            counts: parking_lot::Mutex::default(),
+            largest: std::sync::atomic::AtomicUsize::new(0),
+        });
+        let ici = Ici::new(board.clone(), tap.clone(), config.clone()).unwrap();
+        self.put(Member {
+            address,
+            board,
+            ici,
+            config,
+        });
+        tap
+    }
+}

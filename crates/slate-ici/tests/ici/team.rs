@@ -3,52 +3,13 @@
 //! switch off, idle robots' heartbeats, and remote deaths seen everywhere.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use slate_ici::{
-    Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MsgKind, Rng, SendError, SimConfig,
-    TeamProtocol, Transport, module_object_name,
+    IciConfig, LinkConfig, LinkKind, MsgKind, Rng, SimConfig, TeamProtocol, module_object_name,
 };
-use slate_model::{Address, Context, NewObject, Value};
+use slate_model::{Context, NewObject, Value};
 
-use crate::support::{Member, Team, addr, open, secs, workload};
-
-/// A transport that remembers the largest message it published on the team link.
-struct Largest {
-    inner: Arc<dyn Transport>,
-    team_publish: AtomicUsize,
-}
-
-impl Transport for Largest {
-    fn address(&self) -> &Address {
-        self.inner.address()
-    }
-    fn set_handler(&self, handler: Arc<dyn Handler>) {
-        self.inner.set_handler(handler)
-    }
-    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        if link == LinkKind::Team {
-            self.team_publish
-                .fetch_max(payload.len(), Ordering::Relaxed);
-        }
-        self.inner.publish(link, kind, payload)
-    }
-    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.inner.send(to, kind, payload)
-    }
-    fn listen(&self, link: LinkKind, on: bool) -> bool {
-        self.inner.listen(link, on)
-    }
-    fn peers(&self) -> Vec<Address> {
-        self.inner.peers()
-    }
-    fn stats(&self) -> LinkStats {
-        self.inner.stats()
-    }
-    fn close(&self) {
-        self.inner.close()
-    }
-}
+use crate::support::{Tap, Team, addr, open, secs, workload};
 
 /// Module m{j} of every robot has priority j: m0 is each robot's gateway.
 fn config(module: usize, mtu: usize, on: bool) -> IciConfig {
@@ -59,7 +20,7 @@ fn config(module: usize, mtu: usize, on: bool) -> IciConfig {
 
 /// 3 robots × 3 modules on `link` (team link; the robot link is clean), the team
 /// protocol on or off; returns the team and each module's largest team publish.
-fn grid(seed: u64, link: LinkConfig, mtu: usize, on: bool) -> (Team, Vec<Arc<Largest>>) {
+fn grid(seed: u64, link: LinkConfig, mtu: usize, on: bool) -> (Team, Vec<Arc<Tap>>) {
     let sim = SimConfig {
         robot: LinkConfig::clean().delay(secs(0.0001)),
         team: link.delay(secs(0.02)),
@@ -69,27 +30,10 @@ fn grid(seed: u64, link: LinkConfig, mtu: usize, on: bool) -> (Team, Vec<Arc<Lar
     let mut recorders = Vec::new();
     for r in 0..3 {
         for m in 0..3 {
-            recorders.push(join(&mut team, &format!("t/r{r}/m{m}"), config(m, mtu, on)));
+            recorders.push(team.join_tapped(&format!("t/r{r}/m{m}"), config(m, mtu, on)));
         }
     }
     (team, recorders)
-}
-
-fn join(team: &mut Team, address: &str, config: IciConfig) -> Arc<Largest> {
-    let address = addr(address);
-    let board = team.board_at(&address, &crate::support::classes());
-    let recorder = Arc::new(Largest {
-        inner: team.net.join(&address),
-        team_publish: AtomicUsize::new(0),
-    });
-    let ici = Ici::new(board.clone(), recorder.clone(), config.clone()).unwrap();
-    team.put(Member {
-        address,
-        board,
-        ici,
-        config,
-    });
-    recorder
 }
 
 /// Runs the same random work as the fault tests, then the boards must agree.
@@ -147,7 +91,7 @@ fn no_team_frame_is_larger_than_the_mtu() {
     let (team, recorders) = grid(81, LinkConfig::clean(), mtu, true);
     work_and_converge(&team, 81);
     for (m, r) in team.members.iter().zip(&recorders) {
-        let largest = r.team_publish.load(Ordering::Relaxed);
+        let largest = r.largest();
         assert!(largest <= mtu, "{} published {largest} bytes", m.address);
     }
 }
@@ -321,7 +265,7 @@ fn a_restarted_remote_module_is_restarted_on_every_board_and_heard_again() {
     let member = "t/r1/m2";
     let restarts = |team: &Team| team.member("t/r0/m1").ici.stats().liveliness.restarts;
     let before = restarts(&team);
-    join(&mut team, member, config(2, 1024, true));
+    team.join_tapped(member, config(2, 1024, true));
     team.run(2.0);
     assert!(
         restarts(&team) > before,
@@ -395,9 +339,9 @@ fn a_module_that_never_listens_gets_no_team_frames_until_it_is_gateway() {
         ..SimConfig::default()
     };
     let mut team = Team::with(91, sim);
-    join(&mut team, "t/r0/m0", config(0, 1024, true));
-    join(&mut team, "t/r1/m0", config(0, 1024, true));
-    join(&mut team, "t/r1/m1", deaf(1));
+    team.join_tapped("t/r0/m0", config(0, 1024, true));
+    team.join_tapped("t/r1/m0", config(0, 1024, true));
+    team.join_tapped("t/r1/m1", deaf(1));
     team.run(1.0);
     let rock = NewObject::new("Rock", "rock_r0").context(Context::Surroundings);
     team.board("t/r0/m0").create_with(rock).unwrap();
