@@ -19,8 +19,7 @@ use std::time::Duration;
 
 use slate_transport::Rng;
 
-/// A robot stream's tag (docs/team-protocol.md 2.2): one epoch of one robot's stream.
-pub(crate) type StreamTag = u16;
+pub(crate) use super::frame::StreamTag;
 
 /// A non-empty, inclusive range of robot-stream positions. Positions start at 1, so a
 /// range never holds 0 and its length always fits in a `u64`.
@@ -835,8 +834,8 @@ mod tests {
 
     // ----- the receiver -----
 
-    const TAG: StreamTag = 0x5a17;
-    const OTHER: StreamTag = 0x0b0e;
+    const TAG: StreamTag = StreamTag(0x5a17);
+    const OTHER: StreamTag = StreamTag(0x0b0e);
 
     fn ms(n: u64) -> Duration {
         Duration::from_millis(n)

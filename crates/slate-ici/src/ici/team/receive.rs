@@ -12,7 +12,9 @@ use std::collections::VecDeque;
 
 use slate_model::Address;
 
-use super::frame::{MAX_MEMBERS, PartOf, RobotHeartbeat, RobotHello, TeamFrame, TeamMsg};
+use super::frame::{
+    MAX_MEMBERS, PartOf, RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamMsg,
+};
 use super::outer::{Change, Fragment, Heard, Outer};
 use crate::ici::state::State;
 use crate::{LinkKind, MsgKind};
@@ -111,11 +113,11 @@ impl State {
     pub(super) fn on_team_frame(&mut self, from: &Address, frame: TeamFrame) {
         let (now, max_nack) = (self.now, self.max_nack_frames());
         let s = self.speaker(from);
-        let Some(tag) = s.hello.as_ref().map(|h| h.tag.0) else {
+        let Some(tag) = s.hello.as_ref().map(|h| h.tag) else {
             return self.park(from, frame);
         };
-        let outer = s.outer.get_or_insert_with(|| Outer::new(tag, max_nack));
-        let Heard::Fresh(change) = outer.receive(tag, frame.seq, now) else {
+        let outer = s.outer.get_or_insert_with(|| Outer::new(tag.0, max_nack));
+        let Heard::Fresh(change) = outer.receive(tag.0, frame.seq, now) else {
             return;
         };
         self.stream_changed(from, change);
@@ -224,7 +226,7 @@ impl State {
         let mut ended = None;
         match &mut s.outer {
             Some(o) if o.tag() != hello.tag.0 => {
-                ended = Some(o.tag());
+                ended = Some(StreamTag(o.tag()));
                 o.restart(hello.tag.0);
             }
             Some(_) => {}

@@ -173,16 +173,16 @@ impl State {
     }
 
     /// Position `seq` of stream `tag` arrived (the original, late or not).
-    pub(super) fn team_received(&mut self, tag: u16, seq: u64) {
+    pub(super) fn team_received(&mut self, tag: StreamTag, seq: u64) {
         if let (Some(s), Some(range)) = (self.team.nacks.as_mut(), SeqRange::one(seq)) {
             s.received(tag, range);
         }
     }
 
     /// The tag of the stream followed for gateway `from`, if any.
-    pub(super) fn speaker_tag(&self, from: &Address) -> Option<u16> {
+    pub(super) fn speaker_tag(&self, from: &Address) -> Option<StreamTag> {
         let s = self.team.speakers.get(from)?;
-        s.outer.as_ref().map(|o| o.tag())
+        s.outer.as_ref().map(|o| StreamTag(o.tag()))
     }
 
     /// A NACK heard on the team link: our stream's entries go to the repair
@@ -195,7 +195,7 @@ impl State {
                 self.state_ask_heard(entry.tag, ask);
             }
             if let Some(span) = entry.frames {
-                self.nack_heard(entry.tag.0, span);
+                self.nack_heard(entry.tag, span);
             }
             if entry.hello {
                 self.hello_nack_heard(entry.tag);
@@ -205,19 +205,19 @@ impl State {
 
     /// Another robot NACKed `span` of stream `tag`: positions we did not know were
     /// sent (a lost tail) are announced first, so they join its round.
-    fn nack_heard(&mut self, tag: u16, span: Span) {
+    fn nack_heard(&mut self, tag: StreamTag, span: Span) {
         let now = self.now;
         let Some(range) = range_of(span) else { return };
         let speaker =
             self.team.speakers.iter_mut().find(|(_, s)| {
-                s.hello.is_some() && s.outer.as_ref().is_some_and(|o| o.tag() == tag)
+                s.hello.is_some() && s.outer.as_ref().is_some_and(|o| o.tag() == tag.0)
             });
         let Some((gateway, s)) = speaker else { return };
         let gateway = gateway.clone();
         let change = s
             .outer
             .as_mut()
-            .and_then(|o| o.announce(tag, range.last(), now));
+            .and_then(|o| o.announce(tag.0, range.last(), now));
         if let Some(change) = change {
             self.stream_changed(&gateway, change);
         }
@@ -258,13 +258,13 @@ impl State {
     /// The NACK gave up stream `tag` up to `through`: its positions count as covered
     /// and every member of its robot is asked for its state (today's catch-up, one
     /// request per member, which `answer.rs` merges into one `Nack` entry `what = state`).
-    pub(super) fn ask_stream_state(&mut self, tag: u16, through: u64) {
+    pub(super) fn ask_stream_state(&mut self, tag: StreamTag, through: u64) {
         let now = self.now;
         let speaker = self
             .team
             .speakers
             .iter_mut()
-            .find(|(_, s)| s.outer.as_ref().is_some_and(|o| o.tag() == tag));
+            .find(|(_, s)| s.outer.as_ref().is_some_and(|o| o.tag() == tag.0));
         let Some((gateway, s)) = speaker else { return };
         let gateway = gateway.clone();
         if let Some(o) = s.outer.as_mut() {
@@ -318,7 +318,7 @@ impl State {
         outer.cover(gone.span.from, gone.span.n, now);
         self.stats.team.gone_heard += 1;
         if let (Some(n), Some(range)) = (self.team.nacks.as_mut(), range_of(gone.span)) {
-            n.received(gone.tag.0, range);
+            n.received(gone.tag, range);
         }
         let mut positions = vec![0; usize::from(super::frame::MAX_MEMBERS)];
         for (member, seq) in &gone.positions {
@@ -347,7 +347,7 @@ impl State {
 
 fn frames_entry(missing: &MissingRange) -> NackEntry {
     NackEntry {
-        tag: StreamTag(missing.tag),
+        tag: missing.tag,
         frames: Some(Span {
             from: missing.range.first(),
             n: missing.range.n(),
@@ -599,7 +599,7 @@ mod tests {
         let (_net, mut st) = state();
         let gw = with_a_gap(&mut st);
         st.on_team(&gw, &hello_of(&gw, 10));
-        let old = tag_of(&gw).0;
+        let old = tag_of(&gw);
         assert!(st.team.nacks.as_ref().unwrap().missing(old).is_empty());
         tick_at(&mut st, ms(5000));
         assert_eq!(sent(&st, MsgKind::Nack), 0);
@@ -628,7 +628,7 @@ mod tests {
         st.on_team(&gw, &TeamMsg::Repair(repair).encode());
         let outer = st.team.speakers[&gw].outer.as_ref().unwrap();
         assert_eq!((outer.have(), outer.has_gap()), (3, false));
-        let tag = tag_of(&gw).0;
+        let tag = tag_of(&gw);
         assert!(st.team.nacks.as_ref().unwrap().missing(tag).is_empty());
         tick_at(&mut st, ms(2000));
         assert_eq!(sent(&st, MsgKind::Nack), 0);
