@@ -408,7 +408,7 @@ fn a_robots_gateway_dies_while_its_other_modules_live() {
             .create_with(NewObject::new("Rock", "rock_after").context(Context::Surroundings))
             .unwrap();
         board.write("rock_after", "hits", Value::Int(9)).unwrap();
-        team.run(2.0);
+        team.assert_converges(30);
         everyone_holds(&team, "rock_after", "hits", &Value::Int(9)).unwrap();
     }
 }

@@ -85,7 +85,7 @@ impl State {
             TeamMsg::Hello(h) if team_link => self.on_robot_hello(from, h),
             TeamMsg::Heartbeat(hb) if team_link => self.on_robot_heartbeat(from, hb),
             TeamMsg::Uplink(up) if !team_link => self.on_uplink(from, up),
-            TeamMsg::Interest(i) if !team_link => self.on_team_interest(i),
+            TeamMsg::Interest(i) if !team_link => self.on_team_interest(from, i),
             TeamMsg::Repair(r) if team_link => self.on_repair(from, r),
             TeamMsg::Nack(n) if team_link => self.on_nack(from, n),
             TeamMsg::StateRequest(r) if !team_link => self.on_state_request(r),
