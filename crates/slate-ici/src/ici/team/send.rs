@@ -236,6 +236,7 @@ impl State {
         }
         self.team_elect();
         self.team_listen();
+        self.retry_undecoded();
         self.nack_tick();
         self.deferred_state_answer();
         if self.team.gateway.is_none() {
