@@ -33,11 +33,11 @@ fn a_slate_file_with_errors_stops_the_start_with_its_diagnostics() {
     let d = temp_dir("node-diag");
     std::fs::write(d.join("bad.slate"), "class V { speed: real }").unwrap();
     let mut config = NodeConfig::new(slate_model::Address::new("t/r1/nav").unwrap());
-    config.files = vec![d.join("bad.slate"), d.join("missing.slate")];
+    config.files = vec![d.join("bad.slate").into(), d.join("missing.slate").into()];
     let err = Node::start(&config).err().unwrap();
     assert!(matches!(err, StartError::Load(_)), "{err}");
     assert!(err.to_string().contains("bad.slate:1:23: error"), "{err}");
-    config.files = vec![d.join("missing.slate")];
+    config.files = vec![d.join("missing.slate").into()];
     let err = Node::start(&config).err().unwrap();
     assert!(err.to_string().starts_with("cannot read "), "{err}");
     std::fs::remove_dir_all(&d).unwrap();
@@ -55,5 +55,55 @@ fn a_node_whose_file_names_the_builtin_module_class_starts() {
     let node = Node::start(&config).unwrap();
     assert!(node.board().info("watch_modules").is_some());
     node.close();
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn a_file_entry_with_placeholders_is_loaded_with_them_replaced() {
+    let d = temp_dir("node-substitute");
+    std::fs::write(d.join("world.slate"), crate::support::WORLD).unwrap();
+    std::fs::write(
+        d.join("robot.slate"),
+        "object ROBOT_car : Vehicle context self;",
+    )
+    .unwrap();
+    let files = r#"["world.slate", { path = "robot.slate", substitute = { ROBOT = "r2" } }]"#;
+    let config = config_loading(&d, files);
+    let node = Node::start(&config).unwrap();
+    assert!(node.board().info("r2_car").is_some());
+    assert!(node.board().info("ROBOT_car").is_none());
+    node.close();
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn a_bad_file_entry_is_refused_naming_the_key() {
+    let d = temp_dir("node-substitute-bad");
+    for (files, says) in [
+        (
+            r#"[{ substitute = { ROBOT = "r2" } }]"#,
+            "without a string `path`",
+        ),
+        (
+            r#"[{ path = "a.slate", substitute = { "" = "r2" } }]"#,
+            "is not a name",
+        ),
+        (
+            r#"[{ path = "a.slate", robot = "r2" }]"#,
+            "unknown key `robot`",
+        ),
+        (
+            r#"[{ path = "a.slate", substitute = { ROBOT = 2 } }]"#,
+            "`substitute.ROBOT` integer 2",
+        ),
+    ] {
+        let toml = format!("address = \"t/r1/nav\"\nfiles = {files}\n");
+        std::fs::write(d.join("m.toml"), toml).unwrap();
+        let err = NodeConfig::read(&d.join("m.toml")).unwrap_err().to_string();
+        assert!(
+            err.contains("key `files`") && err.contains(says),
+            "{files}: {err}"
+        );
+    }
     std::fs::remove_dir_all(&d).unwrap();
 }
