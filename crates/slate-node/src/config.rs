@@ -79,6 +79,7 @@ const TOP: &[&str] = &[
     "export",
     "dashboard",
     "zenoh",
+    "zenoh_config",
     "ici",
 ];
 /// Keys of `[zenoh]`.
@@ -149,6 +150,7 @@ impl NodeConfig {
         if let Some(zenoh) = top.table("zenoh", ZENOH)? {
             config.zenoh = zenoh_section(zenoh)?;
         }
+        config.zenoh.file = zenoh_file(&mut top, base)?;
         if let Some(ici) = top.table("ici", ICI)? {
             ici_section(ici, &mut config.ici)?;
         }
@@ -256,6 +258,16 @@ fn zenoh_section(mut t: Fields) -> Result<ZenohConfig, ConfigError> {
     z.multicast_scouting = t.bool("multicast_scouting")?.unwrap_or(false);
     t.finish()?;
     Ok(z)
+}
+
+/// `zenoh_config`: a Zenoh config file (JSON5), relative to the config's folder. Zenoh
+/// reads it when the node starts and names what it refuses then.
+fn zenoh_file(top: &mut Fields, base: &Path) -> Result<Option<PathBuf>, ConfigError> {
+    let file = top.str(
+        "zenoh_config",
+        "the path of a Zenoh config file, like \"zenoh.json5\"",
+    )?;
+    Ok(file.map(|f| base.join(f)))
 }
 
 /// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
@@ -373,6 +385,7 @@ mod tests {
             interest = ["Vehicle", "Obstacle:surroundings,system"]
             export = ["Vehicle:self"]
             dashboard = "127.0.0.1:8080"
+            zenoh_config = "zenoh.json5"
             [zenoh]
             mode = "router"
             listen = ["tcp/127.0.0.1:7447"]
@@ -410,6 +423,7 @@ mod tests {
         );
         assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
         assert_eq!(c.zenoh.mode, Mode::Router);
+        assert_eq!(c.zenoh.file, Some(PathBuf::from("/etc/slate/zenoh.json5")));
         assert!(c.zenoh.multicast_scouting);
         assert_eq!(c.zenoh.connect, ["tcp/127.0.0.1:7448"]);
         assert_eq!(c.ici.robot.timeout, Duration::from_millis(500));

@@ -107,3 +107,62 @@ fn a_bad_file_entry_is_refused_naming_the_key() {
     }
     std::fs::remove_dir_all(&d).unwrap();
 }
+
+/// A plain Zenoh config file, as Zenoh documents it.
+const ZENOH_FILE: &str = r#"{
+  // Zenoh's own keys: a longer lease, an endpoint and timestamps slate replaces.
+  mode: "peer",
+  listen: { endpoints: ["tcp/127.0.0.1:1"] },
+  transport: { link: { tx: { lease: 4321 } } },
+  timestamping: { enabled: { router: true, peer: true, client: true } },
+}"#;
+
+#[test]
+fn a_zenoh_config_file_is_loaded_by_zenoh_and_slates_keys_win() {
+    let d = temp_dir("node-zenoh-file");
+    std::fs::write(d.join("zenoh.json5"), ZENOH_FILE).unwrap();
+    let port = slate_testing::free_port();
+    let toml = format!(
+        "address = \"t/r1/nav\"\nzenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n"
+    );
+    std::fs::write(d.join("m.toml"), toml).unwrap();
+    let config = NodeConfig::read(&d.join("m.toml")).unwrap();
+    assert_eq!(
+        config.zenoh.file.as_deref(),
+        Some(d.join("zenoh.json5").as_path())
+    );
+    let zenoh = config.zenoh.to_zenoh().unwrap();
+    // The file's lease stands; slate's endpoint and timestamping win over the file's.
+    assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "4321");
+    let listen = zenoh.get_json("listen/endpoints").unwrap();
+    assert_eq!(listen, format!("[\"tcp/127.0.0.1:{port}\"]"));
+    let stamps = zenoh.get_json("timestamping/enabled").unwrap();
+    assert!(stamps.contains("\"peer\":false"), "{stamps}");
+    let node = Node::start(&config).unwrap();
+    assert_eq!(node.listening(), [format!("tcp/127.0.0.1:{port}")]);
+    node.close();
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn a_zenoh_config_file_zenoh_refuses_stops_the_start_naming_it() {
+    let d = temp_dir("node-zenoh-bad");
+    std::fs::write(
+        d.join("zenoh.json5"),
+        "{ transport: { link: { tx: { lease: \"soon\" } } } }",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("m.toml"),
+        "address = \"t/r1/nav\"\nzenoh_config = \"zenoh.json5\"\n",
+    )
+    .unwrap();
+    let config = NodeConfig::read(&d.join("m.toml")).unwrap();
+    let err = Node::start(&config).err().unwrap().to_string();
+    assert!(
+        err.contains("zenoh config file") && err.contains("zenoh.json5"),
+        "{err}"
+    );
+    assert!(!err.contains(".cargo"), "{err}");
+    std::fs::remove_dir_all(&d).unwrap();
+}
