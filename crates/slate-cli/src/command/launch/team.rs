@@ -524,7 +524,16 @@ impl Layout<'_> {
         );
         config.extend(table);
         config.insert("zenoh".into(), Value::Table(zenoh));
+        self.absolute(&mut config, "zenoh_config");
         Ok(config)
+    }
+
+    /// Makes a path-valued key absolute (relative to the team file): the config is
+    /// written, and read by `slate node`, in the log folder.
+    fn absolute(&self, config: &mut Table, key: &str) {
+        if let Some(Value::String(path)) = config.get_mut(key) {
+            *path = self.base.join(&*path).display().to_string();
+        }
     }
 
     /// `files` (or `per_robot`) of a kind, once for each robot of `robots`, as the
@@ -619,4 +628,59 @@ fn strip_label(message: &str, label: &str) -> String {
         .strip_prefix(label)
         .map(|m| m.trim_start_matches(':').trim_start().to_owned())
         .unwrap_or_else(|| message.to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A team file in a fresh folder; its path.
+    fn team_file(name: &str, text: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("slate-team-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("team.toml");
+        std::fs::write(&path, text).unwrap();
+        path
+    }
+
+    const TWO_ROBOTS: &str = "base_port = 7000\n[kinds.nav]\nfiles = [\"robot.slate\"]\nzenoh_config = \"zenoh.json5\"\n[kinds.console]\nper_robot = [\"robot.slate\"]\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\"]\n[[robots]]\nname = \"base\"\nhost = \"10.0.0.9\"\nmodules = [\"console\"]\n";
+
+    #[test]
+    fn each_module_gets_its_address_port_files_and_the_others_endpoints() {
+        let path = team_file("layout", TWO_ROBOTS);
+        let team = Team::read(&path, None).unwrap();
+        let dir = path.parent().unwrap();
+        let [nav, console] = &team.modules[..] else {
+            panic!("{:?}", team.modules)
+        };
+        assert_eq!(nav.config.address.as_str(), "team/r1/nav");
+        assert_eq!(nav.config.zenoh.listen, ["tcp/127.0.0.1:7000"]);
+        assert_eq!(nav.config.zenoh.connect, ["tcp/10.0.0.9:7001"]);
+        assert_eq!(console.config.zenoh.listen, ["tcp/10.0.0.9:7001"]);
+        let robots = |m: &ModulePlan| -> Vec<String> {
+            let f = &m.config.files;
+            f.iter().map(|f| f.substitute.apply("ROBOT")).collect()
+        };
+        assert_eq!(robots(nav), ["r1"]);
+        assert_eq!(robots(console), ["r1"]);
+        assert_eq!(nav.config.files[0].path, dir.join("robot.slate"));
+        let moved = Team::read(&path, Some(8000)).unwrap();
+        assert_eq!(moved.modules[1].config.zenoh.listen, ["tcp/10.0.0.9:8001"]);
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_kinds_zenoh_config_is_found_from_the_team_files_folder() {
+        let path = team_file("zenoh", TWO_ROBOTS);
+        let team = Team::read(&path, None).unwrap();
+        let dir = path.parent().unwrap();
+        // The written config is read from the log folder, elsewhere.
+        let written = NodeConfig::parse("x", &team.modules[0].config_text, Path::new("/logs"));
+        let expected = dir.join("zenoh.json5");
+        assert_eq!(
+            written.unwrap().zenoh.file.as_deref(),
+            Some(expected.as_path())
+        );
+        std::fs::remove_dir_all(dir).unwrap();
+    }
 }
