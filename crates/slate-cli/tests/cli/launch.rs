@@ -47,6 +47,11 @@ struct Launched {
 
 impl Launched {
     fn start(team: &Path, base_port: u16, logs: &Path) -> Launched {
+        Launched::start_with(team, base_port, logs, &[])
+    }
+
+    /// [`Launched::start`] with more arguments.
+    fn start_with(team: &Path, base_port: u16, logs: &Path, more: &[&str]) -> Launched {
         let stderr = logs.with_extension("stderr");
         let mut child = Command::new(env!("CARGO_BIN_EXE_slate"))
             .env_remove("RUST_LOG")
@@ -55,6 +60,7 @@ impl Launched {
             .args(["--base-port", &base_port.to_string(), "--format", "json"])
             .arg("--logs")
             .arg(logs)
+            .args(more)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(std::fs::File::create(&stderr).unwrap())
@@ -124,6 +130,19 @@ impl Launched {
         let mut child = self.child.take()?;
         signal("-TERM", child.id());
         let deadline = Instant::now() + Duration::from_secs(30);
+        while child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = child.kill();
+        let status = child.wait().ok();
+        while self.wait_for(Duration::from_secs(1), |_| false) {}
+        status.and_then(|s| s.code())
+    }
+
+    /// Waits (at most [`UP_LIMIT`]) for launch to exit on its own; its exit code.
+    fn terminate_when_done(&mut self) -> Option<i32> {
+        let mut child = self.child.take()?;
+        let deadline = Instant::now() + UP_LIMIT;
         while child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
             std::thread::sleep(Duration::from_millis(20));
         }
@@ -336,21 +355,6 @@ fn launch_exits_non_zero_and_stops_the_others_when_a_module_cannot_start() {
     );
 }
 
-impl Launched {
-    /// Waits (at most [`UP_LIMIT`]) for launch to exit on its own; its exit code.
-    fn terminate_when_done(&mut self) -> Option<i32> {
-        let mut child = self.child.take()?;
-        let deadline = Instant::now() + UP_LIMIT;
-        while child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let _ = child.kill();
-        let status = child.wait().ok();
-        while self.wait_for(Duration::from_secs(1), |_| false) {}
-        status.and_then(|s| s.code())
-    }
-}
-
 #[test]
 fn every_example_team_checks() {
     for team in ["small.toml", "gsr.toml"] {
@@ -397,4 +401,72 @@ fn check_names_the_file_and_line_of_each_problem_in_a_broken_team() {
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(err.contains(&format!("{file}{says}")), "{err}");
     }
+}
+
+#[test]
+fn robot_runs_only_that_robots_modules_on_this_host() {
+    let turn = Team::new("launch-robot");
+    let base = free_block(5);
+    let file = teams().join("small.toml");
+    let mut launched =
+        Launched::start_with(&file, base, &turn.dir.join("logs"), &["--robot", "r2"]);
+    launched.wait_up();
+    let mut started: Vec<String> = launched.started().into_iter().map(|(a, _)| a).collect();
+    started.sort();
+    assert_eq!(
+        started,
+        ["small/r2/loco", "small/r2/nav"],
+        "{}",
+        launched.output()
+    );
+    assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
+    let err = slate_err(&["launch", file.to_str().unwrap(), "--only", "r9/nav"]);
+    assert!(err.contains("has no module \"r9/nav\""), "{err}");
+}
+
+#[test]
+fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
+    let turn = Team::new("launch-give-up");
+    let text = std::fs::read_to_string(teams().join("small.toml")).unwrap();
+    let small = teams().join("small");
+    let text = text
+        .replace("\"small/", &format!("\"{}/", small.display()))
+        .replace("limit = 5", "limit = 1")
+        .replace("backoff = \"500ms\"", "backoff = \"100ms\"");
+    let file = turn.dir.join("small.toml");
+    std::fs::write(&file, text).unwrap();
+    let base = free_block(5);
+    let mut launched =
+        Launched::start_with(&file, base, &turn.dir.join("logs"), &["--only", "r1/nav"]);
+    launched.wait_up();
+    let mut killed = Vec::new();
+    for round in 0..2 {
+        let (_, pid) = *launched.started().last().unwrap();
+        signal("-KILL", pid);
+        killed.push(pid);
+        let next = |j: &Json| {
+            let pid = j["pid"].as_u64().and_then(|p| u32::try_from(p).ok());
+            let restarted = j["event"] == "started" && pid.is_some_and(|p| !killed.contains(&p));
+            restarted || j["event"] == "gave_up"
+        };
+        assert!(
+            launched.wait_for(UP_LIMIT, next),
+            "round {round}\n{}",
+            launched.output()
+        );
+    }
+    let gave_up = launched.events.iter().find(|j| j["event"] == "gave_up");
+    let text = gave_up.map(|j| j["text"].to_string()).unwrap_or_default();
+    assert!(
+        text.contains("after 1 restarts: giving up on it"),
+        "{}",
+        launched.output()
+    );
+    // Nothing left to run: launch exits 1 on its own.
+    assert_eq!(
+        launched.terminate_when_done(),
+        Some(1),
+        "{}",
+        launched.output()
+    );
 }
