@@ -64,7 +64,8 @@ pub enum Command {
     /// writes each one's output to ROBOT-KIND.log and to the console prefixed with its
     /// address, starts a module that dies again after a back-off that doubles (up to the
     /// file's limit, then gives up on it and says so), and stops them all on Ctrl-C or
-    /// SIGTERM. Exits 1 if a module cannot start. The format is in docs/launch.md.
+    /// SIGTERM. Exits 2 if a module cannot start, 1 once it has given up on every module.
+    /// The format is in docs/launch.md.
     ///
     /// Example: slate launch examples/teams/small.toml --check
     ///

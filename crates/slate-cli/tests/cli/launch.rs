@@ -386,6 +386,11 @@ fn check_names_the_file_and_line_of_each_problem_in_a_broken_team() {
     // A kind nobody defined, and a key launch owns: one line each, with the line number.
     for (from, to, says) in [
         (
+            "name = \"r2\"",
+            "name = \"r 2\"",
+            ":16: robot name \"r 2\": use letters, digits, _ and -",
+        ),
+        (
             "[\"nav\"]",
             "[\"nva\"]",
             ":16: robot \"r2\": no kind \"nva\": define `[kinds.nva]`",

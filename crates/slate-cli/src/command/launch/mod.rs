@@ -23,7 +23,8 @@ pub struct LaunchArgs {
     pub team: PathBuf,
 
     /// Check the whole team (every module's config, its .slate files with the robot's name
-    /// substituted, hosts and ports) and exit: 0 if it can start, 1 if not. Starts nothing.
+    /// substituted, hosts and ports) and exit: 0 if it can start, 1 if not, 2 if the team
+    /// file itself is malformed. Starts nothing.
     #[arg(long)]
     pub check: bool,
 

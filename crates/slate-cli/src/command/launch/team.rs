@@ -128,8 +128,8 @@ impl Source<'_> {
     /// the file alone.
     fn at(&self, needles: &[&str]) -> String {
         let found = self.text.lines().position(|l| {
-            let l: String = l.chars().filter(|c| !c.is_whitespace()).collect();
-            needles.iter().all(|n| l.contains(n))
+            let l = without_spaces(l);
+            needles.iter().all(|n| l.contains(&without_spaces(n)))
         });
         match found {
             Some(i) => format!("{}:{}", self.file, i + 1),
@@ -205,6 +205,10 @@ impl Team {
             file: PathBuf::new(),
         })
     }
+}
+
+fn without_spaces(text: &str) -> String {
+    text.chars().filter(|c| !c.is_whitespace()).collect()
 }
 
 /// A TOML syntax error with its line and column.
@@ -316,6 +320,9 @@ fn robots(
         };
         let at = [format!("name=\"{name}\"")];
         let at = [at[0].as_str()];
+        if slate_model::Address::new(&format!("t/{name}/m")).is_err() {
+            return Err(src.invalid(&at, format!("robot name {name:?}: use letters, digits, _ and - (it is part of every address of the robot)")));
+        }
         if out.iter().any(|r| r.name == name) {
             return Err(src.invalid(
                 &at,
