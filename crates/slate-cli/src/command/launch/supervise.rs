@@ -243,59 +243,50 @@ impl Supervisor {
 
     /// Starts module `i`'s process, its output pumped into its log and the console.
     fn spawn(&mut self, i: usize) -> anyhow::Result<()> {
-        let exe = std::env::current_exe().map_err(|e| {
-            anyhow::anyhow!("cannot find the slate binary to start modules with: {e}")
-        })?;
+        let mut command = self.node_command(&self.modules[i].config_path)?;
+        let console = self.console;
         let m = &mut self.modules[i];
-        let mut command = Command::new(exe);
-        command
-            .arg("node")
-            .arg("--config")
-            .arg(&m.config_path)
-            .args(["--format", "json"]);
-        if let Some(filter) = &self.log_filter {
-            command.args(["--log", filter]);
-        }
-        let mut child = command
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .map_err(|e| anyhow::anyhow!("cannot start {}: {e}", m.plan.config.address))?;
-        let address = m.plan.config.address.to_string();
         let log = Arc::new(Mutex::new(open_log(&m.log_path)?));
+        let address = m.plan.config.address.to_string();
+        let mut child = command
+            .spawn()
+            .map_err(|e| anyhow::anyhow!("cannot start {address}: {e}"))?;
         m.ready.store(false, Ordering::Relaxed);
         m.pumps.retain(|p| !p.is_finished());
-        let console = self.console;
-        m.pumps.push(pump(
-            child.stderr.take(),
-            Pump {
-                address: address.clone(),
-                log: log.clone(),
-                console,
-                ready: None,
-            },
-        ));
-        m.pumps.push(pump(
-            child.stdout.take(),
-            Pump {
-                address: address.clone(),
-                log,
-                console,
-                ready: Some(m.ready.clone()),
-            },
-        ));
+        let to = |ready| Pump {
+            address: address.clone(),
+            log: log.clone(),
+            console,
+            ready,
+        };
+        m.pumps.push(pump(child.stderr.take(), to(None)));
+        m.pumps
+            .push(pump(child.stdout.take(), to(Some(m.ready.clone()))));
         m.started = Instant::now();
         let pid = child.id();
         m.child = Some(child);
         let text = format!("started (pid {pid}, config {})", m.config_path.display());
-        self.console.event(
-            "started",
-            &address,
-            &text,
-            json!({"pid": pid, "module": m.plan.name}),
-        );
+        let extra = json!({"pid": pid, "module": m.plan.name});
+        console.event("started", &address, &text, extra);
         Ok(())
+    }
+
+    /// `slate node --config CONFIG --format json` with this binary, its output piped.
+    fn node_command(&self, config: &Path) -> anyhow::Result<Command> {
+        let exe = std::env::current_exe().map_err(|e| {
+            anyhow::anyhow!("cannot find the slate binary to start modules with: {e}")
+        })?;
+        let mut command = Command::new(exe);
+        command.arg("node").arg("--config").arg(config);
+        command.args(["--format", "json"]);
+        if let Some(filter) = &self.log_filter {
+            command.args(["--log", filter]);
+        }
+        command
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        Ok(command)
     }
 
     fn first_exited(&mut self) -> Option<usize> {
