@@ -89,7 +89,7 @@ pub struct ModulePlan {
     pub config_text: String,
     /// That text as `slate node` reads it.
     pub config: NodeConfig,
-    /// The host it listens on, and its port.
+    /// The host it listens on.
     pub host: String,
     /// Its Zenoh port.
     pub port: u16,
