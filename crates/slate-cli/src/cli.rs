@@ -56,6 +56,22 @@ pub enum Command {
     /// Example: slate demo --seed 3 --dashboard 127.0.0.1:8080
     Demo(crate::command::demo::DemoArgs),
 
+    /// Run a team of modules from one file: one `slate node` process each, supervised.
+    ///
+    /// The team file lists robots and the kinds of module each runs; launch writes each
+    /// module's `slate node` config (address TEAM/ROBOT/KIND, its port, its .slate files
+    /// with the robot's name in place of ROBOT) into the log folder, starts the modules,
+    /// writes each one's output to ROBOT-KIND.log and to the console prefixed with its
+    /// address, starts a module that dies again after a back-off that doubles (up to the
+    /// file's limit, then gives up on it and says so), and stops them all on Ctrl-C or
+    /// SIGTERM. Exits 2 if a module cannot start, 1 once it has given up on every module.
+    /// The format is in docs/launch.md.
+    ///
+    /// Example: slate launch examples/teams/small.toml --check
+    ///
+    /// Example: slate launch examples/teams/small.toml --robot r2
+    Launch(crate::command::launch::LaunchArgs),
+
     /// Run one module: its board, plan engine and ICI over Zenoh, from a TOML config.
     ///
     /// The config names the module's address, its Zenoh endpoints, the .slate files it

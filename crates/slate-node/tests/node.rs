@@ -9,6 +9,9 @@ mod dashboard;
 // A node hands the `link` blocks of the files it loads to its ICI.
 #[path = "node/links.rs"]
 mod links;
+// Two robots' LANs joined only through a Zenoh router (`zenoh_config`).
+#[path = "node/router.rs"]
+mod router;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;

@@ -100,6 +100,9 @@ pub use engine::{
     Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanState, PlanStatus, TIME_FALLBACK,
 };
 pub use eval::{EvalError, MAX_OPS};
-pub use load::{LinkExport, LinkName, LinkPolicy, LinkReport, LoadError, Loaded};
+pub use load::{
+    LinkExport, LinkName, LinkPolicy, LinkReport, LoadError, Loaded, ROBOT_PLACEHOLDER,
+    Substitution, SubstitutionError,
+};
 pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
 pub use parser::{MAX_NESTING, parse};

@@ -60,6 +60,7 @@ fn zenoh(
         listen,
         connect,
         multicast_scouting: false,
+        file: None,
     })
 }
 

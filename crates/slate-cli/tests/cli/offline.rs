@@ -89,7 +89,7 @@ fn a_negative_number_is_a_value_checked_like_any_other_not_a_usage_error() {
 fn a_malformed_endpoint_is_named_at_once_not_reported_unreachable() {
     for (endpoint, says) in [
         ("not-an-endpoint", "is not PROTOCOL/ADDRESS"),
-        ("udp/127.0.0.1:7447", "protocol \"udp\""),
+        ("ws/127.0.0.1:7447", "protocol \"ws\""),
         ("tcp/127.0.0.1", "no port"),
         ("tcp/127.0.0.1:99999", "port \"99999\""),
     ] {
