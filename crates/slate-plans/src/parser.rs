@@ -18,12 +18,30 @@ use crate::diagnostic::{Diagnostic, Diagnostics, Span, Stage};
 use crate::lexer::{Keyword, Lexer, Token, TokenKind};
 use slate_model::Context;
 
-/// How deeply constructs may nest: in an expression, parentheses, brackets, call arguments,
-/// unary operators and quantifiers each add a level; separately, each plan sent inside a plan
-/// adds a level.
+/// How deeply constructs may nest. In an expression, each operator, `.`, call, bracket and
+/// quantifier is a level of the tree ([`Expr::depth`](crate::Expr::depth)), and so is each
+/// parenthesis for the parser; separately, each plan sent inside a plan adds a level.
 ///
-/// Parsing is recursive, so this bounds the stack; deeper input is an error, never a crash.
+/// Parsing, checking, evaluating, printing and dropping recurse on these levels, so this
+/// bounds the stack they take (docs/language.md, "Limits"): deeper input is one error at the
+/// place it goes too deep, never a crash, and nothing deeper is built.
 pub const MAX_NESTING: usize = 64;
+
+/// The error for an expression deeper than [`MAX_NESTING`]: what counts, and what to do.
+fn too_deep_expression() -> String {
+    format!(
+        "expression nested too deep: at most {MAX_NESTING} levels of operators, `.`, calls, \
+         brackets, parentheses and quantifiers are allowed; split it into smaller expressions \
+         (a derived attribute can name a part)"
+    )
+}
+
+/// The error for plans sent inside plans deeper than [`MAX_NESTING`].
+fn too_deep_plans() -> String {
+    format!(
+        "plans nested too deep: at most {MAX_NESTING} levels of plans sent inside plans are allowed"
+    )
+}
 
 /// Parses a whole `.slate` source.
 ///
@@ -307,7 +325,7 @@ impl<'s> Parser<'s> {
 
     /// Runs `parse` one expression nesting level deeper; past [`MAX_NESTING`] is fatal.
     fn nested<T>(&mut self, parse: impl FnOnce(&mut Self) -> PResult<T>) -> PResult<T> {
-        self.enter(|p| &mut p.depth)?;
+        self.enter(|p| &mut p.depth, too_deep_expression)?;
         let result = parse(self);
         self.depth -= 1;
         result
@@ -315,22 +333,31 @@ impl<'s> Parser<'s> {
 
     /// Runs `parse` one plan nesting level deeper; past [`MAX_NESTING`] is fatal.
     fn nested_plan<T>(&mut self, parse: impl FnOnce(&mut Self) -> PResult<T>) -> PResult<T> {
-        self.enter(|p| &mut p.plan_depth)?;
+        self.enter(|p| &mut p.plan_depth, too_deep_plans)?;
         let result = parse(self);
         self.plan_depth -= 1;
         result
     }
 
-    /// Increments the counter that `level` selects, unless it is at [`MAX_NESTING`].
-    fn enter(&mut self, level: impl Fn(&mut Self) -> &mut usize) -> PResult<()> {
+    /// Increments the counter that `level` selects, unless it is at [`MAX_NESTING`]; then
+    /// reports `too_deep`.
+    fn enter(
+        &mut self,
+        level: impl Fn(&mut Self) -> &mut usize,
+        too_deep: fn() -> String,
+    ) -> PResult<()> {
         if *level(self) >= MAX_NESTING {
-            let message = format!("nesting too deep: at most {MAX_NESTING} levels are allowed");
-            self.error(self.tok.span, message);
-            self.fatal = true;
-            return Err(Reported);
+            return Err(self.too_deep(self.tok.span, too_deep()));
         }
         *level(self) += 1;
         Ok(())
+    }
+
+    /// Reports that nesting went past [`MAX_NESTING`] at `span`, and stops the parse.
+    fn too_deep(&mut self, span: Span, message: String) -> Reported {
+        self.error(span, message);
+        self.fatal = true;
+        Reported
     }
 
     // ---- recovery ----
