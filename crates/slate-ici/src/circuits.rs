@@ -38,6 +38,42 @@ use origin::Origin;
 /// an earlier one did not) before the origin asks the destination for its steps again.
 pub const ACK_GAP_GRACE: Duration = Duration::from_secs(1);
 
+/// The longest plan text, in bytes, a module sends or accepts: ten times the longest plan
+/// of the demo, half what a message carries. A longer text is refused before it is parsed
+/// (the origin's [`SendPlanError::TooLarge`], the destination's `Rejected` step).
+pub const MAX_PLAN_TEXT_BYTES: usize = 32 * 1024;
+
+/// What the destination side of a module's circuits did with the plans it received.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CircuitStats {
+    /// `Plan` messages that opened a circuit (a plan sent again on its circuit is not
+    /// counted again).
+    pub received: u64,
+    /// Plans loaded and acknowledged `Accepted`.
+    pub accepted: u64,
+    /// Plans refused with a reason on their circuit (`Rejected`): too large, not one plan,
+    /// nested too deep, wrong names or types, a name taken.
+    pub rejected: u64,
+}
+
+/// The counters behind [`CircuitStats`].
+#[derive(Default)]
+struct Counters {
+    received: AtomicU64,
+    accepted: AtomicU64,
+    rejected: AtomicU64,
+}
+
+impl Counters {
+    fn snapshot(&self) -> CircuitStats {
+        CircuitStats {
+            received: self.received.load(Ordering::Relaxed),
+            accepted: self.accepted.load(Ordering::Relaxed),
+            rejected: self.rejected.load(Ordering::Relaxed),
+        }
+    }
+}
+
 /// The plan circuits of one module: plans it sends (with their acknowledgements) and
 /// plans it runs for others. Cloning gives another handle to the same circuits;
 /// dropping the last one stops them (keep one for as long as the module runs).
@@ -120,6 +156,15 @@ pub enum SendPlanError {
         /// The diagnostics, rendered under the source lines.
         rendered: String,
     },
+    /// The text is longer than [`MAX_PLAN_TEXT_BYTES`]: split the plan (a plan can send
+    /// sub-plans, each on its own circuit).
+    #[error(
+        "the plan text is {bytes} bytes; at most {MAX_PLAN_TEXT_BYTES} are sent: split it into sub-plans"
+    )]
+    TooLarge {
+        /// The text's length.
+        bytes: usize,
+    },
     /// The ICI refused the message.
     #[error("cannot send: {0}")]
     Send(#[from] SendRawError),
@@ -173,6 +218,8 @@ pub(crate) struct Inner {
     draining: Mutex<()>,
     /// The manual clock's listener (the clock holds it weakly).
     listener: Mutex<Option<Arc<dyn ClockListener>>>,
+    /// Plans received, accepted, rejected.
+    counters: Counters,
 }
 
 impl PlanCircuits {
@@ -195,6 +242,7 @@ impl PlanCircuits {
             events: engine.events(),
             draining: Mutex::new(()),
             listener: Mutex::new(None),
+            counters: Counters::default(),
         });
         let weak = Arc::downgrade(&inner);
         ici.set_plan_handler(Arc::new(Handler(weak.clone())));
@@ -234,10 +282,18 @@ impl PlanCircuits {
     pub fn received(&self) -> Vec<CircuitStatus> {
         self.inner.destination.lock().status()
     }
+
+    /// How many plans this module received, accepted and rejected.
+    pub fn stats(&self) -> CircuitStats {
+        self.inner.counters.snapshot()
+    }
 }
 
 impl Inner {
     fn send(self: &Arc<Self>, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
+        if text.len() > MAX_PLAN_TEXT_BYTES {
+            return Err(SendPlanError::TooLarge { bytes: text.len() });
+        }
         let name = one_plan("plan.slate", text)
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);

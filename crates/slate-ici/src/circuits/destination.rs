@@ -4,12 +4,13 @@
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use slate_model::Address;
 use slate_plans::PlanEvent;
 use slate_wire::{Message, Plan, PlanAck, PlanStep};
 
-use super::{CircuitStatus, Inner, closes, one_plan};
+use super::{CircuitStatus, Inner, MAX_PLAN_TEXT_BYTES, closes, one_plan};
 
 /// Closed circuits remembered (to answer an origin that missed their last steps).
 const MAX_CLOSED: usize = 1024;
@@ -17,6 +18,11 @@ const MAX_CLOSED: usize = 1024;
 /// Steps kept per circuit (the oldest are forgotten past it; an origin that missed
 /// them skips them).
 const MAX_KEPT_STEPS: usize = 4096;
+
+/// The longest reason a `Rejected` step carries, in bytes: the diagnostics past it are cut
+/// (each quotes at most a window of its line, but a text may have many), so the step always
+/// fits in an acknowledgement.
+const MAX_REASON_BYTES: usize = 8 * 1024;
 
 /// A circuit is named by its origin and the number the origin gave it.
 type Key = (Address, u64);
@@ -128,6 +134,7 @@ impl Destination {
 
     fn reject(&mut self, key: &Key, reason: String) -> Option<PlanAck> {
         let c = self.circuits.get_mut(key)?;
+        let reason = bounded(reason);
         let ack = c.push(key.1, PlanStep::Rejected { reason });
         if self.by_name.get(&c.name) == Some(key) {
             self.by_name.remove(&c.name);
@@ -220,6 +227,22 @@ impl Destination {
     }
 }
 
+/// `reason`, cut to at most [`MAX_REASON_BYTES`] (at a character boundary) with a note
+/// saying how much was left out.
+fn bounded(mut reason: String) -> String {
+    if reason.len() <= MAX_REASON_BYTES {
+        return reason;
+    }
+    let mut cut = MAX_REASON_BYTES - 64;
+    while !reason.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    let left_out = reason.len() - cut;
+    reason.truncate(cut);
+    reason.push_str(&format!("\n... ({left_out} more bytes of diagnostics)"));
+    reason
+}
+
 /// The ack step of an engine event, with the plan's name. `Installed` is acked as
 /// `Accepted` once the load returns; `Failed` (a condition that did not evaluate) is
 /// not a step of the circuit: it shows on the plan object's `last_error`.
@@ -262,6 +285,7 @@ impl Inner {
             return;
         }
         let received = self.destination.lock().begin(&key, &plan);
+        self.counters.received.fetch_add(1, Ordering::Relaxed);
         self.transmit_logged(from, Message::PlanAck(received));
         let checked = self
             .check(&plan)
@@ -274,6 +298,7 @@ impl Inner {
         match outcome {
             Ok(()) => self.accepted(&key, &plan.name),
             Err(reason) => {
+                self.counters.rejected.fetch_add(1, Ordering::Relaxed);
                 tracing::debug!(from = %from, plan = %plan.name, %reason, "plan rejected");
                 let ack = self.destination.lock().reject(&key, reason);
                 if let Some(ack) = ack {
@@ -285,6 +310,7 @@ impl Inner {
     }
 
     fn accepted(self: &Arc<Self>, key: &Key, name: &str) {
+        self.counters.accepted.fetch_add(1, Ordering::Relaxed);
         if let Err(e) = self.engine.set_origin(name, key.0.as_str()) {
             tracing::debug!(plan = %name, error = %e, "plan origin not written");
         }
@@ -298,7 +324,7 @@ impl Inner {
     }
 
     /// Why a plan cannot be loaded here, before the engine is asked: the address, the
-    /// shape of the text, and its name (plan names are unique on a board: a plan whose
+    /// text's size (before it is parsed), the shape of the text, and its name (plan names are unique on a board: a plan whose
     /// name is taken is rejected, never renamed, so the origin's name stays the one
     /// every board shows).
     fn check(&self, plan: &Plan) -> Result<(), String> {
@@ -306,6 +332,12 @@ impl Inner {
             return Err(format!(
                 "the plan is addressed to {}, not {}",
                 plan.to, self.me
+            ));
+        }
+        if plan.source_text.len() > MAX_PLAN_TEXT_BYTES {
+            return Err(format!(
+                "the plan text is {} bytes; at most {MAX_PLAN_TEXT_BYTES} bytes are accepted: split it into sub-plans",
+                plan.source_text.len()
             ));
         }
         let file = format!("{}/{}.slate", plan.origin, plan.name);
@@ -392,6 +424,21 @@ mod tests {
         assert!(
             d.resend(&key, &plan(5, "q")).is_none(),
             "a restarted origin's new plan"
+        );
+    }
+
+    #[test]
+    fn a_long_reason_is_cut_at_a_character_boundary_and_says_so() {
+        assert_eq!(bounded("short".into()), "short");
+        let long = "é".repeat(MAX_REASON_BYTES);
+        let cut = bounded(long.clone());
+        assert!(cut.len() <= MAX_REASON_BYTES, "{}", cut.len());
+        let kept = cut.split('\n').next().unwrap_or_default();
+        assert!(long.starts_with(kept));
+        let left_out = long.len() - kept.len();
+        assert!(
+            cut.ends_with(&format!("({left_out} more bytes of diagnostics)")),
+            "{cut}"
         );
     }
 
