@@ -56,8 +56,8 @@ mod error;
 mod ici;
 
 pub use circuits::{
-    ACK_GAP_GRACE, CircuitStats, CircuitStatus, MAX_PLAN_TEXT_BYTES, PlanCircuits, PlanHandle,
-    SendPlanError,
+    ACK_GAP_GRACE, CircuitStats, CircuitStatus, MAX_PLAN_TEXT_BYTES, MAX_QUEUED_PLANS,
+    PlanCircuits, PlanHandle, SendPlanError,
 };
 pub use error::Error;
 pub use ici::{

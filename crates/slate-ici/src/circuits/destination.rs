@@ -276,17 +276,9 @@ impl Inner {
     /// A plan arrived: a known circuit gets its steps again; a new one is received,
     /// checked, loaded, and accepted or rejected.
     pub(super) fn on_plan(self: &Arc<Self>, from: &Address, plan: Plan) {
-        let key = (from.clone(), plan.circuit);
-        let again = self.destination.lock().resend(&key, &plan);
-        if let Some(acks) = again {
-            for ack in acks {
-                self.transmit_logged(from, Message::PlanAck(ack));
-            }
+        let Some(key) = self.open(from, &plan) else {
             return;
-        }
-        let received = self.destination.lock().begin(&key, &plan);
-        self.counters.received.fetch_add(1, Ordering::Relaxed);
-        self.transmit_logged(from, Message::PlanAck(received));
+        };
         let checked = self
             .check(&plan)
             .and_then(|()| self.destination.lock().claim(&key, &plan.name));
@@ -297,16 +289,50 @@ impl Inner {
         });
         match outcome {
             Ok(()) => self.accepted(&key, &plan.name),
-            Err(reason) => {
-                self.counters.rejected.fetch_add(1, Ordering::Relaxed);
-                tracing::debug!(from = %from, plan = %plan.name, %reason, "plan rejected");
-                let ack = self.destination.lock().reject(&key, reason);
-                if let Some(ack) = ack {
-                    self.transmit_logged(from, Message::PlanAck(ack));
-                }
-            }
+            Err(reason) => self.rejected(&key, &plan.name, reason),
         }
         self.drain();
+    }
+
+    /// A plan arrived while [`MAX_QUEUED_PLANS`](super::MAX_QUEUED_PLANS) were waiting:
+    /// it is received and rejected at once, unparsed; the origin may send it again later.
+    pub(super) fn refuse_busy(self: &Arc<Self>, from: &Address, plan: Plan) {
+        let Some(key) = self.open(from, &plan) else {
+            return;
+        };
+        self.counters.busy.fetch_add(1, Ordering::Relaxed);
+        let reason = format!(
+            "{} is busy: {} plans are waiting to be loaded; send it again later",
+            self.me,
+            super::MAX_QUEUED_PLANS
+        );
+        self.rejected(&key, &plan.name, reason);
+    }
+
+    /// A known circuit gets its steps again (`None`); a new one is opened and
+    /// acknowledged `Received`.
+    fn open(self: &Arc<Self>, from: &Address, plan: &Plan) -> Option<Key> {
+        let key = (from.clone(), plan.circuit);
+        let again = self.destination.lock().resend(&key, plan);
+        if let Some(acks) = again {
+            for ack in acks {
+                self.transmit_logged(from, Message::PlanAck(ack));
+            }
+            return None;
+        }
+        let received = self.destination.lock().begin(&key, plan);
+        self.counters.received.fetch_add(1, Ordering::Relaxed);
+        self.transmit_logged(from, Message::PlanAck(received));
+        Some(key)
+    }
+
+    fn rejected(self: &Arc<Self>, key: &Key, name: &str, reason: String) {
+        self.counters.rejected.fetch_add(1, Ordering::Relaxed);
+        tracing::debug!(from = %key.0, plan = %name, %reason, "plan rejected");
+        let ack = self.destination.lock().reject(key, reason);
+        if let Some(ack) = ack {
+            self.transmit_logged(&key.0, Message::PlanAck(ack));
+        }
     }
 
     fn accepted(self: &Arc<Self>, key: &Key, name: &str) {

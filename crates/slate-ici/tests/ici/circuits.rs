@@ -770,3 +770,60 @@ fn plans_received_accepted_and_rejected_are_counted() {
         "{stats:?}"
     );
 }
+
+/// Records the name of the thread that first wrote an object named `name` on a board.
+struct FirstWriter {
+    name: &'static str,
+    thread: Mutex<Option<String>>,
+}
+
+impl slate_model::ChangeHook for FirstWriter {
+    fn changed(&self, board: &Board, _: u64, _: &[slate_model::Touched]) {
+        let mut thread = self.thread.lock();
+        if thread.is_none() && board.info(self.name).is_some() {
+            *thread = Some(std::thread::current().name().unwrap_or("?").to_owned());
+        }
+    }
+}
+
+#[test]
+fn on_the_system_clock_a_plan_received_is_loaded_off_the_thread_that_delivers_it() {
+    // The thread that delivers messages (the transport's receive thread; here the test's,
+    // which moves the simulator) must not be the one that parses, checks and loads plans.
+    let net = SimNet::new(69);
+    let start = |address: &str| {
+        let transport = net.join(&addr(address));
+        let board = Arc::new(
+            Board::builder()
+                .address(transport.address().clone())
+                .build(),
+        );
+        let engine = Engine::new(&board);
+        engine.load("world.slate", CELL).unwrap();
+        let ici = Ici::new(board.clone(), transport, config()).unwrap();
+        (board, PlanCircuits::attach(&ici, &engine))
+    };
+    let (_b1, origin) = start("t/r1/planner");
+    let (cell_board, cell) = start("t/r2/cell");
+    let writer = Arc::new(FirstWriter {
+        name: "weld",
+        thread: Mutex::new(None),
+    });
+    cell_board.add_hook(writer.clone());
+    net.run_for(secs(0.5));
+    let h = origin.send(&addr("t/r2/cell"), WELD).unwrap();
+    let mut got = Vec::new();
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while got.len() < 3 && std::time::Instant::now() < deadline {
+        net.run_for(secs(0.01));
+        std::thread::sleep(Duration::from_millis(5));
+        got.extend(h.acks().try_iter());
+    }
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    let loader = writer.thread.lock().clone();
+    assert_eq!(loader.as_deref(), Some("slate-plan-circuits"));
+    assert_eq!(cell.stats().accepted, 1);
+}
