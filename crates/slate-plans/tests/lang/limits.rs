@@ -168,3 +168,35 @@ fn the_deepest_accepted_plans_in_plans_run_on_a_small_stack() {
             .unwrap_or_else(|e| panic!("{e}"));
     });
 }
+
+/// A class whose attribute `a{i}` is derived from `a{i-1}`, `attributes` long, one object of
+/// it, and a plan reading the last one.
+fn derived_chain(attributes: usize) -> String {
+    let mut class = "class Chain {\n  a0: real = 1.0;\n".to_owned();
+    for i in 1..attributes {
+        class += &format!("  a{i}: real derived = self.a{} + 1.0;\n", i - 1);
+    }
+    let last = attributes - 1;
+    format!("{class}}}\nobject k : Chain;\nplan p {{ trigger: k.a{last} > 0.0; action {{}} }}\n")
+}
+
+#[test]
+fn a_long_chain_of_derived_attributes_is_refused_not_a_crash() {
+    for attributes in [MAX_NESTING + 2, 10_000] {
+        let (_board, engine) = engine_with_world();
+        let error = engine
+            .load("chain.slate", &derived_chain(attributes))
+            .unwrap_err();
+        let limit = format!("more than {MAX_NESTING} deep");
+        assert!(
+            error.rendered.contains(&limit),
+            "{}",
+            &error.rendered[..2_000.min(error.rendered.len())]
+        );
+        assert!(engine.status("p").is_none());
+    }
+    let (_board, engine) = engine_with_world();
+    engine
+        .load("chain.slate", &derived_chain(MAX_NESTING + 1))
+        .unwrap_or_else(|e| panic!("{e}"));
+}
