@@ -510,6 +510,11 @@ impl ClockListener for Hook {
     }
 }
 
+/// The stack of the circuits' thread, set rather than left to `RUST_MIN_STACK`: it parses,
+/// checks and loads the plans received, whose nesting the language caps so that the
+/// deepest needs under 1 MiB even unoptimized (docs/language.md, "Limits").
+const PLAN_THREAD_STACK: usize = 2 * 1024 * 1024;
+
 /// On the system clock, the engine's timer thread produces events with nobody of ours
 /// in its call stack: this thread takes them (and runs the gap timers). It also handles
 /// the plan messages received (`queued`), off the transport's receive thread.
@@ -536,6 +541,7 @@ fn spawn_pump(
     };
     if let Err(e) = std::thread::Builder::new()
         .name("slate-plan-circuits".into())
+        .stack_size(PLAN_THREAD_STACK)
         .spawn(pump)
     {
         tracing::error!(error = %e, "cannot start the plan circuits thread");
