@@ -121,6 +121,7 @@ fn a_plan_nested_too_deep_sent_over_zenoh_is_rejected_and_the_node_runs_on() {
     let good = "plan fine { trigger: part.temp > 1.0; action { set part.done = true; } }";
     let later = sender.send(&cell, 2, "fine", good.to_owned());
     let stats = node.circuits().stats();
+    let summary = node.snapshot()["summary"].clone();
     let closed = node.is_closed();
     sender.close();
     node.close();
@@ -136,5 +137,9 @@ fn a_plan_nested_too_deep_sent_over_zenoh_is_rejected_and_the_node_runs_on() {
         (stats.received, stats.accepted, stats.rejected),
         (2, 1, 1),
         "{stats:?}"
+    );
+    assert_eq!(
+        summary["plans rejected"], 1,
+        "the dashboard shows it: {summary}"
     );
 }
