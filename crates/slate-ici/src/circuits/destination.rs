@@ -102,11 +102,18 @@ impl Destination {
         None
     }
 
-    /// Opens a circuit: its first step is `Received`.
+    /// Opens a circuit: its first step is `Received`. The text is kept (to know the plan
+    /// when it is sent again) unless it is over [`MAX_PLAN_TEXT_BYTES`]: such a plan is
+    /// rejected, and each time it is sent again, so closed circuits keep at most that much.
     fn begin(&mut self, key: &Key, plan: &Plan) -> PlanAck {
+        let fits = plan.source_text.len() <= MAX_PLAN_TEXT_BYTES;
         let mut c = Circuit {
             name: plan.name.clone(),
-            text: plan.source_text.clone(),
+            text: if fits {
+                plan.source_text.clone()
+            } else {
+                String::new()
+            },
             steps: VecDeque::new(),
             first: 1,
             phase: Phase::Loading,
@@ -465,6 +472,23 @@ mod tests {
         assert!(
             cut.ends_with(&format!("({left_out} more bytes of diagnostics)")),
             "{cut}"
+        );
+    }
+
+    #[test]
+    fn a_text_over_the_limit_is_not_kept() {
+        let mut d = Destination::default();
+        let key = (Address::new("t/r1/o").unwrap(), 9);
+        let mut big = plan(9, "p");
+        big.source_text.push_str(&" ".repeat(MAX_PLAN_TEXT_BYTES));
+        d.begin(&key, &big);
+        d.reject(&key, "too large".into());
+        let kept: usize = d.circuits.values().map(|c| c.text.len()).sum();
+        assert_eq!(kept, 0);
+        let again = d.resend(&key, &big);
+        assert!(
+            again.is_none(),
+            "sent again, it is refused again: {again:?}"
         );
     }
 
