@@ -222,6 +222,10 @@ fn caret_padding(line_text: &str, col: u32) -> String {
     pad
 }
 
+/// The most errors reported for one source: past it the rest are noise, and it bounds the
+/// output (and the time to render it) whatever the input.
+pub(crate) const MAX_ERRORS: usize = 256;
+
 /// All the diagnostics of one source, in source order.
 ///
 /// This is the error type of [`parse`](crate::parse): a source with errors yields every error
@@ -230,6 +234,19 @@ fn caret_padding(line_text: &str, col: u32) -> String {
 pub struct Diagnostics(pub Vec<Diagnostic>);
 
 impl Diagnostics {
+    /// `all`, cut to the first [`MAX_ERRORS`], then one error (at the first left out)
+    /// saying how many were found.
+    pub(crate) fn at_most_max(mut all: Vec<Diagnostic>) -> Diagnostics {
+        let found = all.len();
+        if found > MAX_ERRORS {
+            let span = all[MAX_ERRORS].span;
+            all.truncate(MAX_ERRORS);
+            let message = format!("too many errors ({found}); the first {MAX_ERRORS} are shown");
+            all.push(Diagnostic::error(Stage::Check, span, message));
+        }
+        Diagnostics(all)
+    }
+
     /// Every diagnostic rendered with [`Diagnostic::render`], separated by newlines.
     pub fn render(&self, file_name: &str, source: &str) -> String {
         let rendered: Vec<String> = self.0.iter().map(|d| d.render(file_name, source)).collect();

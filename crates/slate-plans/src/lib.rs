@@ -102,4 +102,4 @@ pub use engine::{
 pub use eval::{EvalError, MAX_OPS};
 pub use load::{LinkExport, LinkName, LinkPolicy, LinkReport, LoadError, Loaded};
 pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
-pub use parser::{MAX_NESTING, parse};
+pub use parser::{MAX_NESTING, MAX_PLAN_NESTING, parse};

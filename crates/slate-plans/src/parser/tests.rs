@@ -1,7 +1,7 @@
 //! Parser unit tests: expression grouping, error recovery and the nesting cap. Each construct's
 //! syntax tree is tested through the public API in `tests/lang`.
 
-use super::{MAX_NESTING, parse};
+use super::{MAX_NESTING, MAX_PLAN_NESTING, parse};
 use crate::ast::{Expr, Item};
 use crate::diagnostic::{Diagnostic, Span, Stage};
 
@@ -231,8 +231,8 @@ fn plans_sent_inside_plans_are_capped_too() {
         }
         source
     };
-    assert!(parse(&inline(MAX_NESTING - 1)).is_ok());
-    let errors = messages(&inline(MAX_NESTING));
+    assert!(parse(&inline(MAX_PLAN_NESTING - 1)).is_ok());
+    let errors = messages(&inline(MAX_PLAN_NESTING));
     assert_eq!(errors, [super::too_deep_plans()]);
     assert_eq!(messages(&inline(5_000)).len(), 1);
 }

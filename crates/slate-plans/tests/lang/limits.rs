@@ -5,7 +5,7 @@
 use std::sync::Arc;
 
 use slate_model::{Board, Clock, Value};
-use slate_plans::{Engine, Item, MAX_NESTING, Outgoing, parse};
+use slate_plans::{Engine, Item, MAX_NESTING, MAX_PLAN_NESTING, Outgoing, parse};
 
 /// The cells the deep expressions read: `c.next` refers back to `c`, so a chain of `.next`
 /// can be as long as the cap allows.
@@ -75,10 +75,10 @@ fn deepest_conditions() -> Vec<(&'static str, String)> {
     ]
 }
 
-/// A plan `p0` whose trigger is `condition`, sent inside plans `MAX_NESTING - 1` deep.
+/// A plan `p0` whose trigger is `condition`, sent inside plans `MAX_PLAN_NESTING - 1` deep.
 fn deepest_plans(condition: &str) -> String {
     let mut text = format!("plan p0 {{ trigger: {condition}; action {{ set log.v = 2.0; }} }}");
-    for level in 1..MAX_NESTING {
+    for level in 1..MAX_PLAN_NESTING {
         text =
             format!("plan p{level} {{ trigger: c.on; action {{ send {text} to \"t/r2/x\"; }} }}");
     }
@@ -88,8 +88,9 @@ fn deepest_plans(condition: &str) -> String {
 /// The stack the deepest accepted input is shown to fit in, in the test (unoptimized) build:
 /// half the 2 MiB of a Rust thread or a Tokio worker (Zenoh's receive threads are Tokio
 /// workers). Measured: the deepest expressions need more than 640 KiB and at most 768 KiB
-/// (the parser on a right-deep chain), plans in plans at most 896 KiB (docs/language.md,
-/// "Limits"); an optimized build needs less.
+/// (the parser on a right-deep chain), 16 plans in plans around the deepest expression
+/// more than 512 KiB and at most 768 KiB (docs/language.md, "Limits"); an optimized build
+/// needs less.
 const SMALL_STACK: usize = 1024 * 1024;
 
 /// Runs `work` on a thread with [`SMALL_STACK`] bytes of stack; a stack overflow aborts the
@@ -199,4 +200,28 @@ fn a_long_chain_of_derived_attributes_is_refused_not_a_crash() {
     engine
         .load("chain.slate", &derived_chain(MAX_NESTING + 1))
         .unwrap_or_else(|e| panic!("{e}"));
+}
+
+#[test]
+fn a_source_with_thousands_of_errors_reports_the_first_256() {
+    // 32 KiB of `set a.b = 1;` (no object a), on one line: 2 500 errors, each quoting it.
+    let actions = "set a.b = 1; ".repeat(2_500);
+    let text = format!("plan many {{ trigger: c.on; action {{ {actions}}} }}");
+    let (_board, engine) = engine_with_world();
+    let error = engine.load("many.slate", &text).unwrap_err();
+    let messages: Vec<&str> = error
+        .diagnostics
+        .iter()
+        .map(|d| d.message.as_str())
+        .collect();
+    assert_eq!(messages.len(), 257, "{:?}", &messages[..3]);
+    assert_eq!(
+        messages[256],
+        "too many errors (2500); the first 256 are shown"
+    );
+    assert!(
+        error.rendered.len() < 256 * 400,
+        "{} bytes",
+        error.rendered.len()
+    );
 }
