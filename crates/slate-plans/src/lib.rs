@@ -95,7 +95,7 @@ pub use ast::{
     LinkFilterDecl, Literal, ObjectDecl, Order, PacketExpr, Path, PlanDecl, PlanRef, Quantifier,
     QuantifierKind, ReportPolicyDecl, RuleDecl, StrLit, Type, TypeRef, UnaryOp, Unit,
 };
-pub use diagnostic::{Diagnostic, Diagnostics, Severity, Span, Stage};
+pub use diagnostic::{Diagnostic, Diagnostics, MAX_QUOTED_CHARS, Severity, Span, Stage};
 pub use engine::{
     Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanState, PlanStatus, TIME_FALLBACK,
 };
@@ -105,4 +105,4 @@ pub use load::{
     Substitution, SubstitutionError,
 };
 pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
-pub use parser::{MAX_NESTING, parse};
+pub use parser::{MAX_NESTING, MAX_PLAN_NESTING, parse};

@@ -205,6 +205,26 @@ fn check_says_a_builtin_class_cannot_be_redefined() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn check_refuses_a_deep_operator_chain_with_the_limit_not_a_crash() {
+    // Issue 17: a trigger of 100 000 additions on one line aborted `slate check`.
+    let chain = format!("x{}", " + 1.0".repeat(99_999));
+    let source = format!(
+        "class C {{ v: real; }}\nobject x : C;\nplan p {{\n  trigger: {chain} > 0.0;\n  action {{ }}\n}}\n"
+    );
+    let (dir, _, out) = check("check-deep", "deep.slate", &source);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("deep.slate:4:"), "{err}");
+    assert!(err.contains("at most 64 levels"), "{err}");
+    assert!(
+        err.len() < 2_000,
+        "the error quotes a window of the line: {} bytes",
+        err.len()
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Writes `source` as `file` in a new temporary folder named after `dir` and runs
 /// `slate check` on it: the folder, the file, and what `slate` did.
 fn check(dir: &str, file: &str, source: &str) -> (PathBuf, PathBuf, Output) {

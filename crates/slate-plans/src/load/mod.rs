@@ -288,7 +288,7 @@ fn compile(
     if diags.is_empty() {
         Ok(out)
     } else {
-        Err(Diagnostics(diags))
+        Err(Diagnostics::at_most_max(diags))
     }
 }
 
