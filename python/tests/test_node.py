@@ -139,6 +139,48 @@ def test_cancel_a_plan_from_its_handle(pair: tuple[slate.Node, slate.Node]) -> N
     run_with_timeout(check)
 
 
+def test_acknowledgements_go_on_after_the_destination_restarts(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    """A `destination_lost` ack is not the last: the circuit sends the plan again when the
+    destination is back, and its acknowledgements resume on the same handle."""
+    nav, loco = pair
+    plan = """plan hold {
+        trigger: gsr.mode == "go";
+        termination: gsr.mode == "done";
+        action { set gsr.mode = "going"; }
+    }"""
+
+    def check() -> None:
+        assert eventually(lambda: "gsr" in loco.board)
+        handle = nav.send_plan(plan, to="t/r2/loco")
+        assert [handle.get(timeout=10).step for _ in range(3)] == [  # type: ignore[union-attr]
+            "received",
+            "accepted",
+            "initiated",
+        ]
+        loco.close()
+        lost = handle.get(timeout=10)
+        assert lost is not None and (lost.step, lost.ok, lost.last) == ("destination_lost", False, False)
+        assert not handle.done
+        board = slate.Board(address="t/r2/loco")
+        board.load(WORLD)
+        again = slate.Node("t/r2/loco", board, connect=nav.listening, export=["Thing"])
+        try:
+            nav.board.write("gsr", "mode", "go")
+            assert eventually(lambda: nav.board.read("gsr", "mode").value == "going", 20)
+            nav.board.write("gsr", "mode", "done")
+            steps = []
+            while (ack := handle.get(timeout=20)) is not None:
+                steps.append(ack.step)
+            assert steps[-2:] == ["triggered", "terminated"], steps
+            assert handle.done
+        finally:
+            again.close()
+
+    run_with_timeout(check, 60)
+
+
 def test_bad_arguments_raise_what_is_wrong() -> None:
     with pytest.raises(slate.AddressError):
         slate.Node("nav")

@@ -55,7 +55,9 @@ mod circuits;
 mod error;
 mod ici;
 
-pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
+pub use circuits::{
+    ACK_GAP_GRACE, CircuitStatus, LOST_WAIT, PlanCircuits, PlanHandle, SendPlanError,
+};
 pub use error::Error;
 pub use ici::{
     CatchUpStats, ClassSet, Ici, IciConfig, IciStartError, IciStats, LinkPolicy, LinkReport,

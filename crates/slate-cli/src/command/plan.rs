@@ -6,7 +6,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context as _;
 use crossbeam_channel::{Receiver, select};
 use serde_json::json;
-use slate_ici::PlanHandle;
+use slate_ici::{LOST_WAIT, PlanHandle};
 use slate_model::{Address, Board, ObjectInfo, Query, Value};
 use slate_node::Node;
 use slate_plans::{Item, PLAN_CLASS};
@@ -21,11 +21,6 @@ use crate::command::live::{
 
 /// How long a cancellation waits for its confirmation.
 const CONFIRM: Duration = Duration::from_secs(5);
-
-/// How long `plan send` without `--timeout` waits for a lost destination to come back:
-/// longer than Zenoh's lease (10 s) and a module's restart, so a destination that
-/// only dropped off the network is heard again.
-const LOST_WAIT: Duration = Duration::from_secs(30);
 
 /// Sends the plan and prints its acknowledgements until it is over.
 pub fn send(args: &PlanSendArgs, format: Format) -> anyhow::Result<ExitCode> {

@@ -82,13 +82,15 @@ fn a_node_hears_every_cli_call_after_more_of_them_than_its_source_table_holds() 
 /// the command waits for the circuit's acknowledgements to resume, prints them, and
 /// exits 0 when the plan terminates (not 1 at the first `destination lost`).
 ///
-/// Ignored: the command's observer (a Zenoh client of `t/r1/nav`) never hears the
-/// restarted `t/r2/loco` (the restarted node sees the observer; nav sees the node), so
-/// the circuit cannot resume: it prints `destination lost` after its timeout. That is
-/// the session healing of issue 16 (findings 1 and 7), not the waiting logic, whose
-/// unit tests are in `command/plan.rs`. Run it with `--ignored` once that is fixed.
+/// Ignored because it is flaky: in about 1 run of 3 the command's observer (a Zenoh
+/// client of `t/r1/nav`) never hears the restarted `t/r2/loco` although nav does, so
+/// the circuit cannot resume and the command ends `destination lost` at its timeout.
+/// That is the session healing of issue 16 (findings 1 and 7), not the waiting logic
+/// (unit tests in `command/plan.rs`) nor the circuit's resend (`circuits/origin.rs`;
+/// the Python test `test_acknowledgements_go_on_after_the_destination_restarts`, whose
+/// nodes are Zenoh peers, passes). Run it with `--ignored`.
 #[test]
-#[ignore = "an observer never hears a module restarted after it joined (issue 16, findings 1 and 7)"]
+#[ignore = "flaky: an observer sometimes never hears a restarted module (issue 16, findings 1 and 7)"]
 fn plan_send_waits_through_a_destination_restart_and_exits_with_the_plan() {
     let mut team = Team::connected("plan-restart", &[("t/r1/nav", NAV), ("t/r2/loco", "")]);
     let plan = team.dir.join("hold.slate");
