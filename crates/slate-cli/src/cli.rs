@@ -273,10 +273,14 @@ pub enum PlanCommand {
     ///
     /// FILE holds one `plan NAME { ... }`. The acknowledgements are: received, accepted
     /// (or rejected, with the reason), initiated, triggered (ok or failed) each time the
-    /// action runs, terminated, cancelled, destination lost. The command exits when the
-    /// plan is terminated, rejected, cancelled or its destination lost (exit 0 for
-    /// terminated, 1 otherwise), or after `--timeout` (exit 0; the plan keeps running). On
-    /// Ctrl-C it cancels the plan and waits briefly for the `cancelled` acknowledgement.
+    /// action runs, terminated, cancelled. The command exits when the plan is terminated,
+    /// rejected or cancelled (exit 0 for terminated, 1 otherwise), or after `--timeout`
+    /// (exit 0; the plan keeps running). A destination that goes down is waited for (a
+    /// note on stderr): the circuit sends the plan again when it comes back, and the
+    /// acknowledgements resume. Only if it is still down when `--timeout` ends (30 s after
+    /// the loss without `--timeout`) does the command print `destination lost` and fail
+    /// (exit 1). On Ctrl-C it cancels the plan and waits briefly for the `cancelled`
+    /// acknowledgement.
     ///
     /// Example: slate plan send patrol.slate --to team/r2/loco --timeout 30
     Send(PlanSendArgs),
@@ -303,7 +307,8 @@ pub struct PlanSendArgs {
     #[arg(long, value_name = "ADDRESS")]
     pub to: String,
 
-    /// Stop waiting for acknowledgements after this many seconds.
+    /// Stop waiting for acknowledgements after this many seconds (also for a lost
+    /// destination to come back).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub timeout: Option<f64>,
 

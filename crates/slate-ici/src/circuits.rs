@@ -82,6 +82,12 @@ impl Counters {
     }
 }
 
+/// How long a follower of a circuit (`slate plan send` without `--timeout`, a Python
+/// handle's iteration) waits, after [`PlanStep::DestinationLost`], for the destination
+/// to come back: longer than Zenoh's 10 s lease and a module's restart, so a destination
+/// that only dropped off the network is heard again.
+pub const LOST_WAIT: Duration = Duration::from_secs(30);
+
 /// The plan circuits of one module: plans it sends (with their acknowledgements) and
 /// plans it runs for others. Cloning gives another handle to the same circuits;
 /// dropping the last one stops them (keep one for as long as the module runs).
@@ -210,7 +216,7 @@ pub(crate) fn one_plan(file_name: &str, text: &str) -> Result<String, String> {
 /// Steps that close a circuit: the final ones ([`PlanStep::is_final`]) but a lost
 /// destination, which may come back (the origin then sends the plan again).
 pub(crate) fn closes(step: &PlanStep) -> bool {
-    step.is_final() && !matches!(step, PlanStep::DestinationLost)
+    step.closes_circuit()
 }
 
 pub(crate) struct Inner {
@@ -402,7 +408,8 @@ impl Inner {
             self.origin.lock().lost(peer);
             return;
         }
-        let resend = self.origin.lock().resume(peer, &self.me);
+        let now = self.now();
+        let resend = self.origin.lock().resume(peer, &self.me, now);
         for msg in resend {
             self.transmit_logged(peer, msg);
         }

@@ -56,7 +56,7 @@ mod error;
 mod ici;
 
 pub use circuits::{
-    ACK_GAP_GRACE, CircuitStats, CircuitStatus, MAX_PLAN_TEXT_BYTES, MAX_QUEUED_PLANS,
+    ACK_GAP_GRACE, CircuitStats, CircuitStatus, LOST_WAIT, MAX_PLAN_TEXT_BYTES, MAX_QUEUED_PLANS,
     PlanCircuits, PlanHandle, SendPlanError,
 };
 pub use error::Error;
