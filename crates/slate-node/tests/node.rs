@@ -9,6 +9,9 @@ mod dashboard;
 // A node hands the `link` blocks of the files it loads to its ICI.
 #[path = "node/links.rs"]
 mod links;
+// Recording a board in MCAP, read back with the mcap crate.
+#[path = "node/record.rs"]
+mod record;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;
