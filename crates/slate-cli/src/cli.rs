@@ -123,6 +123,22 @@ pub enum Command {
     /// Example: slate plan send patrol.slate --to team/r2/loco
     #[command(subcommand)]
     Plan(PlanCommand),
+
+    /// Record a live team's world model to an MCAP file, as an observer, until Ctrl-C.
+    ///
+    /// The file starts with the team's current state (classes, objects and their
+    /// packets), then holds every packet written, objects created and deleted, plan
+    /// events, circuit steps, modules going up and down, and link counters each second:
+    /// one channel per class with a JSON schema, readable by Foxglove or any MCAP reader
+    /// (docs/recording.md). PATTERNs (classes or objects) keep only those; default:
+    /// everything. Progress (messages and bytes) goes to stderr; Ctrl-C or `--for`
+    /// finishes the file cleanly. A node records its own board with `record = "FILE"` in
+    /// its config instead.
+    ///
+    /// Example: slate record -o field-day.mcap
+    ///
+    /// Example: slate record -o vehicles.mcap Vehicle Obstacle --max-size-mb 512
+    Record(RecordArgs),
 }
 
 /// Arguments of `slate check`.
@@ -245,6 +261,33 @@ pub struct WatchArgs {
     /// Stop after this many lines.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub count: Option<u64>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate record`.
+#[derive(Debug, clap::Args)]
+pub struct RecordArgs {
+    /// The file to write (rotated files go beside it: NAME.1.mcap, NAME.2.mcap...).
+    #[arg(short, long, value_name = "FILE.mcap")]
+    pub output: std::path::PathBuf,
+
+    /// Classes (with their subclasses) or objects to record; none: everything.
+    #[arg(value_name = "PATTERN")]
+    pub patterns: Vec<String>,
+
+    /// Start the next file once this many MiB are written (0: never).
+    #[arg(long, value_name = "MIB", default_value_t = 1024)]
+    pub max_size_mb: u64,
+
+    /// Start the next file once the open one is this many seconds old (default: never).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub max_age: Option<f64>,
+
+    /// Stop after this many seconds (default: at Ctrl-C).
+    #[arg(long = "for", value_name = "SECONDS", allow_negative_numbers = true)]
+    pub duration: Option<f64>,
 
     #[command(flatten)]
     pub live: LiveArgs,

@@ -10,6 +10,7 @@ pub mod ls;
 pub mod node;
 pub mod plan;
 pub mod put;
+pub mod record;
 pub mod tree;
 pub mod watch;
 

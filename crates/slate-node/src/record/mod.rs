@@ -66,6 +66,10 @@ pub struct RecordConfig {
     pub stats_every: Duration,
     /// Changes that may wait for the recorder before writers drop them.
     pub queue: usize,
+    /// Record only the objects named here or of these classes (their subclasses too), and
+    /// class-level writes to them; empty: everything. Plans, circuits, liveliness, events
+    /// and counters are always recorded.
+    pub only: Vec<String>,
 }
 
 impl RecordConfig {
@@ -79,6 +83,7 @@ impl RecordConfig {
             flush_every: Duration::from_secs(1),
             stats_every: Duration::from_secs(1),
             queue: 1 << 16,
+            only: Vec::new(),
         }
     }
 }

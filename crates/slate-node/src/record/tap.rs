@@ -238,6 +238,9 @@ impl Tap {
             } else {
                 Mirrored::object(&info)
             };
+            if !self.wanted(&info.name, &m.channel) {
+                continue;
+            }
             self.mirror.insert(info.name, Mirrored { values, ..m });
         }
         snap.revision()
@@ -264,6 +267,9 @@ impl Tap {
     fn created(&mut self, op: &str, object: Arc<str>, class: Arc<str>) -> Result<(), RecordError> {
         if !self.classes.contains_key(&*class) {
             self.refresh_classes()?;
+        }
+        if !self.wanted(&object, &class) {
+            return Ok(());
         }
         let mut j = json!({ "op": op, "object": &*object, "class": &*class });
         if op == "create" {
@@ -292,6 +298,9 @@ impl Tap {
         revision: u64,
     ) -> Result<(), RecordError> {
         let channel = self.channel_of_object(object);
+        if !self.wanted(object, &channel) {
+            return Ok(());
+        }
         if let Some(m) = self.mirror.get_mut(object) {
             m.values.insert(Arc::from(attr), (packet.clone(), revision));
         }
@@ -326,6 +335,19 @@ impl Tap {
         let tree = &self.tree;
         self.files
             .write(&entry, || schema::class_schema(tree, channel))
+    }
+
+    /// Is `object` (on the channel of `class`) to be recorded: no `only` patterns, or
+    /// one names it or a class of its lineage?
+    fn wanted(&self, object: &str, class: &str) -> bool {
+        let only = &self.config.only;
+        only.is_empty()
+            || only.iter().any(|p| p == object)
+            || self
+                .tree
+                .lineage(class)
+                .iter()
+                .any(|c| only.iter().any(|p| p == c))
     }
 
     /// The channel of an object's packets: its class's (the class's own, for a class).

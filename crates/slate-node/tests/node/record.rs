@@ -341,3 +341,28 @@ fn a_recording_that_cannot_be_created_is_a_clear_start_error() {
         "{text}"
     );
 }
+
+#[test]
+fn only_the_named_objects_and_classes_are_recorded() {
+    let path = temp_dir("record-only").join("nav.mcap");
+    let net = SimNet::new(17);
+    let mut config = RecordConfig::new(&path);
+    config.only = vec!["Obstacle".into()];
+    let nav = on_net(&net, "t/r1/nav", "object gsr : Vehicle context self;")
+        .record(config)
+        .start()
+        .unwrap();
+    nav.board().write("gsr", "speed", 3.0).unwrap();
+    nav.board().create("Obstacle", "rock").unwrap();
+    nav.board().write("rock", "range", 4.5).unwrap();
+    nav.close();
+    let messages = read_file(&path);
+    assert!(speeds(&messages).is_empty());
+    let objects: Vec<Json> = on(&messages, topic::OBJECTS);
+    assert_eq!(objects.len(), 1, "{objects:?}");
+    assert_eq!(objects[0]["object"], "rock");
+    assert_eq!(
+        on(&messages, "/slate/class/Obstacle")[0]["values"]["range"],
+        json!(4.5)
+    );
+}
