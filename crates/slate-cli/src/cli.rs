@@ -139,6 +139,20 @@ pub enum Command {
     ///
     /// Example: slate record -o vehicles.mcap Vehicle Obstacle --max-size-mb 512
     Record(RecordArgs),
+
+    /// Replay a recording: rebuild the recorded board on a manual clock, message by
+    /// message, at the recorded pace (`--speed`), and print the board it ends with.
+    ///
+    /// The board starts from the file's first state (classes, objects, packets) and takes
+    /// every packet with its recorded stamp and source, so it reads as it did live; with
+    /// `--dashboard` the dashboard shows it as it goes, and stays up until Ctrl-C once the
+    /// recording has been played. A file cut off by a crash plays up to its last chunk.
+    /// Nothing is sent to any network.
+    ///
+    /// Example: slate play field-day.mcap --speed 10 --dashboard 127.0.0.1:8080
+    ///
+    /// Example: slate play field-day.mcap --speed max --until 120 --format json
+    Play(PlayArgs),
 }
 
 /// Arguments of `slate check`.
@@ -291,6 +305,26 @@ pub struct RecordArgs {
 
     #[command(flatten)]
     pub live: LiveArgs,
+}
+
+/// Arguments of `slate play`.
+#[derive(Debug, clap::Args)]
+pub struct PlayArgs {
+    /// The recording (one file; a rotated recording's files play one at a time).
+    #[arg(value_name = "FILE.mcap")]
+    pub file: std::path::PathBuf,
+
+    /// Times the recorded pace (2: twice as fast), or `max`: as fast as it goes.
+    #[arg(long, value_name = "X|max", default_value = "1")]
+    pub speed: String,
+
+    /// Stop this many seconds after the recording's start.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub until: Option<f64>,
+
+    /// Serve the dashboard of the replayed board there (like "127.0.0.1:8080").
+    #[arg(long, value_name = "ADDR")]
+    pub dashboard: Option<std::net::SocketAddr>,
 }
 
 /// `slate plan` verbs.

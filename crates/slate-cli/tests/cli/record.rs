@@ -128,6 +128,7 @@ fn a_node_records_its_board_and_slate_record_records_the_team_from_outside() {
     );
 
     let nav_log = team.logs();
+    let live_objects = object_names(&team.nodes[0].snapshot());
     let (clean, _) = team.nodes.remove(0).stop();
     assert!(clean, "{nav_log}");
     let bytes = finished(&own);
@@ -141,7 +142,49 @@ fn a_node_records_its_board_and_slate_record_records_the_team_from_outside() {
         .any(|j| j["module"] == "t/r2/loco" && j["alive"] == json!(true));
     assert!(loco_up, "nav recorded loco coming up");
     assert!(!on(&bytes, "/slate/links").is_empty(), "link counters");
+
+    // The recording replayed: the board nav ended with, same objects, same packets.
+    let out = crate::support::slate_ok(&[
+        "play",
+        own.to_str().unwrap(),
+        "--speed",
+        "max",
+        "--format",
+        "json",
+    ]);
+    let played: Json = serde_json::from_str(&out).unwrap();
+    assert_eq!(
+        (&played["event"], &played["address"], &played["refused"]),
+        (&json!("played"), &json!("t/r1/nav"), &json!(0)),
+        "{played}"
+    );
+    let objects = played["objects"].as_object().unwrap();
+    let replayed: Vec<String> = objects
+        .keys()
+        .filter(|k| objects[*k]["class"] != "Module")
+        .cloned()
+        .collect();
+    assert_eq!(replayed, live_objects);
+    assert_eq!(objects["gsr"]["attrs"]["speed"]["value"], json!(1.5));
+    assert_eq!(objects["rock"]["attrs"]["range"]["value"], json!(3.25));
+    let source = objects["rock"]["attrs"]["range"]["source"]
+        .as_str()
+        .unwrap();
+    assert!(source.contains("/cli-"), "the writer is kept: {source}");
     team.stop();
+}
+
+/// The names of the objects (not `Module`s) of a dashboard snapshot, sorted.
+fn object_names(snapshot: &Json) -> Vec<String> {
+    let mut names: Vec<String> = snapshot["objects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|o| o["class"] != "Module")
+        .map(|o| o["name"].as_str().unwrap().to_owned())
+        .collect();
+    names.sort();
+    names
 }
 
 #[test]
@@ -165,6 +208,21 @@ fn a_recording_node_killed_mid_write_leaves_a_file_readable_up_to_its_last_chunk
         [json!(1.0), json!(2.0), json!(3.0)]
     );
     assert!(!on(&bytes, "/slate/classes").is_empty());
+    let out = crate::support::slate_ok(&[
+        "play",
+        own.to_str().unwrap(),
+        "--speed",
+        "max",
+        "--format",
+        "json",
+    ]);
+    let played: Json = serde_json::from_str(&out).unwrap();
+    assert_eq!(played["complete"], json!(false), "{played}");
+    assert_eq!(
+        played["objects"]["gsr"]["attrs"]["speed"]["value"],
+        json!(3.0)
+    );
+    team.stop();
 }
 
 #[test]
@@ -185,4 +243,29 @@ fn record_explains_itself_and_refuses_a_bad_duration_before_joining() {
         "{err}"
     );
     assert!(!Path::new("x.mcap").exists());
+    for (args, expected) in [
+        (
+            &["play", "x.mcap", "--speed", "0"][..],
+            "--speed 0: expected a positive number, or max",
+        ),
+        (
+            &["play", "x.mcap", "--until", "-2"][..],
+            "--until -2: expected a number of seconds >= 0",
+        ),
+        (
+            &["play", "/nonexistent/x.mcap"][..],
+            "cannot read the recording /nonexistent/x.mcap",
+        ),
+    ] {
+        let err = crate::support::slate_err(args);
+        assert!(
+            err.contains(expected) && err.lines().count() == 1,
+            "{args:?}: {err}"
+        );
+    }
+    let not_mcap = std::env::temp_dir().join(format!("slate-not-mcap-{}.mcap", std::process::id()));
+    std::fs::write(&not_mcap, "hello").unwrap();
+    let err = crate::support::slate_err(&["play", not_mcap.to_str().unwrap()]);
+    assert!(err.contains("is not an MCAP recording"), "{err}");
+    std::fs::remove_file(&not_mcap).unwrap();
 }

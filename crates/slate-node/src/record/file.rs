@@ -17,7 +17,9 @@ use super::{RecordConfig, RecordError};
 
 /// The MCAP profile recordings declare.
 pub const PROFILE: &str = "slate";
-/// Every channel's message encoding, and every schema's.
+/// The metadata record each file holds: the recording board's `address`.
+pub const METADATA: &str = "slate";
+/// Every channel's message encoding.
 pub const MESSAGE_ENCODING: &str = "json";
 /// The schema encoding of every channel.
 pub const SCHEMA_ENCODING: &str = "jsonschema";
@@ -80,6 +82,8 @@ struct Open {
 /// The files of one recording.
 pub struct Files {
     config: RecordConfig,
+    /// The recording board's address, in each file's `slate` metadata record.
+    address: String,
     open: Option<Open>,
     /// Files begun so far.
     index: u32,
@@ -106,9 +110,10 @@ pub struct Entry<'a> {
 
 impl Files {
     /// Creates the first file.
-    pub fn create(config: RecordConfig) -> Result<Files, RecordError> {
+    pub fn create(config: RecordConfig, address: &str) -> Result<Files, RecordError> {
         let mut files = Files {
             config,
+            address: address.to_owned(),
             open: None,
             index: 0,
             finished_bytes: 0,
@@ -136,6 +141,17 @@ impl Files {
             .compression(Some(Compression::Zstd))
             .chunk_size(Some(self.chunk_bytes()))
             .create(counted)
+            .map_err(|error| RecordError::Mcap {
+                path: path.clone(),
+                error,
+            })?;
+        let mut writer = writer;
+        let metadata = mcap::records::Metadata {
+            name: METADATA.to_owned(),
+            metadata: BTreeMap::from([("address".to_owned(), self.address.clone())]),
+        };
+        writer
+            .write_metadata(&metadata)
             .map_err(|error| RecordError::Mcap {
                 path: path.clone(),
                 error,

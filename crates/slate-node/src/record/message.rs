@@ -48,9 +48,16 @@ pub fn class_def(def: &ClassDef) -> Json {
                 "unit": a.unit,
                 "bounds": a.bounds.map(|(lo, hi)| [lo, hi]),
                 "resolution": a.resolution,
-                "default": a.default.as_ref().map(|d| value(&d.value)),
-                "merge": format!("{:?}", a.merge),
-                "report": format!("{:?}", a.report),
+                "default": a.default.as_ref().map(|d| json!({
+                    "value": value(&d.value), "accuracy": d.accuracy, "confidence": d.confidence,
+                })),
+                "merge": a.merge.name(),
+                "report": {
+                    "min_interval": a.report.min_interval.map(|d| d.as_secs_f64()),
+                    "heartbeat": a.report.heartbeat.map(|d| d.as_secs_f64()),
+                    "deadband": a.report.deadband,
+                    "on_accuracy": a.report.on_accuracy,
+                },
                 "guarded": a.guarded,
             })
         })

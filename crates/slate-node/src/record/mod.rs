@@ -10,6 +10,7 @@
 
 mod file;
 mod message;
+mod replay;
 mod schema;
 mod tap;
 
@@ -21,7 +22,8 @@ use std::time::Duration;
 
 use parking_lot::Mutex;
 
-pub use file::{MESSAGE_ENCODING, PROFILE, SCHEMA_ENCODING, rotated_path};
+pub use file::{MESSAGE_ENCODING, METADATA, PROFILE, SCHEMA_ENCODING, rotated_path};
+pub use replay::{Recording, ReplayError, Step, Timed, board_state, class_def};
 pub use schema::class_schema;
 
 use crate::view::View;

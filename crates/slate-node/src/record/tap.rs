@@ -73,7 +73,7 @@ impl Tap {
             board_events: board.events(),
             plan_events: view.engine.events(),
             tree: Classes::of(&board),
-            files: Files::create(config.clone())?,
+            files: Files::create(config.clone(), board.address().as_str())?,
             circuits: view.circuits.clone(),
             transport: view.transport.clone(),
             watch,

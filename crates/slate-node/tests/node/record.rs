@@ -366,3 +366,64 @@ fn only_the_named_objects_and_classes_are_recorded() {
         json!(4.5)
     );
 }
+
+#[test]
+fn a_recording_replayed_into_a_new_board_rebuilds_the_recorded_board() {
+    let path = temp_dir("record-replay").join("planner.mcap");
+    let net = SimNet::new(18);
+    let ugv = "class Ugv : Vehicle { wheels: int = 4; }";
+    let planner = on_net(
+        &net,
+        "t/r1/planner",
+        &format!("{ugv}\nobject rock : Obstacle {{ range = 7.5; }}"),
+    )
+    .ici(IciConfig::default().export(ClassSet::all()))
+    .record(RecordConfig::new(&path))
+    .start()
+    .unwrap();
+    let loco = start(
+        &net,
+        "t/r2/loco",
+        &format!("{ugv}\nobject gsr : Ugv context self;"),
+    );
+    assert!(run_until(&net, 2.0, || planner
+        .board()
+        .info("gsr")
+        .is_some()));
+    for s in [1.0, 2.5, 4.0] {
+        loco.board().write("gsr", "speed", s).unwrap();
+        loco.board().write("gsr", "position", [s, -s]).unwrap();
+        net.run_for(Duration::from_millis(100));
+    }
+    loco.board().write("gsr", "wheels", 6).unwrap();
+    planner.board().create("Obstacle", "tree").unwrap();
+    planner.board().write("tree", "range", 2.0).unwrap();
+    planner.board().delete("rock").unwrap();
+    net.run_for(Duration::from_millis(300));
+    let recorded = slate_node::record::board_state(planner.board());
+    planner.close();
+    loco.close();
+
+    let recording = slate_node::record::Recording::read(&path).unwrap();
+    assert!(recording.complete);
+    assert_eq!(recording.address.as_deref(), Some("t/r1/planner"));
+    let clock = slate_model::Clock::manual();
+    let board = slate_model::Board::builder()
+        .address(addr("t/r1/planner"))
+        .clock(clock.clone())
+        .build();
+    let mut refused = Vec::new();
+    for t in &recording.steps {
+        clock.set(t.time.max(clock.physical())).unwrap();
+        if !slate_node::record::Recording::apply(&board, &t.step) {
+            refused.push(format!("{:?}", t.step));
+        }
+    }
+    assert!(refused.is_empty(), "{refused:?}");
+    let replayed = slate_node::record::board_state(&board);
+    assert_eq!(replayed, recorded);
+    assert!(
+        replayed.get("rock").is_none() && replayed["tree"]["attrs"]["range"]["value"] == json!(2.0)
+    );
+    assert_eq!(replayed["gsr"]["attrs"]["wheels"]["value"], json!(6));
+}
