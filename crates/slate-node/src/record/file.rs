@@ -28,6 +28,10 @@ pub const SCHEMA_ENCODING: &str = "jsonschema";
 /// flushes, whichever comes first.
 const CHUNK_BYTES: u64 = 1 << 20;
 
+/// zstd's fastest level but one: the recorder shares the node's cores, and a higher level
+/// gains little on JSON this repetitive.
+const ZSTD_LEVEL: u32 = 1;
+
 /// The path of the `index`th file of a recording at `base`: `base` itself, then
 /// `NAME.1.mcap`, `NAME.2.mcap`... beside it.
 pub fn rotated_path(base: &Path, index: u32) -> PathBuf {
@@ -74,8 +78,9 @@ struct Open {
     /// What the writer has handed the file so far.
     bytes: Arc<AtomicU64>,
     path: PathBuf,
-    /// Channel ids by topic and schema name (a class redefined gets a second channel).
-    channels: HashMap<(String, String), u16>,
+    /// Channel ids by topic (a class redefined gets a second channel: see
+    /// [`Files::forget_channels`]).
+    channels: HashMap<String, u16>,
     began: Instant,
 }
 
@@ -139,6 +144,7 @@ impl Files {
             .profile(PROFILE)
             .library(concat!("slate ", env!("CARGO_PKG_VERSION")))
             .compression(Some(Compression::Zstd))
+            .compression_level(ZSTD_LEVEL)
             .chunk_size(Some(self.chunk_bytes()))
             .create(counted)
             .map_err(|error| RecordError::Mcap {
@@ -221,6 +227,15 @@ impl Files {
         Ok(())
     }
 
+    /// Forgets the open file's channels whose topic starts with `prefix`: the next
+    /// message on each adds its schema again (when a class is redefined, its channel and
+    /// its subclasses' get a second channel with the new schema).
+    pub fn forget_channels(&mut self, prefix: &str) {
+        if let Some(open) = self.open.as_mut() {
+            open.channels.retain(|t, _| !t.starts_with(prefix));
+        }
+    }
+
     /// Closes the open chunk and hands the file what is buffered: a crash after this
     /// loses nothing written before it.
     pub fn flush(&mut self) -> Result<(), RecordError> {
@@ -278,8 +293,7 @@ impl Open {
         entry: &Entry,
         schema: impl FnOnce() -> serde_json::Value,
     ) -> Result<u16, RecordError> {
-        let key = (entry.topic.to_owned(), entry.schema.to_owned());
-        if let Some(id) = self.channels.get(&key) {
+        if let Some(id) = self.channels.get(entry.topic) {
             return Ok(*id);
         }
         let data = serde_json::to_vec(&schema()).unwrap_or_default();
@@ -291,7 +305,7 @@ impl Open {
             .writer
             .add_channel(schema_id, entry.topic, MESSAGE_ENCODING, &BTreeMap::new())
             .map_err(|e| self.error(e))?;
-        self.channels.insert(key, id);
+        self.channels.insert(entry.topic.to_owned(), id);
         Ok(id)
     }
 }

@@ -2,6 +2,8 @@
 //! on its class's channel, an object created or deleted, a class definition, a plan
 //! event, a circuit step, a liveliness change, a board event, link counters.
 
+use serde::Serialize;
+use serde::ser::{SerializeMap, Serializer};
 use serde_json::{Value as Json, json};
 use slate_ici::CircuitStatus;
 use slate_model::{BoardEvent, ClassDef, Packet, Value};
@@ -21,19 +23,69 @@ pub fn value(value: &Value) -> Json {
     }
 }
 
-/// A packet written to `object.attr`, for the channel of the object's class.
-pub fn packet(object: &str, attr: &str, p: &Packet, revision: u64) -> Json {
-    json!({
-        "object": object,
-        "attr": attr,
-        "values": { attr: value(&p.value) },
-        "accuracy": p.accuracy,
-        "confidence": p.confidence,
-        "hlc": p.timestamp.raw(),
-        "time": p.timestamp.as_secs_f64(),
-        "source": p.source.as_str(),
-        "revision": revision,
-    })
+/// A packet written to `object.attr`, for the channel of the object's class, serialised
+/// straight from the packet (no intermediate JSON tree: this runs once per change).
+#[derive(Serialize)]
+pub struct PacketMessage<'a> {
+    object: &'a str,
+    attr: &'a str,
+    values: OneValue<'a>,
+    accuracy: f64,
+    confidence: f64,
+    hlc: u64,
+    time: f64,
+    source: &'a str,
+    revision: u64,
+}
+
+impl<'a> PacketMessage<'a> {
+    /// The message of `p`, written to `object.attr` at `revision`.
+    pub fn new(object: &'a str, attr: &'a str, p: &'a Packet, revision: u64) -> Self {
+        PacketMessage {
+            object,
+            attr,
+            values: OneValue {
+                attr,
+                value: &p.value,
+            },
+            accuracy: p.accuracy,
+            confidence: p.confidence,
+            hlc: p.timestamp.raw(),
+            time: p.timestamp.as_secs_f64(),
+            source: p.source.as_str(),
+            revision,
+        }
+    }
+}
+
+/// `{ATTR: VALUE}`.
+struct OneValue<'a> {
+    attr: &'a str,
+    value: &'a Value,
+}
+
+impl Serialize for OneValue<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut map = s.serialize_map(Some(1))?;
+        map.serialize_entry(self.attr, &JsonValue(self.value))?;
+        map.end()
+    }
+}
+
+/// A value as [`value`] writes it.
+struct JsonValue<'a>(&'a Value);
+
+impl Serialize for JsonValue<'_> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self.0 {
+            Value::None => s.serialize_unit(),
+            Value::Int(i) => s.serialize_i64(*i),
+            Value::Real(r) => s.serialize_f64(*r),
+            Value::Bool(b) => s.serialize_bool(*b),
+            Value::Str(t) | Value::Ref(t) => s.serialize_str(t),
+            Value::Vector(v) => v.serialize(s),
+        }
+    }
 }
 
 /// A class definition, with its attributes' declarations.

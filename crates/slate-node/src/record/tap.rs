@@ -51,6 +51,9 @@ pub struct Tap {
     /// The last `alive` of each Module object.
     alive: HashMap<Arc<str>, bool>,
     stats: Arc<Mutex<RecordStats>>,
+    /// A packet's topic and JSON, reused from one packet to the next.
+    topic: String,
+    buf: Vec<u8>,
     /// The revision of the last snapshot: changes up to it are in it, and are skipped.
     snapshot_revision: u64,
     flushed: Instant,
@@ -84,6 +87,8 @@ impl Tap {
             steps: HashMap::new(),
             alive: HashMap::new(),
             stats,
+            topic: String::new(),
+            buf: Vec::new(),
             snapshot_revision: 0,
             flushed: now,
             counted: now,
@@ -264,8 +269,11 @@ impl Tap {
         Ok(())
     }
 
+    /// An object created or deleted. A creation checks its class's definition first: a
+    /// class can be redefined only while it has no instances, so a new instance is where
+    /// a redefinition shows.
     fn created(&mut self, op: &str, object: Arc<str>, class: Arc<str>) -> Result<(), RecordError> {
-        if !self.classes.contains_key(&*class) {
+        if op == "create" && self.classes.get(&*class) != self.board.class_def(&class).as_ref() {
             self.refresh_classes()?;
         }
         if !self.wanted(&object, &class) {
@@ -293,7 +301,7 @@ impl Tap {
     fn packet(
         &mut self,
         object: &Arc<str>,
-        attr: &str,
+        attr: &Arc<str>,
         packet: &Packet,
         revision: u64,
     ) -> Result<(), RecordError> {
@@ -302,10 +310,10 @@ impl Tap {
             return Ok(());
         }
         if let Some(m) = self.mirror.get_mut(object) {
-            m.values.insert(Arc::from(attr), (packet.clone(), revision));
+            m.values.insert(attr.clone(), (packet.clone(), revision));
         }
         self.write_packet(object, &channel, attr, packet, revision)?;
-        if &*channel == MODULE_CLASS && attr == "alive" {
+        if &*channel == MODULE_CLASS && &**attr == "alive" {
             self.liveliness(object, &packet.value)?;
         }
         Ok(())
@@ -322,13 +330,18 @@ impl Tap {
         if !self.classes.contains_key(&**channel) {
             self.refresh_classes()?;
         }
-        let topic = format!("{CLASS_PREFIX}{channel}");
-        let data = serde_json::to_vec(&message::packet(object, attr, packet, revision))
-            .unwrap_or_default();
+        self.topic.clear();
+        self.topic.push_str(CLASS_PREFIX);
+        self.topic.push_str(channel);
+        self.buf.clear();
+        let message = message::PacketMessage::new(object, attr, packet, revision);
+        if serde_json::to_writer(&mut self.buf, &message).is_err() {
+            return Ok(()); // a packet always serialises: its strings are UTF-8, its reals finite
+        }
         let entry = Entry {
-            topic: &topic,
+            topic: &self.topic,
             schema: channel,
-            data: &data,
+            data: &self.buf,
             log_time: self.now(),
             publish_time: nanos(packet.timestamp.physical()),
         };
@@ -389,6 +402,12 @@ impl Tap {
             return Ok(());
         }
         self.tree = Classes::of(&self.board);
+        let redefined = defs
+            .iter()
+            .any(|d| self.classes.get(&d.name).is_some_and(|old| old != d));
+        if redefined {
+            self.files.forget_channels(CLASS_PREFIX);
+        }
         for def in defs {
             if self.classes.get(&def.name) == Some(&def) {
                 continue;

@@ -427,3 +427,45 @@ fn a_recording_replayed_into_a_new_board_rebuilds_the_recorded_board() {
     );
     assert_eq!(replayed["gsr"]["attrs"]["wheels"]["value"], json!(6));
 }
+
+#[test]
+fn a_class_redefined_while_recording_gets_a_channel_with_its_new_schema() {
+    use slate_model::{AttrDecl, ClassDef, ValueType};
+    let path = temp_dir("record-redefine").join("nav.mcap");
+    let net = SimNet::new(19);
+    let mut config = RecordConfig::new(&path);
+    config.flush_every = Duration::ZERO;
+    let nav = on_net(&net, "t/r1/nav", "").record(config).start().unwrap();
+    let probe = |ty| ClassDef::new("Probe").attr(AttrDecl::new("level", ty));
+    nav.board().define(probe(ValueType::Int)).unwrap();
+    nav.board().create("Probe", "p1").unwrap();
+    nav.board().write("p1", "level", 3).unwrap();
+    // The recorder reads a class's definition from the board when it first needs it:
+    // the redefinition must come after it has recorded p1.
+    let recorded = slate_testing::eventually(Duration::from_secs(10), || {
+        let bytes = std::fs::read(&path).unwrap();
+        on(&read(&bytes).0, "/slate/class/Probe").len() == 1
+    });
+    assert!(recorded);
+    nav.board().delete("p1").unwrap();
+    nav.board().delete_class("Probe").unwrap();
+    nav.board().define(probe(ValueType::Real)).unwrap();
+    nav.board().create("Probe", "p2").unwrap();
+    nav.board().write("p2", "level", 2.5).unwrap();
+    nav.close();
+    let bytes = std::fs::read(&path).unwrap();
+    let mut schemas: Vec<Json> = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(Result::unwrap)
+        .filter(|m| m.channel.topic == "/slate/class/Probe")
+        .map(|m| {
+            let schema = m.channel.schema.as_ref().unwrap();
+            serde_json::from_slice::<Json>(&schema.data).unwrap()["properties"]["values"]["properties"]["level"]["type"].clone()
+        })
+        .collect();
+    schemas.dedup();
+    assert_eq!(
+        schemas,
+        [json!(["integer", "null"]), json!(["number", "null"])]
+    );
+}
