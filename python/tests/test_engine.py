@@ -67,6 +67,19 @@ def test_a_syntax_error_raises_load_error_with_line_and_column() -> None:
     assert b.info("Vehicle") is None  # nothing applied
 
 
+def test_a_deep_operator_chain_is_refused_with_the_limit_not_a_crash() -> None:
+    # Issue 17: a trigger of 100 000 additions aborted the process (a stack overflow).
+    b = vehicles()
+    chain = "gsr.speed" + " + 1.0" * 99_999
+    with pytest.raises(slate.LoadError) as caught:
+        b.load(f"plan p {{\n  trigger: {chain} > 0.0;\n  action {{ }}\n}}", name="deep.slate")
+    e = caught.value
+    assert (e.file, e.line) == ("deep.slate", 2)
+    assert "at most 64 levels" in str(e)
+    assert len(str(e)) < 2_000  # a window of the line is quoted, not all of it
+    assert b.info("p") is None
+
+
 def test_errors_in_a_file_are_all_reported_with_their_positions(world_file: Path) -> None:
     world_file.write_text("class A { x: real }\nclass B { y: int }\n")
     with pytest.raises(slate.LoadError) as caught:

@@ -139,6 +139,78 @@ def test_cancel_a_plan_from_its_handle(pair: tuple[slate.Node, slate.Node]) -> N
     run_with_timeout(check)
 
 
+HOLD = """plan hold {
+    trigger: gsr.mode == "go";
+    termination: gsr.mode == "done";
+    action { set gsr.mode = "going"; }
+}"""
+
+
+def lose_the_destination(nav: slate.Node, loco: slate.Node) -> slate.PlanHandle:
+    """Sends HOLD from nav to loco, takes its first three acks, closes loco, and returns
+    the handle once it has delivered `destination_lost`."""
+    assert eventually(lambda: "gsr" in loco.board)
+    handle = nav.send_plan(HOLD, to="t/r2/loco")
+    assert [handle.get(timeout=10).step for _ in range(3)] == [  # type: ignore[union-attr]
+        "received",
+        "accepted",
+        "initiated",
+    ]
+    loco.close()
+    lost = handle.get(timeout=10)
+    assert lost is not None
+    assert (lost.step, lost.ok, lost.last) == ("destination_lost", False, False)
+    return handle
+
+
+def test_a_lost_destination_is_not_the_last_acknowledgement(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    """The circuit stays open after `destination_lost` (the destination may come back):
+    the handle is not done, and waits on for more."""
+    nav, loco = pair
+
+    def check() -> None:
+        handle = lose_the_destination(nav, loco)
+        assert not handle.done
+        assert handle.get(timeout=0.2) is None
+        assert not handle.done, "a wait that times out is not the end"
+
+    run_with_timeout(check)
+
+
+@pytest.mark.skip(
+    reason="flaky (about 1 run in 2): the restarted destination catches up the origin's "
+    "objects but the resent plan does not reach it within 20 s; cause not found yet "
+    "(issue 16, finding 3)"
+)
+def test_acknowledgements_go_on_after_the_destination_restarts(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    """A `destination_lost` ack is not the last: the circuit sends the plan again when the
+    destination is back, and its acknowledgements resume on the same handle."""
+    nav, loco = pair
+
+    def check() -> None:
+        handle = lose_the_destination(nav, loco)
+        board = slate.Board(address="t/r2/loco")
+        board.load(WORLD)
+        again = slate.Node("t/r2/loco", board, connect=nav.listening, export=["Thing"])
+        try:
+            nav.board.write("gsr", "mode", "go")
+            assert eventually(lambda: nav.board.read("gsr", "mode").value == "going", 20)
+            nav.board.write("gsr", "mode", "done")
+            steps = []
+            while (ack := handle.get(timeout=20)) is not None:
+                steps.append(ack.step)
+            assert steps[-2:] == ["triggered", "terminated"], steps
+            assert handle.done
+        finally:
+            again.close()
+
+    run_with_timeout(check, 60)
+
+
 def test_bad_arguments_raise_what_is_wrong() -> None:
     with pytest.raises(slate.AddressError):
         slate.Node("nav")

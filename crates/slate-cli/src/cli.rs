@@ -56,6 +56,22 @@ pub enum Command {
     /// Example: slate demo --seed 3 --dashboard 127.0.0.1:8080
     Demo(crate::command::demo::DemoArgs),
 
+    /// Run a team of modules from one file: one `slate node` process each, supervised.
+    ///
+    /// The team file lists robots and the kinds of module each runs; launch writes each
+    /// module's `slate node` config (address TEAM/ROBOT/KIND, its port, its .slate files
+    /// with the robot's name in place of ROBOT) into the log folder, starts the modules,
+    /// writes each one's output to ROBOT-KIND.log and to the console prefixed with its
+    /// address, starts a module that dies again after a back-off that doubles (up to the
+    /// file's limit, then gives up on it and says so), and stops them all on Ctrl-C or
+    /// SIGTERM. Exits 2 if a module cannot start, 1 once it has given up on every module.
+    /// The format is in docs/launch.md.
+    ///
+    /// Example: slate launch examples/teams/small.toml --check
+    ///
+    /// Example: slate launch examples/teams/small.toml --robot r2
+    Launch(crate::command::launch::LaunchArgs),
+
     /// Run one module: its board, plan engine and ICI over Zenoh, from a TOML config.
     ///
     /// The config names the module's address, its Zenoh endpoints, the .slate files it
@@ -334,10 +350,14 @@ pub enum PlanCommand {
     ///
     /// FILE holds one `plan NAME { ... }`. The acknowledgements are: received, accepted
     /// (or rejected, with the reason), initiated, triggered (ok or failed) each time the
-    /// action runs, terminated, cancelled, destination lost. The command exits when the
-    /// plan is terminated, rejected, cancelled or its destination lost (exit 0 for
-    /// terminated, 1 otherwise), or after `--timeout` (exit 0; the plan keeps running). On
-    /// Ctrl-C it cancels the plan and waits briefly for the `cancelled` acknowledgement.
+    /// action runs, terminated, cancelled. The command exits when the plan is terminated,
+    /// rejected or cancelled (exit 0 for terminated, 1 otherwise), or after `--timeout`
+    /// (exit 0; the plan keeps running). A destination that goes down is waited for (a
+    /// note on stderr): the circuit sends the plan again when it comes back, and the
+    /// acknowledgements resume. Only if it is still down when `--timeout` ends (30 s after
+    /// the loss without `--timeout`) does the command print `destination lost` and fail
+    /// (exit 1). On Ctrl-C it cancels the plan and waits briefly for the `cancelled`
+    /// acknowledgement.
     ///
     /// Example: slate plan send patrol.slate --to team/r2/loco --timeout 30
     Send(PlanSendArgs),
@@ -364,7 +384,8 @@ pub struct PlanSendArgs {
     #[arg(long, value_name = "ADDRESS")]
     pub to: String,
 
-    /// Stop waiting for acknowledgements after this many seconds.
+    /// Stop waiting for acknowledgements after this many seconds (also for a lost
+    /// destination to come back).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     pub timeout: Option<f64>,
 

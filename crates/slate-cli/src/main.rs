@@ -35,6 +35,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => command::bench::run(&args, format),
         Command::Check(args) => command::check::run(&args, format),
         Command::Demo(args) => command::demo::run(&args, format),
+        Command::Launch(args) => command::launch::run(&args, format, cli.log.as_deref()),
         Command::Node(args) => command::node::run(&args, format, &logs),
         Command::Tree(args) => command::tree::run(&args, format),
         Command::Ls(args) => command::ls::run(&args, format),

@@ -9,6 +9,9 @@ mod demo;
 // Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit.
 #[path = "cli/errors.rs"]
 mod errors;
+// `slate launch`: the example teams as processes, restarts, SIGTERM, `--check`.
+#[path = "cli/launch.rs"]
+mod launch;
 // Teams of two and three `slate node` processes: reports, plans, a late joiner, shutdown.
 #[path = "cli/multi.rs"]
 mod multi;

@@ -1,8 +1,11 @@
 //! The demo's `.slate` files (`examples/demo/`), embedded, and the one substitution they
-//! need: `ROBOT` stands for a robot's name in the per-robot files.
+//! need: `ROBOT` stands for a robot's name in the per-robot files (slate-plans'
+//! [`Substitution`], as `slate node` and `slate launch` apply it).
+
+use slate_plans::Substitution;
 
 /// The placeholder for a robot's name in per-robot files.
-pub const ROBOT: &str = "ROBOT";
+pub const ROBOT: &str = slate_plans::ROBOT_PLACEHOLDER;
 
 /// One of the demo's `.slate` files.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,9 +56,10 @@ pub const ALL: [SlateFile; 8] = [
 ];
 
 impl SlateFile {
-    /// The text for robot `robot`: every `ROBOT` replaced by its name.
-    pub fn for_robot(&self, robot: &str) -> String {
-        self.source.replace(ROBOT, robot)
+    /// The text for robot `robot`: every `ROBOT` replaced by its name; an error if the
+    /// name cannot stand in a file (a quote, a backslash, a line break).
+    pub fn for_robot(&self, robot: &str) -> Result<String, slate_plans::SubstitutionError> {
+        Ok(Substitution::robot(robot)?.apply(self.source))
     }
 
     /// The name to show in diagnostics for robot `robot`'s copy.
@@ -168,16 +172,16 @@ mod tests {
     #[test]
     fn every_file_means_the_same_terse() {
         for file in ALL {
-            let a = slate_plans::parse(&file.for_robot("r1")).map(|f| format!("{f:?}").len());
-            let b =
-                slate_plans::parse(&terse(&file.for_robot("r1"))).map(|f| format!("{f:?}").len());
+            let text = file.for_robot("r1").unwrap();
+            let a = slate_plans::parse(&text).map(|f| format!("{f:?}").len());
+            let b = slate_plans::parse(&terse(&text)).map(|f| format!("{f:?}").len());
             assert!(a.is_ok() && b.is_ok(), "{}", file.name);
         }
     }
 
     #[test]
     fn the_robot_placeholder_is_replaced_everywhere() {
-        let exec = EXEC.for_robot("r7");
+        let exec = EXEC.for_robot("r7").unwrap();
         assert!(!exec.contains(ROBOT) && exec.contains("r7_claim"));
     }
 }

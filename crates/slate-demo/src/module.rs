@@ -113,6 +113,12 @@ impl Role {
     }
 }
 
+/// `file`'s text for `robot`, or why the robot's name cannot stand in it.
+fn for_robot(file: SlateFile, robot: &str) -> Result<String, DemoError> {
+    file.for_robot(robot)
+        .map_err(|e| DemoError::Config(format!("robot {robot:?}: {e}")))
+}
+
 fn classes(names: &[&str]) -> ClassSet {
     names.iter().fold(ClassSet::none(), |s, c| s.class(c))
 }
@@ -170,7 +176,7 @@ impl Module {
 
     fn load(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {
         self.node
-            .load(&file.label(robot), &file.for_robot(robot))
+            .load(&file.label(robot), &for_robot(file, robot)?)
             .map(|_| ())
             .map_err(|e| DemoError::Load {
                 board: self.address().to_string(),
@@ -186,7 +192,7 @@ impl Module {
     /// Loads a file whose plans are sent: terse, so they travel in few bytes (if it
     /// fails, the file as written is loaded for readable diagnostics).
     fn load_terse(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {
-        let text = files::terse(&file.for_robot(robot));
+        let text = files::terse(&for_robot(file, robot)?);
         match self.node.load(&file.label(robot), &text) {
             Ok(_) => Ok(()),
             Err(_) => self.load(file, robot),

@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
-use crossbeam_channel::{Receiver, Select};
+use crossbeam_channel::{Receiver, Select, Sender, TrySendError};
 use parking_lot::Mutex;
 use slate_model::{Address, Board, ChangeHook, ClockListener, Touched};
 use slate_plans::{Diagnostic, Diagnostics, Engine, Item, Outgoing, PlanEvent, Span, Stage};
@@ -37,6 +37,56 @@ use origin::Origin;
 /// How long a gap in a circuit's acknowledgements may stay open (later steps arrived,
 /// an earlier one did not) before the origin asks the destination for its steps again.
 pub const ACK_GAP_GRACE: Duration = Duration::from_secs(1);
+
+/// The longest plan text, in bytes, a module sends or accepts: ten times the longest plan
+/// of the demo, half what a message carries. A longer text is refused before it is parsed
+/// (the origin's [`SendPlanError::TooLarge`], the destination's `Rejected` step).
+pub const MAX_PLAN_TEXT_BYTES: usize = 32 * 1024;
+
+/// Plan messages (`Plan`, `PlanCancel`) waiting for the circuits' thread, at most: past it a
+/// `Plan` is rejected at once (the module is busy), without being parsed.
+pub const MAX_QUEUED_PLANS: usize = 64;
+
+/// What the destination side of a module's circuits did with the plans it received.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CircuitStats {
+    /// `Plan` messages that opened a circuit (a plan sent again on its circuit is not
+    /// counted again).
+    pub received: u64,
+    /// Plans loaded and acknowledged `Accepted`.
+    pub accepted: u64,
+    /// Plans refused with a reason on their circuit (`Rejected`): too large, not one plan,
+    /// nested too deep, wrong names or types, a name taken, or the module busy.
+    pub rejected: u64,
+    /// Of those, plans rejected because [`MAX_QUEUED_PLANS`] were already waiting.
+    pub busy: u64,
+}
+
+/// The counters behind [`CircuitStats`].
+#[derive(Default)]
+struct Counters {
+    received: AtomicU64,
+    accepted: AtomicU64,
+    rejected: AtomicU64,
+    busy: AtomicU64,
+}
+
+impl Counters {
+    fn snapshot(&self) -> CircuitStats {
+        CircuitStats {
+            received: self.received.load(Ordering::Relaxed),
+            accepted: self.accepted.load(Ordering::Relaxed),
+            rejected: self.rejected.load(Ordering::Relaxed),
+            busy: self.busy.load(Ordering::Relaxed),
+        }
+    }
+}
+
+/// How long a follower of a circuit (`slate plan send` without `--timeout`, a Python
+/// handle's iteration) waits, after [`PlanStep::DestinationLost`], for the destination
+/// to come back: longer than Zenoh's 10 s lease and a module's restart, so a destination
+/// that only dropped off the network is heard again.
+pub const LOST_WAIT: Duration = Duration::from_secs(30);
 
 /// The plan circuits of one module: plans it sends (with their acknowledgements) and
 /// plans it runs for others. Cloning gives another handle to the same circuits;
@@ -120,6 +170,15 @@ pub enum SendPlanError {
         /// The diagnostics, rendered under the source lines.
         rendered: String,
     },
+    /// The text is longer than [`MAX_PLAN_TEXT_BYTES`]: split the plan (a plan can send
+    /// sub-plans, each on its own circuit).
+    #[error(
+        "the plan text is {bytes} bytes; at most {MAX_PLAN_TEXT_BYTES} are sent: split it into sub-plans"
+    )]
+    TooLarge {
+        /// The text's length.
+        bytes: usize,
+    },
     /// The ICI refused the message.
     #[error("cannot send: {0}")]
     Send(#[from] SendRawError),
@@ -157,7 +216,7 @@ pub(crate) fn one_plan(file_name: &str, text: &str) -> Result<String, String> {
 /// Steps that close a circuit: the final ones ([`PlanStep::is_final`]) but a lost
 /// destination, which may come back (the origin then sends the plan again).
 pub(crate) fn closes(step: &PlanStep) -> bool {
-    step.is_final() && !matches!(step, PlanStep::DestinationLost)
+    step.closes_circuit()
 }
 
 pub(crate) struct Inner {
@@ -173,6 +232,11 @@ pub(crate) struct Inner {
     draining: Mutex<()>,
     /// The manual clock's listener (the clock holds it weakly).
     listener: Mutex<Option<Arc<dyn ClockListener>>>,
+    /// Plans received, accepted, rejected.
+    counters: Counters,
+    /// On the system clock, where `Plan` and `PlanCancel` messages go to be handled on the
+    /// circuits' thread, not on the transport's; `None` on a manual clock.
+    queue: Option<Sender<(Address, Message)>>,
 }
 
 impl PlanCircuits {
@@ -182,8 +246,12 @@ impl PlanCircuits {
     ///
     /// It replaces the ICI's plan handler. On a manual clock (the simulator) everything
     /// runs in the threads that move the clock, write the board or deliver messages; on
-    /// the system clock a small thread also takes the engine's timer-driven events.
+    /// the system clock a small thread also takes the engine's timer-driven events, and
+    /// parses, checks and loads the plans received (at most [`MAX_QUEUED_PLANS`] waiting),
+    /// so the transport's receive thread never does.
     pub fn attach(ici: &Ici, engine: &slate_plans::Engine) -> PlanCircuits {
+        let manual = ici.board().clock().is_manual();
+        let (queue, queued) = crossbeam_channel::bounded(MAX_QUEUED_PLANS);
         let inner = Arc::new(Inner {
             ici: ici.clone(),
             engine: engine.clone(),
@@ -195,17 +263,19 @@ impl PlanCircuits {
             events: engine.events(),
             draining: Mutex::new(()),
             listener: Mutex::new(None),
+            counters: Counters::default(),
+            queue: (!manual).then_some(queue),
         });
         let weak = Arc::downgrade(&inner);
         ici.set_plan_handler(Arc::new(Handler(weak.clone())));
         let board = ici.board();
         board.add_hook(Arc::new(Hook(weak.clone())));
-        if board.clock().is_manual() {
+        if manual {
             let listener: Arc<dyn ClockListener> = Arc::new(Hook(weak.clone()));
             board.clock().subscribe(Arc::downgrade(&listener));
             *inner.listener.lock() = Some(listener);
         } else {
-            spawn_pump(weak, inner.outgoing.clone(), inner.events.clone());
+            spawn_pump(weak, inner.outgoing.clone(), inner.events.clone(), queued);
         }
         PlanCircuits { inner }
     }
@@ -234,10 +304,18 @@ impl PlanCircuits {
     pub fn received(&self) -> Vec<CircuitStatus> {
         self.inner.destination.lock().status()
     }
+
+    /// How many plans this module received, accepted and rejected.
+    pub fn stats(&self) -> CircuitStats {
+        self.inner.counters.snapshot()
+    }
 }
 
 impl Inner {
     fn send(self: &Arc<Self>, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
+        if text.len() > MAX_PLAN_TEXT_BYTES {
+            return Err(SendPlanError::TooLarge { bytes: text.len() });
+        }
         let name = one_plan("plan.slate", text)
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
@@ -280,7 +358,38 @@ impl Inner {
         self.ici.board().clock().physical()
     }
 
+    /// A plan message from the transport (or from this module to itself): on the system
+    /// clock, `Plan` and `PlanCancel` are queued for the circuits' thread (in order, so a
+    /// cancel follows its plan); the rest is handled at once.
     fn on_message(self: &Arc<Self>, from: &Address, msg: Message) {
+        match (&self.queue, msg) {
+            (Some(queue), msg @ (Message::Plan(_) | Message::PlanCancel { .. })) => {
+                self.enqueue(queue, from, msg);
+            }
+            (_, msg) => self.handle(from, msg),
+        }
+    }
+
+    /// Queues a plan message; when the queue is full, a `Plan` is rejected as busy and a
+    /// `PlanCancel` (cheap) is handled here.
+    fn enqueue(self: &Arc<Self>, queue: &Sender<(Address, Message)>, from: &Address, msg: Message) {
+        match queue.try_send((from.clone(), msg)) {
+            Ok(()) => {}
+            Err(TrySendError::Full((from, Message::Plan(plan)))) => self.refuse_busy(&from, plan),
+            Err(TrySendError::Full((from, msg)) | TrySendError::Disconnected((from, msg))) => {
+                self.handle(&from, msg);
+            }
+        }
+    }
+
+    /// Handles the plan messages queued so far (on the circuits' thread).
+    fn handle_queued(self: &Arc<Self>, queued: &Receiver<(Address, Message)>) {
+        for (from, msg) in queued.try_iter().take(MAX_QUEUED_PLANS) {
+            self.handle(&from, msg);
+        }
+    }
+
+    fn handle(self: &Arc<Self>, from: &Address, msg: Message) {
         match msg {
             Message::Plan(plan) => self.on_plan(from, plan),
             Message::PlanAck(ack) => {
@@ -299,7 +408,8 @@ impl Inner {
             self.origin.lock().lost(peer);
             return;
         }
-        let resend = self.origin.lock().resume(peer, &self.me);
+        let now = self.now();
+        let resend = self.origin.lock().resume(peer, &self.me, now);
         for msg in resend {
             self.transmit_logged(peer, msg);
         }
@@ -407,16 +517,29 @@ impl ClockListener for Hook {
     }
 }
 
+/// The stack of the circuits' thread, set rather than left to `RUST_MIN_STACK`: it parses,
+/// checks and loads the plans received, whose nesting the language caps so that the
+/// deepest needs under 1 MiB even unoptimized (docs/language.md, "Limits").
+const PLAN_THREAD_STACK: usize = 2 * 1024 * 1024;
+
 /// On the system clock, the engine's timer thread produces events with nobody of ours
-/// in its call stack: this thread takes them (and runs the gap timers).
-fn spawn_pump(weak: Weak<Inner>, outgoing: Receiver<Outgoing>, events: Receiver<PlanEvent>) {
+/// in its call stack: this thread takes them (and runs the gap timers). It also handles
+/// the plan messages received (`queued`), off the transport's receive thread.
+fn spawn_pump(
+    weak: Weak<Inner>,
+    outgoing: Receiver<Outgoing>,
+    events: Receiver<PlanEvent>,
+    queued: Receiver<(Address, Message)>,
+) {
     let pump = move || {
         loop {
             let mut select = Select::new();
             select.recv(&outgoing);
             select.recv(&events);
+            select.recv(&queued);
             let ready = select.ready_timeout(Duration::from_millis(100)).is_ok();
             let Some(inner) = weak.upgrade() else { return };
+            inner.handle_queued(&queued);
             if ready && !inner.drain() {
                 std::thread::sleep(Duration::from_millis(1));
             }
@@ -425,6 +548,7 @@ fn spawn_pump(weak: Weak<Inner>, outgoing: Receiver<Outgoing>, events: Receiver<
     };
     if let Err(e) = std::thread::Builder::new()
         .name("slate-plan-circuits".into())
+        .stack_size(PLAN_THREAD_STACK)
         .spawn(pump)
     {
         tracing::error!(error = %e, "cannot start the plan circuits thread");
@@ -434,6 +558,43 @@ fn spawn_pump(weak: Weak<Inner>, outgoing: Receiver<Outgoing>, events: Receiver<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::{IciConfig, SimNet};
+    use slate_wire::Plan;
+
+    #[test]
+    fn a_plan_that_finds_the_queue_full_is_rejected_as_busy_unparsed() {
+        let net = SimNet::new(3);
+        let me = Address::new("t/r2/cell").unwrap_or_else(|e| panic!("{e}"));
+        let board = Arc::new(Board::builder().address(me.clone()).build());
+        let engine = Engine::new(&board);
+        let ici =
+            Ici::new(board, net.join(&me), IciConfig::default()).unwrap_or_else(|e| panic!("{e}"));
+        let circuits = PlanCircuits::attach(&ici, &engine);
+        let (full, _nobody_takes) = crossbeam_channel::bounded(0);
+        let plan = Plan {
+            circuit: 7,
+            name: "p".into(),
+            source_text: "not even parsed".into(),
+            to: me.clone(),
+            origin: me.clone(),
+        };
+        let from = Address::new("t/r9/nobody").unwrap_or_else(|e| panic!("{e}"));
+        circuits.inner.enqueue(&full, &from, Message::Plan(plan));
+        let received = circuits.received();
+        let [circuit] = received.as_slice() else {
+            panic!("{received:?}")
+        };
+        let [PlanStep::Received, PlanStep::Rejected { reason }] = circuit.steps.as_slice() else {
+            panic!("{circuit:?}")
+        };
+        assert!(reason.contains("busy"), "{reason}");
+        let stats = circuits.stats();
+        assert_eq!(
+            (stats.received, stats.rejected, stats.busy),
+            (1, 1, 1),
+            "{stats:?}"
+        );
+    }
 
     #[test]
     fn one_plan_names_the_plan_and_refuses_anything_else() {

@@ -55,7 +55,10 @@ mod circuits;
 mod error;
 mod ici;
 
-pub use circuits::{ACK_GAP_GRACE, CircuitStatus, PlanCircuits, PlanHandle, SendPlanError};
+pub use circuits::{
+    ACK_GAP_GRACE, CircuitStats, CircuitStatus, LOST_WAIT, MAX_PLAN_TEXT_BYTES, MAX_QUEUED_PLANS,
+    PlanCircuits, PlanHandle, SendPlanError,
+};
 pub use error::Error;
 pub use ici::{
     CatchUpStats, ClassSet, Ici, IciConfig, IciStartError, IciStats, LinkPolicy, LinkReport,

@@ -7,10 +7,11 @@ use std::str::FromStr;
 
 use slate_ici::{ClassSet, IciConfig, LinkKind};
 use slate_model::{Address, Context};
+use slate_plans::Substitution;
 use slate_zenoh::{Mode, ZenohConfig};
 
 use crate::error::ConfigError;
-use crate::fields::Fields;
+use crate::fields::{Fields, describe};
 use crate::record::RecordConfig;
 
 /// Everything a node needs to start.
@@ -44,14 +45,33 @@ pub struct NodeConfig {
     /// scouting by default).
     pub zenoh: ZenohConfig,
     /// `.slate` files loaded in order at start (relative paths are resolved against the
-    /// config file's folder).
-    pub files: Vec<PathBuf>,
+    /// config file's folder), each with its placeholders.
+    pub files: Vec<SourceFile>,
     /// The ICI's settings: interest, export policy, liveliness and timing.
     pub ici: IciConfig,
     /// Where to serve the dashboard, if anywhere.
     pub dashboard: Option<SocketAddr>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
+}
+
+/// A `.slate` file a node loads at start, and the placeholders replaced in its text
+/// first (`files = [{ path = "robot.slate", substitute = { ROBOT = "r1" } }]`).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SourceFile {
+    /// Where the file is.
+    pub path: PathBuf,
+    /// Placeholders replaced in its text before it is loaded (none by default).
+    pub substitute: Substitution,
+}
+
+impl<P: Into<PathBuf>> From<P> for SourceFile {
+    fn from(path: P) -> Self {
+        SourceFile {
+            path: path.into(),
+            substitute: Substitution::default(),
+        }
+    }
 }
 
 /// Keys of the top table.
@@ -62,6 +82,7 @@ const TOP: &[&str] = &[
     "export",
     "dashboard",
     "zenoh",
+    "zenoh_config",
     "ici",
     "record",
     "recording",
@@ -126,12 +147,7 @@ impl NodeConfig {
             )
         })?;
         let mut config = NodeConfig::new(address);
-        let files = top.strings("files", "a list of .slate file paths")?;
-        config.files = files
-            .unwrap_or_default()
-            .into_iter()
-            .map(|f| base.join(f))
-            .collect();
+        config.files = source_files(&mut top, base)?;
         if let Some(list) = top.strings("interest", CLASSES)? {
             config.ici.interest = read_class_set(&top, "interest", &list)?;
         }
@@ -142,6 +158,7 @@ impl NodeConfig {
         if let Some(zenoh) = top.table("zenoh", ZENOH)? {
             config.zenoh = zenoh_section(zenoh)?;
         }
+        config.zenoh.file = zenoh_file(&mut top, base)?;
         if let Some(ici) = top.table("ici", ICI)? {
             ici_section(ici, &mut config.ici)?;
         }
@@ -163,6 +180,54 @@ fn syntax(file: &str, text: &str, e: &toml::de::Error) -> ConfigError {
         column,
         message: e.message().trim().replace('\n', " "),
     }
+}
+
+const FILES: &str = "a list of .slate file paths, each a string or \
+    { path = \"robot.slate\", substitute = { ROBOT = \"r1\" } }";
+
+/// `files`: paths resolved against `base`, each plain or with its placeholders.
+fn source_files(top: &mut Fields, base: &Path) -> Result<Vec<SourceFile>, ConfigError> {
+    let items = top.list("files", FILES)?.unwrap_or_default();
+    items
+        .into_iter()
+        .map(|item| source_file(top, item, base))
+        .collect()
+}
+
+fn source_file(top: &Fields, item: toml::Value, base: &Path) -> Result<SourceFile, ConfigError> {
+    let bad = |found: &str| top.invalid("files", FILES, found);
+    let mut table = match item {
+        toml::Value::String(path) => return Ok(SourceFile::from(base.join(path))),
+        toml::Value::Table(t) => t,
+        other => return Err(bad(&describe(&other))),
+    };
+    let Some(toml::Value::String(path)) = table.remove("path") else {
+        return Err(bad("an entry without a string `path`"));
+    };
+    let substitute = match table.remove("substitute") {
+        None => Substitution::default(),
+        Some(toml::Value::Table(pairs)) => substitution(pairs).map_err(|e| bad(&e))?,
+        Some(other) => return Err(bad(&format!("`substitute` {}", describe(&other)))),
+    };
+    if let Some(key) = table.keys().next() {
+        return Err(bad(&format!("unknown key `{key}` in an entry")));
+    }
+    Ok(SourceFile {
+        path: base.join(path),
+        substitute,
+    })
+}
+
+/// `{ ROBOT = "r1" }` as a [`Substitution`], or what is wrong with it.
+fn substitution(pairs: toml::Table) -> Result<Substitution, String> {
+    let pairs = pairs
+        .into_iter()
+        .map(|(k, v)| match v {
+            toml::Value::String(v) => Ok((k, v)),
+            other => Err(format!("`substitute.{k}` {}", describe(&other))),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Substitution::new(pairs).map_err(|e| e.to_string())
 }
 
 fn dashboard(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
@@ -234,6 +299,16 @@ fn zenoh_section(mut t: Fields) -> Result<ZenohConfig, ConfigError> {
     z.multicast_scouting = t.bool("multicast_scouting")?.unwrap_or(false);
     t.finish()?;
     Ok(z)
+}
+
+/// `zenoh_config`: a Zenoh config file (JSON5), relative to the config's folder. Zenoh
+/// reads it when the node starts and names what it refuses then.
+fn zenoh_file(top: &mut Fields, base: &Path) -> Result<Option<PathBuf>, ConfigError> {
+    let file = top.str(
+        "zenoh_config",
+        "the path of a Zenoh config file, like \"zenoh.json5\"",
+    )?;
+    Ok(file.map(|f| base.join(f)))
 }
 
 /// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
@@ -351,6 +426,7 @@ mod tests {
             interest = ["Vehicle", "Obstacle:surroundings,system"]
             export = ["Vehicle:self"]
             dashboard = "127.0.0.1:8080"
+            zenoh_config = "zenoh.json5"
             [zenoh]
             mode = "router"
             listen = ["tcp/127.0.0.1:7447"]
@@ -372,8 +448,8 @@ mod tests {
         assert_eq!(
             c.files,
             [
-                PathBuf::from("/etc/slate/world.slate"),
-                PathBuf::from("/abs/plans.slate")
+                SourceFile::from("/etc/slate/world.slate"),
+                SourceFile::from("/abs/plans.slate")
             ]
         );
         assert_eq!(
@@ -388,6 +464,7 @@ mod tests {
         );
         assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
         assert_eq!(c.zenoh.mode, Mode::Router);
+        assert_eq!(c.zenoh.file, Some(PathBuf::from("/etc/slate/zenoh.json5")));
         assert!(c.zenoh.multicast_scouting);
         assert_eq!(c.zenoh.connect, ["tcp/127.0.0.1:7448"]);
         assert_eq!(c.ici.robot.timeout, Duration::from_millis(500));
@@ -468,7 +545,7 @@ mod tests {
             ),
             (
                 "address = \"t/r/m\"\nfiles = [1]",
-                "m.toml: key `files`: expected a list of .slate file paths, found integer 1",
+                "m.toml: key `files`: expected a list of .slate file paths, each a string or",
             ),
             ("address = \"t/r/m\"\n\nfiles = [", "m.toml:3:"),
         ];

@@ -90,6 +90,15 @@ impl Fields {
             .map(Some)
     }
 
+    /// An optional list of any values (the caller reads each item).
+    pub fn list(&mut self, key: &str, expected: &str) -> Result<Option<Vec<Value>>, ConfigError> {
+        match self.take(key) {
+            Some(Value::Array(items)) => Ok(Some(items)),
+            Some(v) => Err(self.invalid(key, expected, &describe(&v))),
+            None => Ok(None),
+        }
+    }
+
     /// An optional boolean.
     pub fn bool(&mut self, key: &str) -> Result<Option<bool>, ConfigError> {
         match self.take(key) {
@@ -157,7 +166,7 @@ impl Fields {
 }
 
 /// What a value is, for error messages: its type, and the value if short.
-fn describe(v: &Value) -> String {
+pub(crate) fn describe(v: &Value) -> String {
     match v {
         Value::String(s) if s.len() <= 40 => format!("string {s:?}"),
         Value::Integer(n) => format!("integer {n}"),
@@ -169,8 +178,9 @@ fn describe(v: &Value) -> String {
     }
 }
 
-/// `"250ms"`, `"1.5s"`, `"2min"`: a non-negative finite number and a unit.
-pub(crate) fn parse_duration(text: &str) -> Option<Duration> {
+/// `"250ms"`, `"1.5s"`, `"2min"`: a non-negative finite number and a unit (the form of
+/// every duration in a config).
+pub fn parse_duration(text: &str) -> Option<Duration> {
     let text = text.trim();
     let split = text.find(|c: char| c.is_ascii_alphabetic())?;
     let (number, unit) = text.split_at(split);

@@ -53,8 +53,9 @@ pub mod record;
 mod timers;
 mod view;
 
-pub use config::{NodeConfig, class_set};
+pub use config::{NodeConfig, SourceFile, class_set};
 pub use error::{ConfigError, Error, ObserveError, StartError};
+pub use fields::parse_duration;
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};

@@ -2,7 +2,6 @@
 //! threads that run them on the system clock, an event log and an optional dashboard.
 
 use std::net::SocketAddr;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
@@ -15,7 +14,7 @@ use slate_model::{Address, Board, Clock};
 use slate_plans::{Engine, LinkName, LoadError, Loaded};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 
-use crate::config::NodeConfig;
+use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
 use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
@@ -35,7 +34,7 @@ pub enum TransportChoice {
 /// A `.slate` source to load at start.
 #[derive(Clone, Debug)]
 enum Source {
-    File(PathBuf),
+    File(SourceFile),
     Text { name: String, text: String },
 }
 
@@ -123,9 +122,10 @@ impl NodeBuilder {
         self
     }
 
-    /// Loads a `.slate` file at start (files and sources in the order given).
-    pub fn file(mut self, path: impl Into<PathBuf>) -> Self {
-        self.sources.push(Source::File(path.into()));
+    /// Loads a `.slate` file at start (files and sources in the order given): a path, or
+    /// a [`SourceFile`] with the placeholders to replace in its text.
+    pub fn file(mut self, file: impl Into<SourceFile>) -> Self {
+        self.sources.push(Source::File(file.into()));
         self
     }
 
@@ -255,11 +255,12 @@ fn apply_link_policies(ici: &Ici, engine: &Engine, links: &[LinkName]) {
 
 fn load(engine: &Engine, source: &Source) -> Result<Loaded, StartError> {
     match source {
-        Source::File(path) => {
+        Source::File(SourceFile { path, substitute }) => {
             let text = std::fs::read_to_string(path).map_err(|error| StartError::ReadSource {
                 path: path.clone(),
                 error,
             })?;
+            let text = substitute.apply(&text);
             Ok(engine.load(&path.display().to_string(), &text)?)
         }
         Source::Text { name, text } => Ok(engine.load(name, text)?),
@@ -317,7 +318,7 @@ impl Node {
             .zenoh(config.zenoh.clone())
             .ici(config.ici.clone());
         for f in &config.files {
-            b = b.file(f);
+            b = b.file(f.clone());
         }
         if let Some(d) = config.dashboard {
             b = b.dashboard(d);

@@ -57,6 +57,7 @@ fn zenoh_config(connect: &[String]) -> ZenohConfig {
         listen: Vec::new(),
         connect: connect.to_vec(),
         multicast_scouting: false,
+        file: None,
     }
 }
 

@@ -89,6 +89,7 @@ impl View {
 
     fn summary(&self) -> BTreeMap<String, Json> {
         let stats = self.board.stats();
+        let plans = self.circuits.stats();
         [
             ("address", json!(self.board.address().as_str())),
             ("listening", json!(self.listen.join(", "))),
@@ -96,6 +97,8 @@ impl View {
             ("objects", json!(stats.objects)),
             ("classes", json!(stats.classes)),
             ("revision", json!(stats.revision)),
+            ("plans received", json!(plans.received)),
+            ("plans rejected", json!(plans.rejected)),
         ]
         .into_iter()
         .map(|(k, v)| (k.to_owned(), v))

@@ -3,6 +3,9 @@
 // Starting from a config file, and the errors of a bad one.
 #[path = "node/config.rs"]
 mod config;
+// A plan nested too deep, from a made-up address over real Zenoh: rejected, the node runs on.
+#[path = "node/deep_plan.rs"]
+mod deep_plan;
 // The dashboard a node serves: its snapshot follows docs/dashboard.md.
 #[path = "node/dashboard.rs"]
 mod dashboard;
@@ -12,6 +15,9 @@ mod links;
 // Recording a board in MCAP, read back with the mcap crate.
 #[path = "node/record.rs"]
 mod record;
+// Two robots' LANs joined only through a Zenoh router (`zenoh_config`).
+#[path = "node/router.rs"]
+mod router;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;

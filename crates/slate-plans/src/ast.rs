@@ -436,12 +436,64 @@ pub struct Path {
 }
 
 /// An expression with its place.
+///
+/// Only the parser makes them, and it makes none deeper than
+/// [`MAX_NESTING`](crate::MAX_NESTING): so every walk over the tree (checking, compiling,
+/// evaluating, printing, dropping) may recurse on it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Expr {
     /// What it is.
     pub kind: ExprKind,
     /// Where it is written (parentheses excluded).
     pub span: Span,
+    /// Operator levels below and including this node (see [`Expr::depth`]).
+    depth: usize,
+}
+
+impl Expr {
+    /// A literal or a name: no level.
+    pub(crate) fn leaf(kind: ExprKind, span: Span) -> Expr {
+        Expr {
+            kind,
+            span,
+            depth: 0,
+        }
+    }
+
+    /// A node over the expressions in `kind`, one level deeper than the deepest of them.
+    pub(crate) fn node(kind: ExprKind, span: Span) -> Expr {
+        let depth = 1 + kind
+            .operands()
+            .into_iter()
+            .map(Expr::depth)
+            .max()
+            .unwrap_or(0);
+        Expr { kind, span, depth }
+    }
+
+    /// How many levels of operators, `.`, calls, brackets and quantifiers the expression
+    /// nests: 0 for a literal or a name, 1 for `a + b` or `a.x`, 2 for `-(a + b)`. At most
+    /// [`MAX_NESTING`](crate::MAX_NESTING) for every parsed expression.
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+}
+
+impl ExprKind {
+    /// The expressions directly inside this one.
+    fn operands(&self) -> Vec<&Expr> {
+        match self {
+            ExprKind::Literal(_) | ExprKind::Name(_) => Vec::new(),
+            ExprKind::Vector(items) | ExprKind::Call(_, items) => items.iter().collect(),
+            ExprKind::Field(inner, _) | ExprKind::Unary(_, inner) => vec![inner],
+            ExprKind::Binary(_, lhs, rhs) => vec![lhs, rhs],
+            ExprKind::Quantifier(q) => q
+                .filter
+                .iter()
+                .chain(q.order.as_ref().map(|o| &o.key))
+                .collect(),
+        }
+    }
 }
 
 /// The forms of expressions.

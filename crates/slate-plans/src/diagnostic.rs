@@ -141,17 +141,20 @@ impl Diagnostic {
     ///     |              ^
     /// ```
     /// The line number is right-aligned in a gutter at least three columns wide. There is one
-    /// `^` per character of the span on its first line, and at least one. Spans outside
-    /// `source` never panic: the source lines are then left out.
+    /// `^` per character of the span on its first line, and at least one. A line longer than
+    /// [`MAX_QUOTED_CHARS`] is quoted as a window around the span, `...` marking what is
+    /// cut, so a diagnostic stays short whatever the source. Spans outside `source` never
+    /// panic: the source lines are then left out.
     pub fn render(&self, file_name: &str, source: &str) -> String {
         let header = format!("{file_name}:{self}");
         let Some(line_text) = nth_line(source, self.span.line) else {
             return header;
         };
+        let (line_text, col) = window(line_text, self.span.col);
         let number = self.span.line.to_string();
         let gutter = number.len().max(3);
-        let pad = caret_padding(line_text, self.span.col);
-        let carets = "^".repeat(self.caret_width(source));
+        let pad = caret_padding(&line_text, col);
+        let carets = "^".repeat(self.caret_width(source).min(MAX_QUOTED_CHARS));
         format!(
             "{header}\n{number:>gutter$} | {line_text}\n{:gutter$} | {pad}{carets}",
             ""
@@ -164,6 +167,38 @@ impl Diagnostic {
         let first_line = text.split('\n').next().unwrap_or("");
         first_line.trim_end_matches('\r').chars().count().max(1)
     }
+}
+
+/// The most characters of a source line a rendered diagnostic quotes.
+pub const MAX_QUOTED_CHARS: usize = 120;
+
+/// Characters a cut line keeps before the column it points at.
+const CONTEXT_BEFORE: usize = 40;
+
+/// The part of `line` to quote for column `col`, and the column in that part: the line
+/// itself if it is short enough, otherwise [`MAX_QUOTED_CHARS`] characters from a little
+/// before `col`, with `...` where the line was cut.
+fn window(line: &str, col: u32) -> (String, u32) {
+    let chars = line.chars().count();
+    if chars <= MAX_QUOTED_CHARS {
+        return (line.to_owned(), col);
+    }
+    let at = usize::try_from(col.saturating_sub(1)).unwrap_or(usize::MAX);
+    let first = at
+        .saturating_sub(CONTEXT_BEFORE)
+        .min(chars - MAX_QUOTED_CHARS);
+    let kept: String = line.chars().skip(first).take(MAX_QUOTED_CHARS).collect();
+    let (head, tail) = (
+        if first > 0 { "..." } else { "" },
+        if first + MAX_QUOTED_CHARS < chars {
+            "..."
+        } else {
+            ""
+        },
+    );
+    let shift = u32::try_from(first).unwrap_or(u32::MAX);
+    let col = col.saturating_sub(shift).saturating_add(head.len() as u32);
+    (format!("{head}{kept}{tail}"), col)
 }
 
 /// Line `line` (1-based) of `source` without its line terminator.
@@ -187,6 +222,10 @@ fn caret_padding(line_text: &str, col: u32) -> String {
     pad
 }
 
+/// The most errors reported for one source: past it the rest are noise, and it bounds the
+/// output (and the time to render it) whatever the input.
+pub(crate) const MAX_ERRORS: usize = 256;
+
 /// All the diagnostics of one source, in source order.
 ///
 /// This is the error type of [`parse`](crate::parse): a source with errors yields every error
@@ -195,6 +234,19 @@ fn caret_padding(line_text: &str, col: u32) -> String {
 pub struct Diagnostics(pub Vec<Diagnostic>);
 
 impl Diagnostics {
+    /// `all`, cut to the first [`MAX_ERRORS`], then one error (at the first left out)
+    /// saying how many were found.
+    pub(crate) fn at_most_max(mut all: Vec<Diagnostic>) -> Diagnostics {
+        let found = all.len();
+        if found > MAX_ERRORS {
+            let span = all[MAX_ERRORS].span;
+            all.truncate(MAX_ERRORS);
+            let message = format!("too many errors ({found}); the first {MAX_ERRORS} are shown");
+            all.push(Diagnostic::error(Stage::Check, span, message));
+        }
+        Diagnostics(all)
+    }
+
     /// Every diagnostic rendered with [`Diagnostic::render`], separated by newlines.
     pub fn render(&self, file_name: &str, source: &str) -> String {
         let rendered: Vec<String> = self.0.iter().map(|d| d.render(file_name, source)).collect();
@@ -313,6 +365,33 @@ mod tests {
         assert_eq!(
             error_at(0, 0, 9, 1).render("f", source),
             "f:9:1: error: bad"
+        );
+    }
+
+    #[test]
+    fn render_quotes_a_window_of_a_long_line() {
+        let line = format!("{}xyz{}", "a".repeat(10_000), "b".repeat(10_000));
+        let rendered = error_at(10_000, 10_003, 1, 10_001).render("f", &line);
+        let expected = format!(
+            "f:1:10001: error: bad\n  1 | ...{}xyz{}...\n    | {}^^^",
+            "a".repeat(CONTEXT_BEFORE),
+            "b".repeat(MAX_QUOTED_CHARS - CONTEXT_BEFORE - 3),
+            " ".repeat(CONTEXT_BEFORE + 3),
+        );
+        assert_eq!(rendered, expected);
+        let start = error_at(0, 20_003, 1, 1).render("f", &line);
+        assert!(
+            start.ends_with(&format!("| {}", "^".repeat(MAX_QUOTED_CHARS))),
+            "{start}"
+        );
+        let end = error_at(20_003, 20_003, 1, 20_004).render("f", &line);
+        assert!(
+            end.ends_with(&format!(
+                "{}\n    | {}^",
+                "b".repeat(8),
+                " ".repeat(MAX_QUOTED_CHARS + 3)
+            )),
+            "{end}"
         );
     }
 

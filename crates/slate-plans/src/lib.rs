@@ -95,11 +95,14 @@ pub use ast::{
     LinkFilterDecl, Literal, ObjectDecl, Order, PacketExpr, Path, PlanDecl, PlanRef, Quantifier,
     QuantifierKind, ReportPolicyDecl, RuleDecl, StrLit, Type, TypeRef, UnaryOp, Unit,
 };
-pub use diagnostic::{Diagnostic, Diagnostics, Severity, Span, Stage};
+pub use diagnostic::{Diagnostic, Diagnostics, MAX_QUOTED_CHARS, Severity, Span, Stage};
 pub use engine::{
     Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanState, PlanStatus, TIME_FALLBACK,
 };
 pub use eval::{EvalError, MAX_OPS};
-pub use load::{LinkExport, LinkName, LinkPolicy, LinkReport, LoadError, Loaded};
+pub use load::{
+    LinkExport, LinkName, LinkPolicy, LinkReport, LoadError, Loaded, ROBOT_PLACEHOLDER,
+    Substitution, SubstitutionError,
+};
 pub use outbox::{Outgoing, PlanEvent, PlanMessage, ReportItem, ReportRequest};
-pub use parser::{MAX_NESTING, parse};
+pub use parser::{MAX_NESTING, MAX_PLAN_NESTING, parse};

@@ -5,7 +5,8 @@
 //! `Err(Reported)`; the nearest enclosing loop (block member or top-level item) then skips to a
 //! synchronisation point — past the next `;`, up to a `}`, or up to a keyword that starts an item
 //! — and carries on. So every independent mistake is reported once, and one mistake is not
-//! reported twice. Exceeding [`MAX_NESTING`] and too many errors are fatal: parsing stops there.
+//! reported twice. Exceeding [`MAX_NESTING`] or [`MAX_PLAN_NESTING`], and too many errors, are
+//! fatal: parsing stops there.
 
 mod class;
 mod expr;
@@ -14,16 +15,41 @@ mod object;
 mod plan;
 
 use crate::ast::{AttributeValue, ContextSpec, File, Ident, Item, PacketExpr, Path, StrLit};
-use crate::diagnostic::{Diagnostic, Diagnostics, Span, Stage};
+use crate::diagnostic::{Diagnostic, Diagnostics, MAX_ERRORS, Span, Stage};
 use crate::lexer::{Keyword, Lexer, Token, TokenKind};
 use slate_model::Context;
 
-/// How deeply constructs may nest: in an expression, parentheses, brackets, call arguments,
-/// unary operators and quantifiers each add a level; separately, each plan sent inside a plan
-/// adds a level.
+/// How deeply an expression may nest: each operator, `.`, call, bracket and quantifier is a
+/// level of the tree ([`Expr::depth`](crate::Expr::depth)), and so is each parenthesis for
+/// the parser.
 ///
-/// Parsing is recursive, so this bounds the stack; deeper input is an error, never a crash.
+/// Parsing, checking, evaluating, printing and dropping recurse on these levels, so this
+/// bounds the stack they take (docs/language.md, "Limits"): deeper input is one error at the
+/// place it goes too deep, never a crash, and nothing deeper is built.
 pub const MAX_NESTING: usize = 64;
+
+/// How many plans may be sent inside one another (`send plan a { ... send plan b { ... } }`
+/// is 2 levels, the plan declaring them included). Lower than [`MAX_NESTING`]: checking a
+/// plan level takes several times the stack of an expression level, and the demo's plans
+/// nest 3 deep.
+pub const MAX_PLAN_NESTING: usize = 16;
+
+/// The error for an expression deeper than [`MAX_NESTING`]: what counts, and what to do.
+fn too_deep_expression() -> String {
+    format!(
+        "expression nested too deep: at most {MAX_NESTING} levels of operators, `.`, calls, \
+         brackets, parentheses and quantifiers are allowed; split it into smaller expressions \
+         (a derived attribute can name a part)"
+    )
+}
+
+/// The error for plans sent inside plans deeper than [`MAX_PLAN_NESTING`].
+fn too_deep_plans() -> String {
+    format!(
+        "plans nested too deep: at most {MAX_PLAN_NESTING} levels of plans sent inside plans are \
+         allowed"
+    )
+}
 
 /// Parses a whole `.slate` source.
 ///
@@ -33,10 +59,6 @@ pub fn parse(source: &str) -> Result<File, Diagnostics> {
     let file = parser.file();
     parser.finish(file)
 }
-
-/// After this many parse errors the parser stops: the rest is noise, and it bounds the output
-/// (and the work) whatever the input.
-const MAX_ERRORS: usize = 256;
 
 /// Marks a problem that has already been pushed as a diagnostic.
 #[derive(Debug)]
@@ -63,7 +85,7 @@ struct Parser<'s> {
     diagnostics: Vec<Diagnostic>,
     /// Current expression nesting level (see [`MAX_NESTING`]).
     depth: usize,
-    /// Current plan nesting level (see [`MAX_NESTING`]).
+    /// Current plan nesting level (see [`MAX_PLAN_NESTING`]).
     plan_depth: usize,
     /// Set when nesting went too deep: every loop stops.
     fatal: bool,
@@ -307,30 +329,40 @@ impl<'s> Parser<'s> {
 
     /// Runs `parse` one expression nesting level deeper; past [`MAX_NESTING`] is fatal.
     fn nested<T>(&mut self, parse: impl FnOnce(&mut Self) -> PResult<T>) -> PResult<T> {
-        self.enter(|p| &mut p.depth)?;
+        self.enter(|p| &mut p.depth, MAX_NESTING, too_deep_expression)?;
         let result = parse(self);
         self.depth -= 1;
         result
     }
 
-    /// Runs `parse` one plan nesting level deeper; past [`MAX_NESTING`] is fatal.
+    /// Runs `parse` one plan nesting level deeper; past [`MAX_PLAN_NESTING`] is fatal.
     fn nested_plan<T>(&mut self, parse: impl FnOnce(&mut Self) -> PResult<T>) -> PResult<T> {
-        self.enter(|p| &mut p.plan_depth)?;
+        self.enter(|p| &mut p.plan_depth, MAX_PLAN_NESTING, too_deep_plans)?;
         let result = parse(self);
         self.plan_depth -= 1;
         result
     }
 
-    /// Increments the counter that `level` selects, unless it is at [`MAX_NESTING`].
-    fn enter(&mut self, level: impl Fn(&mut Self) -> &mut usize) -> PResult<()> {
-        if *level(self) >= MAX_NESTING {
-            let message = format!("nesting too deep: at most {MAX_NESTING} levels are allowed");
-            self.error(self.tok.span, message);
-            self.fatal = true;
-            return Err(Reported);
+    /// Increments the counter that `level` selects, unless it is at `max`; then reports
+    /// `too_deep`.
+    fn enter(
+        &mut self,
+        level: impl Fn(&mut Self) -> &mut usize,
+        max: usize,
+        too_deep: fn() -> String,
+    ) -> PResult<()> {
+        if *level(self) >= max {
+            return Err(self.too_deep(self.tok.span, too_deep()));
         }
         *level(self) += 1;
         Ok(())
+    }
+
+    /// Reports that nesting went too deep at `span`, and stops the parse.
+    fn too_deep(&mut self, span: Span, message: String) -> Reported {
+        self.error(span, message);
+        self.fatal = true;
+        Reported
     }
 
     // ---- recovery ----

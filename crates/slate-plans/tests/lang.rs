@@ -22,6 +22,9 @@ mod gsr_run;
 // One test per construct: classes, attributes, objects, active functions, plans and actions.
 #[path = "lang/items.rs"]
 mod items;
+// Nesting limits: deep input refused, never a crash; the deepest accepted runs on a small stack.
+#[path = "lang/limits.rs"]
+mod limits;
 // Link policies: `link team { ... }` parsed, checked with positions, merged.
 #[path = "lang/links.rs"]
 mod links;

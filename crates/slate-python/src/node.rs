@@ -4,13 +4,13 @@
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use crossbeam_channel::Receiver;
 use parking_lot::Mutex;
 use pyo3::prelude::*;
 use pyo3::types::PyString;
-use slate_ici::IciConfig;
+use slate_ici::{IciConfig, LOST_WAIT};
 use slate_model::{Address, Board};
 use slate_node::Node;
 use slate_wire::PlanStep;
@@ -60,6 +60,7 @@ fn zenoh(
         listen,
         connect,
         multicast_scouting: false,
+        file: None,
     })
 }
 
@@ -220,6 +221,7 @@ impl PyNode {
             to: handle.to.to_string(),
             acks: handle.acks().clone(),
             done: Arc::new(AtomicBool::new(false)),
+            lost_at: Mutex::new(None),
         })
     }
 
@@ -280,8 +282,12 @@ pub(crate) struct PlanHandle {
     #[pyo3(get)]
     to: String,
     acks: Receiver<PlanStep>,
-    /// A final step (terminated, rejected, cancelled, destination lost) was taken.
+    /// The circuit closed (terminated, rejected, cancelled), or its destination was lost
+    /// and not back within [`LOST_WAIT`].
     done: Arc<AtomicBool>,
+    /// Since when the destination has been lost (a `destination_lost` ack and nothing
+    /// after it).
+    lost_at: Mutex<Option<Instant>>,
 }
 
 impl PlanHandle {
@@ -291,21 +297,46 @@ impl PlanHandle {
         }
         let node = self.node.clone();
         let alive = move || !node.is_closed();
-        let step = stream::next_from(py, &self.acks, timeout, &alive)?;
-        Ok(step.map(|s| {
-            if s.is_final() {
+        let lost_left = self.lost_left();
+        let wait = match (timeout, lost_left) {
+            (Some(t), Some(l)) => Some(t.min(l)),
+            (t, l) => t.or(l),
+        };
+        let step = stream::next_from(py, &self.acks, wait, &alive)?;
+        match &step {
+            Some(s) => self.took(s),
+            None if lost_left.is_some_and(|l| wait == Some(l)) => {
                 self.done.store(true, Ordering::Release);
             }
-            Ack::from(&s)
-        }))
+            None => {}
+        }
+        Ok(step.as_ref().map(Ack::from))
+    }
+
+    /// How much longer a lost destination is waited for, if it is lost.
+    fn lost_left(&self) -> Option<Duration> {
+        self.lost_at
+            .lock()
+            .map(|at| LOST_WAIT.saturating_sub(at.elapsed()))
+    }
+
+    /// A step arrived: a loss starts the wait for the destination, any other step ends
+    /// it, a closing one ends the handle.
+    fn took(&self, step: &PlanStep) {
+        *self.lost_at.lock() = (*step == PlanStep::DestinationLost).then(Instant::now);
+        if step.closes_circuit() {
+            self.done.store(true, Ordering::Release);
+        }
     }
 }
 
 #[pymethods]
 impl PlanHandle {
     /// The acknowledgements as they arrive: iterating waits for each (with the GIL
-    /// released) and ends after the last one (terminated, rejected, cancelled,
-    /// destination lost) or when the node closes.
+    /// released) and ends after the last one (terminated, rejected, cancelled) or when
+    /// the node closes. A `destination_lost` ack is not the last: the circuit sends the
+    /// plan again when the destination comes back and its acks resume; iteration ends
+    /// if it is not back within 30 s.
     #[getter]
     fn acks(slf: Py<Self>) -> Acks {
         Acks { handle: slf }
@@ -368,7 +399,8 @@ pub(crate) struct Ack {
     ok: bool,
     /// What the action did (`fired 2`), why it failed, or why the plan was rejected.
     detail: String,
-    /// Is it the last step of the circuit?
+    /// Is it the last step of the circuit? Not for `destination_lost`: the destination
+    /// may come back, and its acknowledgements resume.
     last: bool,
 }
 
@@ -378,7 +410,7 @@ impl From<&PlanStep> for Ack {
             step: s.kind().to_owned(),
             ok: s.is_ok(),
             detail: s.detail().to_owned(),
-            last: s.is_final(),
+            last: s.closes_circuit(),
         }
     }
 }

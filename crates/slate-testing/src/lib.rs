@@ -47,6 +47,14 @@ pub fn free_port() -> u16 {
         .expect("a free port")
 }
 
+/// A free UDP port on 127.0.0.1 (the OS picks it; the socket is dropped before use).
+pub fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .and_then(|s| s.local_addr())
+        .map(|a| a.port())
+        .expect("a free udp port")
+}
+
 /// Polls `done` until it holds or `limit` passes; whether it held. For what runs on
 /// real time (threads, processes, sockets); simulated runs step their own clock.
 pub fn eventually(limit: Duration, mut done: impl FnMut() -> bool) -> bool {

@@ -56,6 +56,13 @@ impl PlanStep {
         )
     }
 
+    /// Does this step close the circuit? The final steps but a lost destination, which
+    /// may come back (its circuit stays open, sends the plan again, and the steps
+    /// resume): whoever follows a circuit waits on after `DestinationLost`.
+    pub fn closes_circuit(&self) -> bool {
+        self.is_final() && *self != PlanStep::DestinationLost
+    }
+
     /// The state a plan is in, as its origin sees it, once this is its latest step:
     /// `pending`, `rejected`, `active`, `triggered`, `failed`, `terminated`, `cancelled`,
     /// `lost` (the dashboard colours plans by these).
@@ -166,5 +173,15 @@ pub(crate) mod tests {
             finals,
             ["rejected", "terminated", "cancelled", "destination_lost"]
         );
+    }
+
+    #[test]
+    fn a_lost_destination_ends_a_step_sequence_but_not_its_circuit() {
+        let closing: Vec<&str> = every_step()
+            .iter()
+            .filter(|s| s.closes_circuit())
+            .map(PlanStep::kind)
+            .collect();
+        assert_eq!(closing, ["rejected", "terminated", "cancelled"]);
     }
 }

@@ -5,12 +5,19 @@
 //! mistake at once, and [`error_text`] drops the source locations (`at /home/.../tcp.rs:61.`)
 //! Zenoh appends to its messages, which say nothing to a user.
 
-/// The link protocols this build of Zenoh has (its `transport_tcp` feature).
-pub const PROTOCOLS: &[&str] = &["tcp"];
+/// The link protocols this build of Zenoh has (its `transport_tcp`, `transport_udp`,
+/// `transport_tls`, `transport_quic` and `transport_unixsock-stream` features). TLS and
+/// QUIC need certificates in a Zenoh config file (`zenoh_config`, docs/config.md).
+pub const PROTOCOLS: &[&str] = &["tcp", "udp", "tls", "quic", "unixsock-stream"];
+
+/// The protocol whose address is a socket's path, not `HOST:PORT`.
+const UNIX_SOCKET: &str = "unixsock-stream";
 
 /// An endpoint that cannot be used, with what is wrong in it. Displays as one line.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-#[error("endpoint {endpoint:?} {problem}: expected PROTOCOL/HOST:PORT, like tcp/127.0.0.1:7447")]
+#[error(
+    "endpoint {endpoint:?} {problem}: expected PROTOCOL/HOST:PORT, like tcp/127.0.0.1:7447 (or unixsock-stream/PATH)"
+)]
 pub struct EndpointError {
     /// The endpoint as given.
     pub endpoint: String,
@@ -20,7 +27,8 @@ pub struct EndpointError {
 
 /// Checks that `endpoint` is one Zenoh can use: `PROTOCOL/HOST:PORT` (Zenoh's syntax,
 /// with optional `?metadata` and `#config`), a protocol of [`PROTOCOLS`], a host and a
-/// port (0 asks the system for a free one, when listening).
+/// port (0 asks the system for a free one, when listening); `unixsock-stream/PATH` for a
+/// Unix socket.
 pub fn check_endpoint(endpoint: &str) -> Result<(), EndpointError> {
     let bad = |problem: String| EndpointError {
         endpoint: endpoint.to_owned(),
@@ -36,6 +44,9 @@ pub fn check_endpoint(endpoint: &str) -> Result<(), EndpointError> {
         return Err(bad(format!(
             "uses protocol {protocol:?}, which this build does not have (it has: {have})"
         )));
+    }
+    if protocol == UNIX_SOCKET {
+        return Ok(());
     }
     check_host_port(parsed.address().as_str()).map_err(bad)
 }
@@ -92,6 +103,10 @@ mod tests {
             "tcp/localhost:0",
             "tcp/[::1]:7447",
             "tcp/127.0.0.1:7447#iface=lo",
+            "udp/127.0.0.1:7447",
+            "tls/localhost:7447",
+            "quic/127.0.0.1:7447",
+            "unixsock-stream//tmp/slate.sock",
         ] {
             assert_eq!(check_endpoint(e), Ok(()), "{e}");
         }
@@ -102,7 +117,7 @@ mod tests {
         for (e, says) in [
             ("not-an-endpoint", "is not PROTOCOL/ADDRESS"),
             ("tcp/", "is not PROTOCOL/ADDRESS"),
-            ("udp/127.0.0.1:7447", "uses protocol \"udp\""),
+            ("serial/ttyUSB0", "uses protocol \"serial\""),
             ("tcp/127.0.0.1", "has no port"),
             ("tcp/:7447", "has no host"),
             ("tcp/127.0.0.1:99999", "has port \"99999\""),

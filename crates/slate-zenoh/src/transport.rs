@@ -1,6 +1,7 @@
 //! [`ZenohTransport`]: a Zenoh session per module.
 
 use std::collections::{BTreeSet, HashMap};
+use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Weak, mpsc};
 use std::thread::JoinHandle;
@@ -54,6 +55,11 @@ pub struct ZenohConfig {
     pub connect: Vec<String>,
     /// Find peers by UDP multicast scouting (off by default: endpoints are explicit).
     pub multicast_scouting: bool,
+    /// A Zenoh config file (JSON5) to start from, read by Zenoh's own loader, so that
+    /// routers, client mode, TLS and QUIC certificates, access control and every other
+    /// Zenoh setting are written as Zenoh documents them; slate's keys are applied on top
+    /// ([`ZenohConfig::to_zenoh`] says which).
+    pub file: Option<PathBuf>,
 }
 
 /// The session could not be opened.
@@ -74,49 +80,91 @@ pub enum OpenError {
     /// An endpoint to listen on or connect to is malformed (checked before Zenoh starts).
     #[error(transparent)]
     Endpoint(#[from] crate::EndpointError),
+    /// The Zenoh config file could not be read, or Zenoh refused it.
+    #[error("zenoh config file {}: {reason}", path.display())]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// Zenoh's reason, without its source locations.
+        reason: String,
+    },
 }
 
 impl ZenohConfig {
-    fn to_zenoh(&self) -> Result<zenoh::Config, OpenError> {
+    /// The Zenoh config a session opens with: the [`file`](ZenohConfig::file)'s (Zenoh's
+    /// defaults without one), then slate's keys on top, which win over the file's:
+    ///
+    /// - always: `timestamping/enabled` off (slate stamps its own packets) and
+    ///   `transport/link/tx/queue/size/data` 8 (a deeper queue absorbs report bursts);
+    /// - `mode`, `listen/endpoints`, `connect/endpoints` and `scouting/multicast/enabled`
+    ///   always without a file; with one, only those slate's config gives a value other
+    ///   than its default (peer, no endpoints, no multicast scouting), so that a file
+    ///   can say client mode, its routers or multicast scouting.
+    ///
+    /// ```
+    /// let config = slate_zenoh::ZenohConfig {
+    ///     listen: vec!["udp/127.0.0.1:7447".into()],
+    ///     ..Default::default()
+    /// };
+    /// let zenoh = config.to_zenoh()?;
+    /// assert_eq!(zenoh.get_json("listen/endpoints").unwrap(), r#"["udp/127.0.0.1:7447"]"#);
+    /// # Ok::<(), slate_zenoh::OpenError>(())
+    /// ```
+    pub fn to_zenoh(&self) -> Result<zenoh::Config, OpenError> {
         for endpoint in self.listen.iter().chain(&self.connect) {
             crate::check_endpoint(endpoint)?;
         }
-        let mut c = zenoh::Config::default();
-        let json = |v: &[String]| {
-            format!(
-                "[{}]",
-                v.iter()
-                    .map(|e| format!("{e:?}"))
-                    .collect::<Vec<_>>()
-                    .join(",")
-            )
-        };
-        let settings = [
-            ("mode", format!("{:?}", self.mode.name())),
-            ("listen/endpoints", json(&self.listen)),
-            ("connect/endpoints", json(&self.connect)),
-            (
-                "scouting/multicast/enabled",
-                self.multicast_scouting.to_string(),
-            ),
-            // Reports are published with congestion control `Drop`: a burst larger than
-            // the link's queue of batches (2 by default) loses reports, which receivers
-            // then recover by catching up, a slow path. A deeper queue (allocated only
-            // when used) absorbs the bursts of a busy writer and a descheduled sender.
-            ("transport/link/tx/queue/size/data", "8".to_owned()),
-            // slate stamps its own packets (hybrid logical clock); Zenoh need not add bytes.
-            (
-                "timestamping/enabled",
-                "{ router: false, peer: false, client: false }".to_owned(),
-            ),
-        ];
-        for (key, value) in settings {
+        let mut c = self.base()?;
+        for (key, value) in self.settings() {
             c.insert_json5(key, &value).map_err(|e| OpenError::Config {
                 key,
-                reason: e.to_string(),
+                reason: crate::endpoint::error_text(&e.to_string()),
             })?;
         }
         Ok(c)
+    }
+
+    /// The file's config, or Zenoh's defaults.
+    fn base(&self) -> Result<zenoh::Config, OpenError> {
+        let Some(path) = &self.file else {
+            return Ok(zenoh::Config::default());
+        };
+        zenoh::Config::from_file(path).map_err(|e| OpenError::File {
+            path: path.clone(),
+            reason: crate::endpoint::error_text(&e.to_string()),
+        })
+    }
+
+    /// slate's keys and their values (JSON5), as [`ZenohConfig::to_zenoh`] applies them.
+    fn settings(&self) -> Vec<(&'static str, String)> {
+        let json = |v: &[String]| {
+            let items: Vec<String> = v.iter().map(|e| format!("{e:?}")).collect();
+            format!("[{}]", items.join(","))
+        };
+        let all = self.file.is_none();
+        let mut settings = Vec::new();
+        if all || self.mode != Mode::Peer {
+            settings.push(("mode", format!("{:?}", self.mode.name())));
+        }
+        if all || !self.listen.is_empty() {
+            settings.push(("listen/endpoints", json(&self.listen)));
+        }
+        if all || !self.connect.is_empty() {
+            settings.push(("connect/endpoints", json(&self.connect)));
+        }
+        if all || self.multicast_scouting {
+            let on = self.multicast_scouting.to_string();
+            settings.push(("scouting/multicast/enabled", on));
+        }
+        // Reports are published with congestion control `Drop`: a burst larger than
+        // the link's queue of batches (2 by default) loses reports, which receivers
+        // then recover by catching up, a slow path. A deeper queue (allocated only
+        // when used) absorbs the bursts of a busy writer and a descheduled sender.
+        settings.push(("transport/link/tx/queue/size/data", "8".to_owned()));
+        // slate stamps its own packets (hybrid logical clock); Zenoh need not add bytes.
+        let off = "{ router: false, peer: false, client: false }".to_owned();
+        settings.push(("timestamping/enabled", off));
+        settings
     }
 }
 
@@ -741,6 +789,48 @@ mod tests {
             !text.contains("Json5Err") && !text.contains(".cargo"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn a_zenoh_file_keeps_what_slate_leaves_at_its_defaults() {
+        let dir = std::env::temp_dir().join(format!("slate-zenoh-file-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("client.json5");
+        let text = r#"{ mode: "client", connect: { endpoints: ["tcp/10.0.0.1:7447"] },
+            scouting: { multicast: { enabled: true } } }"#;
+        std::fs::write(&file, text).unwrap();
+        let config = ZenohConfig {
+            file: Some(file.clone()),
+            ..ZenohConfig::default()
+        };
+        let zenoh = config.to_zenoh().unwrap();
+        assert_eq!(zenoh.get_json("mode").unwrap(), "\"client\"");
+        let connect = zenoh.get_json("connect/endpoints").unwrap();
+        assert_eq!(connect, "[\"tcp/10.0.0.1:7447\"]");
+        assert_eq!(
+            zenoh.get_json("scouting/multicast/enabled").unwrap(),
+            "true"
+        );
+        // Given by slate's config, they win.
+        let config = ZenohConfig {
+            mode: Mode::Router,
+            connect: vec!["tcp/127.0.0.1:7000".into()],
+            ..config
+        };
+        let zenoh = config.to_zenoh().unwrap();
+        assert_eq!(zenoh.get_json("mode").unwrap(), "\"router\"");
+        let connect = zenoh.get_json("connect/endpoints").unwrap();
+        assert_eq!(connect, "[\"tcp/127.0.0.1:7000\"]");
+        let missing = ZenohConfig {
+            file: Some(dir.join("missing.json5")),
+            ..ZenohConfig::default()
+        };
+        let err = missing.to_zenoh().unwrap_err().to_string();
+        assert!(
+            err.starts_with("zenoh config file ") && err.contains("missing.json5"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     fn wait(mut done: impl FnMut() -> bool) -> bool {

@@ -132,3 +132,42 @@ fn a_zenoh_module_not_listening_to_the_team_is_routed_no_team_publications() {
     net.settle();
     assert!(b.inbox.is_empty(), "{:?}", payloads(&b));
 }
+
+/// Two modules whose only link is UDP (`udp/` endpoints, Zenoh's `transport_udp`):
+/// publications and direct sends both arrive.
+#[test]
+fn modules_joined_only_by_udp_endpoints_exchange_publications_and_sends() {
+    let endpoint = format!("udp/127.0.0.1:{}", slate_testing::free_udp_port());
+    let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
+        let config = ZenohConfig {
+            listen,
+            connect,
+            ..ZenohConfig::default()
+        };
+        let t = ZenohTransport::open(Address::new(name).unwrap(), &config)
+            .unwrap_or_else(|e| panic!("{name} opens on {endpoint}: {e}"));
+        let inbox = Arc::new(Inbox::default());
+        t.set_handler(inbox.clone());
+        Endpoint {
+            transport: t,
+            inbox,
+        }
+    };
+    let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
+    let b = open("t/r2/b", vec![], vec![endpoint.clone()]);
+    let mut net = Loopback::default();
+    let up = |e: &Endpoint| e.transport.peers().len() == 1;
+    assert!(net.run_until(&mut || up(&a) && up(&b)), "peers over udp");
+    assert!(net.run_until(&mut || routed_anywhere(&b.transport, LinkKind::Team)));
+    b.transport
+        .publish(LinkKind::Team, MsgKind::Report, b"over udp")
+        .unwrap();
+    a.transport
+        .send(b.transport.address(), MsgKind::Plan, b"sent over udp")
+        .unwrap();
+    assert!(net.run_until(&mut || a.inbox.len() == 1 && b.inbox.len() == 1));
+    assert_eq!(payloads(&a), vec![b"over udp".to_vec()]);
+    assert_eq!(payloads(&b), vec![b"sent over udp".to_vec()]);
+    a.transport.close();
+    b.transport.close();
+}

@@ -89,7 +89,7 @@ fn a_negative_number_is_a_value_checked_like_any_other_not_a_usage_error() {
 fn a_malformed_endpoint_is_named_at_once_not_reported_unreachable() {
     for (endpoint, says) in [
         ("not-an-endpoint", "is not PROTOCOL/ADDRESS"),
-        ("udp/127.0.0.1:7447", "protocol \"udp\""),
+        ("ws/127.0.0.1:7447", "protocol \"ws\""),
         ("tcp/127.0.0.1", "no port"),
         ("tcp/127.0.0.1:99999", "port \"99999\""),
     ] {
@@ -201,6 +201,26 @@ fn check_says_a_builtin_class_cannot_be_redefined() {
     assert!(
         err.contains("thing.slate:1:7: error: Thing is a built-in class"),
         "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn check_refuses_a_deep_operator_chain_with_the_limit_not_a_crash() {
+    // Issue 17: a trigger of 100 000 additions on one line aborted `slate check`.
+    let chain = format!("x{}", " + 1.0".repeat(99_999));
+    let source = format!(
+        "class C {{ v: real; }}\nobject x : C;\nplan p {{\n  trigger: {chain} > 0.0;\n  action {{ }}\n}}\n"
+    );
+    let (dir, _, out) = check("check-deep", "deep.slate", &source);
+    assert_eq!(out.status.code(), Some(1), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("deep.slate:4:"), "{err}");
+    assert!(err.contains("at most 64 levels"), "{err}");
+    assert!(
+        err.len() < 2_000,
+        "the error quotes a window of the line: {} bytes",
+        err.len()
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }

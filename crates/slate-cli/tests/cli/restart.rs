@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use crate::support::{NodeProc, Team, eventually};
+use crate::support::{NodeProc, Team, eventually, show, wait_output};
 
 const NAV: &str = "object gsr : Vehicle context self { mode = \"patrol\"; }";
 
@@ -75,5 +75,69 @@ fn a_node_hears_every_cli_call_after_more_of_them_than_its_source_table_holds() 
     }
     let nav = team.node("t/r1/nav");
     assert!(nav.wait_value("gsr", "speed", "5.0"), "{}", team.logs());
+    team.stop();
+}
+
+/// A plan whose destination is killed and started again while `plan send` follows it:
+/// the command waits for the circuit's acknowledgements to resume, prints them, and
+/// exits 0 when the plan terminates (not 1 at the first `destination lost`).
+///
+/// Ignored because it is flaky: in about 1 run of 3 the command's observer (a Zenoh
+/// client of `t/r1/nav`) never hears the restarted `t/r2/loco` although nav does, so
+/// the circuit cannot resume and the command ends `destination lost` at its timeout.
+/// That is the session healing of issue 16 (findings 1 and 7), not the waiting logic
+/// (unit tests in `command/plan.rs`) nor the circuit's resend (`circuits/origin.rs`;
+/// the Python test `test_acknowledgements_go_on_after_the_destination_restarts`, whose
+/// nodes are Zenoh peers, passes). Run it with `--ignored`.
+#[test]
+#[ignore = "flaky: an observer sometimes never hears a restarted module (issue 16, findings 1 and 7)"]
+fn plan_send_waits_through_a_destination_restart_and_exits_with_the_plan() {
+    let mut team = Team::connected("plan-restart", &[("t/r1/nav", NAV), ("t/r2/loco", "")]);
+    let plan = team.dir.join("hold.slate");
+    std::fs::write(
+        &plan,
+        "plan hold {\n    trigger: gsr.mode == \"go\";\n    termination: gsr.mode == \"done\";\n    action { set gsr.mode = \"going\"; }\n}\n",
+    )
+    .unwrap();
+    let file = plan.to_str().unwrap();
+    let send = ["plan", "send", file, "--to", "t/r2/loco", "--timeout", "60"];
+    let sender = team.spawn_via("t/r1/nav", &send);
+    let running = || team.ok(&["plan", "ls"]).contains("on t/r2/loco");
+    assert!(
+        eventually(Duration::from_secs(15), running),
+        "{}",
+        team.logs()
+    );
+    let at = team
+        .nodes
+        .iter()
+        .position(|n| n.address == "t/r2/loco")
+        .unwrap();
+    team.nodes.remove(at).kill();
+    // Down long enough for every module to see it gone, as a crash does.
+    std::thread::sleep(Duration::from_secs(3));
+    team.add("t/r2/loco", "");
+    team.wait_connected();
+    // Only the restarted destination can fire it: the circuit sent the plan again.
+    team.ok(&["put", "gsr.mode", "go"]);
+    let nav = team.node("t/r1/nav");
+    let fired = || nav.value("gsr", "mode").as_deref() == Some("going");
+    let went = eventually(Duration::from_secs(40), fired);
+    team.ok(&["put", "gsr.mode", "done"]);
+    let out = wait_output(sender.take(), Duration::from_secs(65));
+    assert!(went, "{}\n{}", show(&out), team.logs());
+    let (text, err) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    assert!(err.contains("t/r2/loco lost"), "the loss is noted: {err}");
+    for step in ["received", "triggered ok", "terminated"] {
+        assert!(
+            text.contains(&format!("hold -> t/r2/loco: {step}")),
+            "{step}: {text}"
+        );
+    }
+    assert!(!text.contains("destination lost"), "{text}");
     team.stop();
 }

@@ -415,9 +415,20 @@ impl Team {
     /// Starts `slate ARGS` against the team without waiting for it, its output piped;
     /// killed if the test ends first.
     pub fn spawn(&self, args: &[&str]) -> Guard {
+        self.spawn_with(args, &self.connect_args())
+    }
+
+    /// [`spawn`](Self::spawn), reaching the team through the node at `via` only (one
+    /// that stays up while others restart).
+    pub fn spawn_via(&self, via: &str, args: &[&str]) -> Guard {
+        let connect = ["--connect".to_owned(), self.node(via).endpoint.clone()];
+        self.spawn_with(args, &connect)
+    }
+
+    fn spawn_with(&self, args: &[&str], connect: &[String]) -> Guard {
         let child = command()
             .args(args)
-            .args(self.connect_args())
+            .args(connect)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())

@@ -22,7 +22,7 @@ fn board(address: &str) -> (Arc<Board>, Engine) {
 }
 
 fn load(engine: &Engine, file: files::SlateFile, robot: &str) {
-    if let Err(e) = engine.load(&file.label(robot), &file.for_robot(robot)) {
+    if let Err(e) = engine.load(&file.label(robot), &file.for_robot(robot).unwrap()) {
         panic!("{}", e.rendered);
     }
 }
@@ -43,7 +43,7 @@ fn every_plan_the_console_sends_loads_on_its_destination() {
     load(&console, CLASSES, "r2");
     load(&console, MISSION, "r2");
     load(&console, CONSOLE, "r2");
-    let sent = sent_plans(&MISSION.for_robot("r2"));
+    let sent = sent_plans(&MISSION.for_robot("r2").unwrap());
     assert_eq!(sent.len(), 11, "{sent:#?}");
     for plan in sent {
         let (_board, destination) = board(&plan.to);
@@ -63,7 +63,7 @@ fn every_plan_the_console_sends_loads_on_its_destination() {
 
 #[test]
 fn the_sent_plans_carry_no_comments_once_terse() {
-    let terse = files::terse(&MISSION.for_robot("r1"));
+    let terse = files::terse(&MISSION.for_robot("r1").unwrap());
     for plan in sent_plans(&terse) {
         assert!(
             !plan.text.contains("//") && !plan.text.contains('\n'),

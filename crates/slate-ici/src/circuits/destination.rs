@@ -4,12 +4,13 @@
 
 use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use slate_model::Address;
 use slate_plans::PlanEvent;
 use slate_wire::{Message, Plan, PlanAck, PlanStep};
 
-use super::{CircuitStatus, Inner, closes, one_plan};
+use super::{CircuitStatus, Inner, MAX_PLAN_TEXT_BYTES, closes, one_plan};
 
 /// Closed circuits remembered (to answer an origin that missed their last steps).
 const MAX_CLOSED: usize = 1024;
@@ -17,6 +18,11 @@ const MAX_CLOSED: usize = 1024;
 /// Steps kept per circuit (the oldest are forgotten past it; an origin that missed
 /// them skips them).
 const MAX_KEPT_STEPS: usize = 4096;
+
+/// The longest reason a `Rejected` step carries, in bytes: the diagnostics past it are cut
+/// (each quotes at most a window of its line, but a text may have many), so the step always
+/// fits in an acknowledgement.
+const MAX_REASON_BYTES: usize = 8 * 1024;
 
 /// A circuit is named by its origin and the number the origin gave it.
 type Key = (Address, u64);
@@ -96,11 +102,18 @@ impl Destination {
         None
     }
 
-    /// Opens a circuit: its first step is `Received`.
+    /// Opens a circuit: its first step is `Received`. The text is kept (to know the plan
+    /// when it is sent again) unless it is over [`MAX_PLAN_TEXT_BYTES`]: such a plan is
+    /// rejected, and each time it is sent again, so closed circuits keep at most that much.
     fn begin(&mut self, key: &Key, plan: &Plan) -> PlanAck {
+        let fits = plan.source_text.len() <= MAX_PLAN_TEXT_BYTES;
         let mut c = Circuit {
             name: plan.name.clone(),
-            text: plan.source_text.clone(),
+            text: if fits {
+                plan.source_text.clone()
+            } else {
+                String::new()
+            },
             steps: VecDeque::new(),
             first: 1,
             phase: Phase::Loading,
@@ -128,6 +141,7 @@ impl Destination {
 
     fn reject(&mut self, key: &Key, reason: String) -> Option<PlanAck> {
         let c = self.circuits.get_mut(key)?;
+        let reason = bounded(reason);
         let ack = c.push(key.1, PlanStep::Rejected { reason });
         if self.by_name.get(&c.name) == Some(key) {
             self.by_name.remove(&c.name);
@@ -220,6 +234,22 @@ impl Destination {
     }
 }
 
+/// `reason`, cut to at most [`MAX_REASON_BYTES`] (at a character boundary) with a note
+/// saying how much was left out.
+fn bounded(mut reason: String) -> String {
+    if reason.len() <= MAX_REASON_BYTES {
+        return reason;
+    }
+    let mut cut = MAX_REASON_BYTES - 64;
+    while !reason.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    let left_out = reason.len() - cut;
+    reason.truncate(cut);
+    reason.push_str(&format!("\n... ({left_out} more bytes of diagnostics)"));
+    reason
+}
+
 /// The ack step of an engine event, with the plan's name. `Installed` is acked as
 /// `Accepted` once the load returns; `Failed` (a condition that did not evaluate) is
 /// not a step of the circuit: it shows on the plan object's `last_error`.
@@ -253,16 +283,9 @@ impl Inner {
     /// A plan arrived: a known circuit gets its steps again; a new one is received,
     /// checked, loaded, and accepted or rejected.
     pub(super) fn on_plan(self: &Arc<Self>, from: &Address, plan: Plan) {
-        let key = (from.clone(), plan.circuit);
-        let again = self.destination.lock().resend(&key, &plan);
-        if let Some(acks) = again {
-            for ack in acks {
-                self.transmit_logged(from, Message::PlanAck(ack));
-            }
+        let Some(key) = self.open(from, &plan) else {
             return;
-        }
-        let received = self.destination.lock().begin(&key, &plan);
-        self.transmit_logged(from, Message::PlanAck(received));
+        };
         let checked = self
             .check(&plan)
             .and_then(|()| self.destination.lock().claim(&key, &plan.name));
@@ -273,18 +296,54 @@ impl Inner {
         });
         match outcome {
             Ok(()) => self.accepted(&key, &plan.name),
-            Err(reason) => {
-                tracing::debug!(from = %from, plan = %plan.name, %reason, "plan rejected");
-                let ack = self.destination.lock().reject(&key, reason);
-                if let Some(ack) = ack {
-                    self.transmit_logged(from, Message::PlanAck(ack));
-                }
-            }
+            Err(reason) => self.rejected(&key, &plan.name, reason),
         }
         self.drain();
     }
 
+    /// A plan arrived while [`MAX_QUEUED_PLANS`](super::MAX_QUEUED_PLANS) were waiting:
+    /// it is received and rejected at once, unparsed; the origin may send it again later.
+    pub(super) fn refuse_busy(self: &Arc<Self>, from: &Address, plan: Plan) {
+        let Some(key) = self.open(from, &plan) else {
+            return;
+        };
+        self.counters.busy.fetch_add(1, Ordering::Relaxed);
+        let reason = format!(
+            "{} is busy: {} plans are waiting to be loaded; send it again later",
+            self.me,
+            super::MAX_QUEUED_PLANS
+        );
+        self.rejected(&key, &plan.name, reason);
+    }
+
+    /// A known circuit gets its steps again (`None`); a new one is opened and
+    /// acknowledged `Received`.
+    fn open(self: &Arc<Self>, from: &Address, plan: &Plan) -> Option<Key> {
+        let key = (from.clone(), plan.circuit);
+        let again = self.destination.lock().resend(&key, plan);
+        if let Some(acks) = again {
+            for ack in acks {
+                self.transmit_logged(from, Message::PlanAck(ack));
+            }
+            return None;
+        }
+        let received = self.destination.lock().begin(&key, plan);
+        self.counters.received.fetch_add(1, Ordering::Relaxed);
+        self.transmit_logged(from, Message::PlanAck(received));
+        Some(key)
+    }
+
+    fn rejected(self: &Arc<Self>, key: &Key, name: &str, reason: String) {
+        self.counters.rejected.fetch_add(1, Ordering::Relaxed);
+        tracing::debug!(from = %key.0, plan = %name, %reason, "plan rejected");
+        let ack = self.destination.lock().reject(key, reason);
+        if let Some(ack) = ack {
+            self.transmit_logged(&key.0, Message::PlanAck(ack));
+        }
+    }
+
     fn accepted(self: &Arc<Self>, key: &Key, name: &str) {
+        self.counters.accepted.fetch_add(1, Ordering::Relaxed);
         if let Err(e) = self.engine.set_origin(name, key.0.as_str()) {
             tracing::debug!(plan = %name, error = %e, "plan origin not written");
         }
@@ -298,7 +357,7 @@ impl Inner {
     }
 
     /// Why a plan cannot be loaded here, before the engine is asked: the address, the
-    /// shape of the text, and its name (plan names are unique on a board: a plan whose
+    /// text's size (before it is parsed), the shape of the text, and its name (plan names are unique on a board: a plan whose
     /// name is taken is rejected, never renamed, so the origin's name stays the one
     /// every board shows).
     fn check(&self, plan: &Plan) -> Result<(), String> {
@@ -306,6 +365,12 @@ impl Inner {
             return Err(format!(
                 "the plan is addressed to {}, not {}",
                 plan.to, self.me
+            ));
+        }
+        if plan.source_text.len() > MAX_PLAN_TEXT_BYTES {
+            return Err(format!(
+                "the plan text is {} bytes; at most {MAX_PLAN_TEXT_BYTES} bytes are accepted: split it into sub-plans",
+                plan.source_text.len()
             ));
         }
         let file = format!("{}/{}.slate", plan.origin, plan.name);
@@ -392,6 +457,38 @@ mod tests {
         assert!(
             d.resend(&key, &plan(5, "q")).is_none(),
             "a restarted origin's new plan"
+        );
+    }
+
+    #[test]
+    fn a_long_reason_is_cut_at_a_character_boundary_and_says_so() {
+        assert_eq!(bounded("short".into()), "short");
+        let long = "é".repeat(MAX_REASON_BYTES);
+        let cut = bounded(long.clone());
+        assert!(cut.len() <= MAX_REASON_BYTES, "{}", cut.len());
+        let kept = cut.split('\n').next().unwrap_or_default();
+        assert!(long.starts_with(kept));
+        let left_out = long.len() - kept.len();
+        assert!(
+            cut.ends_with(&format!("({left_out} more bytes of diagnostics)")),
+            "{cut}"
+        );
+    }
+
+    #[test]
+    fn a_text_over_the_limit_is_not_kept() {
+        let mut d = Destination::default();
+        let key = (Address::new("t/r1/o").unwrap(), 9);
+        let mut big = plan(9, "p");
+        big.source_text.push_str(&" ".repeat(MAX_PLAN_TEXT_BYTES));
+        d.begin(&key, &big);
+        d.reject(&key, "too large".into());
+        let kept: usize = d.circuits.values().map(|c| c.text.len()).sum();
+        assert_eq!(kept, 0);
+        let again = d.resend(&key, &big);
+        assert!(
+            again.is_none(),
+            "sent again, it is refused again: {again:?}"
         );
     }
 

@@ -18,6 +18,12 @@ const MAX_EARLY: u64 = 4096;
 /// delivers what follows (the destination no longer holds the missing steps).
 const MAX_GAP_ASKS: u32 = 3;
 
+/// Times the plan is sent again to a destination that came back and does not answer,
+/// one [`ACK_GAP_GRACE`] apart: a module that restarts can be up for its peers' Zenoh
+/// liveliness a few seconds before messages reach it, so this outlasts Zenoh's 10 s
+/// lease. A plan is a few hundred bytes: at most one a second per silent circuit.
+const MAX_RESENDS: u32 = 12;
+
 /// The circuits this module opened.
 #[derive(Default)]
 pub(crate) struct Origin {
@@ -35,7 +41,10 @@ struct Sent {
     next: u64,
     /// Steps that arrived ahead of a gap.
     early: BTreeMap<u64, PlanStep>,
-    /// Since when a gap has been open (or since it was last asked for).
+    /// Since when a gap has been open (or since it was last asked for), or since the
+    /// plan was sent again to a destination that came back and has not answered: the
+    /// plan goes again after [`ACK_GAP_GRACE`] (that message can be lost too, e.g. sent
+    /// before a restarted module reads its inbox).
     gap_since: Option<Duration>,
     /// Times the open gap was asked for.
     asks: u32,
@@ -135,6 +144,12 @@ impl Origin {
             tracing::debug!(from = %from, circuit = ack.circuit, "ack of an unknown circuit");
             return 0;
         };
+        if c.to == *from && c.early.is_empty() {
+            // The destination answers (even with steps delivered already): nothing is
+            // waited for.
+            c.gap_since = None;
+            c.asks = 0;
+        }
         let fresh = c.to == *from
             && ack.seq >= c.next
             && ack.seq < c.next + MAX_EARLY
@@ -170,13 +185,15 @@ impl Origin {
 
     /// `peer` is up: the plans of the open circuits to it, sent again (the destination
     /// loads one it never got, and answers one it knows with all its steps), and the
-    /// cancellations asked for.
-    pub fn resume(&mut self, peer: &Address, me: &Address) -> Vec<Message> {
+    /// cancellations asked for. Until the destination answers, [`gaps_due`](Self::gaps_due)
+    /// sends the plan again (at most [`MAX_GAP_ASKS`] times).
+    pub fn resume(&mut self, peer: &Address, me: &Address, now: Duration) -> Vec<Message> {
         let mut out = Vec::new();
-        for (&circuit, c) in &self.circuits {
+        for (&circuit, c) in &mut self.circuits {
             if c.to != *peer || !c.is_open() {
                 continue;
             }
+            c.gap_since = c.gap_since.or(Some(now));
             out.push(c.plan(circuit, me));
             if c.cancel {
                 out.push(Message::PlanCancel { circuit });
@@ -186,7 +203,8 @@ impl Origin {
     }
 
     /// Circuits whose gap stayed open past the grace: the plan to send again, to ask
-    /// for the steps. A gap asked for in vain [`MAX_GAP_ASKS`] times is skipped.
+    /// for the steps. A gap asked for in vain [`MAX_GAP_ASKS`] times is skipped; a plan
+    /// sent again to a destination back is sent at most [`MAX_RESENDS`] times unanswered.
     pub fn gaps_due(&mut self, now: Duration, me: &Address) -> Vec<(Address, Message)> {
         let mut out = Vec::new();
         for (&circuit, c) in &mut self.circuits {
@@ -194,7 +212,12 @@ impl Origin {
             if now.saturating_sub(since) < ACK_GAP_GRACE {
                 continue;
             }
-            if c.asks >= MAX_GAP_ASKS {
+            let bound = if c.early.is_empty() {
+                MAX_RESENDS
+            } else {
+                MAX_GAP_ASKS
+            };
+            if c.asks >= bound {
                 tracing::warn!(
                     circuit,
                     from = c.next,
@@ -282,7 +305,7 @@ mod tests {
         o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
         o.lost(&d);
         o.lost(&d);
-        let resend = o.resume(&d, &addr("t/r1/o"));
+        let resend = o.resume(&d, &addr("t/r1/o"), Duration::ZERO);
         assert_eq!(resend.len(), 1, "the plan goes again");
         o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
         o.ack(&d, ack(2, PlanStep::Accepted), Duration::ZERO);
@@ -294,6 +317,27 @@ mod tests {
                 PlanStep::DestinationLost,
                 PlanStep::Accepted
             ]
+        );
+    }
+
+    #[test]
+    fn a_plan_sent_again_to_a_destination_back_is_sent_again_until_it_answers() {
+        let (mut o, _rx, d) = opened();
+        let me = addr("t/r1/o");
+        o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
+        o.lost(&d);
+        let at = Duration::from_secs(10);
+        assert_eq!(o.resume(&d, &me, at).len(), 1);
+        // That plan message was lost (sent before the restarted module could read it).
+        let again = o.gaps_due(at + ACK_GAP_GRACE, &me);
+        assert_eq!(again.len(), 1, "no answer: the plan goes again");
+        assert!(matches!(again[0].1, Message::Plan(_)));
+        // A restarted destination answers with its own steps from 1: duplicates here,
+        // but an answer.
+        o.ack(&d, ack(1, PlanStep::Received), at + ACK_GAP_GRACE);
+        assert!(
+            o.gaps_due(at + 3 * ACK_GAP_GRACE, &me).is_empty(),
+            "answered"
         );
     }
 

@@ -177,6 +177,26 @@ impl State {
         }
     }
 
+    /// This module's team export changed: its current state goes to the other robots
+    /// as an answer no one asked for (merged with any pending request, with the team
+    /// protocol on; to each team peer up, without it). Otherwise what it wrote before
+    /// the change would never reach them: reports carry writes only, and no receiver
+    /// knows to ask. The answer's object list sweeps what is no longer exported.
+    pub(crate) fn team_export_changed(&mut self) {
+        if self.config.team_protocol.is_some() {
+            return self.team_answer_unasked();
+        }
+        let peers: Vec<Address> = self
+            .peers
+            .iter()
+            .filter(|(_, p)| p.up && p.link == LinkKind::Team && !p.observer)
+            .map(|(a, _)| a.clone())
+            .collect();
+        for peer in peers {
+            self.answer_state(Audience::Peer(&peer), false, false);
+        }
+    }
+
     /// Sends `from` the current state.
     fn answer(&mut self, from: &Address, req: CatchUpRequest) {
         self.answer_state(Audience::Peer(from), req.needs_names, req.needs_classes);

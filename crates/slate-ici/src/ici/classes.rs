@@ -79,6 +79,16 @@ impl ClassSet {
             .any(|(c, m)| &**c == THING && *m == ALL_CONTEXTS)
     }
 
+    /// Does it hold everything `other` holds, rule by rule (a rule of `other` for a
+    /// subclass of one of its classes counts as not held: the answer errs on "no")?
+    pub(crate) fn covers(&self, other: &ClassSet) -> bool {
+        self.is_all()
+            || other.rules.iter().all(|(class, mask)| {
+                let held = self.rules.iter().filter(|(c, _)| c == class);
+                held.fold(0, |m, (_, h)| m | h) & mask == *mask
+            })
+    }
+
     /// The rules: class name and context mask (1 SELF, 2 SURROUNDINGS, 4 SYSTEM).
     pub(crate) fn rules(&self) -> &[(Arc<str>, u8)] {
         &self.rules

@@ -145,13 +145,20 @@ impl Links {
     }
 
     /// Stores `policy` and applies it to the state: export, liveliness, filters.
+    /// A changed team export is followed by this module's state for the team, so that
+    /// what it wrote before the change stands on the other robots as if it had always
+    /// been exported (the answer's object list sweeps what is no longer exported).
     pub fn set(&mut self, st: &mut State, link: LinkKind, policy: LinkPolicy) {
+        let before = st.config.export.clone();
         if link == LinkKind::Team {
             st.config.export = self.started_export.clone();
         }
         policy.apply_to(link, &mut st.config);
         st.filters.set_link(link, policy.overrides());
         self.policies.insert(link, policy);
+        if st.config.export != before {
+            st.team_export_changed();
+        }
     }
 }
 

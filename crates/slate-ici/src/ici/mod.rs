@@ -18,6 +18,7 @@ mod stats;
 mod stream;
 mod team;
 mod tick;
+mod window;
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -85,9 +85,12 @@ impl State {
         }
     }
 
-    fn on_wire(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) {
+    pub(super) fn on_wire(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) {
         let msg = match self.decode(from, bytes) {
             Ok(msg) => msg,
+            Err(DecodeError::UnknownName { .. }) if self.keep_undecoded(from, kind, bytes) => {
+                return;
+            }
             Err(e) => return self.decode_failed(from, kind, &e),
         };
         match msg {

@@ -136,6 +136,11 @@ pub struct TeamStats {
     pub parked_dropped: u64,
     /// Team protocol frames that did not decode, or came with the switch off.
     pub refused: u64,
+    /// Members' messages kept for want of names while their robot's stream had a gap
+    /// (decoded again once it has none).
+    pub undecoded_kept: u64,
+    /// Kept messages dropped past the limit (their source was asked for its state).
+    pub undecoded_dropped: u64,
 }
 
 impl TeamStats {

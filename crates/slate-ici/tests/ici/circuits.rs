@@ -7,8 +7,8 @@ use std::time::Duration;
 
 use parking_lot::Mutex;
 use slate_ici::{
-    ClassSet, Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MsgKind, PlanCircuits,
-    PlanHandle, Rng, SendError, SendPlanError, SimConfig, SimNet, Transport,
+    ClassSet, Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MAX_PLAN_TEXT_BYTES,
+    MsgKind, PlanCircuits, PlanHandle, Rng, SendError, SendPlanError, SimConfig, SimNet, Transport,
 };
 use slate_model::{Address, Board};
 use slate_plans::{Engine, PlanState};
@@ -640,4 +640,190 @@ fn on_the_system_clock_timer_driven_steps_reach_the_origin() {
     );
     assert!(got.get(3).is_some_and(triggered(true)), "{got:?}");
     assert_eq!(cell_engine.status("later").unwrap().fired, 1);
+}
+
+/// A module that sends raw plan messages and collects the acks it gets back.
+fn raw_sender(
+    net: &SimNet,
+    address: &str,
+) -> (Module, crossbeam_channel::Receiver<(Address, Message)>) {
+    let (tx, rx) = crossbeam_channel::unbounded();
+    let raw = module(net, address, "");
+    raw.ici.set_plan_handler(Arc::new(tx));
+    net.run_for(secs(0.5));
+    (raw, rx)
+}
+
+/// Sends `text` as plan `name` on circuit 1 from `raw` to t/r2/cell; the acks that came back.
+fn send_raw_plan(
+    net: &SimNet,
+    (raw, acks): &(Module, crossbeam_channel::Receiver<(Address, Message)>),
+    name: &str,
+    text: String,
+) -> Vec<PlanStep> {
+    let plan = Plan {
+        circuit: 1,
+        name: name.into(),
+        source_text: text,
+        to: addr("t/r2/cell"),
+        origin: raw.ici.address().clone(),
+    };
+    raw.ici
+        .send_raw(&addr("t/r2/cell"), &Message::Plan(plan))
+        .unwrap();
+    net.run_for(secs(0.5));
+    acks.try_iter()
+        .filter_map(|(_, m)| match m {
+            Message::PlanAck(a) => Some(a.step),
+            _ => None,
+        })
+        .collect()
+}
+
+/// The reason of the `Rejected` step that must follow `Received`.
+fn rejected(steps: &[PlanStep]) -> &str {
+    match steps {
+        [PlanStep::Received, PlanStep::Rejected { reason }] => reason,
+        other => panic!("not received then rejected: {other:?}"),
+    }
+}
+
+/// The welding cell still runs a good plan after refusing a bad one.
+fn still_welds(net: &SimNet, origin: &Module, cell: &Module) {
+    let (_h, got) = send_until_initiated(net, origin, "t/r2/cell", WELD);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    cell.board.write("part", "temp", 150.0).unwrap();
+    net.run_for(secs(0.5));
+    assert_eq!(cell.engine.status("weld").map(|s| s.fired), Some(1));
+}
+
+#[test]
+fn a_plan_nested_too_deep_from_a_made_up_address_is_rejected_not_a_crash() {
+    let (net, origin, cell) = planner_and_cell(63);
+    let raw = raw_sender(&net, "t/r9/nobody");
+    // 12 kB: a trigger of 6 000 additions, as in issue 17.
+    let chain = format!("part.temp{}", "+1".repeat(6_000));
+    let text =
+        format!("plan deep {{\n  trigger: {chain} > 0;\n  action {{ set part.done = true; }}\n}}");
+    assert!(text.len() > 12_000);
+    let steps = send_raw_plan(&net, &raw, "deep", text);
+    let reason = rejected(&steps);
+    assert!(reason.contains("t/r9/nobody/deep.slate:2:"), "{reason}");
+    assert!(reason.contains("at most 64 levels"), "{reason}");
+    assert!(cell.engine.status("deep").is_none());
+    assert_eq!(cell.board.read("part", "done").unwrap().value, false.into());
+    still_welds(&net, &origin, &cell);
+}
+
+#[test]
+fn a_plan_text_over_the_limit_is_rejected_before_parsing() {
+    let (net, origin, cell) = planner_and_cell(64);
+    let raw = raw_sender(&net, "t/r9/nobody");
+    let padding = "// padding\n".repeat(MAX_PLAN_TEXT_BYTES / 11);
+    let text = format!("plan big {{ action {{ set part.done = true; }} }}\n{padding}");
+    assert!(text.len() > MAX_PLAN_TEXT_BYTES && text.len() < slate_wire::MAX_TEXT_BYTES);
+    let steps = send_raw_plan(&net, &raw, "big", text.clone());
+    let reason = rejected(&steps);
+    assert!(
+        reason.contains(&format!("at most {MAX_PLAN_TEXT_BYTES} bytes")),
+        "{reason}"
+    );
+    assert!(cell.engine.status("big").is_none());
+    let err = origin.circuits.send(&addr("t/r2/cell"), &text).unwrap_err();
+    assert!(matches!(err, SendPlanError::TooLarge { .. }), "{err}");
+    still_welds(&net, &origin, &cell);
+}
+
+#[test]
+fn the_reason_for_rejecting_a_long_line_fits_in_an_ack() {
+    let (net, _origin, cell) = planner_and_cell(65);
+    let raw = raw_sender(&net, "t/r9/nobody");
+    // One line just under the limit, its error at its end: the reason must not quote it all.
+    let filler = " ".repeat(MAX_PLAN_TEXT_BYTES - 100);
+    let text = format!("plan long {{ action {{ }}{filler} trigger: part.temp > ; }}");
+    assert!(text.len() <= MAX_PLAN_TEXT_BYTES);
+    let steps = send_raw_plan(&net, &raw, "long", text);
+    let reason = rejected(&steps);
+    assert!(reason.contains("t/r9/nobody/long.slate:1:"), "{reason}");
+    assert!(reason.contains("expected an expression"), "{reason}");
+    assert!(reason.len() < 1_000, "{} bytes", reason.len());
+    assert!(cell.engine.status("long").is_none());
+}
+
+#[test]
+fn plans_received_accepted_and_rejected_are_counted() {
+    let (net, origin, cell) = planner_and_cell(66);
+    let raw = raw_sender(&net, "t/r9/nobody");
+    let deep = format!(
+        "plan deep {{ trigger: part.temp{} > 0; action {{ }} }}",
+        "+1".repeat(100)
+    );
+    rejected(&send_raw_plan(&net, &raw, "deep", deep));
+    still_welds(&net, &origin, &cell);
+    let stats = cell.circuits.stats();
+    assert_eq!(
+        (stats.received, stats.accepted, stats.rejected),
+        (2, 1, 1),
+        "{stats:?}"
+    );
+}
+
+/// Records the name of the thread that first wrote an object named `name` on a board.
+struct FirstWriter {
+    name: &'static str,
+    thread: Mutex<Option<String>>,
+}
+
+impl slate_model::ChangeHook for FirstWriter {
+    fn changed(&self, board: &Board, _: u64, _: &[slate_model::Touched]) {
+        let mut thread = self.thread.lock();
+        if thread.is_none() && board.info(self.name).is_some() {
+            *thread = Some(std::thread::current().name().unwrap_or("?").to_owned());
+        }
+    }
+}
+
+#[test]
+fn on_the_system_clock_a_plan_received_is_loaded_off_the_thread_that_delivers_it() {
+    // The thread that delivers messages (the transport's receive thread; here the test's,
+    // which moves the simulator) must not be the one that parses, checks and loads plans.
+    let net = SimNet::new(69);
+    let start = |address: &str| {
+        let transport = net.join(&addr(address));
+        let board = Arc::new(
+            Board::builder()
+                .address(transport.address().clone())
+                .build(),
+        );
+        let engine = Engine::new(&board);
+        engine.load("world.slate", CELL).unwrap();
+        let ici = Ici::new(board.clone(), transport, config()).unwrap();
+        (board, PlanCircuits::attach(&ici, &engine))
+    };
+    let (_b1, origin) = start("t/r1/planner");
+    let (cell_board, cell) = start("t/r2/cell");
+    let writer = Arc::new(FirstWriter {
+        name: "weld",
+        thread: Mutex::new(None),
+    });
+    cell_board.add_hook(writer.clone());
+    net.run_for(secs(0.5));
+    let h = origin.send(&addr("t/r2/cell"), WELD).unwrap();
+    let mut got = Vec::new();
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while got.len() < 3 && std::time::Instant::now() < deadline {
+        net.run_for(secs(0.01));
+        std::thread::sleep(Duration::from_millis(5));
+        got.extend(h.acks().try_iter());
+    }
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    let loader = writer.thread.lock().clone();
+    assert_eq!(loader.as_deref(), Some("slate-plan-circuits"));
+    assert_eq!(cell.stats().accepted, 1);
 }

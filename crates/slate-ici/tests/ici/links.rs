@@ -140,3 +140,46 @@ fn a_link_policys_export_adds_to_the_export_the_ici_started_with() {
     let stored = ici.link_policy(LinkKind::Team).expect("stored");
     assert_eq!(stored.export, ClassSet::none().class("Target"));
 }
+
+/// A module's team export widened after it wrote: what it holds of the newly exported
+/// classes reaches the other robots then, not only its later writes (the demo's exec
+/// writes its `Robot` once, at the start, before its `.slate` file's export is set).
+fn export_widened_later(protocol: Option<slate_ici::TeamProtocol>) {
+    let mut team = Team::new(5);
+    let config = |p: Option<u8>| {
+        IciConfig::default()
+            .export(ClassSet::none())
+            .team_protocol(protocol.clone().map(|t| t.priority(p)))
+    };
+    team.add("t/r1/sensor", config(Some(0)));
+    team.add("t/r2/base", config(Some(0)));
+    team.run(0.5);
+    let sensor = team.board("t/r1/sensor");
+    sensor.create("Vehicle", "gsr").unwrap();
+    sensor.write("gsr", "speed", Value::Real(2.5)).unwrap();
+    team.run(1.0);
+    assert!(
+        team.board("t/r2/base").info("gsr").is_none(),
+        "not exported yet"
+    );
+    team.member("t/r1/sensor").ici.set_link_policy(
+        LinkKind::Team,
+        LinkPolicy::default().export(ClassSet::none().class("Vehicle")),
+    );
+    team.run(3.0);
+    assert_eq!(
+        speed(&team, "t/r2/base"),
+        Some(2.5),
+        "the value written before"
+    );
+}
+
+#[test]
+fn what_a_widened_export_newly_covers_reaches_the_team_at_once() {
+    export_widened_later(Some(slate_ici::TeamProtocol::radio()));
+}
+
+#[test]
+fn what_a_widened_export_newly_covers_reaches_the_team_without_the_team_protocol() {
+    export_widened_later(None);
+}

@@ -221,3 +221,34 @@ fn an_unasked_state_answer_sweeps_nothing_a_listener_models() {
     assert_eq!(car.map(|p| p.value), Some(Value::Real(3.0)));
     assert_no_per_pair_catch_up(&team);
 }
+
+/// Robot 0 misses robot 1's first hello, so its gateway tells its members that no
+/// robot models anything yet, and robot 0's writes stay home. When the hello is
+/// repaired and the interest widens, what robot 0's members hold reaches robot 1 then
+/// (before, it never did: nothing was sent, so no receiver saw a gap to ask about).
+#[test]
+fn writes_kept_home_while_no_robot_was_heard_go_out_when_one_is() {
+    let sim = SimConfig {
+        robot: LinkConfig::clean().delay(secs(0.0001)),
+        team: LinkConfig::clean().delay(secs(0.02)),
+        ..SimConfig::default()
+    };
+    let mut team = Team::with(7, sim);
+    join_robot(&mut team, 1, 2);
+    let deaf = [
+        crate::support::addr("t/r0/m0"),
+        crate::support::addr("t/r0/m1"),
+    ];
+    join_robot(&mut team, 0, 2);
+    // Every team publication of robot 1 is lost at robot 0 for 1.5 s: its hello too.
+    for _ in 0..150 {
+        team.net
+            .drop_next_publish(&crate::support::addr("t/r1/m0"), &deaf);
+        team.run(0.01);
+    }
+    rock(&team, "t/r0/m1", "rock_home", 3);
+    team.run(0.1);
+    team.assert_converges(30);
+    let held = team.board("t/r1/m1").read("rock_home", "hits").ok();
+    assert_eq!(held.map(|p| p.value), Some(Value::Int(3)));
+}

@@ -364,3 +364,51 @@ fn a_module_that_never_listens_gets_no_team_frames_until_it_is_gateway() {
     team.run(1.0);
     assert!(frames(&team, "t/r1/m1") > 0, "as gateway it listens");
 }
+
+/// What `at` holds of `module`'s liveliness (its `Module` object's `alive`).
+fn alive_on(team: &Team, at: &slate_model::Address, module: &str) -> Option<Value> {
+    let name = module_object_name(&addr(module));
+    let board = &team.members.iter().find(|m| m.address == *at)?.board;
+    board.read(&name, "alive").ok().map(|p| p.value)
+}
+
+/// A robot's gateway dies; its other modules live. Every other robot holds the gateway
+/// dead within 2.5 s and the robot's live modules alive throughout (the robot stays on
+/// the team: it loses exactly the gateway's own exports), and a live module's writes
+/// keep arriving through the next gateway.
+#[test]
+fn a_robots_gateway_dies_while_its_other_modules_live() {
+    for seed in [88, 89, 90] {
+        let (mut team, _) = grid(seed, LinkConfig::clean().loss(0.05), 1024, true);
+        team.run(3.0);
+        let gateway = addr("t/r1/m0");
+        team.net.kill(&gateway);
+        team.members.retain(|m| m.address != gateway);
+        let remote: Vec<_> = team
+            .members
+            .iter()
+            .map(|m| m.address.clone())
+            .filter(|a| a.robot() != "r1")
+            .collect();
+        for step in 1..=60 {
+            team.run(0.1);
+            for at in &remote {
+                for live in ["t/r1/m1", "t/r1/m2"] {
+                    let held = alive_on(&team, at, live);
+                    assert_eq!(held, Some(Value::Bool(true)), "{at} on {live}, seed {seed}");
+                }
+                let dead = alive_on(&team, at, "t/r1/m0");
+                if step >= 25 {
+                    assert_eq!(dead, Some(Value::Bool(false)), "{at}, seed {seed}");
+                }
+            }
+        }
+        let board = team.board("t/r1/m2");
+        board
+            .create_with(NewObject::new("Rock", "rock_after").context(Context::Surroundings))
+            .unwrap();
+        board.write("rock_after", "hits", Value::Int(9)).unwrap();
+        team.assert_converges(30);
+        everyone_holds(&team, "rock_after", "hits", &Value::Int(9)).unwrap();
+    }
+}

@@ -11,6 +11,7 @@ use crate::ast::{AttributeDecl, ClassDecl, File, RuleDecl};
 use crate::check::{Checker, Locals};
 use crate::engine::{Dep, Shared};
 use crate::eval::{CompiledExpr, Obj};
+use crate::parser::MAX_NESTING;
 
 use super::{DerivedDeps, PendingFn};
 
@@ -87,36 +88,78 @@ fn template_deps(node: &CompiledExpr, out: &mut Vec<Dep>) {
 
 pub(super) const SELF: &str = "self";
 
+/// Reports every derived attribute that reads itself through `self.x` reads of derived
+/// attributes, and the first of each class whose chain of such reads is more than
+/// [`MAX_NESTING`] deep (a long chain is one error, not one per attribute).
 pub(super) fn check_derived_cycles(ck: &mut Checker<'_>, file: &File, derived: &DerivedDeps) {
     for class in file.classes() {
+        let mut too_deep_reported = false;
         for a in class.attributes.iter().filter(|a| a.derived.is_some()) {
             let start = (class.name.name.clone(), a.name.name.clone());
-            if reaches(&start, &start, derived, &mut HashSet::new()) {
-                ck.error(
+            match self_reach(&start, derived) {
+                Reach::Itself => ck.error(
                     a.name.span,
                     format!("derived attribute {} depends on itself", a.name.name),
-                );
+                ),
+                Reach::TooDeep if !too_deep_reported => {
+                    too_deep_reported = true;
+                    ck.error(a.name.span, too_deep(&a.name.name));
+                }
+                Reach::TooDeep | Reach::Fine => {}
             }
         }
     }
 }
 
-fn reaches(
-    from: &(String, String),
-    goal: &(String, String),
-    derived: &DerivedDeps,
-    seen: &mut HashSet<(String, String)>,
-) -> bool {
-    let Some(deps) = derived.get(from) else {
-        return false;
-    };
-    deps.iter().any(|d| match d {
-        Dep::Object(o, attr) if &**o == SELF => {
-            let next = (from.0.clone(), attr.to_string());
-            &next == goal || (seen.insert(next.clone()) && reaches(&next, goal, derived, seen))
+fn too_deep(attribute: &str) -> String {
+    format!(
+        "derived attribute {attribute} reads derived attributes of its object more than \
+         {MAX_NESTING} deep; make the chain shorter (read the values it needs directly)"
+    )
+}
+
+/// What following a derived attribute's `self.x` reads through other derived attributes
+/// finds.
+enum Reach {
+    /// The attribute itself: a cycle.
+    Itself,
+    /// A chain more than [`MAX_NESTING`] attributes deep.
+    TooDeep,
+    /// Neither.
+    Fine,
+}
+
+/// Follows the `self.x` reads of derived attribute `start` through the derived attributes
+/// of its class, without recursion (the chain comes from the source, of any length) and at
+/// most [`MAX_NESTING`] deep, visiting each attribute once.
+fn self_reach(start: &(String, String), derived: &DerivedDeps) -> Reach {
+    let mut seen = HashSet::new();
+    let mut stack = vec![(start.clone(), 1usize)];
+    while let Some((from, depth)) = stack.pop() {
+        for next in self_reads(&from, derived) {
+            if next == *start {
+                return Reach::Itself;
+            }
+            if !derived.contains_key(&next) || !seen.insert(next.clone()) {
+                continue;
+            }
+            if depth >= MAX_NESTING {
+                return Reach::TooDeep;
+            }
+            stack.push((next, depth + 1));
         }
-        _ => false,
+    }
+    Reach::Fine
+}
+
+/// The attributes of its own object that derived attribute `from` reads (`self.x`).
+fn self_reads(from: &(String, String), derived: &DerivedDeps) -> Vec<(String, String)> {
+    let deps = derived.get(from).into_iter().flatten();
+    deps.filter_map(|d| match d {
+        Dep::Object(o, attr) if &**o == SELF => Some((from.0.clone(), attr.to_string())),
+        _ => None,
     })
+    .collect()
 }
 
 pub(super) fn rule_fn(

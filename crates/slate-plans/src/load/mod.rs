@@ -18,12 +18,14 @@ mod derived;
 mod links;
 mod objects;
 mod plans;
+mod substitute;
 
 use classes::{check_initial, check_owner, class_def};
 use derived::{check_derived_cycles, derived_fn, rule_fn};
 pub use links::{LinkExport, LinkName, LinkPolicy, LinkReport};
 use objects::create_objects;
 use plans::compile_plan;
+pub use substitute::{ROBOT_PLACEHOLDER, Substitution, SubstitutionError};
 
 /// What loading a file added to the board.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -286,7 +288,7 @@ fn compile(
     if diags.is_empty() {
         Ok(out)
     } else {
-        Err(Diagnostics(diags))
+        Err(Diagnostics::at_most_max(diags))
     }
 }
 

@@ -125,7 +125,9 @@ fn plan_deps(
     }
 }
 
-/// If `attr` is derived, adds what its expression reads, seen from `dep`'s object.
+/// If `attr` is derived, adds what its expression reads, seen from `dep`'s object, and so
+/// on through the derived attributes it reads: without recursion (a chain of derived
+/// attributes comes from the source, of any length), each dependency once.
 fn expand_derived(
     dep: &Dep,
     class: Option<&str>,
@@ -135,6 +137,31 @@ fn expand_derived(
     out: &mut Vec<Dep>,
     seen: &mut HashSet<Dep>,
 ) {
+    let mut work = vec![(dep.clone(), attr.to_owned())];
+    while let Some((dep, attr)) = work.pop() {
+        for concrete in derived_reads(&dep, class, &attr, scope, derived) {
+            // Each dependency is expanded once: derived attributes that read one another
+            // (even the same name through references) stay linear, not exponential.
+            if !seen.insert(concrete.clone()) {
+                continue;
+            }
+            if let Dep::Object(_, x) | Dep::Class(_, x) | Dep::Attr(x) = &concrete {
+                work.push((concrete.clone(), x.to_string()));
+            }
+            out.push(concrete);
+        }
+    }
+}
+
+/// What derived attribute `attr` reads, seen from `dep`'s object (nothing if `attr` is not
+/// derived).
+fn derived_reads(
+    dep: &Dep,
+    class: Option<&str>,
+    attr: &str,
+    scope: &Scope,
+    derived: &DerivedDeps,
+) -> Vec<Dep> {
     let declaring: Vec<String> = match class {
         Some(c) => scope
             .attr(c, attr)
@@ -147,28 +174,21 @@ fn expand_derived(
             .map(|(c, _)| c.clone())
             .collect(),
     };
-    for d in declaring {
-        for t in derived.get(&(d, attr.to_owned())).into_iter().flatten() {
-            let concrete = match (t, dep) {
-                (Dep::Object(o, x), Dep::Object(obj, _)) if &**o == SELF => {
-                    Dep::Object(obj.clone(), x.clone())
-                }
-                (Dep::Object(o, x), Dep::Class(c, _)) if &**o == SELF => {
-                    Dep::Class(c.clone(), x.clone())
-                }
-                (Dep::Object(o, x), Dep::Attr(_)) if &**o == SELF => Dep::Attr(x.clone()),
-                (other, _) => other.clone(),
-            };
-            // Each dependency is expanded once: derived attributes that read one another
-            // (even the same name through references) stay linear, not exponential.
-            if !seen.insert(concrete.clone()) {
-                continue;
-            }
-            if let Dep::Object(_, x) | Dep::Class(_, x) | Dep::Attr(x) = &concrete {
-                let x = x.clone();
-                expand_derived(&concrete, class, &x, scope, derived, out, seen);
-            }
-            out.push(concrete);
+    let reads = declaring
+        .into_iter()
+        .flat_map(|d| derived.get(&(d, attr.to_owned())).into_iter().flatten());
+    reads.map(|t| seen_from(t, dep)).collect()
+}
+
+/// Dependency `t` of a derived attribute (written from `self`) made concrete for the
+/// object or class that `dep` reads it on.
+fn seen_from(t: &Dep, dep: &Dep) -> Dep {
+    match (t, dep) {
+        (Dep::Object(o, x), Dep::Object(obj, _)) if &**o == SELF => {
+            Dep::Object(obj.clone(), x.clone())
         }
+        (Dep::Object(o, x), Dep::Class(c, _)) if &**o == SELF => Dep::Class(c.clone(), x.clone()),
+        (Dep::Object(o, x), Dep::Attr(_)) if &**o == SELF => Dep::Attr(x.clone()),
+        (other, _) => other.clone(),
     }
 }

@@ -1,7 +1,7 @@
 //! Expressions, by precedence climbing. Loosest first: `or`, `and`, prefix `not`, comparisons
 //! (non-associative), `+ -`, `* / %`, prefix `-`, then postfix `.field`.
 
-use super::{PResult, Parser, Reported};
+use super::{MAX_NESTING, PResult, Parser, Reported, too_deep_expression};
 use crate::ast::{
     BinaryOp, Expr, ExprKind, Ident, Literal, Order, Quantifier, QuantifierKind, UnaryOp,
 };
@@ -36,14 +36,6 @@ fn binary_op(kind: &TokenKind) -> Option<(BinaryOp, u8)> {
     })
 }
 
-fn binary(op: BinaryOp, lhs: Expr, rhs: Expr) -> Expr {
-    let span = lhs.span.to(rhs.span);
-    Expr {
-        kind: ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)),
-        span,
-    }
-}
-
 fn quantifier_kind(kind: &TokenKind) -> Option<QuantifierKind> {
     match kind {
         TokenKind::Keyword(Keyword::Any) => Some(QuantifierKind::Any),
@@ -54,6 +46,17 @@ fn quantifier_kind(kind: &TokenKind) -> Option<QuantifierKind> {
 }
 
 impl Parser<'_> {
+    /// `kind` as a node of the tree, unless that makes it deeper than [`MAX_NESTING`]: then
+    /// the error is reported at `at` (the operator, `.`, name or bracket that went too deep)
+    /// and the parse stops. Every expression node is made here, so no tree is deeper.
+    fn node(&mut self, kind: ExprKind, span: Span, at: Span) -> PResult<Expr> {
+        let expr = Expr::node(kind, span);
+        if expr.depth() > MAX_NESTING {
+            return Err(self.too_deep(at, too_deep_expression()));
+        }
+        Ok(expr)
+    }
+
     /// A whole expression.
     pub(super) fn expr(&mut self) -> PResult<Expr> {
         self.binary(PREC_OR)
@@ -70,9 +73,10 @@ impl Parser<'_> {
             if prec < min {
                 break;
             }
-            self.bump();
+            let at = self.bump().span;
             let rhs = self.binary(prec + 1)?;
-            lhs = binary(op, lhs, rhs);
+            let span = lhs.span.to(rhs.span);
+            lhs = self.node(ExprKind::Binary(op, Box::new(lhs), Box::new(rhs)), span, at)?;
             if op.is_comparison() {
                 self.reject_chained_comparison(op)?;
             }
@@ -84,15 +88,12 @@ impl Parser<'_> {
     fn not(&mut self) -> PResult<Expr> {
         let start = self.bump().span;
         let operand = self.nested(|p| p.binary(PREC_NOT))?;
-        Ok(Self::unary_expr(UnaryOp::Not, start, operand))
+        self.unary_expr(UnaryOp::Not, start, operand)
     }
 
-    fn unary_expr(op: UnaryOp, start: Span, operand: Expr) -> Expr {
+    fn unary_expr(&mut self, op: UnaryOp, start: Span, operand: Expr) -> PResult<Expr> {
         let span = start.to(operand.span);
-        Expr {
-            kind: ExprKind::Unary(op, Box::new(operand)),
-            span,
-        }
+        self.node(ExprKind::Unary(op, Box::new(operand)), span, start)
     }
 
     /// `a < b < c` is an error: comparisons don't chain.
@@ -124,7 +125,7 @@ impl Parser<'_> {
         if self.at(&TokenKind::Minus) {
             let start = self.bump().span;
             let operand = self.nested(|p| p.unary())?;
-            return Ok(Self::unary_expr(UnaryOp::Neg, start, operand));
+            return self.unary_expr(UnaryOp::Neg, start, operand);
         }
         self.postfix()
     }
@@ -141,11 +142,8 @@ impl Parser<'_> {
                 );
                 return Err(self.error(self.tok.span, message));
             }
-            let span = expr.span.to(field.span);
-            expr = Expr {
-                kind: ExprKind::Field(Box::new(expr), field),
-                span,
-            };
+            let (span, at) = (expr.span.to(field.span), field.span);
+            expr = self.node(ExprKind::Field(Box::new(expr), field), span, at)?;
         }
         Ok(expr)
     }
@@ -153,10 +151,7 @@ impl Parser<'_> {
     fn primary(&mut self) -> PResult<Expr> {
         if let Some(literal) = self.literal() {
             let span = self.bump().span;
-            return Ok(Expr {
-                kind: ExprKind::Literal(literal),
-                span,
-            });
+            return Ok(Expr::leaf(ExprKind::Literal(literal), span));
         }
         match &self.tok.kind {
             TokenKind::Ident(_) => self.name_or_call(),
@@ -166,10 +161,7 @@ impl Parser<'_> {
                     name: "self".to_owned(),
                     span,
                 };
-                Ok(Expr {
-                    kind: ExprKind::Name(name),
-                    span,
-                })
+                Ok(Expr::leaf(ExprKind::Name(name), span))
             }
             TokenKind::LParen => self.nested(Self::parenthesized),
             TokenKind::LBracket => self.nested(Self::vector),
@@ -201,17 +193,11 @@ impl Parser<'_> {
         let name = self.ident("a name")?;
         if !self.at(&TokenKind::LParen) {
             let span = name.span;
-            return Ok(Expr {
-                kind: ExprKind::Name(name),
-                span,
-            });
+            return Ok(Expr::leaf(ExprKind::Name(name), span));
         }
         let (args, end) = self.nested(|p| p.list(&TokenKind::LParen, &TokenKind::RParen, "`)`"))?;
         let span = name.span.to(end);
-        Ok(Expr {
-            kind: ExprKind::Call(name, args),
-            span,
-        })
+        self.node(ExprKind::Call(name, args), span, span)
     }
 
     /// `( EXPR )`; the result keeps the span of the inner expression.
@@ -229,10 +215,7 @@ impl Parser<'_> {
     fn vector(&mut self) -> PResult<Expr> {
         let start = self.tok.span;
         let (items, end) = self.list(&TokenKind::LBracket, &TokenKind::RBracket, "`]`")?;
-        Ok(Expr {
-            kind: ExprKind::Vector(items),
-            span: start.to(end),
-        })
+        self.node(ExprKind::Vector(items), start.to(end), start)
     }
 
     /// `OPEN [EXPR (, EXPR)* [,]] CLOSE`; returns the items and the span of CLOSE.
@@ -285,10 +268,7 @@ impl Parser<'_> {
             filter,
             order,
         };
-        Ok(Expr {
-            kind: ExprKind::Quantifier(Box::new(quantifier)),
-            span,
-        })
+        self.node(ExprKind::Quantifier(Box::new(quantifier)), span, start)
     }
 
     /// `where EXPR`, required for `all`.

@@ -1,7 +1,7 @@
 //! Parser unit tests: expression grouping, error recovery and the nesting cap. Each construct's
 //! syntax tree is tested through the public API in `tests/lang`.
 
-use super::{MAX_NESTING, parse};
+use super::{MAX_NESTING, MAX_PLAN_NESTING, parse};
 use crate::ast::{Expr, Item};
 use crate::diagnostic::{Diagnostic, Span, Stage};
 
@@ -209,7 +209,7 @@ fn nesting_up_to_the_cap_parses() {
 
 #[test]
 fn nesting_past_the_cap_is_one_error_not_a_crash() {
-    let message = format!("nesting too deep: at most {MAX_NESTING} levels are allowed");
+    let message = super::too_deep_expression();
     for source in [
         nested_parentheses(MAX_NESTING + 1),
         nested_parentheses(100_000),
@@ -231,14 +231,9 @@ fn plans_sent_inside_plans_are_capped_too() {
         }
         source
     };
-    assert!(parse(&inline(MAX_NESTING - 1)).is_ok());
-    let errors = messages(&inline(MAX_NESTING));
-    assert_eq!(
-        errors,
-        [format!(
-            "nesting too deep: at most {MAX_NESTING} levels are allowed"
-        )]
-    );
+    assert!(parse(&inline(MAX_PLAN_NESTING - 1)).is_ok());
+    let errors = messages(&inline(MAX_PLAN_NESTING));
+    assert_eq!(errors, [super::too_deep_plans()]);
     assert_eq!(messages(&inline(5_000)).len(), 1);
 }
 
@@ -397,4 +392,81 @@ fn a_missing_brace_at_line_end_is_assumed_and_reported_once() {
         messages(source),
         ["expected `{` to open the values of `a`, found `x`"]
     );
+}
+
+/// `x OP 1 OP 1 ...` with `terms` operands: a left-deep tree, built by a loop, not by recursion.
+fn chain(terms: usize, op: &str) -> String {
+    format!("x{}", format!(" {op} 1").repeat(terms - 1))
+}
+
+/// The one error of `source` (a whole file), which must mention the nesting limit.
+fn the_nesting_error(source: &str) -> Diagnostic {
+    let errors = parse(source).map(|_| ()).unwrap_err().0;
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    let limit = format!("at most {MAX_NESTING} levels");
+    assert!(errors[0].message.contains(&limit), "{}", errors[0].message);
+    errors.into_iter().next().unwrap_or_else(|| unreachable!())
+}
+
+#[test]
+fn a_deep_operator_chain_is_refused_not_a_crash() {
+    for terms in [MAX_NESTING + 2, 4_000, 100_000] {
+        for op in ["+", "-", "*", "/", "%", "and", "or"] {
+            let source = format!(
+                "plan p {{\n  action {{}}\n  trigger: {};\n}}",
+                chain(terms, op)
+            );
+            assert_eq!(the_nesting_error(&source).span.line, 3, "{op} x{terms}");
+        }
+    }
+}
+
+#[test]
+fn an_operator_chain_up_to_the_cap_parses() {
+    let expr = trigger(&chain(MAX_NESTING + 1, "+")).unwrap_or_else(|e| panic!("{e:?}"));
+    assert_eq!(expr.depth(), MAX_NESTING);
+    assert_eq!(trigger("x").map(|e| e.depth()), Ok(0));
+}
+
+#[test]
+fn a_deep_member_access_is_refused_not_a_crash() {
+    for fields in [MAX_NESTING + 1, 100_000] {
+        let source = format!(
+            "plan p {{ trigger: x{}; action {{}} }}",
+            ".a".repeat(fields)
+        );
+        the_nesting_error(&source);
+    }
+    let deepest = format!("x{}", ".a".repeat(MAX_NESTING));
+    assert_eq!(trigger(&deepest).map(|e| e.depth()), Ok(MAX_NESTING));
+}
+
+#[test]
+fn parentheses_and_chains_add_up_to_one_cap() {
+    // 40 levels of parentheses around chains of 40 operators: each count is under the cap,
+    // the tree they make together is 1 600 levels deep.
+    let mut source = chain(40, "+");
+    for _ in 0..40 {
+        source = format!("{} + ({source})", chain(40, "+"));
+    }
+    the_nesting_error(&format!("plan p {{ trigger: {source}; action {{}} }}"));
+}
+
+#[test]
+fn deep_chains_are_refused_wherever_an_expression_goes() {
+    let deep = chain(100_000, "+");
+    for source in [
+        format!("class A {{ x: real = {deep}; }}"),
+        format!("class A {{ x: real in 0 .. {deep}; }}"),
+        format!("object o : A {{ x = {deep}; }}"),
+        format!("plan p {{ action {{ set o.x = 1 accuracy {deep}; }} }}"),
+        format!("plan p {{ action {{ delete {deep}; }} }}"),
+        format!("plan p {{ every {deep}; action {{}} }}"),
+        format!("plan p {{ trigger: f({deep}); action {{}} }}"),
+        format!("plan p {{ trigger: [1, {deep}]; action {{}} }}"),
+        format!("plan p {{ trigger: any o: A where {deep}; action {{}} }}"),
+        format!("link team {{ heartbeat {deep}; }}"),
+    ] {
+        the_nesting_error(&source);
+    }
 }

@@ -199,6 +199,18 @@ impl State {
         self.team_answer(merged);
     }
 
+    /// This member's state for every robot, as an answer no one asked for (merged with
+    /// any request pending). Without the class definitions: every robot loads its own,
+    /// and a receiver that lacks one asks for them when a report fails to decode.
+    pub(crate) fn team_answer_unasked(&mut self) {
+        let everyone = StateRequest {
+            names: false,
+            classes: false,
+            robots: Vec::new(),
+        };
+        self.on_state_request(everyone);
+    }
+
     /// Answers the merged requests once `answer_interval` has passed.
     pub(super) fn deferred_state_answer(&mut self) {
         let Some(interval) = self

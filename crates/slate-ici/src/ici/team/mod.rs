@@ -22,7 +22,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use slate_model::Address;
 
-pub(crate) use receive::{Speaker, is_team_kind};
+pub(crate) use receive::{Speaker, Undecoded, is_team_kind};
 
 /// Messages a member holds while it knows no gateway; past it, the oldest go first.
 pub(crate) const MAX_PENDING: usize = 64;
@@ -52,4 +52,7 @@ pub(crate) struct TeamState {
     pub nacks: Option<nack::NackScheduler>,
     /// This member's state answers to the team (2.6).
     pub answering: answer::Answering,
+    /// Members' messages that named what a lost frame announced, kept until their
+    /// robot's stream has no gap left (at most `receive::MAX_UNDECODED`).
+    pub undecoded: VecDeque<Undecoded>,
 }

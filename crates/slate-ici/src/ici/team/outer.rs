@@ -4,23 +4,17 @@
 //! tag) or jumped (a gap too large to repair, "ask for state"), and the reassembly of
 //! messages fragmented across consecutive positions (CONT/MORE parts).
 //!
-//! The positions received above `have` sit in a fixed ring of `u128` words, so a frame
-//! costs O(1) word operations whatever the window holds (the `Inbound` of `stream.rs`
-//! keeps a `BTreeSet` and retains it on every message). Time is passed in, never read.
+//! The positions received above `have` sit in a fixed ring of `u128` words (`window.rs`,
+//! shared with the `Inbound` of `stream.rs`), so a frame costs O(1) word operations
+//! whatever the window holds. A frame more than `WINDOW_SPAN` ahead is a gap too large
+//! to repair (the large-gap rule): at the radio's 4 frames a second this is almost 4
+//! minutes of stream, far more than a NACK round (`max_nack_frames`, 64, is the tighter
+//! bound in practice). Time is passed in, never read.
 
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-/// `u128` words in the window ring (128 bytes per stream).
-const WINDOW_WORDS: usize = 8;
-const WORD_BITS: u64 = u128::BITS as u64;
-
-/// How far above `have` a received position is tracked. One word less than the ring,
-/// so that the positions `have + 1 ..= have + WINDOW_SPAN` never share a word slot.
-/// A frame further ahead is a gap too large to repair (the large-gap rule). At the
-/// radio's 4 frames a second this is almost 4 minutes of stream, far more than a NACK
-/// round (`max_nack_frames`, 64, is the tighter bound in practice).
-pub(crate) const WINDOW_SPAN: u64 = (WINDOW_WORDS as u64 - 1) * WORD_BITS;
+use crate::ici::window::{WINDOW_SPAN, Window};
 
 /// The longest message reassembled from fragments: a longer one could not be a
 /// slate-wire message or ICI frame anyway. It is dropped and counted (`too_long`).
@@ -335,123 +329,9 @@ impl Outer {
     }
 }
 
-/// The positions received above `have`, one bit each, in a ring of words indexed by
-/// absolute position: position `p` is bit `p % 128` of word `(p / 128) % WINDOW_WORDS`.
-/// Bits at or below `have` are always clear, so a word is free for reuse by the time
-/// the window reaches it again.
-#[derive(Debug, Default)]
-struct Window {
-    words: [u128; WINDOW_WORDS],
-    /// How many bits are set.
-    held: u64,
-    /// Word operations done (reads and writes of a word, one each).
-    ops: u64,
-}
-
-/// The word and bit of position `seq`.
-fn slot(seq: u64) -> (usize, u32) {
-    (
-        (seq / WORD_BITS) as usize % WINDOW_WORDS,
-        (seq % WORD_BITS) as u32,
-    )
-}
-
-/// `len` bits from bit `from` (`from + len <= 128`).
-fn bits(from: u32, len: u64) -> u128 {
-    let ones = if len >= WORD_BITS {
-        u128::MAX
-    } else {
-        (1u128 << len) - 1
-    };
-    ones << from
-}
-
-impl Window {
-    fn contains(&mut self, seq: u64) -> bool {
-        self.ops += 1;
-        let (w, b) = slot(seq);
-        self.words[w] >> b & 1 == 1
-    }
-
-    /// Set the bit of `seq` (not set before: the caller checked).
-    fn insert(&mut self, seq: u64) {
-        self.ops += 1;
-        let (w, b) = slot(seq);
-        self.words[w] |= 1 << b;
-        self.held += 1;
-    }
-
-    /// Set the bits of `first ..= last` (within the window), counting those newly set.
-    fn mark(&mut self, first: u64, last: u64) {
-        let mut at = first;
-        while at <= last {
-            self.ops += 1;
-            let (w, b) = slot(at);
-            let len = (last - at + 1).min(WORD_BITS - u64::from(b));
-            let mask = bits(b, len);
-            self.held += u64::from((mask & !self.words[w]).count_ones());
-            self.words[w] |= mask;
-            at += len;
-        }
-    }
-
-    /// Clear the run of set bits that starts at `next`, and say how long it was. One
-    /// word operation per word the run touches.
-    fn take_run(&mut self, next: u64) -> u64 {
-        let mut taken = 0;
-        loop {
-            self.ops += 1;
-            let (w, b) = slot(next + taken);
-            // Shifted right, the top `b` bits are clear: the run ends within the word.
-            let run = u64::from((self.words[w] >> b).trailing_ones());
-            self.words[w] &= !bits(b, run);
-            self.held -= run;
-            taken += run;
-            if run == 0 || u64::from(b) + run < WORD_BITS {
-                return taken;
-            }
-        }
-    }
-
-    fn clear(&mut self) {
-        self.ops += WINDOW_WORDS as u64;
-        self.words = [0; WINDOW_WORDS];
-        self.held = 0;
-    }
-
-    /// The runs of clear bits in `have + 1 ..= want`, as `(from, n)`.
-    fn gaps(&self, have: u64, want: u64) -> Vec<(u64, u64)> {
-        let mut out: Vec<(u64, u64)> = Vec::new();
-        let mut at = have + 1;
-        while at <= want {
-            let (w, b) = slot(at);
-            let here = self.words[w] >> b;
-            let left = (WORD_BITS - u64::from(b)).min(want - at + 1);
-            let held = u64::from(here.trailing_ones()).min(left);
-            let len = if held > 0 {
-                held
-            } else {
-                let missing = u64::from(here.trailing_zeros()).min(left);
-                push_range(&mut out, at, missing);
-                missing
-            };
-            at += len;
-        }
-        out
-    }
-}
-
 /// `first ..= last` as `(from, n)`, if it is not empty.
 fn between(first: u64, last: u64) -> Option<(u64, u64)> {
     (first <= last).then(|| (first, last - first + 1))
-}
-
-/// Append `(from, n)`, joined to the last range when they touch (across a word).
-fn push_range(out: &mut Vec<(u64, u64)>, from: u64, n: u64) {
-    match out.last_mut() {
-        Some((start, len)) if *start + *len == from => *len += n,
-        _ => out.push((from, n)),
-    }
 }
 
 /// A run of fragments over consecutive positions, not yet a whole message.
@@ -616,6 +496,8 @@ fn join(mut first: Run, then: Run, counts: &mut OuterCounts) -> Option<Run> {
 #[cfg(test)]
 mod tests {
     use std::collections::BTreeSet;
+
+    use crate::ici::window::{WINDOW_WORDS, WORD_BITS};
 
     use proptest::prelude::*;
 

@@ -23,6 +23,20 @@ use crate::{LinkKind, MsgKind};
 pub(crate) const MAX_PARKED: usize = 64;
 /// Remote gateways followed; past it, the one heard least recently is forgotten.
 pub(crate) const MAX_SPEAKERS: usize = 256;
+/// Messages kept for want of names while their robot's stream has a gap; past it, the
+/// oldest one's source is asked for its state instead.
+pub(crate) const MAX_UNDECODED: usize = 256;
+
+/// A member's message that did not decode for want of names, kept while its robot's
+/// stream has a gap: the frame that announced them is likely among the missing, and
+/// its repair makes the message decode (asking for the whole state would cost far
+/// more, and every receiver that lost the frame would ask).
+#[derive(Debug)]
+pub(crate) struct Undecoded {
+    pub from: Address,
+    pub kind: MsgKind,
+    pub bytes: Vec<u8>,
+}
 
 /// What a receiver holds of one remote gateway's stream.
 #[derive(Debug, Default)]
@@ -85,7 +99,7 @@ impl State {
             TeamMsg::Hello(h) if team_link => self.on_robot_hello(from, h),
             TeamMsg::Heartbeat(hb) if team_link => self.on_robot_heartbeat(from, hb),
             TeamMsg::Uplink(up) if !team_link => self.on_uplink(from, up),
-            TeamMsg::Interest(i) if !team_link => self.on_team_interest(i),
+            TeamMsg::Interest(i) if !team_link => self.on_team_interest(from, i),
             TeamMsg::Repair(r) if team_link => self.on_repair(from, r),
             TeamMsg::Nack(n) if team_link => self.on_nack(from, n),
             TeamMsg::StateRequest(r) if !team_link => self.on_state_request(r),
@@ -380,6 +394,54 @@ impl State {
     }
 }
 
+impl State {
+    /// Keeps a member's message that lacked names while its robot's stream has a gap;
+    /// `false` if it is not kept (no gap: the names were never sent on the stream).
+    pub(crate) fn keep_undecoded(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) -> bool {
+        let team = LinkKind::between(&self.me, from) == LinkKind::Team;
+        if !team || self.config.team_protocol.is_none() || !self.robot_gapped(from) {
+            return false;
+        }
+        if self.team.undecoded.len() >= MAX_UNDECODED
+            && let Some(oldest) = self.team.undecoded.pop_front()
+        {
+            self.stats.team.undecoded_dropped += 1;
+            self.request_catch_up(&oldest.from, true, false);
+        }
+        self.stats.team.undecoded_kept += 1;
+        let bytes = bytes.to_vec();
+        let from = from.clone();
+        self.team
+            .undecoded
+            .push_back(Undecoded { from, kind, bytes });
+        true
+    }
+
+    /// Decodes again the kept messages whose robot's stream has no gap left (repaired,
+    /// or closed by `Gone`): those that still lack names ask for them as before.
+    pub(crate) fn retry_undecoded(&mut self) {
+        if self.team.undecoded.is_empty() {
+            return;
+        }
+        let kept = std::mem::take(&mut self.team.undecoded);
+        let (wait, ready): (VecDeque<_>, VecDeque<_>) =
+            kept.into_iter().partition(|u| self.robot_gapped(&u.from));
+        self.team.undecoded = wait;
+        for u in ready {
+            self.on_wire(&u.from, u.kind, &u.bytes);
+        }
+    }
+
+    /// Has the stream of `member`'s robot a gap (positions missing, not yet repaired)?
+    fn robot_gapped(&self, member: &Address) -> bool {
+        self.team.speakers.iter().any(|(g, s)| {
+            g.team() == member.team()
+                && g.robot() == member.robot()
+                && s.outer.as_ref().is_some_and(|o| o.has_gap())
+        })
+    }
+}
+
 /// `team/<robot of the gateway>/<name>`, if `name` makes an address.
 fn member_address(gateway: &Address, name: &str) -> Option<Address> {
     let text = format!("{}/{}/{}", gateway.team(), gateway.robot(), name);
@@ -448,6 +510,34 @@ mod tests {
         }
         assert_eq!(st.team.speakers[&gw].parked.len(), MAX_PARKED);
         assert_eq!(st.stats.team.parked_dropped, 6);
+    }
+
+    #[test]
+    fn messages_kept_for_want_of_names_are_bounded_and_retried_when_the_gap_closes() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        st.on_team(&gw, &frame(1, lifecycle(1)));
+        let member = addr("t/r1/m1");
+        assert!(
+            !st.keep_undecoded(&member, MsgKind::Report, &[1]),
+            "no gap yet"
+        );
+        st.on_team(&gw, &frame(3, lifecycle(3)));
+        for _ in 0..MAX_UNDECODED + 5 {
+            assert!(st.keep_undecoded(&member, MsgKind::Report, &[1]));
+        }
+        assert_eq!(st.team.undecoded.len(), MAX_UNDECODED);
+        assert_eq!(st.stats.team.undecoded_dropped, 5);
+        st.retry_undecoded();
+        assert_eq!(
+            st.team.undecoded.len(),
+            MAX_UNDECODED,
+            "the gap is still open"
+        );
+        st.on_team(&gw, &frame(2, lifecycle(2)));
+        st.retry_undecoded();
+        assert!(st.team.undecoded.is_empty(), "decoded again (and refused)");
     }
 
     #[test]

@@ -86,7 +86,9 @@ impl State {
         if let (Some(gw), Some(i)) = (self.team.gateway.as_mut(), index) {
             gw.sent_inner(i, up.mark);
         }
-        self.gateway_push(index, up.message);
+        if !up.message.is_empty() {
+            self.gateway_push(index, up.message);
+        }
     }
 
     fn gateway_index(&self, member: &Address) -> Option<u8> {
@@ -234,6 +236,7 @@ impl State {
         }
         self.team_elect();
         self.team_listen();
+        self.retry_undecoded();
         self.nack_tick();
         self.deferred_state_answer();
         if self.team.gateway.is_none() {
@@ -331,12 +334,18 @@ impl State {
     }
 
     /// Tells the members the remote robots' union interest when it changed (a remote
-    /// hello, a new member, a takeover), and takes it for this module's own sends.
+    /// hello, a new member, a takeover), and takes it for this module's own sends. Not
+    /// before a robot hello is heard: until then members send everything they export
+    /// (an empty interest would keep their writes home, to be sent again as state).
     fn team_interest_if_changed(&mut self) {
         if !std::mem::take(&mut self.team.interest_dirty) {
             return;
         }
         let hellos = self.team.speakers.values().filter_map(|s| s.hello.as_ref());
+        if hellos.clone().next().is_none() {
+            // No robot heard yet: members send everything they export until one is.
+            return;
+        }
         let interest = union_without(hellos.clone().map(|h| &h.interest), 0);
         let exports = union_without(hellos.map(|h| &h.exports), 0);
         let version = self.team.remote.as_ref().map_or(1, |r| r.version + 1);
@@ -346,13 +355,39 @@ impl State {
             exports,
         };
         let bytes = TeamMsg::Interest(remote.clone()).encode();
-        self.team.remote = Some(remote);
+        self.take_remote_interest(remote);
         self.publish_now(LinkKind::Robot, MsgKind::TeamInterest, &bytes);
     }
 
-    /// A member takes its gateway's word for what the other robots model.
-    pub(super) fn on_team_interest(&mut self, remote: TeamInterest) {
-        self.team.remote = Some(remote);
+    /// A member takes its gateway's word for what the other robots model, and answers
+    /// with a `Mark` (its inner team position, no message). A gateway says its interest
+    /// when it takes over and when its members change, so the mark reaches a gateway
+    /// that acts: its hello and full heartbeats then list this member's position, and
+    /// receivers find a tail lost with uplinks that reached no gateway (one that died,
+    /// or that had not yet taken the role).
+    pub(super) fn on_team_interest(&mut self, from: &Address, remote: TeamInterest) {
+        self.take_remote_interest(remote);
+        let mark = Uplink {
+            to: None,
+            state_answer: false,
+            mark: self.out.get(&LinkKind::Team).map(|o| o.seq),
+            message: Vec::new(),
+        };
+        self.send_to(from, MsgKind::Uplink, &TeamMsg::Uplink(mark).encode());
+    }
+
+    /// What the other robots model, for this module's own sends. When it widens, this
+    /// module's state goes to them: what it wrote that nobody modelled then was kept
+    /// home, and no receiver knows to ask for it.
+    fn take_remote_interest(&mut self, remote: TeamInterest) {
+        let before = self.team.remote.replace(remote);
+        let widened = match (&before, &self.team.remote) {
+            (Some(b), Some(now)) => !b.interest.covers(&now.interest),
+            _ => false,
+        };
+        if widened {
+            self.team_answer_unasked();
+        }
     }
 
     /// Does any other robot model this item (as the gateway last said)? Before it has

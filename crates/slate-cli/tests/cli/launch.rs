@@ -1,0 +1,477 @@
+//! `slate launch`: the example teams started as processes on 127.0.0.1 (free ports through
+//! `--base-port`), seen through the live verbs, a killed module restarted, SIGTERM
+//! leaving no process behind, and `--check` naming what is wrong in a broken team.
+
+use std::io::{BufRead, BufReader};
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc::{Receiver, RecvTimeoutError};
+use std::time::{Duration, Instant};
+
+use serde_json::Value as Json;
+
+use crate::support::{Team, eventually, free_port, http_get, show, slate, slate_err};
+
+/// Longest wait for a launched team to be up (sixteen processes on two cores).
+const UP_LIMIT: Duration = Duration::from_secs(90);
+
+/// `examples/teams/` of the repository.
+fn teams() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/teams")
+}
+
+/// A free block of `n` ports on 127.0.0.1 (each bound once and released), at most 50 tries.
+fn free_block(n: u16) -> u16 {
+    for _ in 0..50 {
+        let base = free_port();
+        let all_free = (0..n).all(|i| {
+            base.checked_add(i)
+                .is_some_and(|p| TcpListener::bind(("127.0.0.1", p)).is_ok())
+        });
+        if all_free {
+            return base;
+        }
+    }
+    panic!("no block of {n} free ports on 127.0.0.1");
+}
+
+/// A running `slate launch --format json`, its events read in a thread; stopped (SIGKILL to
+/// it and to every module pid it reported) if the test ends before it was.
+struct Launched {
+    child: Option<Child>,
+    lines: Receiver<Json>,
+    events: Vec<Json>,
+    stderr: PathBuf,
+}
+
+impl Launched {
+    fn start(team: &Path, base_port: u16, logs: &Path) -> Launched {
+        Launched::start_with(team, base_port, logs, &[])
+    }
+
+    /// [`Launched::start`] with more arguments.
+    fn start_with(team: &Path, base_port: u16, logs: &Path, more: &[&str]) -> Launched {
+        let stderr = logs.with_extension("stderr");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_slate"))
+            .env_remove("RUST_LOG")
+            .arg("launch")
+            .arg(team)
+            .args(["--base-port", &base_port.to_string(), "--format", "json"])
+            .arg("--logs")
+            .arg(logs)
+            .args(more)
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(std::fs::File::create(&stderr).unwrap())
+            .spawn()
+            .expect("start slate launch");
+        let stdout = child.stdout.take().unwrap();
+        let (tx, lines) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let j = serde_json::from_str(&line).unwrap_or(Json::String(line));
+                if tx.send(j).is_err() {
+                    break;
+                }
+            }
+        });
+        Launched {
+            child: Some(child),
+            lines,
+            events: Vec::new(),
+            stderr,
+        }
+    }
+
+    /// Reads events until one matches (true) or `limit` passes or the output ends.
+    fn wait_for(&mut self, limit: Duration, matches: impl Fn(&Json) -> bool) -> bool {
+        if self.events.iter().any(&matches) {
+            return true;
+        }
+        let deadline = Instant::now() + limit;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(j) => {
+                    let hit = matches(&j);
+                    self.events.push(j);
+                    if hit {
+                        return true;
+                    }
+                }
+                Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => return false,
+            }
+        }
+    }
+
+    /// Waits for launch's `ready` event (every module up).
+    fn wait_up(&mut self) {
+        let up = self.wait_for(UP_LIMIT, |j| {
+            j["event"] == "ready" && j.get("logs").is_some()
+        });
+        assert!(up, "the team did not come up\n{}", self.output());
+    }
+
+    /// The pid of each `started` event, in order, with its address.
+    fn started(&self) -> Vec<(String, u32)> {
+        self.events
+            .iter()
+            .filter(|j| j["event"] == "started")
+            .map(|j| {
+                let pid = j["pid"].as_u64().and_then(|p| u32::try_from(p).ok());
+                (j["address"].as_str().unwrap_or("").to_owned(), pid.unwrap())
+            })
+            .collect()
+    }
+
+    /// Sends SIGTERM to launch and waits (at most 30 s) for it and its output; its exit.
+    fn terminate(&mut self) -> Option<i32> {
+        let mut child = self.child.take()?;
+        signal("-TERM", child.id());
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = child.kill();
+        let status = child.wait().ok();
+        while self.wait_for(Duration::from_secs(1), |_| false) {}
+        status.and_then(|s| s.code())
+    }
+
+    /// Waits (at most [`UP_LIMIT`]) for launch to exit on its own; its exit code.
+    fn terminate_when_done(&mut self) -> Option<i32> {
+        let mut child = self.child.take()?;
+        let deadline = Instant::now() + UP_LIMIT;
+        while child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let _ = child.kill();
+        let status = child.wait().ok();
+        while self.wait_for(Duration::from_secs(1), |_| false) {}
+        status.and_then(|s| s.code())
+    }
+
+    /// What launch printed, for failure messages.
+    fn output(&self) -> String {
+        let events: Vec<String> = self.events.iter().map(Json::to_string).collect();
+        let err = std::fs::read_to_string(&self.stderr).unwrap_or_default();
+        format!("--- events\n{}\n--- stderr\n{err}", events.join("\n"))
+    }
+}
+
+impl Drop for Launched {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.child.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        for (_, pid) in self.started() {
+            if alive(pid) {
+                signal("-KILL", pid);
+            }
+        }
+    }
+}
+
+fn signal(which: &str, pid: u32) {
+    let _ = Command::new("kill")
+        .args([which, &pid.to_string()])
+        .status();
+}
+
+/// Whether a process with this pid exists (and is not a zombie).
+fn alive(pid: u32) -> bool {
+    let status = std::fs::read_to_string(format!("/proc/{pid}/status")).unwrap_or_default();
+    !status.is_empty() && !status.contains("State:\tZ")
+}
+
+/// The names of the objects of `class` that `slate ls` shows through `endpoint`.
+fn objects(class: &str, endpoint: &str) -> Vec<String> {
+    let out = slate(&["ls", class, "--connect", endpoint, "--format", "json"]);
+    if !out.status.success() {
+        return Vec::new();
+    }
+    let j: Json = serde_json::from_slice(&out.stdout).unwrap_or(Json::Null);
+    let list = j["objects"].as_array().cloned().unwrap_or_default();
+    list.iter()
+        .filter_map(|o| o["name"].as_str().map(str::to_owned))
+        .collect()
+}
+
+/// Launches `file`, waits until `ls CLASS` shows every one of `expected`, stops it with
+/// SIGTERM, and checks that launch exited 0 and no module process is left.
+fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected: &[&str]) {
+    let base = free_block(modules);
+    let mut launched = Launched::start(file, base, &turn.dir.join("logs"));
+    launched.wait_up();
+    let endpoint = format!("tcp/127.0.0.1:{}", base + modules - 1);
+    let seen = eventually(Duration::from_secs(30), || {
+        let names = objects(class, &endpoint);
+        expected.iter().all(|e| names.iter().any(|n| n == e))
+    });
+    assert!(seen, "{expected:?} not on the board\n{}", launched.output());
+    let pids = launched.started();
+    assert_eq!(pids.len(), usize::from(modules), "{}", launched.output());
+    assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
+    let left: Vec<_> = pids.iter().filter(|(_, pid)| alive(*pid)).collect();
+    assert!(
+        left.is_empty(),
+        "still running: {left:?}\n{}",
+        launched.output()
+    );
+}
+
+#[test]
+fn the_small_team_launches_every_module_and_sigterm_stops_every_process() {
+    let turn = Team::new("launch-small");
+    let file = teams().join("small.toml");
+    launch_and_stop(&turn, &file, 5, "Vehicle", &["r1", "r2"]);
+}
+
+#[test]
+fn the_gsr_team_launches_as_sixteen_processes_and_sigterm_stops_them_all() {
+    let turn = Team::new("launch-gsr");
+    let file = teams().join("gsr.toml");
+    launch_and_stop(&turn, &file, 16, "Robot", &["r1", "r2", "r3"]);
+}
+
+/// `small.toml` copied into `dir` with its files' paths made absolute and a dashboard on
+/// a free port for every nav module, to read a module's own board.
+fn small_with_dashboards(dir: &Path) -> PathBuf {
+    let text = std::fs::read_to_string(teams().join("small.toml")).unwrap();
+    let small = teams().join("small");
+    let text = text
+        .replace("\"small/", &format!("\"{}/", small.display()))
+        .replace(
+            "[kinds.nav]\n",
+            "[kinds.nav]\ndashboard = \"127.0.0.1:0\"\n",
+        );
+    let file = dir.join("small.toml");
+    std::fs::write(&file, text).unwrap();
+    file
+}
+
+/// The dashboard URL the newest `ready` line of `address` gave.
+fn dashboard_of(launched: &Launched, address: &str) -> Option<String> {
+    launched.events.iter().rev().find_map(|j| {
+        let line: Json = serde_json::from_str(j["line"].as_str()?).ok()?;
+        let ready = j["address"] == address && line["event"] == "ready";
+        ready.then(|| line["dashboard"].as_str().map(str::to_owned))?
+    })
+}
+
+/// The value text of `object.attr` on a dashboard's board.
+fn value_on(dashboard: &str, object: &str, attr: &str) -> Option<String> {
+    let snap = http_get(dashboard, "/api/snapshot").json();
+    let o = snap["objects"]
+        .as_array()?
+        .iter()
+        .find(|o| o["name"] == object)?
+        .clone();
+    let a = o["attrs"]
+        .as_array()?
+        .iter()
+        .find(|a| a["name"] == attr)?
+        .clone();
+    a["value"].as_str().map(str::to_owned)
+}
+
+#[test]
+fn a_module_killed_is_restarted_by_launch_and_catches_up_with_the_team() {
+    let turn = Team::new("launch-restart");
+    let file = small_with_dashboards(&turn.dir);
+    let base = free_block(5);
+    let mut launched = Launched::start(&file, base, &turn.dir.join("logs"));
+    launched.wait_up();
+    let endpoint = format!("tcp/127.0.0.1:{}", base + 4);
+    let put = slate(&["put", "r1.mode", "manual", "--connect", &endpoint]);
+    assert!(put.status.success(), "{}", show(&put));
+    let (_, nav) = launched
+        .started()
+        .into_iter()
+        .find(|(a, _)| a == "small/r1/nav")
+        .unwrap();
+    signal("-KILL", nav);
+    let back = launched.wait_for(UP_LIMIT, |j| {
+        j["event"] == "started" && j["address"] == "small/r1/nav" && j["pid"] != nav
+    });
+    assert!(back, "not restarted\n{}", launched.output());
+    assert!(
+        launched
+            .events
+            .iter()
+            .any(|j| j["event"] == "exited" && j["address"] == "small/r1/nav"),
+        "{}",
+        launched.output()
+    );
+    let ready = launched.wait_for(UP_LIMIT, |j| {
+        j["address"] == "small/r1/nav"
+            && j["line"].as_str().is_some_and(|l| l.contains("\"ready\""))
+            && j["line"]
+                .as_str()
+                .is_some_and(|l| !l.contains(&format!("\"pid\":{nav}")))
+    });
+    assert!(
+        ready,
+        "the restarted module never said ready\n{}",
+        launched.output()
+    );
+    let dashboard = dashboard_of(&launched, "small/r1/nav").expect("its dashboard");
+    // Its file says "auto"; the team's value is "manual", which it must take back.
+    let caught_up = eventually(Duration::from_secs(20), || {
+        value_on(&dashboard, "r1", "mode").as_deref() == Some("manual")
+    });
+    assert!(
+        caught_up,
+        "the restarted module did not catch up\n{}",
+        launched.output()
+    );
+    let pids = launched.started();
+    assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
+    assert!(
+        pids.iter().all(|(_, p)| !alive(*p)),
+        "{pids:?}\n{}",
+        launched.output()
+    );
+}
+
+#[test]
+fn launch_exits_non_zero_and_stops_the_others_when_a_module_cannot_start() {
+    let turn = Team::new("launch-cannot");
+    let base = free_block(5);
+    // The last module's port is taken: it cannot listen, so it cannot start.
+    let _taken = TcpListener::bind(("127.0.0.1", base + 4)).unwrap();
+    let mut launched = Launched::start(&teams().join("small.toml"), base, &turn.dir.join("logs"));
+    let code = launched.terminate_when_done();
+    assert_eq!(code, Some(2), "{}", launched.output());
+    let err = std::fs::read_to_string(&launched.stderr).unwrap();
+    assert!(err.contains("small/base/console could not start"), "{err}");
+    let pids = launched.started();
+    assert!(
+        pids.iter().all(|(_, p)| !alive(*p)),
+        "{pids:?}\n{}",
+        launched.output()
+    );
+}
+
+#[test]
+fn every_example_team_checks() {
+    for team in ["small.toml", "gsr.toml"] {
+        let path = teams().join(team);
+        let out = slate(&["launch", path.to_str().unwrap(), "--check"]);
+        assert!(out.status.success(), "{team}\n{}", show(&out));
+    }
+}
+
+#[test]
+fn check_names_the_file_and_line_of_each_problem_in_a_broken_team() {
+    let turn = Team::new("launch-check");
+    let dir = &turn.dir;
+    std::fs::write(dir.join("bad.slate"), "class V { speed: real }\n").unwrap();
+    let team = "team = \"t\"\nbase_port = 7700\n\n[kinds.nav]\nfiles = [\"missing.slate\"]\ndashboard = \"127.0.0.1:8080\"\n\n[kinds.loco]\nfiles = [\"bad.slate\"]\n\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\", \"loco\"]\n\n[[robots]]\nname = \"r2\"\nmodules = [\"nav\"]\n";
+    let file = dir.join("broken.toml");
+    std::fs::write(&file, team).unwrap();
+    let err = slate_err(&["launch", file.to_str().unwrap(), "--check"]);
+    let file = file.display().to_string();
+    assert!(
+        err.contains(&format!("{file}:4: module r1/nav: cannot read")),
+        "{err}"
+    );
+    assert!(err.contains("bad.slate:1:23: error: expected `;`"), "{err}");
+    assert!(
+        err.contains("port 8080 on 127.0.0.1 for its dashboard, which r1/nav has"),
+        "{err}"
+    );
+    // A kind nobody defined, and a key launch owns: one line each, with the line number.
+    for (from, to, says) in [
+        (
+            "name = \"r2\"",
+            "name = \"r 2\"",
+            ":16: robot name \"r 2\": use letters, digits, _ and -",
+        ),
+        (
+            "[\"nav\"]",
+            "[\"nva\"]",
+            ":16: robot \"r2\": no kind \"nva\": define `[kinds.nva]`",
+        ),
+        (
+            "[kinds.loco]\n",
+            "[kinds.loco]\naddress = \"t/x/y\"\n",
+            ":8: kind \"loco\": remove `address`",
+        ),
+    ] {
+        std::fs::write(dir.join("broken.toml"), team.replace(from, to)).unwrap();
+        let err = slate_err(&["launch", &file, "--check"]);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(&format!("{file}{says}")), "{err}");
+    }
+}
+
+#[test]
+fn robot_runs_only_that_robots_modules_on_this_host() {
+    let turn = Team::new("launch-robot");
+    let base = free_block(5);
+    let file = teams().join("small.toml");
+    let mut launched =
+        Launched::start_with(&file, base, &turn.dir.join("logs"), &["--robot", "r2"]);
+    launched.wait_up();
+    let mut started: Vec<String> = launched.started().into_iter().map(|(a, _)| a).collect();
+    started.sort();
+    assert_eq!(
+        started,
+        ["small/r2/loco", "small/r2/nav"],
+        "{}",
+        launched.output()
+    );
+    assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
+    let err = slate_err(&["launch", file.to_str().unwrap(), "--only", "r9/nav"]);
+    assert!(err.contains("has no module \"r9/nav\""), "{err}");
+}
+
+#[test]
+fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
+    let turn = Team::new("launch-give-up");
+    let text = std::fs::read_to_string(teams().join("small.toml")).unwrap();
+    let small = teams().join("small");
+    let text = text
+        .replace("\"small/", &format!("\"{}/", small.display()))
+        .replace("limit = 5", "limit = 1")
+        .replace("backoff = \"500ms\"", "backoff = \"100ms\"");
+    let file = turn.dir.join("small.toml");
+    std::fs::write(&file, text).unwrap();
+    let base = free_block(5);
+    let mut launched =
+        Launched::start_with(&file, base, &turn.dir.join("logs"), &["--only", "r1/nav"]);
+    launched.wait_up();
+    let mut killed = Vec::new();
+    for round in 0..2 {
+        let (_, pid) = *launched.started().last().unwrap();
+        signal("-KILL", pid);
+        killed.push(pid);
+        let next = |j: &Json| {
+            let pid = j["pid"].as_u64().and_then(|p| u32::try_from(p).ok());
+            let restarted = j["event"] == "started" && pid.is_some_and(|p| !killed.contains(&p));
+            restarted || j["event"] == "gave_up"
+        };
+        assert!(
+            launched.wait_for(UP_LIMIT, next),
+            "round {round}\n{}",
+            launched.output()
+        );
+    }
+    let gave_up = launched.events.iter().find(|j| j["event"] == "gave_up");
+    let text = gave_up.map(|j| j["text"].to_string()).unwrap_or_default();
+    assert!(
+        text.contains("after 1 restarts: giving up on it"),
+        "{}",
+        launched.output()
+    );
+    // Nothing left to run: launch exits 1 on its own.
+    assert_eq!(
+        launched.terminate_when_done(),
+        Some(1),
+        "{}",
+        launched.output()
+    );
+}
