@@ -22,6 +22,7 @@ pub mod core;
 pub mod net;
 pub mod plans;
 mod proxy;
+pub mod record;
 pub mod wire;
 mod zenoh_pair;
 
@@ -51,6 +52,8 @@ pub enum Suite {
     /// to exit, against starting a process and a raw Zenoh session and query; needs this
     /// process to be the `slate` executable.
     Cli,
+    /// A node's writes with its board recorded in MCAP, against the same node without.
+    Record,
 }
 
 /// Runs `suite`; `progress` is told each step before it is measured.
@@ -61,6 +64,7 @@ pub fn run(suite: Suite, cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow
         Suite::Wire => wire::run(cfg, progress),
         Suite::Net => net::run(cfg, progress),
         Suite::Cli => cli::run(cfg, progress),
+        Suite::Record => record::run(cfg, progress),
     }
 }
 

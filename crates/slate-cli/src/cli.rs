@@ -139,6 +139,36 @@ pub enum Command {
     /// Example: slate plan send patrol.slate --to team/r2/loco
     #[command(subcommand)]
     Plan(PlanCommand),
+
+    /// Record a live team's world model to an MCAP file, as an observer, until Ctrl-C.
+    ///
+    /// The file starts with the team's current state (classes, objects and their
+    /// packets), then holds every packet written, objects created and deleted, plan
+    /// events, circuit steps, modules going up and down, and link counters each second:
+    /// one channel per class with a JSON schema, readable by Foxglove or any MCAP reader
+    /// (docs/recording.md). PATTERNs (classes or objects) keep only those; default:
+    /// everything. Progress (messages and bytes) goes to stderr; Ctrl-C or `--for`
+    /// finishes the file cleanly. A node records its own board with `record = "FILE"` in
+    /// its config instead.
+    ///
+    /// Example: slate record -o field-day.mcap
+    ///
+    /// Example: slate record -o vehicles.mcap Vehicle Obstacle --max-size-mb 512
+    Record(RecordArgs),
+
+    /// Replay a recording: rebuild the recorded board on a manual clock, message by
+    /// message, at the recorded pace (`--speed`), and print the board it ends with.
+    ///
+    /// The board starts from the file's first state (classes, objects, packets) and takes
+    /// every packet with its recorded stamp and source, so it reads as it did live; with
+    /// `--dashboard` the dashboard shows it as it goes, and stays up until Ctrl-C once the
+    /// recording has been played. A file cut off by a crash plays up to its last chunk.
+    /// Nothing is sent to any network.
+    ///
+    /// Example: slate play field-day.mcap --speed 10 --dashboard 127.0.0.1:8080
+    ///
+    /// Example: slate play field-day.mcap --speed max --until 120 --format json
+    Play(PlayArgs),
 }
 
 /// Arguments of `slate check`.
@@ -264,6 +294,53 @@ pub struct WatchArgs {
 
     #[command(flatten)]
     pub live: LiveArgs,
+}
+
+/// Arguments of `slate record`.
+#[derive(Debug, clap::Args)]
+pub struct RecordArgs {
+    /// The file to write (rotated files go beside it: NAME.1.mcap, NAME.2.mcap...).
+    #[arg(short, long, value_name = "FILE.mcap")]
+    pub output: std::path::PathBuf,
+
+    /// Classes (with their subclasses) or objects to record; none: everything.
+    #[arg(value_name = "PATTERN")]
+    pub patterns: Vec<String>,
+
+    /// Start the next file once this many MiB are written (0: never).
+    #[arg(long, value_name = "MIB", default_value_t = 1024)]
+    pub max_size_mb: u64,
+
+    /// Start the next file once the open one is this many seconds old (default: never).
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub max_age: Option<f64>,
+
+    /// Stop after this many seconds (default: at Ctrl-C).
+    #[arg(long = "for", value_name = "SECONDS", allow_negative_numbers = true)]
+    pub duration: Option<f64>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
+/// Arguments of `slate play`.
+#[derive(Debug, clap::Args)]
+pub struct PlayArgs {
+    /// The recording (one file; a rotated recording's files play one at a time).
+    #[arg(value_name = "FILE.mcap")]
+    pub file: std::path::PathBuf,
+
+    /// Times the recorded pace (2: twice as fast), or `max`: as fast as it goes.
+    #[arg(long, value_name = "X|max", default_value = "1")]
+    pub speed: String,
+
+    /// Stop this many seconds after the recording's start.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    pub until: Option<f64>,
+
+    /// Serve the dashboard of the replayed board there (like "127.0.0.1:8080").
+    #[arg(long, value_name = "ADDR")]
+    pub dashboard: Option<std::net::SocketAddr>,
 }
 
 /// `slate plan` verbs.

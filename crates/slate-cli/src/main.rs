@@ -42,6 +42,8 @@ fn main() -> ExitCode {
         Command::Get(args) => command::get::run(&args, format),
         Command::Put(args) => command::put::run(&args, format),
         Command::Watch(args) => command::watch::run(&args, format),
+        Command::Record(args) => command::record::run(&args, format),
+        Command::Play(args) => command::play::run(&args, format),
         Command::Plan(PlanCommand::Send(args)) => command::plan::send(&args, format),
         Command::Plan(PlanCommand::Ls(args)) => command::plan::ls(&args, format),
         Command::Plan(PlanCommand::Cancel(args)) => command::plan::cancel(&args, format),

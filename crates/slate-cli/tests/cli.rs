@@ -18,6 +18,9 @@ mod multi;
 // Verbs that need no team: `check`, `bench`, `help`, and argument errors.
 #[path = "cli/offline.rs"]
 mod offline;
+// Recording in MCAP: from a node's config and with `slate record`, and after a SIGKILL.
+#[path = "cli/record.rs"]
+mod record;
 // Modules that crash and come back, and observers that come and go.
 #[path = "cli/restart.rs"]
 mod restart;

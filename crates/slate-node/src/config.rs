@@ -12,6 +12,7 @@ use slate_zenoh::{Mode, ZenohConfig};
 
 use crate::error::ConfigError;
 use crate::fields::{Fields, describe};
+use crate::record::RecordConfig;
 
 /// Everything a node needs to start.
 ///
@@ -50,6 +51,8 @@ pub struct NodeConfig {
     pub ici: IciConfig,
     /// Where to serve the dashboard, if anywhere.
     pub dashboard: Option<SocketAddr>,
+    /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
+    pub record: Option<RecordConfig>,
 }
 
 /// A `.slate` file a node loads at start, and the placeholders replaced in its text
@@ -81,7 +84,11 @@ const TOP: &[&str] = &[
     "zenoh",
     "zenoh_config",
     "ici",
+    "record",
+    "recording",
 ];
+/// Keys of `[recording]`.
+const RECORDING: &[&str] = &["max_bytes", "max_duration", "flush", "stats", "queue"];
 /// Keys of `[zenoh]`.
 const ZENOH: &[&str] = &["mode", "listen", "connect", "multicast_scouting"];
 /// Keys of `[ici]`.
@@ -112,6 +119,7 @@ impl NodeConfig {
             files: Vec::new(),
             ici: IciConfig::default(),
             dashboard: None,
+            record: None,
         }
     }
 
@@ -154,6 +162,7 @@ impl NodeConfig {
         if let Some(ici) = top.table("ici", ICI)? {
             ici_section(ici, &mut config.ici)?;
         }
+        config.record = record(&mut top, base)?;
         top.finish()?;
         Ok(config)
     }
@@ -229,6 +238,38 @@ fn dashboard(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
     text.parse()
         .map(Some)
         .map_err(|_| top.invalid("dashboard", EXPECTED, &format!("{text:?}")))
+}
+
+/// `record = "FILE.mcap"`, with its `[recording]` settings.
+fn record(top: &mut Fields, base: &Path) -> Result<Option<RecordConfig>, ConfigError> {
+    let path = top.str("record", "a file to record to, like \"run.mcap\"")?;
+    let settings = top.table("recording", RECORDING)?;
+    let Some(path) = path else {
+        return match settings {
+            Some(_) => Err(top.invalid(
+                "recording",
+                "`record = \"FILE.mcap\"` beside it",
+                "[recording] without record",
+            )),
+            None => Ok(None),
+        };
+    };
+    let mut config = RecordConfig::new(base.join(path));
+    if let Some(t) = settings {
+        recording_section(t, &mut config)?;
+    }
+    Ok(Some(config))
+}
+
+fn recording_section(mut t: Fields, r: &mut RecordConfig) -> Result<(), ConfigError> {
+    if let Some(n) = t.count("max_bytes")? {
+        r.max_bytes = Some(n as u64);
+    }
+    r.max_duration = t.duration("max_duration")?.or(r.max_duration);
+    r.flush_every = t.duration("flush")?.unwrap_or(r.flush_every);
+    r.stats_every = t.duration("stats")?.unwrap_or(r.stats_every);
+    r.queue = t.count("queue")?.unwrap_or(r.queue);
+    t.finish()
 }
 
 fn zenoh_section(mut t: Fields) -> Result<ZenohConfig, ConfigError> {
@@ -516,6 +557,50 @@ mod tests {
             );
             assert!(!err.contains('\n'), "one line: {err}");
         }
+    }
+
+    #[test]
+    fn record_names_the_file_and_recording_its_rotation() {
+        let c = parse(
+            r#"
+            address = "t/r1/nav"
+            record = "runs/nav.mcap"
+            [recording]
+            max_bytes = 1000000
+            max_duration = "10min"
+            flush = "250ms"
+            stats = "2s"
+            queue = 1024
+            "#,
+        )
+        .unwrap();
+        let r = c.record.unwrap();
+        assert_eq!(r.path, PathBuf::from("/etc/slate/runs/nav.mcap"));
+        assert_eq!(r.max_bytes, Some(1_000_000));
+        assert_eq!(r.max_duration, Some(Duration::from_secs(600)));
+        assert_eq!(r.flush_every, Duration::from_millis(250));
+        assert_eq!(r.stats_every, Duration::from_secs(2));
+        assert_eq!(r.queue, 1024);
+        let plain = parse("address = \"t/r/m\"\nrecord = \"/abs/x.mcap\"").unwrap();
+        assert_eq!(plain.record, Some(RecordConfig::new("/abs/x.mcap")));
+    }
+
+    #[test]
+    fn recording_settings_without_record_are_refused() {
+        let err = parse("address = \"t/r/m\"\n[recording]\nqueue = 5")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("m.toml: key `recording`: expected `record = \"FILE.mcap\"` beside it"),
+            "{err}"
+        );
+        let err = parse("address = \"t/r/m\"\nrecord = 3")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("m.toml: key `record`: expected a file to record to"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -93,6 +93,9 @@ pub enum StartError {
     /// The dashboard did not start.
     #[error("cannot serve the dashboard: {0}")]
     Dashboard(#[from] slate_dashboard::ServeError),
+    /// The recording (`record` in the config) did not start.
+    #[error("cannot record: {0}")]
+    Record(#[from] crate::record::RecordError),
 }
 
 /// Why an observer could not join a live team.

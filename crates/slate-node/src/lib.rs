@@ -49,6 +49,7 @@ pub mod inspect;
 mod monitor;
 mod node;
 mod observer;
+pub mod record;
 mod timers;
 mod view;
 
@@ -58,5 +59,6 @@ pub use fields::parse_duration;
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
+pub use record::{RecordConfig, RecordError, RecordStats};
 pub use slate_dashboard::STALE_AFTER_S;
 pub use timers::TICK;

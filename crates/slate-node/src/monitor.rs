@@ -278,7 +278,8 @@ impl Sources {
     }
 }
 
-fn board_event(e: &BoardEvent) -> String {
+/// A board event as a sentence (the event log's, and a recording's `text`).
+pub(crate) fn board_event(e: &BoardEvent) -> String {
     match e {
         BoardEvent::FunctionFailed {
             function,

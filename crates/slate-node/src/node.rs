@@ -17,6 +17,7 @@ use slate_zenoh::{ZenohConfig, ZenohTransport};
 use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
+use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
 use crate::timers::Timers;
 use crate::view::View;
 
@@ -65,6 +66,7 @@ pub struct NodeBuilder {
     ici: IciConfig,
     sources: Vec<Source>,
     dashboard: Option<SocketAddr>,
+    record: Option<RecordConfig>,
 }
 
 impl NodeBuilder {
@@ -79,6 +81,7 @@ impl NodeBuilder {
             ici: IciConfig::default(),
             sources: Vec::new(),
             dashboard: None,
+            record: None,
         }
     }
 
@@ -138,6 +141,12 @@ impl NodeBuilder {
     /// Serves the dashboard on `addr` (port 0: any free port, see [`Node::dashboard_url`]).
     pub fn dashboard(mut self, addr: SocketAddr) -> Self {
         self.dashboard = Some(addr);
+        self
+    }
+
+    /// Records the board from the start (`docs/recording.md`).
+    pub fn record(mut self, config: RecordConfig) -> Self {
+        self.record = Some(config);
         self
     }
 
@@ -207,9 +216,16 @@ impl NodeBuilder {
                 monitor: Some(monitor),
                 timers,
                 dashboard: None,
+                recorder: None,
             }),
             closed: AtomicBool::new(false),
         };
+        if let Some(config) = self.record
+            && let Err(e) = node.start_recording(config)
+        {
+            node.close();
+            return Err(e.into());
+        }
         node.started();
         if let Some(addr) = self.dashboard {
             let dashboard = slate_dashboard::serve(addr, node.view.clone());
@@ -261,6 +277,7 @@ struct Threads {
     monitor: Option<Monitor>,
     timers: Option<Timers>,
     dashboard: Option<Dashboard>,
+    recorder: Option<Recorder>,
 }
 
 /// One module of a robot: a [`Board`], its plan [`Engine`], its [`Ici`] over a
@@ -305,6 +322,9 @@ impl Node {
         }
         if let Some(d) = config.dashboard {
             b = b.dashboard(d);
+        }
+        if let Some(r) = &config.record {
+            b = b.record(r.clone());
         }
         b.start()
     }
@@ -399,6 +419,27 @@ impl Node {
         self.view.view()
     }
 
+    /// Starts recording the board to MCAP files (`docs/recording.md`), from what it holds
+    /// now on; a recording already running is finished first.
+    pub fn start_recording(&self, config: RecordConfig) -> Result<(), RecordError> {
+        self.stop_recording()?;
+        let recorder = Recorder::start(&self.view, config)?;
+        self.threads.lock().recorder = Some(recorder);
+        Ok(())
+    }
+
+    /// Finishes the recording (what is waiting is written, then the file's summary),
+    /// with its final counters; `None` if it was not recording.
+    pub fn stop_recording(&self) -> Result<Option<RecordStats>, RecordError> {
+        let recorder = self.threads.lock().recorder.take();
+        recorder.map(|mut r| r.stop()).transpose()
+    }
+
+    /// The recording's counters so far, if it records.
+    pub fn recording(&self) -> Option<RecordStats> {
+        self.threads.lock().recorder.as_ref().map(Recorder::stats)
+    }
+
     /// Has it been closed?
     pub fn is_closed(&self) -> bool {
         self.closed.load(Ordering::Acquire)
@@ -424,6 +465,11 @@ impl Node {
         self.log(Level::Info, format!("{} stopped", self.address()));
         if let Some(mut m) = threads.monitor.take() {
             m.stop();
+        }
+        if let Some(mut r) = threads.recorder.take()
+            && let Err(e) = r.stop()
+        {
+            tracing::error!("{e}");
         }
     }
 }

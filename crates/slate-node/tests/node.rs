@@ -12,6 +12,9 @@ mod dashboard;
 // A node hands the `link` blocks of the files it loads to its ICI.
 #[path = "node/links.rs"]
 mod links;
+// Recording a board in MCAP, read back with the mcap crate.
+#[path = "node/record.rs"]
+mod record;
 // Two robots' LANs joined only through a Zenoh router (`zenoh_config`).
 #[path = "node/router.rs"]
 mod router;

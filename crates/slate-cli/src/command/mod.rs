@@ -10,7 +10,9 @@ mod live;
 pub mod ls;
 pub mod node;
 pub mod plan;
+pub mod play;
 pub mod put;
+pub mod record;
 pub mod tree;
 pub mod watch;
 

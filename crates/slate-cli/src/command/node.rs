@@ -21,6 +21,7 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
             "event": "ready", "address": node.address().as_str(),
             "listening": node.listening(), "connect": config.zenoh.connect,
             "dashboard": dashboard, "pid": std::process::id(),
+            "record": config.record.as_ref().map(|r| r.path.display().to_string()),
         }))?,
         Format::Text => {
             let listening = match node.listening() {

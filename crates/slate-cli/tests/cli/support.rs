@@ -161,6 +161,19 @@ impl NodeProc {
         export: &str,
         ici: &str,
     ) -> NodeProc {
+        NodeProc::start_config(dir, address, extra, connect, &[export, ici, ""])
+    }
+
+    /// [`NodeProc::start_with`] with more top-level keys (TOML lines): `settings` is the
+    /// export list, the `[ici]` lines and the top-level lines.
+    pub fn start_config(
+        dir: &Path,
+        address: &str,
+        extra: &str,
+        connect: &[String],
+        settings: &[&str; 3],
+    ) -> NodeProc {
+        let [export, ici, top] = settings;
         let stem = address.replace('/', "_");
         std::fs::write(dir.join("world.slate"), WORLD).unwrap();
         std::fs::write(dir.join(format!("{stem}.slate")), extra).unwrap();
@@ -168,7 +181,7 @@ impl NodeProc {
         let dashboard = format!("127.0.0.1:{}", free_port());
         let connect: Vec<String> = connect.iter().map(|c| format!("{c:?}")).collect();
         let config = format!(
-            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [{export}]\ndashboard = \"{dashboard}\"\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n{ici}\n",
+            "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [{export}]\ndashboard = \"{dashboard}\"\n{top}\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n{ici}\n",
             connect.join(", ")
         );
         let path = dir.join(format!("{stem}.toml"));
@@ -389,6 +402,16 @@ impl Team {
     }
 
     /// `--connect E` for every node, so an observer reaches all at once.
+    /// Adds a node that records its own board to `record` (an MCAP file).
+    pub fn add_recording(&mut self, address: &str, extra: &str, record: &Path) -> &NodeProc {
+        let connect: Vec<String> = self.nodes.iter().map(|n| n.endpoint.clone()).collect();
+        let top = format!("record = {:?}", record.display().to_string());
+        let settings = ["\"Thing\"", "", top.as_str()];
+        let node = NodeProc::start_config(&self.dir, address, extra, &connect, &settings);
+        self.nodes.push(node);
+        self.nodes.last().unwrap()
+    }
+
     /// Starts `slate ARGS` against the team without waiting for it, its output piped;
     /// killed if the test ends first.
     pub fn spawn(&self, args: &[&str]) -> Guard {

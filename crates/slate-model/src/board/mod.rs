@@ -639,9 +639,21 @@ impl Board {
     /// Subscribes to the changes matching `filter`. Every write notifies once, every
     /// batch once (with all its matching items), in revision order.
     pub fn watch(&self, filter: Filter) -> Result<Watch, LookupError> {
+        self.subscribe(filter, None)
+    }
+
+    /// Like [`watch`](Board::watch), but at most `capacity` changes wait for the reader:
+    /// when it falls further behind, a writer drops the change and counts it
+    /// ([`Watch::dropped`]) instead of queueing without bound. For readers that must
+    /// never hold the writers up nor grow memory, like a recorder.
+    pub fn watch_bounded(&self, filter: Filter, capacity: usize) -> Result<Watch, LookupError> {
+        self.subscribe(filter, Some(capacity.max(1)))
+    }
+
+    fn subscribe(&self, filter: Filter, capacity: Option<usize>) -> Result<Watch, LookupError> {
         let mut inner = self.inner.write();
         let spec = resolve_filter(&inner.state, &filter)?;
-        let (watcher, watch) = watch::subscribe(spec);
+        let (watcher, watch) = watch::subscribe(spec, capacity);
         inner.watchers.push(watcher);
         Ok(watch)
     }

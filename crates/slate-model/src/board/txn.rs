@@ -259,12 +259,7 @@ impl<'s> Txn<'s> {
         inner.state.revision = revision;
         let mut dead = Vec::new();
         for (i, items) in notes.into_iter().enumerate() {
-            if !items.is_empty()
-                && inner.watchers[i]
-                    .tx
-                    .send(Change { revision, items })
-                    .is_err()
-            {
+            if !items.is_empty() && !inner.watchers[i].offer(Change { revision, items }) {
                 dead.push(i);
             }
         }

@@ -1,9 +1,10 @@
 //! Watching a board: change notifications, revision cursors and board events.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError};
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, TrySendError};
 use parking_lot::{Condvar, Mutex};
 
 use super::state::State;
@@ -194,6 +195,8 @@ impl Cursor {
 pub struct Watch {
     rx: Receiver<Change>,
     cursor: Cursor,
+    /// Changes a bounded watch had no room for (always 0 for an unbounded one).
+    dropped: Arc<AtomicU64>,
 }
 
 impl Watch {
@@ -235,6 +238,12 @@ impl Watch {
     /// Changes waiting to be received.
     pub fn pending(&self) -> usize {
         self.rx.len()
+    }
+
+    /// Changes not delivered because a bounded watch was full (see
+    /// [`Board::watch_bounded`](crate::Board::watch_bounded)).
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
     }
 }
 
@@ -280,17 +289,45 @@ impl Spec {
 
 pub(crate) struct Watcher {
     pub spec: Spec,
-    pub tx: Sender<Change>,
+    tx: Sender<Change>,
+    dropped: Arc<AtomicU64>,
 }
 
-/// Creates a watcher and the watch its reader holds.
-pub(crate) fn subscribe(spec: Spec) -> (Watcher, Watch) {
-    let (tx, rx) = crossbeam_channel::unbounded();
+impl Watcher {
+    /// Hands a change to the reader without ever waiting: a full bounded watch drops it
+    /// and counts it. False once the reader is gone (the watcher is then removed).
+    pub fn offer(&self, change: Change) -> bool {
+        match self.tx.try_send(change) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                self.dropped.fetch_add(1, Ordering::Relaxed);
+                true
+            }
+            Err(TrySendError::Disconnected(_)) => false,
+        }
+    }
+}
+
+/// Creates a watcher and the watch its reader holds; `capacity` bounds the changes
+/// waiting (`None`: unbounded).
+pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch) {
+    let (tx, rx) = match capacity {
+        Some(n) => crossbeam_channel::bounded(n),
+        None => crossbeam_channel::unbounded(),
+    };
+    let dropped = Arc::new(AtomicU64::new(0));
+    let watcher = Watcher {
+        spec,
+        tx,
+        dropped: dropped.clone(),
+    };
+    let cursor = Cursor::default();
     (
-        Watcher { spec, tx },
+        watcher,
         Watch {
             rx,
-            cursor: Cursor::default(),
+            cursor,
+            dropped,
         },
     )
 }

@@ -131,3 +131,23 @@ fn deletions_reach_object_watchers() {
     b.delete("rock").unwrap();
     assert_eq!(drain(&w), ["-rock"]);
 }
+
+/// A recorder's watch must never hold a writer up: when its reader falls behind, the
+/// changes that do not fit are dropped and counted, and the writes all commit.
+#[test]
+fn a_bounded_watch_drops_and_counts_what_does_not_fit_and_never_blocks_the_writer() {
+    let b = board();
+    b.create("Gsr", "g").unwrap();
+    let slow = b.watch_bounded(Filter::all(), 4).unwrap();
+    for i in 0..10 {
+        b.write("g", "speed", f64::from(i)).unwrap();
+    }
+    assert_eq!(slow.dropped(), 6);
+    let kept = drain(&slow);
+    assert_eq!(kept, ["g.speed"; 4]);
+    b.write("g", "speed", 11.0).unwrap();
+    assert_eq!(drain(&slow), ["g.speed"]);
+    assert_eq!(slow.dropped(), 6, "a drained watch has room again");
+    let unbounded = b.watch(Filter::all()).unwrap();
+    assert_eq!(unbounded.dropped(), 0);
+}

@@ -1,0 +1,94 @@
+//! `slate bench record`: a node's write path with its board recorded in MCAP, against the
+//! same node without (docs/recording.md), measured in the same run.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use serde_json::json;
+use slate_ici::{ClassSet, IciConfig, SimNet};
+use slate_model::Address;
+use slate_node::{Node, RecordConfig};
+
+use crate::{Config, Figures, measure};
+
+/// The module measured: one vehicle written again and again, exporting everything (the
+/// ICI builds its reports on the write path, as in a team).
+const WORLD: &str = "class Vehicle { speed: real [m/s] in 0 .. 50 = 0.0; x: real [m]; }\nobject gsr : Vehicle context self;";
+
+/// Runs the suite; `progress` is told each step.
+pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
+    let mut r = Figures::new(
+        "slate bench record: a node's writes with its board recorded in MCAP vs the same node without",
+    );
+    let net = SimNet::new(1);
+    let address = Address::new("team/r1/nav")?;
+    let node = Node::builder(address.clone())
+        .transport(net.join(&address))
+        .clock(net.clock())
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .source("bench.slate", WORLD)
+        .start()?;
+    let key = node.board().key("gsr", "speed")?;
+    let mut values = crate::Cycle::new(0.0, 49.0);
+    let mut write = || drop(black_box(node.board().write_key(key, values.next_value())));
+    progress("node writes, not recording");
+    r.add("node_write_ns", measure(cfg, &mut write));
+    progress("node writes, a bounded watch drained by a thread that discards");
+    let ns = handed_off(node.board(), || measure(cfg, &mut write))?;
+    r.compare("node_write_handoff_ns", ns, "node_write_ns", None);
+    let dir = std::env::temp_dir().join(format!("slate-bench-record-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let path = dir.join("bench.mcap");
+    node.start_recording(RecordConfig::new(&path))?;
+    progress("node writes, recording");
+    let ns = measure(cfg, &mut write);
+    r.compare("node_write_recording_ns", ns, "node_write_ns", Some(1.25));
+    let stats = node.stop_recording()?.unwrap_or_default();
+    node.close();
+    net.run_for(Duration::from_millis(10));
+    let _ = std::fs::remove_dir_all(&dir);
+    r.fact("recorded_messages", json!(stats.messages));
+    r.fact("recorded_bytes", json!(stats.bytes));
+    r.fact("dropped_changes", json!(stats.dropped));
+    r.fact("recording_failed", json!(stats.failed));
+    let per = stats.bytes as f64 / stats.messages.max(1) as f64;
+    r.fact("bytes_per_message", json!((per * 10.0).round() / 10.0));
+    Ok(r)
+}
+
+/// Runs `op` while a thread drains a bounded watch of the whole board and discards what
+/// it takes: the writer's share of recording (the change built and handed over), without
+/// the recorder's own work competing for the cores.
+fn handed_off(board: &slate_model::Board, op: impl FnOnce() -> f64) -> anyhow::Result<f64> {
+    let watch = board.watch_bounded(slate_model::Filter::all(), 1 << 16)?;
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            while !stop.load(std::sync::atomic::Ordering::Acquire) {
+                drop(watch.recv_timeout(Duration::from_millis(10)));
+            }
+        });
+        let ns = op();
+        stop.store(true, std::sync::atomic::Ordering::Release);
+        Ok(ns)
+    })
+}
+
+/// Every timed field of the JSON object.
+pub const TIMED_FIELDS: &[&str] = &[
+    "node_write_ns",
+    "node_write_handoff_ns",
+    "node_write_recording_ns",
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_record_suite_reports_every_field() {
+        let j = run(&crate::TINY, &mut |_| {}).unwrap().json();
+        crate::assert_fields(&j, TIMED_FIELDS, |x| x > 0.0);
+        assert!(j["recorded_messages"].as_u64() > Some(0), "{j}");
+    }
+}

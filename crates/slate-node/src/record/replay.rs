@@ -1,0 +1,357 @@
+//! Reading a recording back into a board (`slate play`): each message of a file, in
+//! order, as what it did to the recorded board; a file cut off by a crash is read up to
+//! its last complete chunk.
+
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+use std::time::Duration;
+
+use mcap::read::Options;
+use serde_json::Value as Json;
+use slate_model::{
+    Address, AttrDecl, Board, ClassDef, Context, DefaultPacket, MergePolicy, NewObject, Packet,
+    ReportPolicy, Timestamp, Value, ValueType,
+};
+
+use super::topic;
+
+/// Why a recording cannot be read.
+#[non_exhaustive]
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The file cannot be read.
+    #[error("cannot read the recording {}: {error}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        error: std::io::Error,
+    },
+    /// The file is not MCAP (or its first record is damaged).
+    #[error("{} is not an MCAP recording: {why}", path.display())]
+    NotMcap {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        why: String,
+    },
+}
+
+/// What one message did to the recorded board.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Step {
+    /// A class was defined (or redefined).
+    Class(ClassDef),
+    /// An object was created, or was there when the file began.
+    Create(NewObject),
+    /// An object was deleted.
+    Delete(String),
+    /// A packet was written to `object.attr`; its value is JSON until the class says
+    /// its type ([`Recording::apply`]).
+    Packet {
+        /// Object (or class, for a class-level write).
+        object: String,
+        /// Attribute.
+        attr: String,
+        /// The value as recorded.
+        value: Json,
+        /// The packet, without its value.
+        packet: Packet,
+    },
+    /// A message of another channel (plans, circuits, liveliness, events, counters).
+    Other {
+        /// Its topic.
+        topic: String,
+        /// Its JSON.
+        json: Json,
+    },
+}
+
+/// One message: when it was recorded, and what it did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Timed {
+    /// The recording board's time when it was recorded (since the Unix epoch).
+    pub time: Duration,
+    /// What it did.
+    pub step: Step,
+}
+
+/// A recording read into memory.
+#[derive(Clone, Debug, Default)]
+pub struct Recording {
+    /// The recording board's address, if the file says it.
+    pub address: Option<String>,
+    /// Its messages, in the file's order.
+    pub steps: Vec<Timed>,
+    /// Messages that could not be understood (skipped).
+    pub skipped: u64,
+    /// False when the file was cut off (no footer: a crash); it was read up to its last
+    /// complete record.
+    pub complete: bool,
+}
+
+impl Recording {
+    /// Reads a file: every message up to the end, or up to the last complete record of a
+    /// file cut off by a crash.
+    pub fn read(path: &Path) -> Result<Recording, ReplayError> {
+        let bytes = std::fs::read(path).map_err(|error| ReplayError::Read {
+            path: path.to_owned(),
+            error,
+        })?;
+        let not_mcap = |why: String| ReplayError::NotMcap {
+            path: path.to_owned(),
+            why,
+        };
+        if !bytes.starts_with(mcap::MAGIC) {
+            return Err(not_mcap("it does not begin with MCAP's magic bytes".into()));
+        }
+        let stream = mcap::MessageStream::new_with_options(&bytes, Options::IgnoreEndMagic.into())
+            .map_err(|e| not_mcap(e.to_string()))?;
+        let mut recording = Recording {
+            address: address(&bytes),
+            complete: bytes.ends_with(mcap::MAGIC),
+            ..Recording::default()
+        };
+        for message in stream {
+            let Ok(m) = message else {
+                recording.complete = false;
+                break;
+            };
+            let json = serde_json::from_slice(&m.data).unwrap_or(Json::Null);
+            match step(&m.channel.topic, json) {
+                Some(step) => recording.steps.push(Timed {
+                    time: Duration::from_nanos(m.log_time),
+                    step,
+                }),
+                None => recording.skipped += 1,
+            }
+        }
+        Ok(recording)
+    }
+
+    /// When the recording begins and ends (the first and last message's time).
+    pub fn span(&self) -> Option<(Duration, Duration)> {
+        Some((self.steps.first()?.time, self.steps.last()?.time))
+    }
+
+    /// Applies one step to `board`: defines, creates, deletes, merges the packet (its
+    /// stamp and source kept). False if the board refused it (a class defined
+    /// differently, a packet older than the one it holds...).
+    pub fn apply(board: &Board, step: &Step) -> bool {
+        match step {
+            Step::Class(def) => {
+                board.class_def(&def.name).as_ref() == Some(def)
+                    || board.define(def.clone()).is_ok()
+            }
+            Step::Create(spec) => {
+                board.info(&spec.name).is_some() || board.create_with(spec.clone()).is_ok()
+            }
+            Step::Delete(name) => board.delete(name).is_ok(),
+            Step::Packet {
+                object,
+                attr,
+                value,
+                packet,
+            } => {
+                let Some(ty) = declared_type(board, object, attr) else {
+                    return false;
+                };
+                let Some(value) = value_of(value, ty) else {
+                    return false;
+                };
+                let packet = Packet {
+                    value,
+                    ..packet.clone()
+                };
+                board.merge(object, attr, packet).is_ok()
+            }
+            Step::Other { .. } => true,
+        }
+    }
+}
+
+/// The `address` of the file's `slate` metadata record.
+fn address(bytes: &[u8]) -> Option<String> {
+    mcap::read::LinearReader::new_with_options(bytes, Options::IgnoreEndMagic.into())
+        .ok()?
+        .map_while(Result::ok)
+        .find_map(|r| match r {
+            mcap::records::Record::Metadata(m) if m.name == super::METADATA => {
+                m.metadata.get("address").cloned()
+            }
+            _ => None,
+        })
+}
+
+/// The step of a message on `topic`, or `None` if it is not understood.
+fn step(topic: &str, j: Json) -> Option<Step> {
+    if let Some(_class) = topic.strip_prefix(topic::CLASS_PREFIX) {
+        return packet(&j);
+    }
+    match topic {
+        topic::CLASSES => class_def(&j).map(Step::Class),
+        topic::OBJECTS => object(&j),
+        _ => Some(Step::Other {
+            topic: topic.to_owned(),
+            json: j,
+        }),
+    }
+}
+
+fn packet(j: &Json) -> Option<Step> {
+    let attr = j["attr"].as_str()?.to_owned();
+    let value = j["values"].get(&attr)?.clone();
+    let packet = Packet {
+        value: Value::None,
+        accuracy: j["accuracy"].as_f64()?,
+        confidence: j["confidence"].as_f64()?,
+        timestamp: Timestamp::from_raw(j["hlc"].as_u64()?),
+        source: Address::new(j["source"].as_str()?).ok()?,
+    };
+    Some(Step::Packet {
+        object: j["object"].as_str()?.to_owned(),
+        attr,
+        value,
+        packet,
+    })
+}
+
+fn object(j: &Json) -> Option<Step> {
+    let name = j["object"].as_str()?;
+    if j["op"] == "delete" {
+        return Some(Step::Delete(name.to_owned()));
+    }
+    let mut spec = NewObject::new(j["class"].as_str()?, name);
+    if let Some(context) = j["context"].as_str() {
+        spec = spec.context(Context::from_str(context).ok()?);
+    }
+    if let Some(owner) = j["owner"].as_str() {
+        spec = spec.owner(Address::new(owner).ok()?);
+    }
+    Some(Step::Create(spec))
+}
+
+/// A class definition from its `/slate/classes` message.
+pub fn class_def(j: &Json) -> Option<ClassDef> {
+    let mut def = ClassDef::new(j["name"].as_str()?).parent(j["parent"].as_str()?);
+    for a in j["attrs"].as_array()? {
+        def = def.attr(attr_decl(a)?);
+    }
+    Some(def)
+}
+
+fn attr_decl(a: &Json) -> Option<AttrDecl> {
+    let ty = value_type(a["type"].as_str()?)?;
+    let mut decl = AttrDecl::new(a["name"].as_str()?, ty);
+    decl.unit = a["unit"].as_str().map(str::to_owned);
+    decl.bounds = a["bounds"]
+        .as_array()
+        .and_then(|b| Some((b.first()?.as_f64()?, b.get(1)?.as_f64()?)));
+    decl.resolution = a["resolution"].as_f64();
+    decl.merge = MergePolicy::from_str(a["merge"].as_str().unwrap_or("latest")).ok()?;
+    decl.report = report_policy(&a["report"]);
+    decl.guarded = a["guarded"].as_bool().unwrap_or(false);
+    decl.default = match &a["default"] {
+        Json::Null => None,
+        d => Some(DefaultPacket {
+            value: value_of(&d["value"], ty)?,
+            accuracy: d["accuracy"].as_f64()?,
+            confidence: d["confidence"].as_f64()?,
+        }),
+    };
+    Some(decl)
+}
+
+fn report_policy(r: &Json) -> ReportPolicy {
+    let secs = |key: &str| {
+        r[key]
+            .as_f64()
+            .and_then(|s| Duration::try_from_secs_f64(s).ok())
+    };
+    ReportPolicy {
+        min_interval: secs("min_interval"),
+        heartbeat: secs("heartbeat"),
+        deadband: r["deadband"].as_f64(),
+        on_accuracy: r["on_accuracy"].as_bool().unwrap_or(false),
+    }
+}
+
+/// A type as the class messages write it (`int`, `real`, `vec<2>`...).
+fn value_type(text: &str) -> Option<ValueType> {
+    Some(match text {
+        "int" => ValueType::Int,
+        "real" => ValueType::Real,
+        "bool" => ValueType::Bool,
+        "string" => ValueType::Str,
+        "ref" => ValueType::Ref,
+        other => ValueType::Vector(
+            other
+                .strip_prefix("vec<")?
+                .strip_suffix('>')?
+                .parse()
+                .ok()?,
+        ),
+    })
+}
+
+/// The type `object.attr` is declared with on `board` (an object's class chain, or a
+/// class's own, for a class-level write).
+fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
+    let info = board.info(object)?;
+    let class = if info.is_class {
+        &info.name
+    } else {
+        &info.class
+    };
+    board.attr_decl(class, attr).map(|d| d.ty)
+}
+
+/// A recorded JSON value as a value of type `ty` (`null`: cleared).
+fn value_of(j: &Json, ty: ValueType) -> Option<Value> {
+    Some(match (ty, j) {
+        (_, Json::Null) => Value::None,
+        (ValueType::Int, j) => Value::Int(j.as_i64()?),
+        (ValueType::Real, j) => Value::Real(j.as_f64()?),
+        (ValueType::Bool, j) => Value::Bool(j.as_bool()?),
+        (ValueType::Str, j) => Value::Str(j.as_str()?.into()),
+        (ValueType::Ref, j) => Value::Ref(j.as_str()?.into()),
+        (ValueType::Vector(_), j) => Value::Vector(
+            j.as_array()?
+                .iter()
+                .map(Json::as_f64)
+                .collect::<Option<Vec<f64>>>()?
+                .into(),
+        ),
+    })
+}
+
+/// A board's objects with their own packets, as JSON (`slate play`'s summary, and what
+/// tests compare between a recorded board and its replay): `{OBJECT: {"class", "context",
+/// "owner", "attrs": {ATTR: {"value", "accuracy", "confidence", "hlc", "source"}}}}`.
+pub fn board_state(board: &Board) -> Json {
+    let snap = board.snapshot();
+    let mut out = serde_json::Map::new();
+    for id in snap.objects() {
+        let Some(info) = snap.info(id).filter(|i| !i.is_class) else {
+            continue;
+        };
+        let attrs: serde_json::Map<String, Json> = snap
+            .own_values(id)
+            .into_iter()
+            .map(|(attr, p, _)| {
+                let j = serde_json::json!({
+                    "value": super::message::value(&p.value), "accuracy": p.accuracy,
+                    "confidence": p.confidence, "hlc": p.timestamp.raw(),
+                    "source": p.source.as_str(),
+                });
+                (attr.to_string(), j)
+            })
+            .collect();
+        let j = serde_json::json!({
+            "class": &*info.class, "context": info.context.to_string(),
+            "owner": info.owner.as_str(), "attrs": attrs,
+        });
+        out.insert(info.name.to_string(), j);
+    }
+    Json::Object(out)
+}

@@ -1,0 +1,535 @@
+//! The recorder thread: drains the board's bounded watch, its events and the engine's,
+//! polls the plan circuits and the transport's counters, and writes each as a message.
+
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::Receiver;
+use parking_lot::Mutex;
+use serde_json::{Value as Json, json};
+use slate_ici::{MODULE_CLASS, PlanCircuits, Transport};
+use slate_model::{
+    Board, BoardEvent, Change, ChangeItem, ClassDef, Filter, ObjectInfo, Packet, Value, Watch,
+};
+use slate_plans::PlanEvent;
+
+use super::file::{Entry, Files};
+use super::topic::{
+    CIRCUITS, CLASS_PREFIX, CLASSES, EVENTS, LINKS, LIVELINESS, OBJECTS, PLANS, RECORDER,
+};
+use super::{RecordConfig, RecordError, RecordStats, message, schema};
+use crate::inspect::Classes;
+use crate::view::View;
+
+/// How long the thread waits for a change before it looks at everything else.
+const POLL: Duration = Duration::from_millis(20);
+/// How often the plan circuits are asked for new steps.
+const CIRCUITS_EVERY: Duration = Duration::from_millis(100);
+/// Changes handled between two looks at everything else, so a busy board does not
+/// starve the events, the flushes and the stop.
+const BURST: usize = 4096;
+
+/// Everything the thread reads, and the files it writes.
+pub struct Tap {
+    board: Arc<Board>,
+    circuits: Arc<PlanCircuits>,
+    transport: Arc<dyn Transport>,
+    watch: Watch,
+    board_events: Receiver<BoardEvent>,
+    plan_events: Receiver<PlanEvent>,
+    files: Files,
+    config: RecordConfig,
+    /// The class definitions recorded in the open file.
+    classes: BTreeMap<String, ClassDef>,
+    tree: Classes,
+    /// The board as recorded so far: what a new file starts with.
+    mirror: HashMap<Arc<str>, Mirrored>,
+    /// Steps recorded per circuit (`true`: sent by this module).
+    steps: HashMap<(bool, u64, String), usize>,
+    /// The last `alive` of each Module object.
+    alive: HashMap<Arc<str>, bool>,
+    stats: Arc<Mutex<RecordStats>>,
+    /// A packet's topic and JSON, reused from one packet to the next.
+    topic: String,
+    buf: Vec<u8>,
+    /// The revision of the last snapshot: changes up to it are in it, and are skipped.
+    snapshot_revision: u64,
+    flushed: Instant,
+    counted: Instant,
+    polled: Instant,
+}
+
+impl Tap {
+    /// Subscribes to everything and creates the first file (the caller's thread, so a
+    /// file that cannot be created is the caller's error).
+    pub fn new(
+        view: &View,
+        config: RecordConfig,
+        stats: Arc<Mutex<RecordStats>>,
+    ) -> Result<Tap, RecordError> {
+        let board = view.board.clone();
+        let watch = board.watch_bounded(Filter::all(), config.queue)?;
+        let now = Instant::now();
+        let mut tap = Tap {
+            board_events: board.events(),
+            plan_events: view.engine.events(),
+            tree: Classes::of(&board),
+            files: Files::create(config.clone(), board.address().as_str())?,
+            circuits: view.circuits.clone(),
+            transport: view.transport.clone(),
+            watch,
+            board,
+            config,
+            classes: BTreeMap::new(),
+            mirror: HashMap::new(),
+            steps: HashMap::new(),
+            alive: HashMap::new(),
+            stats,
+            topic: String::new(),
+            buf: Vec::new(),
+            snapshot_revision: 0,
+            flushed: now,
+            counted: now,
+            polled: now,
+        };
+        tap.snapshot_revision = tap.mirror_board();
+        Ok(tap)
+    }
+
+    /// Records until `stop`, then what is waiting, and finishes the file. An error ends
+    /// the recording (the node goes on): it is logged and kept in the stats.
+    pub fn run(mut self, stop: &AtomicBool) -> Result<(), RecordError> {
+        let result = self.record(stop);
+        if let Err(e) = &result {
+            tracing::error!("recording stopped: {e}");
+            self.stats.lock().failed = Some(e.to_string());
+        }
+        result
+    }
+
+    fn record(&mut self, stop: &AtomicBool) -> Result<(), RecordError> {
+        self.begin_file()?;
+        loop {
+            let stopping = stop.load(Ordering::Acquire);
+            self.changes(if stopping { usize::MAX } else { BURST })?;
+            self.events()?;
+            self.periodic(stopping)?;
+            self.rotate_if_due()?;
+            self.publish_stats();
+            if stopping {
+                self.counters()?;
+                self.files.finish()?;
+                self.publish_stats();
+                return Ok(());
+            }
+        }
+    }
+
+    /// Handles up to `max` changes, waiting [`POLL`] for the first.
+    fn changes(&mut self, max: usize) -> Result<(), RecordError> {
+        let first = if max == usize::MAX {
+            self.watch.try_recv()
+        } else {
+            self.watch.recv_timeout(POLL)
+        };
+        let Some(first) = first else {
+            return Ok(());
+        };
+        self.change(first)?;
+        for _ in 1..max {
+            let Some(change) = self.watch.try_recv() else {
+                break;
+            };
+            self.change(change)?;
+            self.rotate_if_due()?;
+        }
+        Ok(())
+    }
+
+    fn rotate_if_due(&mut self) -> Result<(), RecordError> {
+        if self.files.rotation_due() {
+            self.files.rotate()?;
+            self.begin_file()?;
+        }
+        Ok(())
+    }
+
+    fn events(&mut self) -> Result<(), RecordError> {
+        while let Ok(e) = self.board_events.try_recv() {
+            let now = self.now();
+            self.fixed(
+                EVENTS,
+                "slate.BoardEvent",
+                &message::board_event(&e),
+                now,
+                now,
+            )?;
+        }
+        while let Ok(e) = self.plan_events.try_recv() {
+            let now = self.now();
+            self.fixed(PLANS, "slate.PlanEvent", &message::plan_event(&e), now, now)?;
+        }
+        Ok(())
+    }
+
+    /// Circuits, counters and flushes, each when due (all of them when stopping).
+    fn periodic(&mut self, stopping: bool) -> Result<(), RecordError> {
+        if stopping || self.polled.elapsed() >= CIRCUITS_EVERY {
+            self.polled = Instant::now();
+            self.circuit_steps()?;
+        }
+        if self.counted.elapsed() >= self.config.stats_every {
+            self.counted = Instant::now();
+            self.refresh_classes()?;
+            self.counters()?;
+        }
+        if self.flushed.elapsed() >= self.config.flush_every {
+            self.flushed = Instant::now();
+            self.files.flush()?;
+        }
+        Ok(())
+    }
+
+    /// A new file holds the state it starts from, as recorded so far: the classes, each
+    /// object (`exists`) with its packets, and the circuits' steps. Each file replays on
+    /// its own.
+    fn begin_file(&mut self) -> Result<(), RecordError> {
+        self.classes.clear();
+        self.steps.clear();
+        self.refresh_classes()?;
+        let mut objects: Vec<(Arc<str>, Mirrored)> = self
+            .mirror
+            .iter()
+            .map(|(name, m)| (name.clone(), m.clone()))
+            .collect();
+        objects.sort_by(|a, b| a.0.cmp(&b.0));
+        for (object, m) in objects {
+            self.exists(&object, &m)?;
+            for (attr, (packet, revision)) in &m.values {
+                self.write_packet(&object, &m.channel, attr, packet, *revision)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn exists(&mut self, object: &str, m: &Mirrored) -> Result<(), RecordError> {
+        let (Some(context), Some(owner)) = (&m.context, &m.owner) else {
+            return Ok(()); // a class: its definition is on /slate/classes
+        };
+        let j = json!({
+            "op": "exists", "object": object, "class": &*m.channel,
+            "context": context, "owner": owner,
+        });
+        let now = self.now();
+        self.fixed(OBJECTS, "slate.ObjectEvent", &j, now, now)
+    }
+
+    /// Fills the mirror from one snapshot of the board (every object and class with its
+    /// own packets); its revision. The changes already waiting in the watch up to it are
+    /// in it, and are skipped.
+    fn mirror_board(&mut self) -> u64 {
+        let snap = self.board.snapshot();
+        for id in snap.objects() {
+            let Some(info) = snap.info(id) else { continue };
+            let values = snap
+                .own_values(id)
+                .into_iter()
+                .map(|(a, p, r)| (a, (p, r)))
+                .collect();
+            let m = if info.is_class {
+                Mirrored::class(info.name.clone())
+            } else {
+                Mirrored::object(&info)
+            };
+            if !self.wanted(&info.name, &m.channel) {
+                continue;
+            }
+            self.mirror.insert(info.name, Mirrored { values, ..m });
+        }
+        snap.revision()
+    }
+
+    fn change(&mut self, change: Change) -> Result<(), RecordError> {
+        if change.revision <= self.snapshot_revision {
+            return Ok(());
+        }
+        for item in change.items {
+            match item {
+                ChangeItem::Write {
+                    object,
+                    attr,
+                    packet,
+                } => self.packet(&object, &attr, &packet, change.revision)?,
+                ChangeItem::Create { object, class } => self.created("create", object, class)?,
+                ChangeItem::Delete { object, class } => self.created("delete", object, class)?,
+            }
+        }
+        Ok(())
+    }
+
+    /// An object created or deleted. A creation checks its class's definition first: a
+    /// class can be redefined only while it has no instances, so a new instance is where
+    /// a redefinition shows.
+    fn created(&mut self, op: &str, object: Arc<str>, class: Arc<str>) -> Result<(), RecordError> {
+        if op == "create" && self.classes.get(&*class) != self.board.class_def(&class).as_ref() {
+            self.refresh_classes()?;
+        }
+        if !self.wanted(&object, &class) {
+            return Ok(());
+        }
+        let mut j = json!({ "op": op, "object": &*object, "class": &*class });
+        if op == "create" {
+            let info = self.board.info(&object).filter(|i| i.class == class);
+            let m = info.map_or_else(|| Mirrored::class(class.clone()), |i| Mirrored::object(&i));
+            if let (Some(context), Some(owner)) = (&m.context, &m.owner) {
+                j["context"] = json!(context);
+                j["owner"] = json!(owner);
+            }
+            self.mirror.insert(object, m);
+        } else {
+            self.mirror.remove(&object);
+            self.alive.remove(&object);
+        }
+        let now = self.now();
+        self.fixed(OBJECTS, "slate.ObjectEvent", &j, now, now)
+    }
+
+    /// A packet on its class's channel (and on the liveliness channel, for a module's
+    /// `alive`).
+    fn packet(
+        &mut self,
+        object: &Arc<str>,
+        attr: &Arc<str>,
+        packet: &Packet,
+        revision: u64,
+    ) -> Result<(), RecordError> {
+        let channel = self.channel_of_object(object);
+        if !self.wanted(object, &channel) {
+            return Ok(());
+        }
+        if let Some(m) = self.mirror.get_mut(object) {
+            m.values.insert(attr.clone(), (packet.clone(), revision));
+        }
+        self.write_packet(object, &channel, attr, packet, revision)?;
+        if &*channel == MODULE_CLASS && &**attr == "alive" {
+            self.liveliness(object, &packet.value)?;
+        }
+        Ok(())
+    }
+
+    fn write_packet(
+        &mut self,
+        object: &str,
+        channel: &Arc<str>,
+        attr: &str,
+        packet: &Packet,
+        revision: u64,
+    ) -> Result<(), RecordError> {
+        if !self.classes.contains_key(&**channel) {
+            self.refresh_classes()?;
+        }
+        self.topic.clear();
+        self.topic.push_str(CLASS_PREFIX);
+        self.topic.push_str(channel);
+        self.buf.clear();
+        let message = message::PacketMessage::new(object, attr, packet, revision);
+        if serde_json::to_writer(&mut self.buf, &message).is_err() {
+            return Ok(()); // a packet always serialises: its strings are UTF-8, its reals finite
+        }
+        let entry = Entry {
+            topic: &self.topic,
+            schema: channel,
+            data: &self.buf,
+            log_time: self.now(),
+            publish_time: nanos(packet.timestamp.physical()),
+        };
+        let tree = &self.tree;
+        self.files
+            .write(&entry, || schema::class_schema(tree, channel))
+    }
+
+    /// Is `object` (on the channel of `class`) to be recorded: no `only` patterns, or
+    /// one names it or a class of its lineage?
+    fn wanted(&self, object: &str, class: &str) -> bool {
+        let only = &self.config.only;
+        only.is_empty()
+            || only.iter().any(|p| p == object)
+            || self
+                .tree
+                .lineage(class)
+                .iter()
+                .any(|c| only.iter().any(|p| p == c))
+    }
+
+    /// The channel of an object's packets: its class's (the class's own, for a class).
+    /// An object the mirror lacks (its creation was dropped) is looked up on the board.
+    fn channel_of_object(&mut self, object: &Arc<str>) -> Arc<str> {
+        if let Some(m) = self.mirror.get(object) {
+            return m.channel.clone();
+        }
+        let m = match self.board.info(object) {
+            Some(info) if info.is_class => Mirrored::class(info.name),
+            Some(info) => Mirrored::object(&info),
+            None => Mirrored::class(slate_model::THING.into()),
+        };
+        let channel = m.channel.clone();
+        self.mirror.insert(object.clone(), m);
+        channel
+    }
+
+    fn liveliness(&mut self, object: &Arc<str>, value: &Value) -> Result<(), RecordError> {
+        let Value::Bool(alive) = *value else {
+            return Ok(());
+        };
+        if self.alive.insert(object.clone(), alive) == Some(alive) {
+            return Ok(());
+        }
+        let module = match self.board.read(object, "address").map(|p| p.value) {
+            Ok(Value::Str(s)) => s.to_string(),
+            _ => object.to_string(),
+        };
+        let j = json!({ "object": &**object, "module": module, "alive": alive });
+        let now = self.now();
+        self.fixed(LIVELINESS, "slate.Liveliness", &j, now, now)
+    }
+
+    /// Records the class definitions that are new or changed since the file began.
+    fn refresh_classes(&mut self) -> Result<(), RecordError> {
+        let defs = self.board.class_defs();
+        if defs.iter().all(|d| self.classes.get(&d.name) == Some(d)) {
+            return Ok(());
+        }
+        self.tree = Classes::of(&self.board);
+        let redefined = defs
+            .iter()
+            .any(|d| self.classes.get(&d.name).is_some_and(|old| old != d));
+        if redefined {
+            self.files.forget_channels(CLASS_PREFIX);
+        }
+        for def in defs {
+            if self.classes.get(&def.name) == Some(&def) {
+                continue;
+            }
+            let now = self.now();
+            self.fixed(
+                CLASSES,
+                "slate.ClassDef",
+                &message::class_def(&def),
+                now,
+                now,
+            )?;
+            self.classes.insert(def.name.clone(), def);
+        }
+        Ok(())
+    }
+
+    /// New steps on the plan circuits this module opened (`sent`) and serves
+    /// (`received`).
+    fn circuit_steps(&mut self) -> Result<(), RecordError> {
+        for (sent, circuits) in [
+            (true, self.circuits.sent()),
+            (false, self.circuits.received()),
+        ] {
+            for c in circuits {
+                let key = (sent, c.circuit, c.peer.to_string());
+                let seen = self.steps.get(&key).copied().unwrap_or(0);
+                let direction = if sent { "sent" } else { "received" };
+                for step in c.steps.iter().skip(seen) {
+                    let j = message::circuit_step(direction, &c, step);
+                    let now = self.now();
+                    self.fixed(CIRCUITS, "slate.CircuitStep", &j, now, now)?;
+                }
+                self.steps.insert(key, c.steps.len().max(seen));
+            }
+        }
+        Ok(())
+    }
+
+    /// The transport's counters by link and message kind, and the recorder's own.
+    fn counters(&mut self) -> Result<(), RecordError> {
+        let now = self.now();
+        for ((link, kind), t) in self.transport.stats().traffic {
+            let j = json!({
+                "link": link.name(), "kind": kind.name(),
+                "sent_msgs": t.sent_msgs, "sent_bytes": t.sent_bytes,
+                "recv_msgs": t.recv_msgs, "recv_bytes": t.recv_bytes,
+            });
+            self.fixed(LINKS, "slate.LinkStats", &j, now, now)?;
+        }
+        let j = json!({
+            "messages": self.files.messages(), "bytes": self.files.bytes(),
+            "dropped": self.watch.dropped(), "files": self.files.files(),
+        });
+        self.fixed(RECORDER, "slate.RecorderStats", &j, now, now)
+    }
+
+    fn publish_stats(&self) {
+        let mut stats = self.stats.lock();
+        stats.messages = self.files.messages();
+        stats.bytes = self.files.bytes();
+        stats.dropped = self.watch.dropped();
+        stats.files = self.files.files();
+    }
+
+    /// A message on a fixed channel.
+    fn fixed(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        j: &Json,
+        log_time: u64,
+        publish_time: u64,
+    ) -> Result<(), RecordError> {
+        let data = serde_json::to_vec(j).unwrap_or_default();
+        let entry = Entry {
+            topic,
+            schema: schema_name,
+            data: &data,
+            log_time,
+            publish_time,
+        };
+        self.files
+            .write(&entry, || schema::fixed_schema(topic).unwrap_or_default())
+    }
+
+    /// The board's time, in nanoseconds since the Unix epoch.
+    fn now(&self) -> u64 {
+        nanos(self.board.clock().physical())
+    }
+}
+
+/// An object (or class) as recorded: its channel, context and owner (none for a class),
+/// and its own latest packets with the revision of each.
+#[derive(Clone)]
+struct Mirrored {
+    channel: Arc<str>,
+    context: Option<String>,
+    owner: Option<String>,
+    values: BTreeMap<Arc<str>, (Packet, u64)>,
+}
+
+impl Mirrored {
+    fn class(name: Arc<str>) -> Self {
+        Mirrored {
+            channel: name,
+            context: None,
+            owner: None,
+            values: BTreeMap::new(),
+        }
+    }
+
+    fn object(info: &ObjectInfo) -> Self {
+        Mirrored {
+            channel: info.class.clone(),
+            context: Some(info.context.to_string()),
+            owner: Some(info.owner.to_string()),
+            values: BTreeMap::new(),
+        }
+    }
+}
+
+fn nanos(d: Duration) -> u64 {
+    u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
+}
