@@ -125,18 +125,14 @@ impl NodeConfig {
 
     /// Reads a config file.
     pub fn read(path: &Path) -> Result<Self, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Read {
-            file: file.clone(),
-            error,
-        })?;
+        let (file, text) = read_text(path)?;
         let base = path.parent().unwrap_or_else(|| Path::new("."));
         NodeConfig::parse(&file, &text, base)
     }
 
     /// Parses config text; `file` names it in errors, `base` resolves relative paths.
     pub fn parse(file: &str, text: &str, base: &Path) -> Result<Self, ConfigError> {
-        let table: toml::Table = text.parse().map_err(|e| syntax(file, text, &e))?;
+        let table = parse_toml(file, text)?;
         let mut top = Fields::new(file, table, TOP);
         let address = top.required_str("address", "a module address \"team/robot/module\"")?;
         let address = Address::new(&address).map_err(|e| {
@@ -166,6 +162,22 @@ impl NodeConfig {
         top.finish()?;
         Ok(config)
     }
+}
+
+/// A TOML file's name (as errors show it) and text: [`ConfigError::Read`] if it cannot
+/// be read. With [`parse_toml`], how every TOML file slate reads is read.
+pub fn read_text(path: &Path) -> Result<(String, String), ConfigError> {
+    let file = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((file, text)),
+        Err(error) => Err(ConfigError::Read { file, error }),
+    }
+}
+
+/// TOML text as a table: [`ConfigError::Syntax`], with the line and column, if it is not
+/// valid TOML; `file` names it in the error.
+pub fn parse_toml(file: &str, text: &str) -> Result<toml::Table, ConfigError> {
+    text.parse().map_err(|e| syntax(file, text, &e))
 }
 
 /// A TOML syntax error as one line with its position.

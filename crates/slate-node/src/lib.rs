@@ -53,7 +53,7 @@ pub mod record;
 mod timers;
 mod view;
 
-pub use config::{NodeConfig, SourceFile, class_set};
+pub use config::{NodeConfig, SourceFile, class_set, parse_toml, read_text};
 pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;
 pub use monitor::{Level, NodeEvent};

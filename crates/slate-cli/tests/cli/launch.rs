@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
 
-use crate::support::{Team, eventually, free_port, http_get, show, slate, slate_err};
+use crate::support::{Team, eventually, free_port, http_get, show, slate, slate_err, value_in};
 
 /// Longest wait for a launched team to be up (sixteen processes on two cores).
 const UP_LIMIT: Duration = Duration::from_secs(90);
@@ -263,18 +263,7 @@ fn dashboard_of(launched: &Launched, address: &str) -> Option<String> {
 
 /// The value text of `object.attr` on a dashboard's board.
 fn value_on(dashboard: &str, object: &str, attr: &str) -> Option<String> {
-    let snap = http_get(dashboard, "/api/snapshot").json();
-    let o = snap["objects"]
-        .as_array()?
-        .iter()
-        .find(|o| o["name"] == object)?
-        .clone();
-    let a = o["attrs"]
-        .as_array()?
-        .iter()
-        .find(|a| a["name"] == attr)?
-        .clone();
-    a["value"].as_str().map(str::to_owned)
+    value_in(&http_get(dashboard, "/api/snapshot").json(), object, attr)
 }
 
 #[test]

@@ -221,18 +221,7 @@ impl NodeProc {
 
     /// The value text of `object.attr` on this node's board, if it has one.
     pub fn value(&self, object: &str, attr: &str) -> Option<String> {
-        let snap = self.snapshot();
-        let o = snap["objects"]
-            .as_array()?
-            .iter()
-            .find(|o| o["name"] == object)?
-            .clone();
-        let a = o["attrs"]
-            .as_array()?
-            .iter()
-            .find(|a| a["name"] == attr)?
-            .clone();
-        a["value"].as_str().map(str::to_owned)
+        value_in(&self.snapshot(), object, attr)
     }
 
     /// Waits (at most 10 s) until `object.attr` reads `value` on this node.
@@ -515,4 +504,14 @@ impl Drop for Team {
         self.nodes.clear();
         let _ = std::fs::remove_dir_all(&self.dir);
     }
+}
+
+/// The value text of `object.attr` in a dashboard's `/api/snapshot`, if it holds one.
+pub fn value_in(snapshot: &serde_json::Value, object: &str, attr: &str) -> Option<String> {
+    let o = snapshot["objects"]
+        .as_array()?
+        .iter()
+        .find(|o| o["name"] == object)?;
+    let a = o["attrs"].as_array()?.iter().find(|a| a["name"] == attr)?;
+    a["value"].as_str().map(str::to_owned)
 }

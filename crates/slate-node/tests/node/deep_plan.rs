@@ -40,15 +40,7 @@ impl Sender {
         let (tx, acks) = crossbeam_channel::unbounded();
         ici.set_plan_handler(Arc::new(tx));
         let stop = Arc::new(AtomicBool::new(false));
-        let (weak, quit) = (Arc::downgrade(&ici), stop.clone());
-        let ticker = thread::spawn(move || {
-            while !quit.load(Ordering::Acquire) {
-                let Some(ici) = weak.upgrade() else { return };
-                ici.tick();
-                drop(ici);
-                thread::sleep(Duration::from_millis(10));
-            }
-        });
+        let ticker = crate::support::ticker(&ici, &stop);
         Sender {
             ici,
             transport,

@@ -129,15 +129,7 @@ impl Module {
         let ici_config = IciConfig::default().export(ClassSet::all());
         let ici = Arc::new(Ici::new(board, transport.clone(), ici_config).unwrap());
         let stop = Arc::new(AtomicBool::new(false));
-        let (weak, quit) = (Arc::downgrade(&ici), stop.clone());
-        let ticker = thread::spawn(move || {
-            while !quit.load(Ordering::Acquire) {
-                let Some(ici) = weak.upgrade() else { return };
-                ici.tick();
-                drop(ici);
-                thread::sleep(Duration::from_millis(10));
-            }
-        });
+        let ticker = crate::support::ticker(&ici, &stop);
         Module {
             ici,
             transport,

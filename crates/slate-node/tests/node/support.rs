@@ -39,3 +39,20 @@ pub fn run_until(net: &SimNet, max: f64, done: impl FnMut() -> bool) -> bool {
 pub fn eventually(done: impl FnMut() -> bool) -> bool {
     slate_testing::eventually(Duration::from_secs(5), done)
 }
+
+/// Ticks `ici` every 10 ms on a thread of its own until `stop` is set or the ICI is
+/// dropped (a test's stand-in for a node's timer thread).
+pub fn ticker(
+    ici: &std::sync::Arc<slate_ici::Ici>,
+    stop: &std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> std::thread::JoinHandle<()> {
+    let (weak, quit) = (std::sync::Arc::downgrade(ici), stop.clone());
+    std::thread::spawn(move || {
+        while !quit.load(std::sync::atomic::Ordering::Acquire) {
+            let Some(ici) = weak.upgrade() else { return };
+            ici.tick();
+            drop(ici);
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    })
+}

@@ -30,26 +30,9 @@ pub const MAX_BACKOFF: Duration = Duration::from_secs(30);
 #[non_exhaustive]
 #[derive(Debug, thiserror::Error)]
 pub enum TeamError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {error}")]
-    Read {
-        /// The team file.
-        file: String,
-        /// Why.
-        error: std::io::Error,
-    },
-    /// The file is not valid TOML.
-    #[error("{file}:{line}:{column}: not valid TOML: {message}")]
-    Syntax {
-        /// The team file.
-        file: String,
-        /// Line of the error (from 1).
-        line: usize,
-        /// Column of the error (from 1).
-        column: usize,
-        /// The parser's message.
-        message: String,
-    },
+    /// The file could not be read, or is not valid TOML (as for a node's config).
+    #[error(transparent)]
+    File(#[from] slate_node::ConfigError),
     /// A value is wrong: where (`FILE:LINE`), what, and what to do.
     #[error("{at}: {message}")]
     Invalid {
@@ -148,11 +131,7 @@ impl Source<'_> {
 impl Team {
     /// Reads and expands a team file; `base_port`, if given, replaces the file's.
     pub fn read(path: &Path, base_port: Option<u16>) -> Result<Team, TeamError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| TeamError::Read {
-            file: file.clone(),
-            error,
-        })?;
+        let (file, text) = slate_node::read_text(path)?;
         let base = path.parent().unwrap_or_else(|| Path::new("."));
         let base = std::path::absolute(base).unwrap_or_else(|_| base.to_path_buf());
         let source = Source {
@@ -165,7 +144,7 @@ impl Team {
     }
 
     fn parse(src: &Source, base: &Path, path: &Path, port: Option<u16>) -> Result<Team, TeamError> {
-        let mut top: Table = src.text.parse().map_err(|e| syntax(src, &e))?;
+        let mut top: Table = slate_node::parse_toml(src.file, src.text)?;
         if let Some(key) = top.keys().find(|k| !TOP.contains(&k.as_str())) {
             let known = TOP.join(", ");
             return Err(src.invalid(
@@ -209,18 +188,6 @@ impl Team {
 
 fn without_spaces(text: &str) -> String {
     text.chars().filter(|c| !c.is_whitespace()).collect()
-}
-
-/// A TOML syntax error with its line and column.
-fn syntax(src: &Source, e: &toml::de::Error) -> TeamError {
-    let offset = e.span().map_or(0, |s| s.start).min(src.text.len());
-    let before = &src.text[..offset];
-    TeamError::Syntax {
-        file: src.file.to_owned(),
-        line: before.matches('\n').count() + 1,
-        column: before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1,
-        message: e.message().trim().replace('\n', " "),
-    }
 }
 
 fn string_or(src: &Source, top: &mut Table, key: &str, default: &str) -> Result<String, TeamError> {
