@@ -180,7 +180,7 @@ impl State {
         // A member's inner gap waits while its robot stream is being repaired.
         let gapped = self.team_gapped_robots();
         for a in peers {
-            let repairing = gapped.iter().any(|(t, r)| a.team() == t && a.robot() == r);
+            let repairing = gapped.holds(&a);
             let Some(p) = self.peers.get_mut(&a) else {
                 continue;
             };

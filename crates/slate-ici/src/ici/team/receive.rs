@@ -399,7 +399,7 @@ impl State {
     /// `false` if it is not kept (no gap: the names were never sent on the stream).
     pub(crate) fn keep_undecoded(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) -> bool {
         let team = LinkKind::between(&self.me, from) == LinkKind::Team;
-        if !team || self.config.team_protocol.is_none() || !self.robot_gapped(from) {
+        if !team || self.config.team_protocol.is_none() || !self.team_gapped_robots().holds(from) {
             return false;
         }
         if self.team.undecoded.len() >= MAX_UNDECODED
@@ -424,21 +424,13 @@ impl State {
             return;
         }
         let kept = std::mem::take(&mut self.team.undecoded);
+        let gapped = self.team_gapped_robots();
         let (wait, ready): (VecDeque<_>, VecDeque<_>) =
-            kept.into_iter().partition(|u| self.robot_gapped(&u.from));
+            kept.into_iter().partition(|u| gapped.holds(&u.from));
         self.team.undecoded = wait;
         for u in ready {
             self.on_wire(&u.from, u.kind, &u.bytes);
         }
-    }
-
-    /// Has the stream of `member`'s robot a gap (positions missing, not yet repaired)?
-    fn robot_gapped(&self, member: &Address) -> bool {
-        self.team.speakers.iter().any(|(g, s)| {
-            g.team() == member.team()
-                && g.robot() == member.robot()
-                && s.outer.as_ref().is_some_and(|o| o.has_gap())
-        })
     }
 }
 

@@ -333,15 +333,29 @@ impl State {
     /// The robots (team, robot) whose stream has a gap, so that their members' inner
     /// gaps wait for its repair (2.6) instead of asking the members for their state.
     /// Empty with the switch off. O(speakers), once per tick.
-    pub(crate) fn team_gapped_robots(&self) -> Vec<(String, String)> {
+    pub(crate) fn team_gapped_robots(&self) -> GappedRobots {
         let gapped = self
             .team
             .speakers
             .iter()
             .filter(|(_, s)| s.outer.as_ref().is_some_and(|o| o.has_gap()));
-        gapped
-            .map(|(g, _)| (g.team().to_string(), g.robot().to_string()))
-            .collect()
+        GappedRobots(
+            gapped
+                .map(|(g, _)| (g.team().to_string(), g.robot().to_string()))
+                .collect(),
+        )
+    }
+}
+
+/// The robots (team, robot) whose stream has a gap.
+pub(crate) struct GappedRobots(Vec<(String, String)>);
+
+impl GappedRobots {
+    /// Is `member` a module of one of them?
+    pub(crate) fn holds(&self, member: &Address) -> bool {
+        self.0
+            .iter()
+            .any(|(t, r)| t == member.team() && r == member.robot())
     }
 }
 
