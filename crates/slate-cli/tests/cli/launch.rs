@@ -21,14 +21,23 @@ fn teams() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/teams")
 }
 
-/// A free block of `n` ports on 127.0.0.1 (each bound once and released), at most 50 tries.
+/// A free block of `n` ports on 127.0.0.1 (each bound once and released), at most 50
+/// tries, below the kernel's ephemeral range: a module connects to its mates before they
+/// all listen, and a connection to a port in that range can take it as its own source
+/// port (a TCP self-connect), after which the mate cannot listen there (seen in CI).
 fn free_block(n: u16) -> u16 {
+    let ephemeral = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|t| t.split_whitespace().next()?.parse::<u16>().ok())
+        .unwrap_or(32768);
+    let (low, high) = (10_000u16, ephemeral.saturating_sub(n));
+    let mut seed = u64::from(std::process::id()) ^ u64::from(free_port());
     for _ in 0..50 {
-        let base = free_port();
-        let all_free = (0..n).all(|i| {
-            base.checked_add(i)
-                .is_some_and(|p| TcpListener::bind(("127.0.0.1", p)).is_ok())
-        });
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let base = low + (seed >> 33) as u16 % (high - low);
+        let all_free = (0..n).all(|i| TcpListener::bind(("127.0.0.1", base + i)).is_ok());
         if all_free {
             return base;
         }
