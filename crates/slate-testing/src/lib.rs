@@ -39,12 +39,39 @@ pub fn addr(text: &str) -> Address {
     Address::new(text).unwrap()
 }
 
-/// A free TCP port on 127.0.0.1 (the OS picks it; the listener is dropped before use).
+/// A free TCP port on 127.0.0.1 (bound once and released), below the kernel's ephemeral
+/// range: see [`free_ports`].
 pub fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .and_then(|l| l.local_addr())
-        .map(|a| a.port())
-        .expect("a free port")
+    free_ports(1)
+}
+
+/// The first of `n` consecutive free TCP ports on 127.0.0.1 (each bound once and
+/// released), at most 200 tries. They are drawn below the kernel's ephemeral range: a
+/// node that connects to a mate before the mate listens can, for a port in that range,
+/// get the port itself as its connection's source (a TCP self-connect), after which the
+/// mate cannot listen there ("Address already in use"; seen in CI with 16 processes).
+pub fn free_ports(n: u16) -> u16 {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static DRAWS: AtomicU64 = AtomicU64::new(0);
+    let ephemeral = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+        .ok()
+        .and_then(|t| t.split_whitespace().next()?.parse::<u16>().ok())
+        .unwrap_or(32768);
+    let (low, high) = (10_000u16, ephemeral.saturating_sub(n).max(10_001));
+    let start = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    for _ in 0..200 {
+        let draw = DRAWS.fetch_add(1, Ordering::Relaxed);
+        let seed = (u64::from(std::process::id()) << 32 ^ draw ^ u64::from(start))
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        let base = low + ((seed >> 33) % u64::from(high - low)) as u16;
+        if (0..n).all(|i| TcpListener::bind(("127.0.0.1", base + i)).is_ok()) {
+            return base;
+        }
+    }
+    panic!("no block of {n} free TCP ports on 127.0.0.1 below {ephemeral}");
 }
 
 /// A free UDP port on 127.0.0.1 (the OS picks it; the socket is dropped before use).

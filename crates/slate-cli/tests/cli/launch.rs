@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value as Json;
 
-use crate::support::{Team, eventually, free_port, http_get, show, slate, slate_err, value_in};
+use crate::support::{Team, eventually, free_ports, http_get, show, slate, slate_err, value_in};
 
 /// Longest wait for a launched team to be up (sixteen processes on two cores).
 const UP_LIMIT: Duration = Duration::from_secs(90);
@@ -19,30 +19,6 @@ const UP_LIMIT: Duration = Duration::from_secs(90);
 /// `examples/teams/` of the repository.
 fn teams() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/teams")
-}
-
-/// A free block of `n` ports on 127.0.0.1 (each bound once and released), at most 50
-/// tries, below the kernel's ephemeral range: a module connects to its mates before they
-/// all listen, and a connection to a port in that range can take it as its own source
-/// port (a TCP self-connect), after which the mate cannot listen there (seen in CI).
-fn free_block(n: u16) -> u16 {
-    let ephemeral = std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
-        .ok()
-        .and_then(|t| t.split_whitespace().next()?.parse::<u16>().ok())
-        .unwrap_or(32768);
-    let (low, high) = (10_000u16, ephemeral.saturating_sub(n));
-    let mut seed = u64::from(std::process::id()) ^ u64::from(free_port());
-    for _ in 0..50 {
-        seed = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let base = low + (seed >> 33) as u16 % (high - low);
-        let all_free = (0..n).all(|i| TcpListener::bind(("127.0.0.1", base + i)).is_ok());
-        if all_free {
-            return base;
-        }
-    }
-    panic!("no block of {n} free ports on 127.0.0.1");
 }
 
 /// A running `slate launch --format json`, its events read in a thread; stopped (SIGKILL to
@@ -211,7 +187,7 @@ fn objects(class: &str, endpoint: &str) -> Vec<String> {
 /// Launches `file`, waits until `ls CLASS` shows every one of `expected`, stops it with
 /// SIGTERM, and checks that launch exited 0 and no module process is left.
 fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected: &[&str]) {
-    let base = free_block(modules);
+    let base = free_ports(modules);
     let mut launched = Launched::start(file, base, &turn.dir.join("logs"));
     launched.wait_up();
     let endpoint = format!("tcp/127.0.0.1:{}", base + modules - 1);
@@ -279,7 +255,7 @@ fn value_on(dashboard: &str, object: &str, attr: &str) -> Option<String> {
 fn a_module_killed_is_restarted_by_launch_and_catches_up_with_the_team() {
     let turn = Team::new("launch-restart");
     let file = small_with_dashboards(&turn.dir);
-    let base = free_block(5);
+    let base = free_ports(5);
     let mut launched = Launched::start(&file, base, &turn.dir.join("logs"));
     launched.wait_up();
     let endpoint = format!("tcp/127.0.0.1:{}", base + 4);
@@ -337,7 +313,7 @@ fn a_module_killed_is_restarted_by_launch_and_catches_up_with_the_team() {
 #[test]
 fn launch_exits_non_zero_and_stops_the_others_when_a_module_cannot_start() {
     let turn = Team::new("launch-cannot");
-    let base = free_block(5);
+    let base = free_ports(5);
     // The last module's port is taken: it cannot listen, so it cannot start.
     let _taken = TcpListener::bind(("127.0.0.1", base + 4)).unwrap();
     let mut launched = Launched::start(&teams().join("small.toml"), base, &turn.dir.join("logs"));
@@ -409,7 +385,7 @@ fn check_names_the_file_and_line_of_each_problem_in_a_broken_team() {
 #[test]
 fn robot_runs_only_that_robots_modules_on_this_host() {
     let turn = Team::new("launch-robot");
-    let base = free_block(5);
+    let base = free_ports(5);
     let file = teams().join("small.toml");
     let mut launched =
         Launched::start_with(&file, base, &turn.dir.join("logs"), &["--robot", "r2"]);
@@ -438,7 +414,7 @@ fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
         .replace("backoff = \"500ms\"", "backoff = \"100ms\"");
     let file = turn.dir.join("small.toml");
     std::fs::write(&file, text).unwrap();
-    let base = free_block(5);
+    let base = free_ports(5);
     let mut launched =
         Launched::start_with(&file, base, &turn.dir.join("logs"), &["--only", "r1/nav"]);
     launched.wait_up();

@@ -1,6 +1,8 @@
 //! A team of `slate node` processes on loopback, and running `slate` with a time limit.
 
-pub use slate_testing::{WORLD, entry, eventually, free_port, http_get, keys, temp_dir};
+pub use slate_testing::{
+    WORLD, entry, eventually, free_port, free_ports, http_get, keys, temp_dir,
+};
 
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
