@@ -63,14 +63,21 @@ impl Window {
 
     /// Set the bits of `first ..= last` (within the window), counting those newly set.
     pub(crate) fn mark(&mut self, first: u64, last: u64) {
+        self.each_word(first, last, |word, mask, held| {
+            *held += u64::from((mask & !*word).count_ones());
+            *word |= mask;
+        });
+    }
+
+    /// Calls `f(word, mask, held)` for each word `first ..= last` touches, with the mask
+    /// of the range's bits in it: one word operation per word.
+    fn each_word(&mut self, first: u64, last: u64, mut f: impl FnMut(&mut u128, u128, &mut u64)) {
         let mut at = first;
         while at <= last {
             self.ops += 1;
             let (w, b) = slot(at);
             let len = (last - at + 1).min(WORD_BITS - u64::from(b));
-            let mask = bits(b, len);
-            self.held += u64::from((mask & !self.words[w]).count_ones());
-            self.words[w] |= mask;
+            f(&mut self.words[w], bits(b, len), &mut self.held);
             at += len;
         }
     }
@@ -100,16 +107,10 @@ impl Window {
             self.clear();
             return;
         }
-        let mut at = first;
-        while at <= last {
-            self.ops += 1;
-            let (w, b) = slot(at);
-            let len = (last - at + 1).min(WORD_BITS - u64::from(b));
-            let mask = bits(b, len);
-            self.held -= u64::from((mask & self.words[w]).count_ones());
-            self.words[w] &= !mask;
-            at += len;
-        }
+        self.each_word(first, last, |word, mask, held| {
+            *held -= u64::from((mask & *word).count_ones());
+            *word &= !mask;
+        });
     }
 
     pub(crate) fn clear(&mut self) {

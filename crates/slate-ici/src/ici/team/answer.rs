@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use slate_model::Address;
 
-use super::frame::{MAX_MEMBERS, NackEntry, StateAsk, StateRequest, StreamTag, TeamMsg, Uplink};
+use super::frame::{MAX_MEMBERS, NackEntry, StateAsk, StateRequest, StreamTag, TeamMsg};
 use crate::ici::catchup::Audience;
 use crate::ici::classes::ClassSet;
 use crate::ici::frame::MAX_ITEMS;
@@ -241,15 +241,7 @@ impl State {
     pub(crate) fn team_state_out(&mut self, bytes: &[u8]) {
         self.team_elect();
         match self.team.elected.clone() {
-            Some(g) if g != self.me => {
-                let up = Uplink {
-                    to: None,
-                    state_answer: true,
-                    mark: self.out.get(&LinkKind::Team).map(|o| o.seq),
-                    message: bytes.to_vec(),
-                };
-                self.send_to(&g, MsgKind::Uplink, &TeamMsg::Uplink(up).encode());
-            }
+            Some(g) if g != self.me => self.uplink(&g, bytes.to_vec(), true),
             _ => self.team_out(bytes),
         }
     }

@@ -44,7 +44,7 @@ impl State {
                     .and_then(|gw| gw.index_of(self.me.module()));
                 self.gateway_push(index, message);
             }
-            Some(g) => self.uplink(&g, message),
+            Some(g) => self.uplink(&g, message, false),
             None => self.hold(message),
         }
     }
@@ -61,10 +61,11 @@ impl State {
     /// Hands a message to the gateway with this module's inner team position as its
     /// mark, so the gateway can list every member's position in its hello and full
     /// heartbeats (reports' `seq` is bit-packed: the gateway cannot read it).
-    fn uplink(&mut self, gateway: &Address, message: Vec<u8>) {
+    /// A message-less uplink is a `Mark`; `state_answer` flags a part of a state answer.
+    pub(super) fn uplink(&mut self, gateway: &Address, message: Vec<u8>, state_answer: bool) {
         let up = Uplink {
             to: None,
-            state_answer: false,
+            state_answer,
             mark: self.out.get(&LinkKind::Team).map(|o| o.seq),
             message,
         };
@@ -367,13 +368,7 @@ impl State {
     /// or that had not yet taken the role).
     pub(super) fn on_team_interest(&mut self, from: &Address, remote: TeamInterest) {
         self.take_remote_interest(remote);
-        let mark = Uplink {
-            to: None,
-            state_answer: false,
-            mark: self.out.get(&LinkKind::Team).map(|o| o.seq),
-            message: Vec::new(),
-        };
-        self.send_to(from, MsgKind::Uplink, &TeamMsg::Uplink(mark).encode());
+        self.uplink(from, Vec::new(), false);
     }
 
     /// What the other robots model, for this module's own sends. When it widens, this
