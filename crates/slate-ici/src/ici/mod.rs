@@ -309,7 +309,9 @@ impl Ici {
         let bytes = Encoder::new(self.address().clone()).encode(msg, &Schema::default())?;
         self.shared.transport.send(to, kind, &bytes)?;
         let link = LinkKind::between(self.address(), to);
-        self.shared.state.lock().stats.sent(link, kind, bytes.len());
+        let mut st = self.shared.state.lock();
+        st.team_aired(link, bytes.len());
+        st.stats.sent(link, kind, bytes.len());
         Ok(())
     }
 }

@@ -352,6 +352,9 @@ impl State {
             }
             self.stats.reports.suppressed_export += not_exported;
             self.stats.reports.suppressed_interest += not_wanted;
+            if link == LinkKind::Team && not_wanted > 0 {
+                self.team.kept_home = true;
+            }
             self.link_filter(link, &mut chosen); // the link policy's filters (link.rs)
             self.emit(link, &chosen);
         }

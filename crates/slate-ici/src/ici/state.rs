@@ -383,6 +383,7 @@ impl State {
     /// Sends one message reliably to `to`, counting it.
     pub fn send_to(&mut self, to: &Address, kind: MsgKind, bytes: &[u8]) {
         let link = LinkKind::between(&self.me, to);
+        self.team_aired(link, bytes.len());
         match self.transport.send(to, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),
             Err(e) => {
@@ -403,6 +404,7 @@ impl State {
 
     /// Publishes one message on `link` as it is, counting it.
     pub fn publish_now(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
+        self.team_aired(link, bytes.len());
         match self.transport.publish(link, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),
             Err(e) => {

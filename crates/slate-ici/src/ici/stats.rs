@@ -1,6 +1,7 @@
 //! What an ICI counts.
 
 use std::collections::BTreeMap;
+use std::time::Duration;
 
 use slate_wire::DecodeStats;
 
@@ -141,6 +142,16 @@ pub struct TeamStats {
     pub undecoded_kept: u64,
     /// Kept messages dropped past the limit (their source was asked for its state).
     pub undecoded_dropped: u64,
+    /// Members' messages the gateway's queue dropped, oldest first, when it was full
+    /// (the radio could not keep up; their receivers find the inner gap).
+    pub queue_dropped: u64,
+    /// The most bytes the gateway's queue held.
+    pub queue_max_bytes: u64,
+    /// Members asked for their state whose answer was in the gateway's queue already
+    /// (it serves the ask: not forwarded).
+    pub state_asks_covered: u64,
+    /// The longest a member's message waited in the gateway's queue.
+    pub queue_max_wait: Duration,
 }
 
 impl TeamStats {

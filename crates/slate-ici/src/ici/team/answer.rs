@@ -139,7 +139,10 @@ fn state_entry(tag: StreamTag, ask: StateAsk) -> NackEntry {
 
 impl State {
     /// A state ask for this gateway's stream, from a module of robot `from.robot()`:
-    /// each member named gets a `StateRequest` (this module answers its own at once).
+    /// each member named gets a `StateRequest` (this module answers its own at once),
+    /// or, while the gateway's queue waits for the radio, once it is empty (2.3): an
+    /// answer queued behind a backlog adds to it and is stale when it goes out, and
+    /// held, the asks of every robot merge into one answer.
     pub(super) fn gateway_state_asked(&mut self, from: &Address, entry: &NackEntry) {
         let (Some(gw), Some(ask)) = (self.team.gateway.as_ref(), entry.state) else {
             return;
@@ -148,16 +151,47 @@ impl State {
             return;
         }
         let named = (0..MAX_MEMBERS).filter(|i| ask.members & (1 << i) != 0);
+        // A member whose answer waits in the queue is served by it: that answer is
+        // newer than every frame the asker can have missed (the queue keeps order).
+        // Not an ask for names or classes: the queued answer may lack them.
+        let plain = !ask.names && !ask.classes;
+        let (queued, named): (Vec<u8>, Vec<u8>) =
+            named.partition(|i| plain && gw.queue.holds_answer_of(*i));
         let names: Vec<Arc<str>> = named
+            .into_iter()
             .filter_map(|i| gw.members.get(usize::from(i)).map(|m| m.name.clone()))
             .collect();
+        self.stats.team.state_asks_covered += queued.len() as u64;
         let req = StateRequest {
             names: ask.names,
             classes: ask.classes,
             robots: vec![Arc::from(from.robot())],
         };
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if !gw.queue.is_empty() {
+            for name in names {
+                let held = gw.held_asks.remove(&name);
+                gw.held_asks.insert(name, merge_requests(held, req.clone()));
+            }
+            return;
+        }
         for name in names {
             self.forward_state_request(&name, req.clone());
+        }
+    }
+
+    /// Forwards the state asks held while the queue was not empty, once it is.
+    pub(super) fn forward_held_state_asks(&mut self) {
+        let Some(gw) = self.team.gateway.as_mut() else {
+            return;
+        };
+        if !gw.queue.is_empty() {
+            return;
+        }
+        for (name, req) in std::mem::take(&mut gw.held_asks) {
+            self.forward_state_request(&name, req);
         }
     }
 
@@ -240,10 +274,7 @@ impl State {
     /// flag to the gateway, or framed here if this module is gateway).
     pub(crate) fn team_state_out(&mut self, bytes: &[u8]) {
         self.team_elect();
-        match self.team.elected.clone() {
-            Some(g) if g != self.me => self.uplink(&g, bytes.to_vec(), true),
-            _ => self.team_out(bytes),
-        }
+        self.route(bytes.to_vec(), true);
     }
 
     /// The remote robots' union interest (what a team answer is filtered by), if known.
@@ -275,6 +306,7 @@ mod tests {
     use super::super::frame::{Member, Nack, RobotHello};
     use super::super::gateway::{Framer, Gateway};
     use super::super::history::HistoryLimits;
+    use super::super::pace::{Queued, TokenBucket};
     use super::super::test_state::{START, ms, robot_hello, sent, tick_at};
     use super::*;
     use crate::SimNet;
@@ -401,6 +433,70 @@ mod tests {
             2,
             "another stream's ask"
         );
+    }
+
+    #[test]
+    fn a_gateway_holds_state_asks_while_its_queue_waits_for_the_radio() {
+        let (_net, mut st) = state();
+        let limits = HistoryLimits {
+            bytes: 4096,
+            age: Duration::from_secs(60),
+        };
+        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
+        gw.members = vec![member("m0"), member("m1"), member("m2")];
+        gw.bucket = TokenBucket::new(8_000, 100, START);
+        gw.bucket.spend(1_000, START);
+        gw.queue.push(Queued {
+            member: 0,
+            message: super::super::test_state::lifecycle(1),
+            mark: None,
+            since: START,
+            answer: false,
+        });
+        st.team.gateway = Some(gw);
+        st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, false));
+        st.on_team(&addr("t/r4/g"), &state_nack(StreamTag(77), 0b010, true));
+        st.forward_held_state_asks();
+        assert_eq!(sent(&st, LinkKind::Robot, MsgKind::StateRequest), 0);
+        st.now = START + ms(2000);
+        st.pump();
+        st.forward_held_state_asks();
+        assert_eq!(
+            sent(&st, LinkKind::Robot, MsgKind::StateRequest),
+            2,
+            "one merged request per member once the queue is empty"
+        );
+    }
+
+    #[test]
+    fn an_ask_for_a_member_whose_answer_is_queued_is_served_by_it() {
+        let (_net, mut st) = state();
+        let limits = HistoryLimits {
+            bytes: 4096,
+            age: Duration::from_secs(60),
+        };
+        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
+        gw.members = vec![member("m0"), member("m1"), member("m2")];
+        gw.bucket = TokenBucket::new(8_000, 100, START);
+        gw.bucket.spend(1_000, START);
+        gw.queue.push(Queued {
+            member: 1,
+            message: super::super::test_state::lifecycle(1),
+            mark: None,
+            since: START,
+            answer: true,
+        });
+        st.team.gateway = Some(gw);
+        st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, false));
+        st.now = START + ms(2000);
+        st.pump();
+        st.forward_held_state_asks();
+        assert_eq!(
+            sent(&st, LinkKind::Robot, MsgKind::StateRequest),
+            1,
+            "m2 only: m1's answer was on its way"
+        );
+        assert_eq!(st.stats.team.state_asks_covered, 1);
     }
 
     fn request(robot: &str) -> StateRequest {

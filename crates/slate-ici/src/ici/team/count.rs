@@ -45,8 +45,10 @@ fn inner_of_part(part: &Part) -> Option<Inner> {
 
 impl State {
     /// Publishes a team protocol message on the team link and counts it by inner kind
-    /// (a refused publish counts as a send error, as `publish_now` does).
+    /// (a refused publish counts as a send error, as `publish_now` does). A gateway's
+    /// bucket is charged for it (2.3).
     pub(super) fn publish_team(&mut self, kind: MsgKind, bytes: &[u8], inner: &[Inner]) {
+        self.team_aired(LinkKind::Team, bytes.len());
         match self.transport.publish(LinkKind::Team, kind, bytes) {
             Ok(()) => self
                 .stats

@@ -8,12 +8,16 @@
 //! Pure state machines fed with virtual time: `team/send.rs` (the ICI's glue) publishes
 //! what they return.
 
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
-use super::frame::{MAX_MEMBERS, Member, Part, PartOf, SINGLE_PART_MEMBERS, StreamTag, TeamFrame};
+use super::frame::{
+    MAX_MEMBERS, Member, Part, PartOf, SINGLE_PART_MEMBERS, StateRequest, StreamTag, TeamFrame,
+};
 use super::history::{History, HistoryLimits};
 use super::nack::{RepairScheduler, RepairTiming};
+use super::pace::{TokenBucket, TxQueue};
 
 /// Packs parts into frames of at most `mtu` bytes.
 ///
@@ -190,6 +194,16 @@ pub(crate) struct Gateway {
     pub unindexed: u64,
     /// The NACKs heard for this epoch, gathered for one repair.
     pub repairs: RepairScheduler,
+    /// Members' messages waiting for the radio (2.3).
+    pub queue: TxQueue,
+    /// What the radio may carry: data waits while it is in debt.
+    pub bucket: TokenBucket,
+    /// The inner positions of the messages in the open frame, taken when it goes out:
+    /// a receiver is never told of a position it cannot have heard yet.
+    told: Vec<(u8, Option<u64>)>,
+    /// State asks for members held while the queue is not empty, merged per member
+    /// (at most one per member).
+    pub held_asks: BTreeMap<Arc<str>, StateRequest>,
 }
 
 impl Gateway {
@@ -210,6 +224,10 @@ impl Gateway {
             last_full: Duration::ZERO,
             unindexed: 0,
             repairs: RepairScheduler::new(RepairTiming::radio()),
+            queue: TxQueue::new(usize::MAX),
+            bucket: TokenBucket::new(0, 0, Duration::ZERO),
+            told: Vec::new(),
+            held_asks: BTreeMap::new(),
         }
     }
 
@@ -277,6 +295,22 @@ impl Gateway {
     pub fn sent_inner(&mut self, member: u8, inner_seq: Option<u64>) {
         if let (Some(m), Some(seq)) = (self.members.get_mut(usize::from(member)), inner_seq) {
             m.inner_seq = m.inner_seq.max(seq);
+        }
+    }
+
+    /// A member's message (or `Mark`) at inner position `mark` was framed: its position
+    /// is taken once no open frame holds it.
+    pub fn framed(&mut self, member: u8, mark: Option<u64>) {
+        self.told.push((member, mark));
+        if self.framer.next_due().is_none() {
+            self.frame_out();
+        }
+    }
+
+    /// A frame went out: every position framed so far is taken.
+    pub fn frame_out(&mut self) {
+        for (member, mark) in std::mem::take(&mut self.told) {
+            self.sent_inner(member, mark);
         }
     }
 

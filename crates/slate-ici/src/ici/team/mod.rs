@@ -12,6 +12,7 @@ mod gateway;
 mod history;
 mod nack;
 mod outer;
+mod pace;
 mod receive;
 mod repair;
 mod send;
@@ -24,8 +25,10 @@ use slate_model::Address;
 
 pub(crate) use receive::{Speaker, Undecoded, is_team_kind};
 
-/// Messages a member holds while it knows no gateway; past it, the oldest go first.
-pub(crate) const MAX_PENDING: usize = 64;
+/// Bytes of messages a member holds while it knows no gateway; past it, the oldest go
+/// first. A console loading a mission for many robots writes a few hundred messages
+/// before its first election (a count of 64 lost some at 8 robots).
+pub(crate) const MAX_PENDING_BYTES: usize = 64 * 1024;
 
 /// What one ICI holds of the team protocol.
 #[derive(Debug, Default)]
@@ -39,11 +42,17 @@ pub(crate) struct TeamState {
     pub listening: Option<bool>,
     /// The gateway this module last acted on (to see the election change).
     pub elected: Option<Address>,
-    /// Team messages waiting for a gateway (at most `MAX_PENDING`).
+    /// Team messages waiting for a gateway (at most `MAX_PENDING_BYTES` in all,
+    /// unless one alone is larger).
     pub pending: VecDeque<Vec<u8>>,
+    /// The bytes of `pending`.
+    pub pending_bytes: usize,
     /// The remote robots' union interest, from the gateway (`None`: not known yet, so
     /// everything exported goes).
     pub remote: Option<frame::TeamInterest>,
+    /// Something exported was kept home because no other robot modelled it (as the
+    /// gateway last said): when their interest widens, this module's state must follow.
+    pub kept_home: bool,
     /// The remote interest must be recomputed and told to the members (gateway).
     pub interest_dirty: bool,
     /// The streams of other robots' gateways, by gateway address.

@@ -475,12 +475,16 @@ impl State {
     }
 
     /// The repair due now, if the gathering window closed: replays of what the
-    /// history holds, `Gone` for the rest.
+    /// history holds, `Gone` for the rest. While the radio is in debt it waits (and
+    /// NACKs heard meanwhile join it); it goes before any queued data (2.3).
     pub(super) fn repair_tick(&mut self) {
         let now = self.now;
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
+        if !gw.bucket.ready(now) {
+            return;
+        }
         let Some(ranges) = gw.repairs.poll(now) else {
             return;
         };
@@ -535,6 +539,7 @@ mod tests {
     use super::super::gateway::{Framer, Gateway};
     use super::super::history::HistoryLimits;
     use super::super::nack::RepairScheduler;
+    use super::super::pace::{Queued, TokenBucket};
     use super::super::test_state::{START, lifecycle, ms, robot_hello, tick_at};
     use super::*;
     use crate::ici::IciConfig;
@@ -717,6 +722,38 @@ mod tests {
             sent(&st, MsgKind::TeamRepair),
             1,
             "held off: repaired lately"
+        );
+    }
+
+    #[test]
+    fn a_repair_waits_while_the_radio_is_in_debt_then_goes_before_queued_data() {
+        let (_net, mut st) = state();
+        gateway_of_three(&mut st, Duration::from_secs(60));
+        let gw = st.team.gateway.as_mut().unwrap();
+        gw.bucket = TokenBucket::new(8_000, 100, START);
+        gw.bucket.spend(1_000, START);
+        gw.queue.push(Queued {
+            member: 0,
+            message: lifecycle(4),
+            mark: None,
+            since: START,
+            answer: false,
+        });
+        st.on_team(&addr("t/r1/g"), &nack(StreamTag(77), 2, 1));
+        st.now = START + ms(100);
+        st.repair_tick();
+        assert_eq!(
+            sent(&st, MsgKind::TeamRepair),
+            0,
+            "900 B of debt at 1 000 B/s"
+        );
+        st.now = START + ms(900);
+        st.repair_tick();
+        st.pump();
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 1);
+        assert!(
+            !st.team.gateway.as_ref().unwrap().queue.is_empty(),
+            "the repair took what the radio had"
         );
     }
 

@@ -4,22 +4,24 @@
 //! publishes, and says the robot hello, the idle heartbeat and the remote robots'
 //! interest (`TeamInterest`) to its members.
 //!
-//! Left for later steps: the token bucket and priority queue (frames go out as they
-//! close), `Mark`s after a takeover, the members' exports in the hello (the gateway's
-//! own export policy stands for the robot's) and their inner positions (only the
-//! gateway's own are known).
+//! Members' messages wait in the gateway's queue and are framed as fast as its token
+//! bucket allows (`team/pace.rs`).
+//!
+//! Left for later steps: the members' exports in the hello (the gateway's own export
+//! policy stands for the robot's).
 
 use std::sync::Arc;
 
 use slate_model::{Address, Context};
 
-use super::MAX_PENDING;
+use super::MAX_PENDING_BYTES;
 use super::frame::{
     RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamInterest, TeamMsg, Uplink,
 };
 use super::gateway::{Framer, Gateway, Seen};
 use super::history::HistoryLimits;
 use super::nack::RepairScheduler;
+use super::pace::{Queued, TokenBucket, TxQueue};
 use crate::ici::Listen;
 use crate::ici::classes::{ClassSet, context_bit};
 use crate::ici::state::State;
@@ -31,31 +33,33 @@ impl State {
     /// until there is one.
     pub fn team_out(&mut self, bytes: &[u8]) {
         self.team_elect();
-        self.route(bytes.to_vec());
+        self.route(bytes.to_vec(), false);
     }
 
-    fn route(&mut self, message: Vec<u8>) {
+    /// Into the stream, to the gateway, or held; `answer` flags a part of a state answer.
+    pub(super) fn route(&mut self, message: Vec<u8>, answer: bool) {
         match self.team.elected.clone() {
             Some(g) if g == self.me => {
-                let index = self
-                    .team
-                    .gateway
-                    .as_ref()
-                    .and_then(|gw| gw.index_of(self.me.module()));
-                self.gateway_push(index, message);
+                let me = self.me.clone();
+                let mark = self.out.get(&LinkKind::Team).map(|o| o.seq);
+                self.gateway_queue(&me, message, mark, answer);
             }
-            Some(g) => self.uplink(&g, message, false),
+            Some(g) => self.uplink(&g, message, answer),
             None => self.hold(message),
         }
     }
 
-    /// Keeps a message for the gateway to come, the oldest dropped past `MAX_PENDING`.
+    /// Keeps a message for the gateway to come, the oldest dropped past
+    /// `MAX_PENDING_BYTES`.
     fn hold(&mut self, message: Vec<u8>) {
-        if self.team.pending.len() >= MAX_PENDING {
-            self.team.pending.pop_front();
+        let team = &mut self.team;
+        team.pending_bytes += message.len();
+        team.pending.push_back(message);
+        while team.pending_bytes > MAX_PENDING_BYTES && team.pending.len() > 1 {
+            let dropped = team.pending.pop_front().map_or(0, |m| m.len());
+            team.pending_bytes -= dropped;
             self.stats.team.pending_dropped += 1;
         }
-        self.team.pending.push_back(message);
     }
 
     /// Hands a message to the gateway with this module's inner team position as its
@@ -83,12 +87,15 @@ impl State {
         if self.gateway_index(from).is_none() {
             self.team_review();
         }
-        let index = self.gateway_index(from);
-        if let (Some(gw), Some(i)) = (self.team.gateway.as_mut(), index) {
-            gw.sent_inner(i, up.mark);
-        }
-        if !up.message.is_empty() {
-            self.gateway_push(index, up.message);
+        self.gateway_queue(from, up.message, up.mark, up.state_answer);
+    }
+
+    /// Charges `bytes` this module put on `link` to its bucket while it is gateway:
+    /// whatever goes on the robot's radio, stream or not (plans, acks), leaves that
+    /// much less for the queue (2.3).
+    pub(crate) fn team_aired(&mut self, link: LinkKind, bytes: usize) {
+        if let (LinkKind::Team, Some(gw)) = (link, self.team.gateway.as_mut()) {
+            gw.bucket.spend(bytes, self.now);
         }
     }
 
@@ -96,18 +103,65 @@ impl State {
         self.team.gateway.as_ref()?.index_of(member.module())
     }
 
-    /// Frames a member's message; publishes the frames it closed.
-    fn gateway_push(&mut self, index: Option<u8>, message: Vec<u8>) {
-        let now = self.now;
+    /// Queues a member's message (empty: a `Mark`, its position alone; `answer`: a part
+    /// of its state answer) for the radio, and frames what the bucket allows.
+    fn gateway_queue(
+        &mut self,
+        member: &Address,
+        message: Vec<u8>,
+        mark: Option<u64>,
+        answer: bool,
+    ) {
+        let index = self.gateway_index(member);
+        let since = self.now;
         let Some(gw) = self.team.gateway.as_mut() else {
             return self.hold(message);
         };
-        let Some(index) = index else {
+        let Some(member) = index else {
             gw.unindexed += 1;
             return;
         };
-        let frames = gw.framer.push(index, message, now);
-        frames.into_iter().for_each(|f| self.publish_frame(f));
+        let dropped = gw.queue.push(Queued {
+            member,
+            message,
+            mark,
+            since,
+            answer,
+        });
+        let t = &mut self.stats.team;
+        t.queue_dropped += dropped;
+        t.queue_max_bytes = t.queue_max_bytes.max(gw.queue.bytes() as u64);
+        self.pump();
+    }
+
+    /// Frames queued messages while the bucket allows, and publishes the frames they
+    /// close; with the queue empty, the open frame once its batch is up. A member's
+    /// position is taken for the hello and full heartbeats once its message went out.
+    pub(super) fn pump(&mut self) {
+        let now = self.now;
+        loop {
+            let Some(gw) = self.team.gateway.as_mut() else {
+                return;
+            };
+            if !gw.bucket.ready(now) {
+                return;
+            }
+            let Some(q) = gw.queue.pop() else {
+                let due = gw.framer.due(now);
+                return due.into_iter().for_each(|f| self.publish_frame(f));
+            };
+            let t = &mut self.stats.team;
+            t.queue_max_wait = t.queue_max_wait.max(now.saturating_sub(q.since));
+            let (member, mark) = (q.member, q.mark);
+            let frames = match q.message.is_empty() {
+                true => Vec::new(),
+                false => gw.framer.push(member, q.message, now),
+            };
+            frames.into_iter().for_each(|f| self.publish_frame(f));
+            if let Some(gw) = self.team.gateway.as_mut() {
+                gw.framed(member, mark);
+            }
+        }
     }
 
     /// Publishes a closed frame and keeps it in the history.
@@ -117,6 +171,7 @@ impl State {
         let bytes: Arc<[u8]> = msg.encode().into();
         if let Some(gw) = self.team.gateway.as_mut() {
             gw.last_sent = now;
+            gw.frame_out();
             if let Err(e) = gw.history.push(seq, bytes.clone(), now, &[]) {
                 tracing::debug!(error = %e, "frame not kept in the history");
             }
@@ -148,8 +203,9 @@ impl State {
             self.take_gateway_role();
         }
         if self.team.elected.is_some() {
+            self.team.pending_bytes = 0;
             let held: Vec<Vec<u8>> = self.team.pending.drain(..).collect();
-            held.into_iter().for_each(|m| self.route(m));
+            held.into_iter().for_each(|m| self.route(m, false));
         }
     }
 
@@ -167,17 +223,34 @@ impl State {
         let tag = StreamTag::of(&self.me, epoch);
         let mut gateway = Gateway::new(tag, epoch, framer, limits);
         gateway.repairs = RepairScheduler::new(super::repair::repair_timing(protocol));
+        gateway.queue = TxQueue::new(protocol.history_bytes);
+        gateway.bucket = TokenBucket::new(protocol.rate_bps, protocol.mtu, self.now);
         // The hello opens the stream; the idle heartbeat counts from it.
         (gateway.last_sent, gateway.last_full) = (self.now, self.now);
         self.team.gateway = Some(gateway);
         self.team.interest_dirty = true;
         self.team_review();
+        // What this module sent through the previous gateway counts as said.
+        let own = self.out.get(&LinkKind::Team).map(|o| o.seq);
+        if let Some(gw) = self.team.gateway.as_mut() {
+            let index = gw.index_of(self.me.module());
+            gw.sent_inner(index.unwrap_or(u8::MAX), own);
+        }
     }
 
-    /// Leaves the role: the open frame goes out first.
+    /// Leaves the role: the queued messages and the open frame go out first, unpaced
+    /// (they would otherwise be lost with the role).
     fn resign(&mut self) {
-        let open = self.team.gateway.as_mut().and_then(|gw| gw.framer.flush());
-        open.into_iter().for_each(|f| self.publish_frame(f));
+        let mut frames = Vec::new();
+        if let Some(gw) = self.team.gateway.as_mut() {
+            for q in gw.queue.drain() {
+                if !q.message.is_empty() {
+                    frames.extend(gw.framer.push(q.member, q.message, self.now));
+                }
+            }
+            frames.extend(gw.framer.flush());
+        }
+        frames.into_iter().for_each(|f| self.publish_frame(f));
         self.team.gateway = None;
     }
 
@@ -196,15 +269,12 @@ impl State {
                 listener: p.listener,
             })
         }));
-        let own = self.out.get(&LinkKind::Team).map(|o| o.seq);
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
         if gw.review(&seen).hello {
             self.team.interest_dirty = true;
         }
-        let index = gw.index_of(self.me.module());
-        gw.sent_inner(index.unwrap_or(u8::MAX), own);
     }
 
     /// Tells the transport whether to hand this module team publications: a gateway
@@ -245,9 +315,8 @@ impl State {
         }
         self.team_review();
         self.repair_tick();
-        let now = self.now;
-        let due = self.team.gateway.as_mut().and_then(|gw| gw.framer.due(now));
-        due.into_iter().for_each(|f| self.publish_frame(f));
+        self.pump();
+        self.forward_held_state_asks();
         self.robot_hello_if_due();
         self.robot_heartbeat_if_due();
         self.team_interest_if_changed();
@@ -280,11 +349,7 @@ impl State {
             exports: self.config.export.clone(),
             members: gw.members.clone(),
         };
-        self.publish_now(
-            LinkKind::Team,
-            MsgKind::RobotHello,
-            &TeamMsg::Hello(hello).encode(),
-        );
+        self.publish_team_msg(MsgKind::RobotHello, &TeamMsg::Hello(hello));
     }
 
     /// The union of the members' interests without SELF: an object of another robot
@@ -327,11 +392,7 @@ impl State {
             positions: full.then(|| gw.members.iter().map(|m| m.inner_seq).collect()),
         };
         self.stats.liveliness.heartbeats_sent += 1;
-        self.publish_now(
-            LinkKind::Team,
-            MsgKind::RobotHeartbeat,
-            &TeamMsg::Heartbeat(hb).encode(),
-        );
+        self.publish_team_msg(MsgKind::RobotHeartbeat, &TeamMsg::Heartbeat(hb));
     }
 
     /// Tells the members the remote robots' union interest when it changed (a remote
@@ -371,16 +432,16 @@ impl State {
         self.uplink(from, Vec::new(), false);
     }
 
-    /// What the other robots model, for this module's own sends. When it widens, this
-    /// module's state goes to them: what it wrote that nobody modelled then was kept
-    /// home, and no receiver knows to ask for it.
+    /// What the other robots model, for this module's own sends. When it widens after
+    /// this module kept something home (nobody modelled it), its state goes to them:
+    /// no receiver knows to ask for what it never heard of.
     fn take_remote_interest(&mut self, remote: TeamInterest) {
         let before = self.team.remote.replace(remote);
         let widened = match (&before, &self.team.remote) {
             (Some(b), Some(now)) => !b.interest.covers(&now.interest),
             _ => false,
         };
-        if widened {
+        if widened && std::mem::take(&mut self.team.kept_home) {
             self.team_answer_unasked();
         }
     }
@@ -444,19 +505,23 @@ mod tests {
     }
 
     #[test]
-    fn a_member_with_no_gateway_holds_at_most_64_messages() {
+    fn a_member_with_no_gateway_holds_its_messages_up_to_a_byte_limit() {
         let (_net, mut st) = state(None);
         st.now = Duration::from_secs(1);
-        for i in 0..70u8 {
+        for i in 0..200u8 {
             st.publish(LinkKind::Team, MsgKind::Report, &[0x11, i]);
         }
-        assert_eq!(st.team.pending.len(), MAX_PENDING);
-        assert_eq!(st.stats.team.pending_dropped, 6);
-        assert_eq!(
-            st.team.pending.front().map(|m| m[1]),
-            Some(6),
-            "the oldest went"
-        );
+        assert_eq!(st.team.pending.len(), 200, "400 bytes are few");
+        let large = MAX_PENDING_BYTES / 10 + 1;
+        for i in 0..10u8 {
+            let mut report = vec![0x11; large];
+            report[1] = i;
+            st.publish(LinkKind::Team, MsgKind::Report, &report);
+        }
+        assert_eq!(st.stats.team.pending_dropped, 201, "the oldest went");
+        assert_eq!(st.team.pending.front().map(|m| m[1]), Some(1));
+        let held: usize = st.team.pending.iter().map(Vec::len).sum();
+        assert!(held <= MAX_PENDING_BYTES);
     }
 
     #[test]
@@ -469,6 +534,105 @@ mod tests {
         st.team_tick();
         assert_eq!(st.team.elected, Some(addr("t/r0/m0")));
         assert!(st.team.pending.is_empty(), "handed to the stream");
+    }
+
+    /// `st` elected gateway of its robot (alone, priority 0), at its start plus one
+    /// robot heartbeat.
+    fn elected(st: &mut State) {
+        st.team_tick();
+        st.now += st.config.robot.heartbeat;
+        st.team_tick();
+        assert!(st.team.gateway.is_some());
+    }
+
+    /// Messages of `kind` this state published on the team link.
+    fn sent(st: &State, kind: MsgKind) -> u64 {
+        super::super::test_state::sent(st, LinkKind::Team, kind)
+    }
+
+    /// Bytes this state published on the team link, every kind.
+    fn team_bytes(st: &State) -> u64 {
+        let team = st
+            .stats
+            .traffic
+            .iter()
+            .filter(|((l, _), _)| *l == LinkKind::Team);
+        team.map(|(_, t)| t.sent_bytes).sum()
+    }
+
+    /// Publishes `n` own reports of `len` bytes at once, the k-th at inner position k.
+    fn burst(st: &mut State, n: u64, len: usize) {
+        for k in 1..=n {
+            st.out.get_mut(&LinkKind::Team).expect("team outbound").seq = k;
+            let mut report = vec![0x11; len];
+            report[1] = k as u8;
+            st.publish(LinkKind::Team, MsgKind::Report, &report);
+        }
+    }
+
+    #[test]
+    fn a_gateway_never_offers_the_radio_more_than_its_rate() {
+        let (_net, mut st) = state(Some(0));
+        elected(&mut st);
+        let protocol = st.config.team_protocol.clone().expect("protocol");
+        let (start, before) = (st.now, team_bytes(&st));
+        burst(&mut st, 60, 200);
+        for step in 1..=400u64 {
+            st.now = start + Duration::from_millis(50 * step);
+            st.team_tick();
+            let elapsed = st.now - start;
+            let earned = elapsed.as_secs_f64() * f64::from(protocol.rate_bps) / 8.0;
+            // A bucket one frame deep, and the frame that took the last of it.
+            let allowed = earned as u64 + 2 * protocol.mtu as u64;
+            let aired = team_bytes(&st) - before;
+            assert!(
+                aired <= allowed,
+                "{aired} B on the air after {elapsed:?}: more than {allowed} B"
+            );
+        }
+        assert_eq!(
+            sent(&st, MsgKind::Report),
+            60,
+            "every report went out in the end"
+        );
+    }
+
+    #[test]
+    fn a_members_position_is_told_only_once_its_message_went_out() {
+        let (_net, mut st) = state(Some(0));
+        elected(&mut st);
+        burst(&mut st, 60, 200);
+        st.now += Duration::from_millis(300);
+        st.team_tick();
+        let told = |st: &State| st.team.gateway.as_ref().expect("gateway").members[0].inner_seq;
+        let aired = sent(&st, MsgKind::Report);
+        assert!(aired < 60, "the radio cannot carry 12 kB at once");
+        assert!(
+            told(&st) <= aired,
+            "position {} told with {aired} reports on the air",
+            told(&st)
+        );
+        for _ in 0..200 {
+            st.now += Duration::from_millis(100);
+            st.team_tick();
+        }
+        assert_eq!(told(&st), 60);
+    }
+
+    fn interest(version: u64, interest: ClassSet) -> TeamInterest {
+        TeamInterest {
+            version,
+            interest,
+            exports: ClassSet::none(),
+        }
+    }
+
+    #[test]
+    fn a_widened_interest_is_not_answered_when_nothing_was_kept_home() {
+        let (_net, mut st) = state(Some(0));
+        st.take_remote_interest(interest(1, ClassSet::none().class("Rock")));
+        st.take_remote_interest(interest(2, ClassSet::all()));
+        assert_eq!(st.stats.team.state_answers, 0, "nothing was withheld");
     }
 
     #[test]

@@ -1,0 +1,187 @@
+//! The gateway's pacing (docs/team-protocol.md, 2.3): members' messages wait in the
+//! gateway's queue, not in the radio's, and go into frames only as fast as a token
+//! bucket at `rate_bps` allows. Control messages (hellos, heartbeats, NACKs) and repairs
+//! do not wait: they are charged to the bucket as they go, so the data behind them
+//! waits instead. The ICI thereby never offers the radio more than it can carry, a
+//! repair overtakes every queued message, and the queue's length says how busy the
+//! link is (state requests wait while it is not empty).
+//!
+//! Pure state fed with virtual time; `team/send.rs` moves messages from the queue into
+//! the framer.
+
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// Bits a bucket earns per second and may hold; `rate_bps` 0 never limits.
+///
+/// Invariant: `bits` never exceeds `depth` (it may be negative: sends that may not wait
+/// are charged all the same, and data waits until the debt is paid).
+#[derive(Clone, Debug)]
+pub(crate) struct TokenBucket {
+    rate_bps: u64,
+    depth: i64,
+    bits: i64,
+    at: Duration,
+}
+
+impl TokenBucket {
+    /// A full bucket at `now` earning `rate_bps`, holding at most `depth_bytes`.
+    pub fn new(rate_bps: u32, depth_bytes: usize, now: Duration) -> TokenBucket {
+        let depth = i64::try_from(depth_bytes.saturating_mul(8)).unwrap_or(i64::MAX);
+        TokenBucket {
+            rate_bps: u64::from(rate_bps),
+            depth,
+            bits: depth,
+            at: now,
+        }
+    }
+
+    /// May data go at `now` (no debt left)?
+    pub fn ready(&mut self, now: Duration) -> bool {
+        self.refill(now);
+        self.rate_bps == 0 || self.bits >= 0
+    }
+
+    /// Charges `bytes` sent at `now`.
+    pub fn spend(&mut self, bytes: usize, now: Duration) {
+        self.refill(now);
+        let bits = i64::try_from(bytes.saturating_mul(8)).unwrap_or(i64::MAX);
+        self.bits = self.bits.saturating_sub(bits);
+    }
+
+    fn refill(&mut self, now: Duration) {
+        let elapsed = now.saturating_sub(self.at);
+        self.at = self.at.max(now);
+        let earned = elapsed.as_nanos() * u128::from(self.rate_bps) / 1_000_000_000;
+        let earned = i64::try_from(earned).unwrap_or(i64::MAX);
+        self.bits = self.bits.saturating_add(earned).min(self.depth);
+    }
+}
+
+/// A member's message waiting for the radio, with the inner position its member had
+/// reached when it was handed over (told in the hello and full heartbeats only once
+/// the message is framed: a receiver must never be told of a position still queued).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Queued {
+    pub member: u8,
+    /// Empty for a `Mark` (a position, no message).
+    pub message: Vec<u8>,
+    pub mark: Option<u64>,
+    pub since: Duration,
+    /// A part of the member's state answer.
+    pub answer: bool,
+}
+
+/// The gateway's queue of members' messages, in the order they came (a member's
+/// messages must keep their order: a later one may use a name an earlier one
+/// announced).
+///
+/// Invariant: `bytes` is the sum of the queued messages' lengths and at most `max`
+/// (past it the oldest are dropped), unless one message alone is larger.
+#[derive(Debug, Default)]
+pub(crate) struct TxQueue {
+    queue: VecDeque<Queued>,
+    bytes: usize,
+    max: usize,
+}
+
+impl TxQueue {
+    /// An empty queue of at most `max` bytes.
+    pub fn new(max: usize) -> TxQueue {
+        TxQueue {
+            max,
+            ..TxQueue::default()
+        }
+    }
+
+    /// Queues a message; returns how many of the oldest were dropped to make room.
+    pub fn push(&mut self, q: Queued) -> u64 {
+        self.bytes += q.message.len();
+        self.queue.push_back(q);
+        let mut dropped = 0;
+        while self.bytes > self.max && self.queue.len() > 1 {
+            self.pop();
+            dropped += 1;
+        }
+        dropped
+    }
+
+    /// The oldest message.
+    pub fn pop(&mut self) -> Option<Queued> {
+        let q = self.queue.pop_front()?;
+        self.bytes -= q.message.len();
+        Some(q)
+    }
+
+    /// Does a part of member `member`'s state answer wait here?
+    pub fn holds_answer_of(&self, member: u8) -> bool {
+        self.queue.iter().any(|q| q.answer && q.member == member)
+    }
+
+    /// The bytes of the messages queued.
+    pub fn bytes(&self) -> usize {
+        self.bytes
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.queue.is_empty()
+    }
+
+    /// Everything queued, oldest first (a gateway resigning).
+    pub fn drain(&mut self) -> Vec<Queued> {
+        self.bytes = 0;
+        self.queue.drain(..).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(n: u64) -> Duration {
+        Duration::from_millis(n)
+    }
+
+    #[test]
+    fn a_bucket_earns_its_rate_and_holds_no_more_than_its_depth() {
+        let mut b = TokenBucket::new(8_000, 100, ms(0));
+        b.spend(300, ms(0));
+        assert!(!b.ready(ms(199)), "200 B of debt at 1 000 B/s");
+        assert!(b.ready(ms(200)));
+        assert!(b.ready(ms(10_000)));
+        b.spend(101, ms(10_000));
+        assert!(!b.ready(ms(10_000)), "no more than 100 B were held");
+    }
+
+    #[test]
+    fn a_rate_of_zero_never_limits() {
+        let mut b = TokenBucket::new(0, 10, ms(0));
+        b.spend(1_000_000, ms(0));
+        assert!(b.ready(ms(0)));
+    }
+
+    fn queued(member: u8, len: usize, since: u64) -> Queued {
+        Queued {
+            member,
+            message: vec![0; len],
+            mark: None,
+            since: ms(since),
+            answer: false,
+        }
+    }
+
+    #[test]
+    fn a_full_queue_drops_its_oldest() {
+        let mut q = TxQueue::new(100);
+        let dropped: u64 = (0..4).map(|i| q.push(queued(i, 40, 0))).sum();
+        assert_eq!((dropped, q.bytes()), (2, 80));
+        assert_eq!(q.pop().map(|q| q.member), Some(2));
+    }
+
+    #[test]
+    fn one_message_larger_than_the_queue_is_kept_alone() {
+        let mut q = TxQueue::new(10);
+        assert_eq!(q.push(queued(1, 40, 0)), 0);
+        assert!(!q.is_empty());
+    }
+}
