@@ -9,7 +9,7 @@ use slate_ici::{ClassSet, IciConfig, TeamProtocol};
 use slate_model::{Address, Context};
 use slate_node::Node;
 
-use crate::config::{Speakers, TeamMedium};
+use crate::config::{Speakers, TeamLink, TeamMedium};
 use crate::error::DemoError;
 use crate::files::{self, SlateFile};
 use crate::net::Network;
@@ -62,20 +62,18 @@ impl Role {
         }
     }
 
-    /// The ICI settings: interest. The export policy and the slower team heartbeat of
-    /// the modules that export nothing come from the role's files when they load
-    /// (`link team` blocks).
-    pub fn ici_config(self, speakers: Speakers, medium: TeamMedium) -> IciConfig {
+    /// The ICI settings: interest, and with robots speaking the team protocol for
+    /// `link` shared by `gateways` speakers. The export policy and the slower team
+    /// heartbeat of the modules that export nothing come from the role's files when they
+    /// load (`link team` blocks).
+    pub fn ici_config(self, speakers: Speakers, link: &TeamLink, gateways: usize) -> IciConfig {
         let mut config = IciConfig::default().interest(self.interest());
         // A catch-up answer can wait behind others on a 9600 bit/s radio: asking again
         // after the default 3 s would only queue more answers.
         config.catch_up_retry = Duration::from_secs(10);
         if speakers == Speakers::Robots {
-            let preset = match medium {
-                TeamMedium::Radio => TeamProtocol::radio(),
-                TeamMedium::Acoustic => TeamProtocol::acoustic(),
-            };
-            config = config.team_protocol(Some(preset.priority(Some(self.gateway_priority()))));
+            let protocol = team_protocol(link, gateways).priority(Some(self.gateway_priority()));
+            config = config.team_protocol(Some(protocol));
         }
         config
     }
@@ -123,6 +121,21 @@ fn classes(names: &[&str]) -> ClassSet {
     names.iter().fold(ClassSet::none(), |s, c| s.class(c))
 }
 
+/// The team protocol's preset for the demo's link, its gateway's token bucket at 80 %
+/// of a radio's budget, or at 70 % of the shared acoustic channel's divided among the
+/// `gateways` that share it (so that together they never offer it more).
+fn team_protocol(link: &TeamLink, gateways: usize) -> TeamProtocol {
+    let (mut protocol, share) = match link.medium {
+        TeamMedium::Radio => (TeamProtocol::radio(), link.budget_bps * 8 / 10),
+        TeamMedium::Acoustic => {
+            let channel = link.budget_bps * 7 / 10;
+            (TeamProtocol::acoustic(), channel / gateways.max(1) as u64)
+        }
+    };
+    protocol.rate_bps = u32::try_from(share.max(1)).unwrap_or(u32::MAX);
+    protocol
+}
+
 /// One module: a [`slate_node::Node`] (board, plan engine, ICI, plan circuits) on the
 /// demo's network and clock, and what it does on which robot.
 pub struct Module {
@@ -146,14 +159,14 @@ impl Module {
         robot: &str,
         role: Role,
         team: &[String],
-        (medium, speakers): (TeamMedium, Speakers),
+        (link, speakers): (&TeamLink, Speakers),
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
         let node = Node::builder(address.clone())
             .transport(net.join(&address)?)
             .clock(net.clock())
-            .ici(role.ici_config(speakers, medium))
+            .ici(role.ici_config(speakers, link, team.len() + 1))
             .start()?;
         let module = Module {
             role,
@@ -168,7 +181,7 @@ impl Module {
                 module.load_terse(files::MISSION, r)?;
             }
         }
-        for file in Role::medium_files(medium) {
+        for file in Role::medium_files(link.medium) {
             module.load(*file, robot)?;
         }
         Ok(module)

@@ -79,7 +79,7 @@ impl Demo {
             &net,
             &layout,
             config.seed,
-            (config.team_link.medium, config.speakers),
+            (&config.team_link, config.speakers),
         )?;
         let return_after = config.duration.as_secs_f64() * 0.8;
         if config.deck.is_some() {
@@ -275,6 +275,7 @@ impl Demo {
             deck_bytes: self.traffic.deck_bytes,
             deck_bytes_by_kind: names(&self.deck_by_kind),
             team_repair_bytes: crate::traffic::team_repair_bytes(&self.team),
+            team_queue_max_seconds: crate::traffic::team_queue_max_seconds(&self.team),
         }
     }
 

@@ -139,6 +139,10 @@ pub struct Summary {
     /// kinds (repairs of reports are report bytes, docs/team-protocol.md 2.10), told
     /// apart here so that the choice is visible. 0 without the team protocol.
     pub team_repair_bytes: u64,
+    /// The longest a module's message waited in its gateway's queue for the radio (the
+    /// team protocol paces itself, so a backlog waits there rather than in the radio:
+    /// it has not vanished). 0 without the team protocol.
+    pub team_queue_max_seconds: f64,
 }
 
 impl Summary {
@@ -243,7 +247,7 @@ impl Summary {
         if let Value::Object(map) = &mut summary {
             map.extend(self.channel_json());
             map.extend(self.deck_json());
-            map.extend(self.repair_json());
+            map.extend(self.team_protocol_json());
         }
         summary
     }
@@ -260,12 +264,16 @@ impl Summary {
         map
     }
 
-    /// The team protocol's repair bytes, as a JSON field: none while there are none (so
-    /// a run without the team protocol reports what it always did).
-    fn repair_json(&self) -> serde_json::Map<String, Value> {
+    /// The team protocol's repair bytes and queue wait, as JSON fields: each absent
+    /// while 0 (so a run without the team protocol reports what it always did).
+    fn team_protocol_json(&self) -> serde_json::Map<String, Value> {
         let mut map = serde_json::Map::new();
         if self.team_repair_bytes > 0 {
             map.insert("team_repair_bytes".into(), json!(self.team_repair_bytes));
+        }
+        if self.team_queue_max_seconds > 0.0 {
+            let wait = round(self.team_queue_max_seconds);
+            map.insert("team_queue_max_seconds".into(), json!(wait));
         }
         map
     }
@@ -431,6 +439,13 @@ impl Summary {
                 s,
                 "  repairs: {} bytes (their reports count as reports above)",
                 self.team_repair_bytes
+            );
+        }
+        if self.team_queue_max_seconds > 0.0 {
+            let _ = writeln!(
+                s,
+                "  gateways' queues: a message waited at most {:.2} s for the radio",
+                self.team_queue_max_seconds
             );
         }
         let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));

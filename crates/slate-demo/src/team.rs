@@ -1,7 +1,7 @@
 //! The team: the operator console and the robots, each robot five modules (five boards,
 //! five ICIs) and the drivers of its sensors and effector.
 
-use crate::config::{Speakers, TeamMedium};
+use crate::config::{Speakers, TeamLink};
 use crate::drivers::{Loco, Nav, Operator, Prox, RobotDrivers, Vision};
 use crate::error::DemoError;
 use crate::module::{Module, Role};
@@ -33,7 +33,7 @@ impl Team {
         net: &Network,
         layout: &Layout,
         seed: u64,
-        link: (TeamMedium, Speakers),
+        link: (&TeamLink, Speakers),
     ) -> Result<Team, DemoError> {
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
         let console = Module::start(net, BASE, Role::Console, &robots, link)?;

@@ -185,3 +185,13 @@ pub(crate) fn team_repair_bytes(team: &Team) -> u64 {
         .map(|m| m.node.ici().stats().team.repair_bytes);
     each.sum()
 }
+
+/// The longest any module's message waited in its gateway's queue, seconds (0 with
+/// the team protocol off).
+pub(crate) fn team_queue_max_seconds(team: &Team) -> f64 {
+    let each = team
+        .modules
+        .iter()
+        .map(|m| m.node.ici().stats().team.queue_max_wait);
+    each.max().unwrap_or_default().as_secs_f64()
+}
