@@ -296,7 +296,7 @@ fn value_type(text: &str) -> Option<ValueType> {
 
 /// The type `object.attr` is declared with on `board` (an object's class chain, or a
 /// class's own, for a class-level write).
-fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
+pub(crate) fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
     let info = board.info(object)?;
     let class = if info.is_class {
         &info.name
@@ -307,7 +307,7 @@ fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
 }
 
 /// A recorded JSON value as a value of type `ty` (`null`: cleared).
-fn value_of(j: &Json, ty: ValueType) -> Option<Value> {
+pub(crate) fn value_of(j: &Json, ty: ValueType) -> Option<Value> {
     Some(match (ty, j) {
         (_, Json::Null) => Value::None,
         (ValueType::Int, j) => Value::Int(j.as_i64()?),
