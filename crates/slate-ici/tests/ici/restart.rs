@@ -13,9 +13,12 @@ use crate::support::{Member, Team, addr, classes, open};
 const NAV: &str = "t/r1/nav";
 const PEERS: [&str; 2] = ["t/r1/cam", "t/r2/loco"];
 
+/// A board as a store hands it back: objects, and `(object, attribute, packet)`.
+type Kept = (Vec<NewObject>, Vec<(String, String, Packet)>);
+
 /// What a store keeps of `board`: its objects (not liveliness nor plans) and their own
 /// packets, as a node's `state` directory would hand them back.
-fn kept(board: &Board) -> (Vec<NewObject>, Vec<(String, String, Packet)>) {
+fn kept(board: &Board) -> Kept {
     let snap = board.snapshot();
     let mut objects = Vec::new();
     let mut packets = Vec::new();
@@ -40,10 +43,7 @@ fn kept(board: &Board) -> (Vec<NewObject>, Vec<(String, String, Packet)>) {
 
 /// Restarts nav on the same address: a new board (restored from `kept` if given) and a
 /// new ICI, which joins after the restore, as a node starts.
-fn restart_nav(
-    team: &mut Team,
-    restored: Option<&(Vec<NewObject>, Vec<(String, String, Packet)>)>,
-) {
+fn restart_nav(team: &mut Team, restored: Option<&Kept>) {
     let address = addr(NAV);
     team.net.kill(&address);
     team.run(0.3);
