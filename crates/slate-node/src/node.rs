@@ -225,9 +225,9 @@ impl NodeBuilder {
         let log = Arc::new(EventLog::default());
         let monitor = Monitor::start(&board, &engine, (&ici, interest), log.clone());
         let timers = system_clock.then(|| Timers::start(ici.clone()));
-        let view = Arc::new(View::new(
-            board, engine, ici, transport, circuits, log, listen,
-        ));
+        let mut view = View::new(board, engine, ici, transport, circuits, log, listen);
+        view.state = keeper.as_ref().map(Keeper::shared_stats);
+        let view = Arc::new(view);
         let node = Node {
             view,
             threads: Mutex::new(Threads {

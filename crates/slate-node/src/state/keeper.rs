@@ -57,6 +57,11 @@ impl Keeper {
         self.stats.lock().clone()
     }
 
+    /// The counters, as the keeper updates them (for the dashboard's view).
+    pub fn shared_stats(&self) -> Arc<Mutex<StateStats>> {
+        self.stats.clone()
+    }
+
     /// Commits what is waiting and stops.
     pub fn stop(&mut self) -> Result<StateStats, StateError> {
         self.stop.store(true, Ordering::Release);
@@ -199,6 +204,7 @@ impl Work {
         self.store.commit(&pending)?;
         self.classes = defs;
         let mut stats = self.stats.lock();
+        stats.revision = stats.revision.max(pending.revision);
         stats.commits += 1;
         stats.packets += pending.packets.len() as u64;
         Ok(())

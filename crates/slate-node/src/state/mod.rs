@@ -154,6 +154,8 @@ pub enum StateError {
 /// What the keeper has done so far.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct StateStats {
+    /// The store holds every change the board committed up to this revision.
+    pub revision: u64,
     /// Commits made.
     pub commits: u64,
     /// Packets written to the store (after folding: one per attribute per commit).

@@ -31,6 +31,8 @@ pub(crate) struct Pending {
     pub packets: HashMap<(Arc<str>, Arc<str>), Packet>,
     /// Changes folded in (a full save counts as one).
     pub changes: usize,
+    /// The board's revision up to which every change is folded in.
+    pub revision: u64,
 }
 
 /// Is an object of `class` left out of the store? Liveliness (`Module`) is the ICI's to
@@ -69,13 +71,16 @@ impl Pending {
                     .insert(info.name, record(info.class, info.context, info.owner));
             }
         }
-        (p, snap.revision())
+        p.revision = snap.revision();
+        let revision = p.revision;
+        (p, revision)
     }
 
     /// Folds one committed change in; objects are looked up on `board` for their context
     /// and owner (one deleted since is dropped: its deletion follows).
     pub fn fold(&mut self, board: &Board, change: Change, skipped: &mut HashSet<Arc<str>>) {
         self.changes += 1;
+        self.revision = self.revision.max(change.revision);
         for item in change.items {
             match item {
                 ChangeItem::Write {
