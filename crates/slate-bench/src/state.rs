@@ -32,8 +32,8 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     let kept = node(&net, &address).state(StateConfig::new(&dir)).start()?;
     let ns = writes(cfg, &kept)?;
     r.compare("node_write_state_ns", ns, "node_write_ns", Some(2.0));
-    let stats = kept.state().unwrap_or_default();
     kept.close();
+    let stats = kept.state().unwrap_or_default();
     net.run_for(Duration::from_millis(10));
     let size = std::fs::metadata(dir.join(slate_node::state::FILE)).map_or(0, |m| m.len());
     let _ = std::fs::remove_dir_all(&dir);

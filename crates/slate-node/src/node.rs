@@ -488,9 +488,10 @@ impl Node {
         self.restored
     }
 
-    /// The state keeper's counters so far, if it keeps its board.
+    /// The state keeper's counters so far (after [`close`](Node::close): its final
+    /// ones), if it keeps its board.
     pub fn state(&self) -> Option<StateStats> {
-        self.threads.lock().keeper.as_ref().map(Keeper::stats)
+        self.view.state.as_ref().map(|s| s.lock().clone())
     }
 
     /// Has it been closed?

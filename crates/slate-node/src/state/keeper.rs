@@ -52,11 +52,6 @@ impl Keeper {
         })
     }
 
-    /// The counters now.
-    pub fn stats(&self) -> StateStats {
-        self.stats.lock().clone()
-    }
-
     /// The counters, as the keeper updates them (for the dashboard's view).
     pub fn shared_stats(&self) -> Arc<Mutex<StateStats>> {
         self.stats.clone()
@@ -71,7 +66,7 @@ impl Keeper {
                 Err(_) => tracing::error!("the state keeper thread panicked"),
             }
         }
-        Ok(self.stats())
+        Ok(self.stats.lock().clone())
     }
 }
 
