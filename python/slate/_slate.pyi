@@ -49,6 +49,10 @@ __all__ = [
     "PlanHandle",
     "Acks",
     "Ack",
+    "Recording",
+    "RecordingIter",
+    "RecordedPacket",
+    "RecordedEvent",
     "__version__",
     "BUILD_PROFILE",
 ]
@@ -568,7 +572,14 @@ class Node:
         interest: Sequence[str] | None = None,
         export: Sequence[str] | None = None,
         dashboard: str | None = None,
-    ) -> Node: ...
+        record: str | os.PathLike[str] | None = None,
+        state: str | os.PathLike[str] | None = None,
+    ) -> Node:
+        """`record=`: record the board to this MCAP file from the start
+        (docs/recording.md). `state=`: keep the board in this directory and restore it
+        first, before the node joins the team (docs/design.md, "A restart with its
+        board"); load the board's files before making the node, or their objects clash
+        with the restored ones. A damaged state directory raises NodeError naming it."""
     @property
     def address(self) -> str: ...
     @property
@@ -579,6 +590,9 @@ class Node:
     def dashboard_url(self) -> str | None: ...
     @property
     def closed(self) -> bool: ...
+    @property
+    def restored(self) -> dict[Literal["objects", "packets", "refused"], int] | None:
+        """What `state=` gave back when the node started; None without it."""
     def peers(self) -> list[str]: ...
     def send_plan(self, source: str, *, to: str) -> PlanHandle: ...
     def snapshot(self) -> dict[str, Any]: ...
@@ -629,3 +643,86 @@ class Ack:
     def last(self) -> bool: ...
     def __eq__(self, other: object, /) -> bool: ...
     def __hash__(self) -> int: ...
+
+# ----- recordings -----
+
+_RecordedValue = None | bool | int | float | str | list[float]
+
+@final
+class Recording:
+    """An MCAP recording of a board (docs/recording.md), read into memory. Iterating
+    yields every message in the file's order; a file cut off by a crash is read up to its
+    last complete chunk. Raises OSError if the file cannot be read, ValueError if it is
+    not an MCAP recording."""
+
+    def __new__(cls, path: str | os.PathLike[str]) -> Recording: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def address(self) -> str | None:
+        """The recording board's address, if the file says it."""
+    @property
+    def complete(self) -> bool:
+        """False when the file was cut off (no footer: a crash)."""
+    def __iter__(self) -> Iterator[RecordedPacket | RecordedEvent]: ...
+    def __len__(self) -> int: ...
+    def packets(self) -> Iterator[RecordedPacket]:
+        """The packets only."""
+    def events(self) -> Iterator[RecordedEvent]:
+        """Everything but the packets."""
+
+@final
+class RecordingIter:
+    """An iterator over a recording's messages (what `Recording`'s `__iter__`,
+    `packets()` and `events()` return)."""
+
+    def __iter__(self) -> RecordingIter: ...
+    def __next__(self) -> RecordedPacket | RecordedEvent: ...
+
+@final
+class RecordedPacket:
+    """A packet as recorded, written to `object.attr`."""
+
+    @property
+    def time(self) -> float:
+        """When the recording board handled it, seconds since the Unix epoch."""
+    @property
+    def object(self) -> str: ...
+    @property
+    def attr(self) -> str: ...
+    @property
+    def value(self) -> _RecordedValue:
+        """As JSON has it: a reference is its object's name, a vector a list."""
+    @property
+    def accuracy(self) -> float: ...
+    @property
+    def confidence(self) -> float: ...
+    @property
+    def timestamp(self) -> float:
+        """The packet's stamp, seconds since the Unix epoch."""
+    @property
+    def stamp(self) -> int:
+        """The full hybrid-clock stamp (as Packet.stamp)."""
+    @property
+    def source(self) -> str: ...
+    @property
+    def revision(self) -> int: ...
+
+@final
+class RecordedEvent:
+    """Any other message: objects, classes, plan events, circuit steps, liveliness, board
+    events, counters."""
+
+    @property
+    def time(self) -> float: ...
+    @property
+    def topic(self) -> str: ...
+    @property
+    def kind(
+        self,
+    ) -> Literal[
+        "objects", "classes", "plans", "circuits", "liveliness", "events", "links", "recorder"
+    ]: ...
+    @property
+    def data(self) -> dict[str, Any]:
+        """The message's JSON (docs/recording.md lists the fields of each channel)."""

@@ -23,6 +23,7 @@ pub mod net;
 pub mod plans;
 mod proxy;
 pub mod record;
+pub mod state;
 pub mod wire;
 mod zenoh_pair;
 
@@ -54,6 +55,9 @@ pub enum Suite {
     Cli,
     /// A node's writes with its board recorded in MCAP, against the same node without.
     Record,
+    /// A node's writes with its board kept in a state directory (redb), against a node
+    /// of the same config without.
+    State,
 }
 
 /// Runs `suite`; `progress` is told each step before it is measured.
@@ -65,6 +69,7 @@ pub fn run(suite: Suite, cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow
         Suite::Net => net::run(cfg, progress),
         Suite::Cli => cli::run(cfg, progress),
         Suite::Record => record::run(cfg, progress),
+        Suite::State => state::run(cfg, progress),
     }
 }
 

@@ -81,6 +81,11 @@ pub enum Command {
     /// leaves the network and exits 0. It prints one line when it is ready (with `--format
     /// json`, one JSON object) and one when it stops.
     ///
+    /// With `state = "DIR"` in the config, the node keeps its board in DIR and restores it
+    /// when it starts again, before it joins the team; a kill -9 loses at most the last
+    /// `storage.commit_every` (100 ms) of changes. A damaged store stops the start with an
+    /// error; --reset-state moves it aside.
+    ///
     /// Example: slate node --config nav.toml --log info,slate_ici=debug
     Node(NodeArgs),
 
@@ -226,6 +231,12 @@ pub struct NodeArgs {
     /// The module's TOML config.
     #[arg(long, short, value_name = "FILE")]
     pub config: std::path::PathBuf,
+
+    /// Move the store of the config's `state` directory aside (to
+    /// board.redb.SECONDS.old beside it) and start with an empty board: the way out of a
+    /// damaged or unwanted state.
+    #[arg(long)]
+    pub reset_state: bool,
 }
 
 /// Arguments of `slate tree`.

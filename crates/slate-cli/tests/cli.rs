@@ -24,6 +24,9 @@ mod record;
 // Modules that crash and come back, and observers that come and go.
 #[path = "cli/restart.rs"]
 mod restart;
+// A node keeping its board (`state`) killed mid-write and restarted; a damaged store.
+#[path = "cli/state.rs"]
+mod state;
 // A team of `slate node` processes on loopback, and `slate` run with a time limit (helpers).
 #[path = "cli/support.rs"]
 mod support;

@@ -36,6 +36,9 @@ mod plans;
 // Random fault mixes on a small team, from many seeds: every board must agree.
 #[path = "ici/random.rs"]
 mod random;
+// A module restarted with its board restored: its peers keep its objects.
+#[path = "ici/restart.rs"]
+mod restart;
 // Robot-stream repair: NACK with suppression, one broadcast repair, hello NACK, Gone.
 #[path = "ici/repair.rs"]
 mod repair;

@@ -13,6 +13,7 @@ use slate_zenoh::{Mode, ZenohConfig};
 use crate::error::ConfigError;
 use crate::fields::{Fields, describe};
 use crate::record::RecordConfig;
+use crate::state::{Durability, StateConfig};
 
 /// Everything a node needs to start.
 ///
@@ -53,6 +54,9 @@ pub struct NodeConfig {
     pub dashboard: Option<SocketAddr>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
+    /// Where to keep the board across restarts, if anywhere (`state`, and `[storage]`
+    /// for when it commits).
+    pub state: Option<StateConfig>,
 }
 
 /// A `.slate` file a node loads at start, and the placeholders replaced in its text
@@ -86,7 +90,11 @@ const TOP: &[&str] = &[
     "ici",
     "record",
     "recording",
+    "state",
+    "storage",
 ];
+/// Keys of `[storage]`.
+const STORAGE: &[&str] = &["commit_every", "commit_changes", "queue", "durability"];
 /// Keys of `[recording]`.
 const RECORDING: &[&str] = &["max_bytes", "max_duration", "flush", "stats", "queue"];
 /// Keys of `[zenoh]`.
@@ -120,6 +128,7 @@ impl NodeConfig {
             ici: IciConfig::default(),
             dashboard: None,
             record: None,
+            state: None,
         }
     }
 
@@ -159,6 +168,7 @@ impl NodeConfig {
             ici_section(ici, &mut config.ici)?;
         }
         config.record = record(&mut top, base)?;
+        config.state = state(&mut top, base)?;
         top.finish()?;
         Ok(config)
     }
@@ -281,6 +291,42 @@ fn recording_section(mut t: Fields, r: &mut RecordConfig) -> Result<(), ConfigEr
     r.flush_every = t.duration("flush")?.unwrap_or(r.flush_every);
     r.stats_every = t.duration("stats")?.unwrap_or(r.stats_every);
     r.queue = t.count("queue")?.unwrap_or(r.queue);
+    t.finish()
+}
+
+/// `state = "DIR"`, with its `[storage]` settings.
+fn state(top: &mut Fields, base: &Path) -> Result<Option<StateConfig>, ConfigError> {
+    let dir = top.str(
+        "state",
+        "a directory to keep the board in, like \"state/nav\"",
+    )?;
+    let settings = top.table("storage", STORAGE)?;
+    let Some(dir) = dir else {
+        return match settings {
+            Some(_) => Err(top.invalid(
+                "storage",
+                "`state = \"DIR\"` beside it",
+                "[storage] without state",
+            )),
+            None => Ok(None),
+        };
+    };
+    let mut config = StateConfig::new(base.join(dir));
+    if let Some(t) = settings {
+        storage_section(t, &mut config)?;
+    }
+    Ok(Some(config))
+}
+
+fn storage_section(mut t: Fields, s: &mut StateConfig) -> Result<(), ConfigError> {
+    const DURABILITY: &str = "\"immediate\" or \"eventual\"";
+    s.commit_every = t.duration("commit_every")?.unwrap_or(s.commit_every);
+    s.commit_changes = t.count("commit_changes")?.unwrap_or(s.commit_changes);
+    s.queue = t.count("queue")?.unwrap_or(s.queue);
+    if let Some(name) = t.str("durability", DURABILITY)? {
+        s.durability = Durability::from_name(&name)
+            .ok_or_else(|| t.invalid("durability", DURABILITY, &format!("{name:?}")))?;
+    }
     t.finish()
 }
 
@@ -595,6 +641,50 @@ mod tests {
         assert_eq!(r.queue, 1024);
         let plain = parse("address = \"t/r/m\"\nrecord = \"/abs/x.mcap\"").unwrap();
         assert_eq!(plain.record, Some(RecordConfig::new("/abs/x.mcap")));
+    }
+
+    #[test]
+    fn state_names_the_directory_and_storage_when_it_commits() {
+        let c = parse(
+            r#"
+            address = "t/r1/nav"
+            state = "state/nav"
+            [storage]
+            commit_every = "250ms"
+            commit_changes = 100
+            queue = 512
+            durability = "eventual"
+            "#,
+        )
+        .unwrap();
+        let s = c.state.unwrap();
+        assert_eq!(s.dir, PathBuf::from("/etc/slate/state/nav"));
+        assert_eq!(s.commit_every, Duration::from_millis(250));
+        assert_eq!(s.commit_changes, 100);
+        assert_eq!(s.queue, 512);
+        assert_eq!(s.durability, crate::state::Durability::Eventual);
+        let plain = parse("address = \"t/r/m\"\nstate = \"/var/s\"").unwrap();
+        assert_eq!(plain.state, Some(StateConfig::new("/var/s")));
+    }
+
+    #[test]
+    fn storage_without_state_or_with_an_unknown_durability_is_refused() {
+        let err = parse("address = \"t/r/m\"\n[storage]\nqueue = 5")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("m.toml: key `storage`: expected `state = \"DIR\"` beside it"),
+            "{err}"
+        );
+        let err = parse("address = \"t/r/m\"\nstate = \"s\"\n[storage]\ndurability = \"always\"")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with(
+                "m.toml: key `storage.durability`: expected \"immediate\" or \"eventual\""
+            ),
+            "{err}"
+        );
     }
 
     #[test]

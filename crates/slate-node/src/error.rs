@@ -96,6 +96,9 @@ pub enum StartError {
     /// The recording (`record` in the config) did not start.
     #[error("cannot record: {0}")]
     Record(#[from] crate::record::RecordError),
+    /// The state directory (`state` in the config) cannot be opened or read.
+    #[error("{0}")]
+    State(#[from] crate::state::StateError),
 }
 
 /// Why an observer could not join a live team.

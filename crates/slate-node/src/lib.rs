@@ -50,6 +50,7 @@ mod monitor;
 mod node;
 mod observer;
 pub mod record;
+pub mod state;
 mod timers;
 mod view;
 
@@ -61,4 +62,5 @@ pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
 pub use record::{RecordConfig, RecordError, RecordStats};
 pub use slate_dashboard::STALE_AFTER_S;
+pub use state::{StateConfig, StateError, StateStats};
 pub use timers::TICK;

@@ -18,6 +18,7 @@ use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
 use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
+use crate::state::{Keeper, Restored, StateConfig, StateError, StateStats, Store};
 use crate::timers::Timers;
 use crate::view::View;
 
@@ -67,6 +68,7 @@ pub struct NodeBuilder {
     sources: Vec<Source>,
     dashboard: Option<SocketAddr>,
     record: Option<RecordConfig>,
+    state: Option<StateConfig>,
 }
 
 impl NodeBuilder {
@@ -82,6 +84,7 @@ impl NodeBuilder {
             sources: Vec::new(),
             dashboard: None,
             record: None,
+            state: None,
         }
     }
 
@@ -150,7 +153,15 @@ impl NodeBuilder {
         self
     }
 
-    /// Starts the node: loads the sources, joins the network, starts the ICI, the plan
+    /// Keeps the board in a state directory across restarts: what it holds is restored
+    /// after the sources load and before the node joins the network (`docs/design.md`,
+    /// "A restart").
+    pub fn state(mut self, config: StateConfig) -> Self {
+        self.state = Some(config);
+        self
+    }
+
+    /// Starts the node: loads the sources, restores its state, joins the network, starts the ICI, the plan
     /// circuits, the timers (on the system clock) and the dashboard.
     pub fn start(self) -> Result<Node, StartError> {
         let board = match self.board {
@@ -182,6 +193,13 @@ impl NodeBuilder {
         for source in &self.sources {
             load(&engine, source)?;
         }
+        let (keeper, restored) = match &self.state {
+            Some(config) => {
+                let (keeper, restored) = keep_state(&board, config)?;
+                (Some(keeper), Some(restored))
+            }
+            None => (None, None),
+        };
         let mut ici_config = self.ici;
         for (name, policy) in engine.link_policies() {
             LinkPolicy::from(&policy).apply_to(link_kind(name), &mut ici_config);
@@ -207,9 +225,9 @@ impl NodeBuilder {
         let log = Arc::new(EventLog::default());
         let monitor = Monitor::start(&board, &engine, (&ici, interest), log.clone());
         let timers = system_clock.then(|| Timers::start(ici.clone()));
-        let view = Arc::new(View::new(
-            board, engine, ici, transport, circuits, log, listen,
-        ));
+        let mut view = View::new(board, engine, ici, transport, circuits, log, listen);
+        view.state = keeper.as_ref().map(Keeper::shared_stats);
+        let view = Arc::new(view);
         let node = Node {
             view,
             threads: Mutex::new(Threads {
@@ -217,7 +235,9 @@ impl NodeBuilder {
                 timers,
                 dashboard: None,
                 recorder: None,
+                keeper,
             }),
+            restored,
             closed: AtomicBool::new(false),
         };
         if let Some(config) = self.record
@@ -253,6 +273,16 @@ fn apply_link_policies(ici: &Ici, engine: &Engine, links: &[LinkName]) {
     }
 }
 
+/// Opens the state directory, restores what it holds onto `board` and starts keeping
+/// the board there.
+fn keep_state(board: &Arc<Board>, config: &StateConfig) -> Result<(Keeper, Restored), StateError> {
+    let store = Store::open(&config.dir, board.address(), config.durability)?;
+    let restored = crate::state::restore(board, store.load()?);
+    tracing::info!(dir = %config.dir.display(), ?restored, "state restored");
+    let keeper = Keeper::start(board.clone(), store, config)?;
+    Ok((keeper, restored))
+}
+
 fn load(engine: &Engine, source: &Source) -> Result<Loaded, StartError> {
     match source {
         Source::File(SourceFile { path, substitute }) => {
@@ -278,6 +308,7 @@ struct Threads {
     timers: Option<Timers>,
     dashboard: Option<Dashboard>,
     recorder: Option<Recorder>,
+    keeper: Option<Keeper>,
 }
 
 /// One module of a robot: a [`Board`], its plan [`Engine`], its [`Ici`] over a
@@ -303,6 +334,8 @@ pub struct Node {
     /// dashboard's view reads too.
     view: Arc<View>,
     threads: Mutex<Threads>,
+    /// What the state directory gave back at start, if the node keeps one.
+    restored: Option<Restored>,
     closed: AtomicBool,
 }
 
@@ -326,11 +359,21 @@ impl Node {
         if let Some(r) = &config.record {
             b = b.record(r.clone());
         }
+        if let Some(s) = &config.state {
+            b = b.state(s.clone());
+        }
         b.start()
     }
 
     fn started(&self) {
         let me = self.address();
+        if let Some(r) = self.restored {
+            let text = format!(
+                "{me} restored its board: {} objects, {} packets ({} refused)",
+                r.objects, r.packets, r.refused
+            );
+            self.log(Level::Info, text);
+        }
         if self.view.listen.is_empty() {
             self.log(Level::Info, format!("{me} started"));
         } else {
@@ -440,6 +483,17 @@ impl Node {
         self.threads.lock().recorder.as_ref().map(Recorder::stats)
     }
 
+    /// What its state directory gave back at start (`None`: it keeps no state).
+    pub fn restored(&self) -> Option<Restored> {
+        self.restored
+    }
+
+    /// The state keeper's counters so far (after [`close`](Node::close): its final
+    /// ones), if it keeps its board.
+    pub fn state(&self) -> Option<StateStats> {
+        self.view.state.as_ref().map(|s| s.lock().clone())
+    }
+
     /// Has it been closed?
     pub fn is_closed(&self) -> bool {
         self.closed.load(Ordering::Acquire)
@@ -468,6 +522,11 @@ impl Node {
         }
         if let Some(mut r) = threads.recorder.take()
             && let Err(e) = r.stop()
+        {
+            tracing::error!("{e}");
+        }
+        if let Some(mut k) = threads.keeper.take()
+            && let Err(e) = k.stop()
         {
             tracing::error!("{e}");
         }

@@ -29,6 +29,8 @@ pub(crate) struct View {
     pub circuits: Arc<PlanCircuits>,
     pub log: Arc<EventLog>,
     pub listen: Vec<String>,
+    /// The state keeper's counters, if the node keeps its board.
+    pub state: Option<Arc<Mutex<crate::state::StateStats>>>,
     rates: Mutex<Rates>,
 }
 
@@ -58,6 +60,7 @@ impl View {
             circuits,
             log,
             listen,
+            state: None,
             rates: Mutex::new(Rates::default()),
         }
     }
@@ -101,8 +104,22 @@ impl View {
             ("plans rejected", json!(plans.rejected)),
         ]
         .into_iter()
+        .chain(self.state_summary())
         .map(|(k, v)| (k.to_owned(), v))
         .collect()
+    }
+
+    /// `state revision`: every change up to it is in the state directory (when the node
+    /// keeps one); `state commits`.
+    fn state_summary(&self) -> Vec<(&'static str, Json)> {
+        let Some(stats) = &self.state else {
+            return Vec::new();
+        };
+        let stats = stats.lock();
+        vec![
+            ("state revision", json!(stats.revision)),
+            ("state commits", json!(stats.commits)),
+        ]
     }
 
     fn objects(&self, classes: &Classes) -> Vec<ObjectRow> {

@@ -18,6 +18,9 @@ mod record;
 // Two robots' LANs joined only through a Zenoh router (`zenoh_config`).
 #[path = "node/router.rs"]
 mod router;
+// A node keeps its board across a restart (`state`); its peers keep its objects.
+#[path = "node/state.rs"]
+mod state;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;

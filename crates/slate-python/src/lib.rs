@@ -14,6 +14,7 @@
 //! | `events.rs` | `Event`, `Events` (board and plan events) |
 //! | `active.rs` | Python callables as active functions, and the `Call` they receive |
 //! | `node.rs` | `Node` (a board on the network), `PlanHandle`, `Acks`, `Ack` |
+//! | `recording.rs` | `Recording` (an MCAP recording read back), `RecordedPacket`, `RecordedEvent` |
 //! | `engine.rs` | `load`, `Plan`, `Loaded`, and the outbox: `Outbox`, `Report`, `PlanMessage` |
 //! | `errors.rs` | the exception classes, mirroring the core's error enums; `Diagnostic` |
 //! | `stream.rs` | waiting on a subscription with the GIL released |
@@ -28,6 +29,7 @@ mod errors;
 mod events;
 mod node;
 mod packet;
+mod recording;
 mod stream;
 mod watch;
 
@@ -60,6 +62,10 @@ fn _slate(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<node::PlanHandle>()?;
     m.add_class::<node::Acks>()?;
     m.add_class::<node::Ack>()?;
+    m.add_class::<recording::PyRecording>()?;
+    m.add_class::<recording::RecordingIter>()?;
+    m.add_class::<recording::RecordedPacket>()?;
+    m.add_class::<recording::RecordedEvent>()?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     let profile = if cfg!(debug_assertions) {
         "debug"

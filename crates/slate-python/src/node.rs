@@ -2,6 +2,7 @@
 //! (a plan sent, and its acknowledgements as they arrive) and `Ack`.
 
 use std::net::SocketAddr;
+use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -12,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyString;
 use slate_ici::{IciConfig, LOST_WAIT};
 use slate_model::{Address, Board};
-use slate_node::Node;
+use slate_node::{Node, RecordConfig, StateConfig};
 use slate_wire::PlanStep;
 use slate_zenoh::{Mode, ZenohConfig};
 
@@ -106,7 +107,7 @@ fn check_not_open(py: Python<'_>, address: &Address, board: &Arc<Board>) -> PyRe
 #[pymethods]
 impl PyNode {
     #[new]
-    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None))]
+    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None, record=None, state=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -118,6 +119,8 @@ impl PyNode {
         interest: Option<Vec<String>>,
         export: Option<Vec<String>>,
         dashboard: Option<&str>,
+        record: Option<PathBuf>,
+        state: Option<PathBuf>,
     ) -> PyResult<Self> {
         let addr = to_address(py, address)?;
         let board = match board {
@@ -154,6 +157,12 @@ impl PyNode {
         if let Some(d) = dashboard {
             builder = builder.dashboard(d);
         }
+        if let Some(path) = record {
+            builder = builder.record(RecordConfig::new(path));
+        }
+        if let Some(dir) = state {
+            builder = builder.state(StateConfig::new(dir));
+        }
         let node = py
             .detach(|| builder.start())
             .map_err(|e| errors::new(py, Kind::Node, e.to_string()))?;
@@ -184,6 +193,20 @@ impl PyNode {
     #[getter]
     fn dashboard_url(&self) -> Option<String> {
         self.node.dashboard_url()
+    }
+
+    /// What its state directory gave back when it started (`objects`, `packets`,
+    /// `refused`), or None without `state=`.
+    #[getter]
+    fn restored(&self) -> Option<std::collections::BTreeMap<&'static str, usize>> {
+        self.node.restored().map(|r| {
+            [
+                ("objects", r.objects),
+                ("packets", r.packets),
+                ("refused", r.refused),
+            ]
+            .into()
+        })
     }
 
     /// Has it been closed?

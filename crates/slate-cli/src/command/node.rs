@@ -13,6 +13,9 @@ use crate::logging::Logs;
 /// Starts the node, says where it listens, waits for a signal, stops cleanly.
 pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitCode> {
     let config = NodeConfig::read(&args.config)?;
+    if args.reset_state {
+        reset_state(&config)?;
+    }
     let signals = interrupted()?;
     let node = logs.quiet_zenoh(|| Node::start(&config))?;
     let dashboard = node.dashboard_url();
@@ -22,6 +25,10 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
             "listening": node.listening(), "connect": config.zenoh.connect,
             "dashboard": dashboard, "pid": std::process::id(),
             "record": config.record.as_ref().map(|r| r.path.display().to_string()),
+            "state": config.state.as_ref().map(|s| s.dir.display().to_string()),
+            "restored": node.restored().map(|r| json!({
+                "objects": r.objects, "packets": r.packets, "refused": r.refused,
+            })),
         }))?,
         Format::Text => {
             let listening = match node.listening() {
@@ -47,4 +54,23 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
         Format::Text => println!("slate node {}: stopped", node.address()),
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--reset-state`: moves the store of the config's state directory aside.
+fn reset_state(config: &NodeConfig) -> anyhow::Result<()> {
+    let Some(state) = &config.state else {
+        anyhow::bail!(
+            "--reset-state: the config has no `state = \"DIR\"`, so there is no state to reset"
+        );
+    };
+    let dir = &state.dir;
+    match slate_node::state::reset(dir) {
+        Ok(Some(aside)) => eprintln!("moved the state store aside to {}", aside.display()),
+        Ok(None) => eprintln!("no state store in {} to reset", dir.display()),
+        Err(e) => anyhow::bail!(
+            "cannot move the state store in {} aside: {e}",
+            dir.display()
+        ),
+    }
+    Ok(())
 }

@@ -9,7 +9,7 @@
 //! and counted ([`RecordStats::dropped`], and the `/slate/recorder` channel).
 
 mod file;
-mod message;
+pub(crate) mod message;
 mod replay;
 mod schema;
 mod tap;
@@ -23,7 +23,8 @@ use std::time::Duration;
 use parking_lot::Mutex;
 
 pub use file::{MESSAGE_ENCODING, METADATA, PROFILE, SCHEMA_ENCODING, rotated_path};
-pub use replay::{Recording, ReplayError, Step, Timed, board_state, class_def};
+pub use replay::{Raw, RawMessage, Recording, ReplayError, Step, Timed, board_state, class_def};
+pub(crate) use replay::{declared_type, value_of};
 pub use schema::class_schema;
 
 use crate::view::View;

@@ -94,31 +94,15 @@ impl Recording {
     /// Reads a file: every message up to the end, or up to the last complete record of a
     /// file cut off by a crash.
     pub fn read(path: &Path) -> Result<Recording, ReplayError> {
-        let bytes = std::fs::read(path).map_err(|error| ReplayError::Read {
-            path: path.to_owned(),
-            error,
-        })?;
-        let not_mcap = |why: String| ReplayError::NotMcap {
-            path: path.to_owned(),
-            why,
-        };
-        if !bytes.starts_with(mcap::MAGIC) {
-            return Err(not_mcap("it does not begin with MCAP's magic bytes".into()));
-        }
-        let stream = mcap::MessageStream::new_with_options(&bytes, Options::IgnoreEndMagic.into())
-            .map_err(|e| not_mcap(e.to_string()))?;
+        let raw = Raw::read(path)?;
         let mut recording = Recording {
-            address: address(&bytes),
-            complete: bytes.ends_with(mcap::MAGIC),
+            address: raw.address,
+            complete: raw.complete,
             ..Recording::default()
         };
-        for message in stream {
-            let Ok(m) = message else {
-                recording.complete = false;
-                break;
-            };
+        for m in raw.messages {
             let json = serde_json::from_slice(&m.data).unwrap_or(Json::Null);
-            match step(&m.channel.topic, json) {
+            match step(&m.topic, json) {
                 Some(step) => recording.steps.push(Timed {
                     time: Duration::from_nanos(m.log_time),
                     step,
@@ -167,6 +151,66 @@ impl Recording {
             }
             Step::Other { .. } => true,
         }
+    }
+}
+
+/// One message of a recording as the file holds it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RawMessage {
+    /// Its channel's topic (`/slate/class/Vehicle`, `/slate/objects`...).
+    pub topic: String,
+    /// When the recording board handled it, in nanoseconds since the Unix epoch.
+    pub log_time: u64,
+    /// Its JSON, as bytes.
+    pub data: Vec<u8>,
+}
+
+/// A recording's messages as the file holds them, for readers that want the JSON of
+/// each (Python's `slate.Recording`) rather than what it did to the board.
+#[derive(Clone, Debug, Default)]
+pub struct Raw {
+    /// The recording board's address, if the file says it.
+    pub address: Option<String>,
+    /// Every message up to the end, or up to the last complete record.
+    pub messages: Vec<RawMessage>,
+    /// False when the file was cut off (no footer: a crash).
+    pub complete: bool,
+}
+
+impl Raw {
+    /// Reads a file whole: every message up to the end, or up to the last complete
+    /// record of a file cut off by a crash.
+    pub fn read(path: &Path) -> Result<Raw, ReplayError> {
+        let bytes = std::fs::read(path).map_err(|error| ReplayError::Read {
+            path: path.to_owned(),
+            error,
+        })?;
+        let not_mcap = |why: String| ReplayError::NotMcap {
+            path: path.to_owned(),
+            why,
+        };
+        if !bytes.starts_with(mcap::MAGIC) {
+            return Err(not_mcap("it does not begin with MCAP's magic bytes".into()));
+        }
+        let stream = mcap::MessageStream::new_with_options(&bytes, Options::IgnoreEndMagic.into())
+            .map_err(|e| not_mcap(e.to_string()))?;
+        let mut raw = Raw {
+            address: address(&bytes),
+            complete: bytes.ends_with(mcap::MAGIC),
+            messages: Vec::new(),
+        };
+        for message in stream {
+            let Ok(m) = message else {
+                raw.complete = false;
+                break;
+            };
+            raw.messages.push(RawMessage {
+                topic: m.channel.topic.clone(),
+                log_time: m.log_time,
+                data: m.data.into_owned(),
+            });
+        }
+        Ok(raw)
     }
 }
 
@@ -296,7 +340,7 @@ fn value_type(text: &str) -> Option<ValueType> {
 
 /// The type `object.attr` is declared with on `board` (an object's class chain, or a
 /// class's own, for a class-level write).
-fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
+pub(crate) fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
     let info = board.info(object)?;
     let class = if info.is_class {
         &info.name
@@ -307,7 +351,7 @@ fn declared_type(board: &Board, object: &str, attr: &str) -> Option<ValueType> {
 }
 
 /// A recorded JSON value as a value of type `ty` (`null`: cleared).
-fn value_of(j: &Json, ty: ValueType) -> Option<Value> {
+pub(crate) fn value_of(j: &Json, ty: ValueType) -> Option<Value> {
     Some(match (ty, j) {
         (_, Json::Null) => Value::None,
         (ValueType::Int, j) => Value::Int(j.as_i64()?),

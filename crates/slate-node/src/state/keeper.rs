@@ -1,0 +1,207 @@
+//! The `slate-state` thread: drains the board's bounded watch into a pending set and
+//! commits it to the store when it is due.
+
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use parking_lot::Mutex;
+use slate_model::{Board, ClassDef, Filter, Watch};
+
+use super::pending::Pending;
+use super::store::Store;
+use super::{StateConfig, StateError, StateStats};
+
+/// How long the thread waits for a change before it looks at the clock.
+const POLL: Duration = Duration::from_millis(10);
+/// Changes folded between two looks at the clock and the stop flag.
+const BURST: usize = 4096;
+
+/// The keeper: its thread, and the counters it keeps.
+pub(crate) struct Keeper {
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<Result<(), StateError>>>,
+    stats: Arc<Mutex<StateStats>>,
+}
+
+impl Keeper {
+    /// Subscribes to the board (in the caller's thread, so no change is missed), saves it
+    /// whole as the first commit, and starts the thread that keeps the store up to date.
+    pub fn start(
+        board: Arc<Board>,
+        store: Store,
+        config: &StateConfig,
+    ) -> Result<Keeper, StateError> {
+        let watch = board.watch_bounded(Filter::all(), config.queue)?;
+        let stats = Arc::new(Mutex::new(StateStats::default()));
+        let mut work = Work::new(board, store, watch, config, stats.clone());
+        work.resync();
+        work.commit()?;
+        let stop = Arc::new(AtomicBool::new(false));
+        let stopped = stop.clone();
+        let thread = std::thread::Builder::new()
+            .name("slate-state".into())
+            .spawn(move || work.run(&stopped))
+            .map_err(StateError::Thread)?;
+        Ok(Keeper {
+            stop,
+            thread: Some(thread),
+            stats,
+        })
+    }
+
+    /// The counters, as the keeper updates them (for the dashboard's view).
+    pub fn shared_stats(&self) -> Arc<Mutex<StateStats>> {
+        self.stats.clone()
+    }
+
+    /// Commits what is waiting and stops.
+    pub fn stop(&mut self) -> Result<StateStats, StateError> {
+        self.stop.store(true, Ordering::Release);
+        if let Some(thread) = self.thread.take() {
+            match thread.join() {
+                Ok(result) => result?,
+                Err(_) => tracing::error!("the state keeper thread panicked"),
+            }
+        }
+        Ok(self.stats.lock().clone())
+    }
+}
+
+impl Drop for Keeper {
+    fn drop(&mut self) {
+        if let Err(e) = self.stop() {
+            tracing::warn!("{e}");
+        }
+    }
+}
+
+/// What the thread holds.
+struct Work {
+    board: Arc<Board>,
+    store: Store,
+    watch: Watch,
+    commit_every: Duration,
+    commit_changes: usize,
+    pending: Pending,
+    /// Objects left out of the store (`Module`, `Plan`): their packets are too.
+    skipped: HashSet<Arc<str>>,
+    /// The class definitions the store holds.
+    classes: Vec<ClassDef>,
+    /// Changes up to this revision are in the pending full save.
+    snapshot_revision: u64,
+    /// Changes the watch had dropped at the last full save.
+    dropped: u64,
+    committed: Instant,
+    stats: Arc<Mutex<StateStats>>,
+}
+
+impl Work {
+    fn new(
+        board: Arc<Board>,
+        store: Store,
+        watch: Watch,
+        config: &StateConfig,
+        stats: Arc<Mutex<StateStats>>,
+    ) -> Self {
+        Work {
+            board,
+            store,
+            watch,
+            commit_every: config.commit_every,
+            commit_changes: config.commit_changes.max(1),
+            pending: Pending::default(),
+            skipped: HashSet::new(),
+            classes: Vec::new(),
+            snapshot_revision: 0,
+            dropped: 0,
+            committed: Instant::now(),
+            stats,
+        }
+    }
+
+    /// Keeps the store up to date until `stop`, then commits what is waiting. An error
+    /// ends the keeping (the node goes on): it is logged and kept in the stats.
+    fn run(mut self, stop: &AtomicBool) -> Result<(), StateError> {
+        let result = self.keep(stop);
+        if let Err(e) = &result {
+            tracing::error!("the board is no longer kept: {e}");
+            self.stats.lock().failed = Some(e.to_string());
+        }
+        result
+    }
+
+    fn keep(&mut self, stop: &AtomicBool) -> Result<(), StateError> {
+        loop {
+            let stopping = stop.load(Ordering::Acquire);
+            self.drain(if stopping { usize::MAX } else { BURST });
+            if self.watch.dropped() > self.dropped {
+                self.resync();
+                self.stats.lock().resyncs += 1;
+            }
+            if stopping || self.due() {
+                self.commit()?;
+            }
+            if stopping {
+                return Ok(());
+            }
+        }
+    }
+
+    /// Folds up to `max` changes in, waiting [`POLL`] for the first (none when stopping).
+    fn drain(&mut self, max: usize) {
+        let first = if max == usize::MAX {
+            self.watch.try_recv()
+        } else {
+            self.watch.recv_timeout(POLL)
+        };
+        let mut next = first;
+        let mut n = 0;
+        while let Some(change) = next {
+            if change.revision > self.snapshot_revision {
+                self.pending.fold(&self.board, change, &mut self.skipped);
+            }
+            n += 1;
+            if n >= max || self.pending.changes >= self.commit_changes {
+                return;
+            }
+            next = self.watch.try_recv();
+        }
+    }
+
+    fn due(&self) -> bool {
+        self.pending.changes >= self.commit_changes || self.committed.elapsed() >= self.commit_every
+    }
+
+    /// Replaces what is pending by the whole board (the watch dropped changes, or the
+    /// store is new to this run).
+    fn resync(&mut self) {
+        self.dropped = self.watch.dropped();
+        self.skipped.clear();
+        let (pending, revision) = Pending::full(&self.board, &mut self.skipped);
+        self.pending = pending;
+        self.snapshot_revision = revision;
+    }
+
+    /// Commits what is pending, with the classes if they changed.
+    fn commit(&mut self) -> Result<(), StateError> {
+        self.committed = Instant::now();
+        let defs = self.board.class_defs();
+        if defs != self.classes {
+            self.pending.classes = Some(defs.clone());
+        }
+        if self.pending.is_empty() {
+            return Ok(());
+        }
+        let pending = std::mem::take(&mut self.pending);
+        self.store.commit(&pending)?;
+        self.classes = defs;
+        let mut stats = self.stats.lock();
+        stats.revision = stats.revision.max(pending.revision);
+        stats.commits += 1;
+        stats.packets += pending.packets.len() as u64;
+        Ok(())
+    }
+}

@@ -1,0 +1,124 @@
+//! A node that keeps its board (`state`) restarts with it, and its peers keep its
+//! objects: the catch-up after the restart is a difference, not a wipe. On the
+//! simulator, with the node closed and started again on the same address.
+
+use slate_ici::{ClassSet, IciConfig, SimNet};
+use slate_model::Update;
+use slate_node::state::{FILE, StateError};
+use slate_node::{Node, StartError, StateConfig};
+use slate_testing::temp_dir;
+
+use crate::support::{on_net, run_until, start};
+
+const NAV: &str = "t/r1/nav";
+const CONSOLE: &str = "t/base/console";
+
+/// The nav module, exporting everything, keeping its board in `state` if given.
+fn nav(net: &SimNet, state: Option<&std::path::Path>) -> Result<Node, StartError> {
+    let mut b = on_net(net, NAV, "").ici(IciConfig::default().export(ClassSet::all()));
+    if let Some(dir) = state {
+        b = b.state(StateConfig::new(dir));
+    }
+    b.start()
+}
+
+fn speed(node: &Node, object: &str) -> Option<f64> {
+    node.board().read(object, "speed").ok()?.value.as_f64()
+}
+
+/// nav creates an object at run time (no file declares it) and writes it; the console
+/// holds it; nav closes and starts again (with `state` or without). What does each
+/// board hold of it once the restart has settled?
+fn restart(state: Option<&std::path::Path>) -> (Option<f64>, Option<f64>, Node, Node) {
+    let net = SimNet::new(18);
+    let console = start(&net, CONSOLE, "");
+    let first = nav(&net, state).unwrap();
+    net.run_for(std::time::Duration::from_millis(500));
+    first.board().create("Vehicle", "probe").unwrap();
+    first.board().write("probe", "speed", 4.5).unwrap();
+    assert!(run_until(&net, 5.0, || speed(&console, "probe") == Some(4.5)));
+    first.close();
+    drop(first);
+    net.run_for(std::time::Duration::from_millis(300));
+    let second = nav(&net, state).unwrap();
+    net.run_for(std::time::Duration::from_secs(5));
+    (
+        speed(&second, "probe"),
+        speed(&console, "probe"),
+        second,
+        console,
+    )
+}
+
+#[test]
+fn a_restarted_node_with_state_keeps_its_objects_and_its_peers_keep_them_too() {
+    let dir = temp_dir("node-state-restart");
+    let (on_nav, on_console, nav, console) = restart(Some(&dir));
+    assert_eq!(on_nav, Some(4.5), "nav restored its board");
+    assert_eq!(on_console, Some(4.5), "the console kept nav's object");
+    let restored = nav.restored().expect("nav keeps state");
+    assert_eq!((restored.objects, restored.packets), (1, 1), "{restored:?}");
+    assert!(
+        console.ici().stats().liveliness.restarts >= 1,
+        "the console saw a restart"
+    );
+    nav.board()
+        .write("probe", "speed", Update::new(6.0))
+        .unwrap();
+    nav.close();
+    console.close();
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_restarted_node_without_state_comes_back_empty_and_its_peers_drop_its_objects() {
+    let (on_nav, on_console, nav, console) = restart(None);
+    assert_eq!(on_nav, None, "nav starts from its files only");
+    assert_eq!(
+        on_console, None,
+        "the catch-up swept nav's object from the console"
+    );
+    nav.close();
+    console.close();
+}
+
+#[test]
+fn a_node_whose_state_is_damaged_does_not_start_and_says_how_to_recover() {
+    let dir = temp_dir("node-state-damaged");
+    std::fs::write(
+        dir.join(FILE),
+        b"not a database, not at all; long enough to read",
+    )
+    .unwrap();
+    let net = SimNet::new(19);
+    let Err(e) = nav(&net, Some(&dir)) else {
+        panic!("a node started on a damaged state");
+    };
+    assert!(
+        matches!(e, StartError::State(StateError::Corrupt { .. })),
+        "{e:?}"
+    );
+    let text = e.to_string();
+    assert!(text.contains(&dir.display().to_string()), "{text}");
+    assert!(text.contains("--reset-state"), "{text}");
+    slate_node::state::reset(&dir).unwrap();
+    let node = nav(&net, Some(&dir)).expect("after a reset the node starts empty");
+    assert_eq!(node.restored().map(|r| r.objects), Some(0));
+    node.close();
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
+fn a_state_directory_of_another_module_is_refused() {
+    let dir = temp_dir("node-state-other");
+    let net = SimNet::new(20);
+    nav(&net, Some(&dir)).unwrap().close();
+    let other = on_net(&net, "t/r2/loco", "")
+        .state(StateConfig::new(&dir))
+        .start();
+    let Err(e) = other else {
+        panic!("another module's state was taken");
+    };
+    assert!(e.to_string().contains(NAV), "{e}");
+    std::fs::remove_dir_all(dir).unwrap();
+}
