@@ -9,6 +9,9 @@ mod demo;
 // Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit.
 #[path = "cli/errors.rs"]
 mod errors;
+// `slate keys`: a team's certificate authority and its members' keys.
+#[path = "cli/keys.rs"]
+mod keys;
 // `slate launch`: the example teams as processes, restarts, SIGTERM, `--check`.
 #[path = "cli/launch.rs"]
 mod launch;

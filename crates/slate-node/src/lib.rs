@@ -50,6 +50,7 @@ mod monitor;
 mod node;
 mod observer;
 pub mod record;
+pub mod team_keys;
 mod timers;
 mod view;
 

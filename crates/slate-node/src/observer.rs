@@ -58,6 +58,7 @@ fn zenoh_config(connect: &[String]) -> ZenohConfig {
         connect: connect.to_vec(),
         multicast_scouting: false,
         file: None,
+        security: None,
     }
 }
 

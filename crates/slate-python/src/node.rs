@@ -61,6 +61,7 @@ fn zenoh(
         connect,
         multicast_scouting: false,
         file: None,
+        security: None,
     })
 }
 
