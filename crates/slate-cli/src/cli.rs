@@ -228,6 +228,16 @@ pub struct LiveArgs {
         allow_negative_numbers = true
     )]
     pub wait: f64,
+
+    /// The team's keys folder, to join a secured team over tls/ endpoints as an operator
+    /// (with --operator; docs/security.md).
+    #[arg(long, value_name = "DIR", requires = "operator")]
+    pub keys: Option<std::path::PathBuf>,
+
+    /// The operator whose key and certificate in --keys to use, TEAM/NAME (made by `slate
+    /// keys issue DIR TEAM/NAME`); the observer joins as TEAM/ROBOT/cli-NAME-PID.
+    #[arg(long, value_name = "TEAM/NAME", requires = "keys")]
+    pub operator: Option<String>,
 }
 
 /// Arguments of `slate node`.

@@ -53,6 +53,10 @@ pub struct NodeConfig {
     pub dashboard: Option<SocketAddr>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
+    /// The team's keys folder (`[security] keys`, made by `slate keys`): the node then
+    /// runs over TLS with mutual authentication as its address, under the team's access
+    /// control (docs/security.md). `None`: links neither authenticated nor encrypted.
+    pub security: Option<PathBuf>,
 }
 
 /// A `.slate` file a node loads at start, and the placeholders replaced in its text
@@ -86,7 +90,10 @@ const TOP: &[&str] = &[
     "ici",
     "record",
     "recording",
+    "security",
 ];
+/// Keys of `[security]`.
+const SECURITY: &[&str] = &["keys"];
 /// Keys of `[recording]`.
 const RECORDING: &[&str] = &["max_bytes", "max_duration", "flush", "stats", "queue"];
 /// Keys of `[zenoh]`.
@@ -120,6 +127,7 @@ impl NodeConfig {
             ici: IciConfig::default(),
             dashboard: None,
             record: None,
+            security: None,
         }
     }
 
@@ -159,6 +167,9 @@ impl NodeConfig {
             ici_section(ici, &mut config.ici)?;
         }
         config.record = record(&mut top, base)?;
+        if let Some(security) = top.table("security", SECURITY)? {
+            config.security = Some(security_section(security, base)?);
+        }
         top.finish()?;
         Ok(config)
     }
@@ -323,6 +334,17 @@ fn zenoh_file(top: &mut Fields, base: &Path) -> Result<Option<PathBuf>, ConfigEr
     Ok(file.map(|f| base.join(f)))
 }
 
+/// `[security] keys = "DIR"`: the team's keys folder, relative to the config's folder.
+/// Its files are read and checked when the node starts.
+fn security_section(mut t: Fields, base: &Path) -> Result<PathBuf, ConfigError> {
+    const EXPECTED: &str = "the team's keys folder made by `slate keys`, like \"team-keys\"";
+    let Some(dir) = t.str("keys", EXPECTED)? else {
+        return Err(t.invalid("keys", EXPECTED, "nothing"));
+    };
+    t.finish()?;
+    Ok(base.join(dir))
+}
+
 /// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
 fn is_endpoint(text: &str) -> bool {
     text.split_once('/')
@@ -439,6 +461,8 @@ mod tests {
             export = ["Vehicle:self"]
             dashboard = "127.0.0.1:8080"
             zenoh_config = "zenoh.json5"
+            [security]
+            keys = "team-keys"
             [zenoh]
             mode = "router"
             listen = ["tcp/127.0.0.1:7447"]
@@ -475,6 +499,7 @@ mod tests {
             ClassSet::none().class_in("Vehicle", &[Context::Self_])
         );
         assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
+        assert_eq!(c.security, Some(PathBuf::from("/etc/slate/team-keys")));
         assert_eq!(c.zenoh.mode, Mode::Router);
         assert_eq!(c.zenoh.file, Some(PathBuf::from("/etc/slate/zenoh.json5")));
         assert!(c.zenoh.multicast_scouting);

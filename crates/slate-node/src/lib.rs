@@ -59,7 +59,9 @@ pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
-pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
+pub use observer::{
+    OBSERVER_PREFIX, ObserverOptions, OperatorKeys, discover, is_observer, observe,
+};
 pub use record::{RecordConfig, RecordError, RecordStats};
 pub use slate_dashboard::STALE_AFTER_S;
 pub use timers::TICK;

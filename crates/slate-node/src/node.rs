@@ -18,6 +18,7 @@ use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
 use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
+use crate::team_keys::{self, Identity};
 use crate::timers::Timers;
 use crate::view::View;
 
@@ -188,6 +189,7 @@ impl NodeBuilder {
         }
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
+                say_how_secured(&self.address, &config);
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
                 (t, config.listen.clone())
             }
@@ -313,9 +315,18 @@ impl Node {
     }
 
     /// Starts a node from its config (Zenoh, the files, interest, export, dashboard).
+    ///
+    /// With `[security]`, the team's keys are checked first (readable, the certificate
+    /// for this address and signed by the team's authority, the key its own): the node
+    /// refuses to start otherwise, naming the file and what to do.
     pub fn start(config: &NodeConfig) -> Result<Node, StartError> {
+        let mut zenoh = config.zenoh.clone();
+        if let Some(dir) = &config.security {
+            let me = Identity::Module(config.address.clone());
+            zenoh.security = Some(team_keys::security(dir, &me)?);
+        }
         let mut b = NodeBuilder::new(config.address.clone())
-            .zenoh(config.zenoh.clone())
+            .zenoh(zenoh)
             .ici(config.ici.clone());
         for f in &config.files {
             b = b.file(f.clone());
@@ -477,5 +488,20 @@ impl Node {
 impl Drop for Node {
     fn drop(&mut self) {
         self.close();
+    }
+}
+
+/// One log line at start: whether the node's links are authenticated and encrypted, and
+/// how to make them so when they are not.
+fn say_how_secured(me: &Address, config: &ZenohConfig) {
+    match &config.security {
+        Some(s) => tracing::info!(
+            "{me}: secured: TLS with mutual authentication as {me}; access control for {} modules and {} operators",
+            s.team.modules.len(),
+            s.team.operators.len()
+        ),
+        None => tracing::info!(
+            "{me}: insecure: links are neither authenticated nor encrypted, and anyone on the network may speak as any module (add [security] keys = \"DIR\" to the config; docs/security.md)"
+        ),
     }
 }

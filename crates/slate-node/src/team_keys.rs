@@ -42,8 +42,8 @@ const MAX_DEPTH: usize = 3;
 pub enum Identity {
     /// A module, by its address `team/robot/module`.
     Module(Address),
-    /// An operator of a team, `team/name`, who runs the CLI: it joins as `team/ROBOT/name`
-    /// on any robot.
+    /// An operator of a team, `team/name`, who runs the CLI: its observers join as
+    /// `team/ROBOT/cli-name-PID` on any robot.
     Operator {
         /// The team.
         team: String,
@@ -155,11 +155,28 @@ impl Identity {
     }
 
     /// May a session speak as `address` with this identity? A module only as itself, an
-    /// operator as `team/ANY/name`.
+    /// operator as its observers `team/ANY/cli-name-ANY` (what the access control allows).
     pub fn may_speak_as(&self, address: &Address) -> bool {
         match self {
             Identity::Module(own) => own == address,
-            Identity::Operator { team, name } => address.team() == team && address.module() == name,
+            Identity::Operator { team, .. } => {
+                address.team() == team
+                    && address
+                        .module()
+                        .strip_prefix(&self.observer_prefix())
+                        .is_some_and(|rest| !rest.is_empty())
+            }
+        }
+    }
+
+    /// The start of the module segment of an operator's observers, `cli-NAME-` (empty
+    /// for a module).
+    pub fn observer_prefix(&self) -> String {
+        match self {
+            Identity::Module(_) => String::new(),
+            Identity::Operator { name, .. } => {
+                format!("{}{name}-", slate_zenoh::OPERATOR_PREFIX)
+            }
         }
     }
 }
@@ -430,8 +447,10 @@ mod tests {
         );
         let alice = module("t/alice");
         assert_eq!(alice.common_name(), "t/alice");
-        assert!(alice.may_speak_as(&Address::new("t/r2/alice").unwrap()));
+        assert!(alice.may_speak_as(&Address::new("t/r2/cli-alice-42").unwrap()));
+        assert!(!alice.may_speak_as(&Address::new("t/r2/cli-alicex-42").unwrap()));
         assert!(!alice.may_speak_as(&Address::new("t/r2/nav").unwrap()));
+        assert!(!alice.may_speak_as(&Address::new("u/r2/cli-alice-42").unwrap()));
         for bad in ["nav", "t/r 1/nav", "a/b/c/d", "t/", "../x"] {
             assert!(Identity::parse(bad).is_err(), "{bad}");
         }

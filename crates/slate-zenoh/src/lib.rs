@@ -15,5 +15,5 @@ mod security;
 mod transport;
 
 pub use endpoint::{EndpointError, PROTOCOLS, check_endpoint};
-pub use security::{SECURE_PROTOCOLS, Security, TeamIdentities};
+pub use security::{OPERATOR_PREFIX, SECURE_PROTOCOLS, Security, TeamIdentities};
 pub use transport::{Mode, OpenError, ZenohConfig, ZenohTransport};

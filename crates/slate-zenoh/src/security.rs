@@ -16,9 +16,10 @@
 //! - a module `T/R/M`, on what it receives (ingress) from it, to put, delete and declare
 //!   liveliness only on its own keys: `slate/pub/*/T/R/M`, `slate/to/*/*/*/from/T/R/M`,
 //!   `slate/alive/T/R/M` (see [`crate::keys`]);
-//! - an operator `T/NAME` the same on the keys of `T/*/NAME` (any robot: an observer joins
-//!   the robot it looks at), from the operator itself and from any module, since an
-//!   observer is a Zenoh client whose messages the node it connects to relays.
+//! - an operator `T/NAME` the same on the keys of `T/*/cli-NAME-*` (the observers the CLI
+//!   runs, one per command, on any robot: an observer joins the robot it looks at), from
+//!   the operator itself and from any module, since an observer is a Zenoh client whose
+//!   messages the node it connects to relays.
 //!
 //! Zenoh applies access control per link, to the identity of the link's other end: a
 //! message relayed by a module is judged as that module's. Zenoh 1.10 does not tell a
@@ -150,14 +151,20 @@ fn own_keys(module: &Address) -> Vec<String> {
     ]
 }
 
-/// The keys on which operator `name` of `team` speaks, from any robot.
+/// The keys on which operator `name` of `team` speaks: those of its observers
+/// `team/ROBOT/cli-NAME-ANYTHING` on any robot (`$*` is Zenoh's wildcard within a chunk).
 fn own_keys_on_any_robot(team: &str, name: &str) -> Vec<String> {
+    let observer = format!("{team}/*/{}{name}-$*", OPERATOR_PREFIX);
     vec![
-        format!("slate/pub/*/{team}/*/{name}"),
-        format!("slate/to/*/*/*/from/{team}/*/{name}"),
-        format!("slate/alive/{team}/*/{name}"),
+        format!("slate/pub/*/{observer}"),
+        format!("slate/to/*/*/*/from/{observer}"),
+        format!("slate/alive/{observer}"),
     ]
 }
+
+/// The module segment of an operator's observers starts with this and the operator's
+/// name: `cli-alice-4242` (the CLI's observers are `cli-*`).
+pub const OPERATOR_PREFIX: &str = "cli-";
 
 /// Zenoh's access control document as it is built.
 #[derive(Default)]
