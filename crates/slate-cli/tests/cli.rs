@@ -27,6 +27,9 @@ mod record;
 // Modules that crash and come back, and observers that come and go.
 #[path = "cli/restart.rs"]
 mod restart;
+// Secured teams: TLS with keys from `slate keys`, each member speaking only as itself.
+#[path = "cli/secure.rs"]
+mod secure;
 // A team of `slate node` processes on loopback, and `slate` run with a time limit (helpers).
 #[path = "cli/support.rs"]
 mod support;

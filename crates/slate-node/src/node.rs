@@ -495,11 +495,16 @@ impl Drop for Node {
 /// how to make them so when they are not.
 fn say_how_secured(me: &Address, config: &ZenohConfig) {
     match &config.security {
-        Some(s) => tracing::info!(
-            "{me}: secured: TLS with mutual authentication as {me}; access control for {} modules and {} operators",
-            s.team.modules.len(),
-            s.team.operators.len()
-        ),
+        Some(s) => match &s.team {
+            Some(team) => tracing::info!(
+                "{me}: secured: TLS with mutual authentication as {me}; access control for {} modules and {} operators",
+                team.modules.len(),
+                team.operators.len()
+            ),
+            None => tracing::info!(
+                "{me}: secured: TLS with mutual authentication, through the node it connects to"
+            ),
+        },
         None => tracing::info!(
             "{me}: insecure: links are neither authenticated nor encrypted, and anyone on the network may speak as any module (add [security] keys = \"DIR\" to the config; docs/security.md)"
         ),

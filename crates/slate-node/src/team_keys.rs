@@ -273,7 +273,7 @@ pub fn security(dir: &Path, identity: &Identity) -> Result<Security, KeysError> 
         ca_certificate: ca_path,
         certificate: cert_path,
         private_key: key_path,
-        team: team(dir, &ca)?,
+        team: Some(team(dir, &ca)?),
     })
 }
 
@@ -464,8 +464,9 @@ mod tests {
         issue(&d, &nav, false).unwrap();
         issue(&d, &module("t/alice"), false).unwrap();
         let security = security(&d, &nav).unwrap();
-        assert_eq!(security.team.modules, [Address::new("t/r1/nav").unwrap()]);
-        assert_eq!(security.team.operators, [("t".into(), "alice".into())]);
+        let team = security.team.unwrap();
+        assert_eq!(team.modules, [Address::new("t/r1/nav").unwrap()]);
+        assert_eq!(team.operators, [("t".into(), "alice".into())]);
         // A certificate copied over another's is refused, naming both.
         let cam = module("t/r1/cam");
         std::fs::copy(nav.certificate(&d), cam.certificate(&d)).unwrap();

@@ -18,6 +18,9 @@ mod record;
 // Two robots' LANs joined only through a Zenoh router (`zenoh_config`).
 #[path = "node/router.rs"]
 mod router;
+// Secured sessions: a member speaks only in its own name, an outsider gets no link.
+#[path = "node/secure.rs"]
+mod secure;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;

@@ -44,8 +44,11 @@ pub struct Security {
     pub certificate: PathBuf,
     /// This session's private key (PEM, PKCS#8).
     pub private_key: PathBuf,
-    /// The team's identities, from which the access control is generated.
-    pub team: TeamIdentities,
+    /// The team's identities, from which the access control is generated; `None`: no
+    /// access control, for a Zenoh client, which hears the team only through the node it
+    /// connects to (authenticated by TLS): that node relays every module's messages, which
+    /// a client's own access control would take for that node's.
+    pub team: Option<TeamIdentities>,
 }
 
 /// The identities of a team: its modules, and its operators (who use the CLI).
@@ -76,7 +79,7 @@ impl Security {
     /// control of [`TeamIdentities`].
     pub fn settings(&self) -> Vec<(&'static str, String)> {
         let path = |p: &PathBuf| json!(p.display().to_string()).to_string();
-        vec![
+        let mut settings = vec![
             (
                 "transport/link/tls/root_ca_certificate",
                 path(&self.ca_certificate),
@@ -102,8 +105,11 @@ impl Security {
                 "transport/link/tls/verify_name_on_connect",
                 "false".to_owned(),
             ),
-            ("access_control", self.team.access_control().to_string()),
-        ]
+        ];
+        if let Some(team) = &self.team {
+            settings.push(("access_control", team.access_control().to_string()));
+        }
+        settings
     }
 }
 
@@ -265,7 +271,7 @@ mod tests {
             ca_certificate: "/keys/ca.pem".into(),
             certificate: "/keys/t/r1/nav.pem".into(),
             private_key: "/keys/t/r1/nav.key".into(),
-            team: team(),
+            team: Some(team()),
         };
         let mut config = zenoh::Config::default();
         for (key, value) in security.settings() {

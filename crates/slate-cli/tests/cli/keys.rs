@@ -55,11 +55,9 @@ fn keys_issue_writes_certificates_named_by_identity_and_signed_by_the_authority(
     // The node's own check: readable, signed by ca.pem, for this identity, its key.
     let nav = Identity::parse("t/r1/nav").unwrap();
     let security = team_keys::security(&dir, &nav).unwrap();
-    assert_eq!(security.team.modules.len(), 1);
-    assert_eq!(
-        security.team.operators,
-        [("t".to_owned(), "alice".to_owned())]
-    );
+    let team = security.team.unwrap();
+    assert_eq!(team.modules.len(), 1);
+    assert_eq!(team.operators, [("t".to_owned(), "alice".to_owned())]);
     let err = slate_err(&["keys", "issue", d, "t/r1/nav"]);
     assert!(err.contains("nav.pem: already exists"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
