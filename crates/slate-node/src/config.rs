@@ -49,8 +49,11 @@ pub struct NodeConfig {
     pub files: Vec<SourceFile>,
     /// The ICI's settings: interest, export policy, liveliness and timing.
     pub ici: IciConfig,
-    /// Where to serve the dashboard, if anywhere.
+    /// Where to serve the dashboard, if anywhere (a bare port is on 127.0.0.1).
     pub dashboard: Option<SocketAddr>,
+    /// The token the dashboard's clients must show (`?token=` or `Authorization: Bearer`);
+    /// without one, a dashboard on an address other than loopback generates one.
+    pub dashboard_token: Option<String>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
     /// The team's keys folder (`[security] keys`, made by `slate keys`): the node then
@@ -85,6 +88,7 @@ const TOP: &[&str] = &[
     "interest",
     "export",
     "dashboard",
+    "dashboard_token",
     "zenoh",
     "zenoh_config",
     "ici",
@@ -126,6 +130,7 @@ impl NodeConfig {
             files: Vec::new(),
             ici: IciConfig::default(),
             dashboard: None,
+            dashboard_token: None,
             record: None,
             security: None,
         }
@@ -159,6 +164,7 @@ impl NodeConfig {
             config.ici.export = read_class_set(&top, "export", &list)?;
         }
         config.dashboard = dashboard(&mut top)?;
+        config.dashboard_token = dashboard_token(&mut top)?;
         if let Some(zenoh) = top.table("zenoh", ZENOH)? {
             config.zenoh = zenoh_section(zenoh)?;
         }
@@ -253,14 +259,38 @@ fn substitution(pairs: toml::Table) -> Result<Substitution, String> {
     Substitution::new(pairs).map_err(|e| e.to_string())
 }
 
+/// `dashboard = "HOST:PORT"`, or a bare port (on 127.0.0.1: the dashboard is served on
+/// loopback unless told otherwise).
 fn dashboard(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
-    const EXPECTED: &str = "an address to serve the dashboard on, like \"127.0.0.1:8080\"";
+    const EXPECTED: &str =
+        "an address to serve the dashboard on, like \"127.0.0.1:8080\" (or a port, on 127.0.0.1)";
     let Some(text) = top.str("dashboard", EXPECTED)? else {
         return Ok(None);
     };
+    let loopback = |port: u16| SocketAddr::from(([127, 0, 0, 1], port));
     text.parse()
+        .or_else(|_| text.parse().map(loopback))
         .map(Some)
         .map_err(|_| top.invalid("dashboard", EXPECTED, &format!("{text:?}")))
+}
+
+/// `dashboard_token = "TOKEN"`: at least 16 printable characters, none of them space, `&`,
+/// `#`, `%` or `+` (it travels in a URL's query and a header, unescaped).
+fn dashboard_token(top: &mut Fields) -> Result<Option<String>, ConfigError> {
+    const EXPECTED: &str =
+        "a token of at least 16 letters, digits or punctuation (no spaces, &, #, % or +)";
+    let Some(token) = top.str("dashboard_token", EXPECTED)? else {
+        return Ok(None);
+    };
+    let usable = token.len() >= 16
+        && token
+            .chars()
+            .all(|c| c.is_ascii_graphic() && !matches!(c, '&' | '#' | '%' | '+'));
+    if !usable {
+        let found = format!("a token of {} characters that cannot be used", token.len());
+        return Err(top.invalid("dashboard_token", EXPECTED, &found));
+    }
+    Ok(Some(token))
 }
 
 /// `record = "FILE.mcap"`, with its `[recording]` settings.
@@ -460,6 +490,7 @@ mod tests {
             interest = ["Vehicle", "Obstacle:surroundings,system"]
             export = ["Vehicle:self"]
             dashboard = "127.0.0.1:8080"
+            dashboard_token = "0123456789abcdef0123"
             zenoh_config = "zenoh.json5"
             [security]
             keys = "team-keys"
@@ -499,6 +530,7 @@ mod tests {
             ClassSet::none().class_in("Vehicle", &[Context::Self_])
         );
         assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
+        assert_eq!(c.dashboard_token.as_deref(), Some("0123456789abcdef0123"));
         assert_eq!(c.security, Some(PathBuf::from("/etc/slate/team-keys")));
         assert_eq!(c.zenoh.mode, Mode::Router);
         assert_eq!(c.zenoh.file, Some(PathBuf::from("/etc/slate/zenoh.json5")));
@@ -569,6 +601,10 @@ mod tests {
                 "m.toml: key `dashboard`: expected an address to serve the dashboard on",
             ),
             (
+                "address = \"t/r/m\"\ndashboard_token = \"short\"",
+                "m.toml: key `dashboard_token`: expected a token of at least 16",
+            ),
+            (
                 "address = \"t/r/m\"\n[ici]\nquiet = 5",
                 "m.toml: key `ici.quiet`: expected a duration like \"250ms\"",
             ),
@@ -594,6 +630,12 @@ mod tests {
             );
             assert!(!err.contains('\n'), "one line: {err}");
         }
+    }
+
+    #[test]
+    fn a_dashboard_given_a_port_only_is_served_on_loopback() {
+        let c = parse("address = \"t/r/m\"\ndashboard = \"8080\"").unwrap();
+        assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
     }
 
     #[test]

@@ -67,6 +67,7 @@ pub struct NodeBuilder {
     ici: IciConfig,
     sources: Vec<Source>,
     dashboard: Option<SocketAddr>,
+    dashboard_token: Option<String>,
     record: Option<RecordConfig>,
 }
 
@@ -82,6 +83,7 @@ impl NodeBuilder {
             ici: IciConfig::default(),
             sources: Vec::new(),
             dashboard: None,
+            dashboard_token: None,
             record: None,
         }
     }
@@ -142,6 +144,13 @@ impl NodeBuilder {
     /// Serves the dashboard on `addr` (port 0: any free port, see [`Node::dashboard_url`]).
     pub fn dashboard(mut self, addr: SocketAddr) -> Self {
         self.dashboard = Some(addr);
+        self
+    }
+
+    /// Requires `token` of the dashboard's clients (without it, a dashboard on an
+    /// address other than loopback generates one; [`Node::dashboard_url`] carries it).
+    pub fn dashboard_token(mut self, token: String) -> Self {
+        self.dashboard_token = Some(token);
         self
     }
 
@@ -230,7 +239,8 @@ impl NodeBuilder {
         }
         node.started();
         if let Some(addr) = self.dashboard {
-            let dashboard = slate_dashboard::serve(addr, node.view.clone());
+            let token = self.dashboard_token;
+            let dashboard = slate_dashboard::serve_with_token(addr, node.view.clone(), token);
             match dashboard {
                 Ok(d) => node.threads.lock().dashboard = Some(d),
                 Err(e) => {
@@ -333,6 +343,9 @@ impl Node {
         }
         if let Some(d) = config.dashboard {
             b = b.dashboard(d);
+        }
+        if let Some(token) = &config.dashboard_token {
+            b = b.dashboard_token(token.clone());
         }
         if let Some(r) = &config.record {
             b = b.record(r.clone());

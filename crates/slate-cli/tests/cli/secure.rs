@@ -14,7 +14,9 @@ use slate_node::Node;
 use slate_node::team_keys::{self, Identity};
 use slate_zenoh::{Security, ZenohConfig};
 
-use crate::support::{NodeProc, Team, WORLD, entry, free_port, show, slate, steps, wait_output};
+use crate::support::{
+    NodeProc, Team, WORLD, entry, free_port, http_get, show, slate, steps, wait_output,
+};
 
 /// The team's keys: nav, cam and loco, gps (a member that does not run a node) and the
 /// operator alice.
@@ -341,4 +343,26 @@ fn a_secured_node_with_a_missing_key_file_does_not_start_and_names_it() {
         err.contains("is not secured: a node with [security] listens and connects only with tls/"),
         "{err}"
     );
+}
+
+#[test]
+fn a_node_with_a_dashboard_token_serves_its_board_only_to_who_shows_it() {
+    let team = Team::new("dashboard-token");
+    let token = "0123456789abcdef-token";
+    let top = format!("dashboard_token = \"{token}\"");
+    let node = NodeProc::start_config(
+        &team.dir,
+        "t/r1/nav",
+        "object rock : Obstacle { range = 7.5; }",
+        &[],
+        &["\"Thing\"", "", &top],
+    );
+    let refused = http_get(&node.dashboard, "/api/snapshot");
+    assert_eq!(refused.status, 401, "{}", refused.body);
+    assert!(refused.body.contains("needs its token"), "{}", refused.body);
+    let shown = http_get(&node.dashboard, &format!("/api/snapshot?token={token}"));
+    assert_eq!(shown.status, 200);
+    assert!(entry(&shown.json()["objects"], "name", "rock").is_some());
+    let (clean, _) = node.stop();
+    assert!(clean);
 }
