@@ -198,8 +198,9 @@ impl NodeBuilder {
         }
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
-                say_how_secured(&self.address, &config);
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
+                // Once open: a start that fails is one error line (docs/cli.md).
+                say_how_secured(&self.address, &config);
                 (t, config.listen.clone())
             }
             TransportChoice::Custom(t) => (t, Vec::new()),
