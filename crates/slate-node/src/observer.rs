@@ -97,7 +97,8 @@ pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
     let (address, modules) = match &options.address {
         Some(a) => (a.clone(), BTreeSet::new()),
         None => {
-            let modules = discover_with(&options.connect, options.wait, security.clone())?;
+            let keys = security.clone().zip(identity);
+            let modules = discover_with(&options.connect, options.wait, keys)?;
             (observer_address(&modules, identity)?, modules)
         }
     };
@@ -193,15 +194,31 @@ pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>,
     discover_with(connect, wait, None)
 }
 
+/// The probe's address: `slate-probe/cli/pPID`, or for an operator one its certificate
+/// may speak as, `TEAM/probe/cli-NAME-pPID` (a secured team's access control would refuse
+/// the probe's liveliness token otherwise).
+fn probe_address(operator: Option<&Identity>) -> Address {
+    let pid = std::process::id();
+    let text = match operator {
+        Some(identity) => format!(
+            "{}/probe/{}p{pid}",
+            identity.team(),
+            identity.observer_prefix()
+        ),
+        None => format!("slate-probe/cli/p{pid}"),
+    };
+    Address::new(&text).unwrap_or_else(|_| Address::unknown())
+}
+
 /// [`discover`], over a secured session when `security` is given.
 fn discover_with(
     connect: &[String],
     wait: Duration,
-    security: Option<Security>,
+    keys: Option<(Security, &Identity)>,
 ) -> Result<BTreeSet<Address>, ObserveError> {
+    let (security, operator) = keys.unzip();
     let deadline = Instant::now() + wait;
-    let probe_address = Address::new(&format!("slate-probe/cli/p{}", std::process::id()))
-        .unwrap_or_else(|_| Address::unknown());
+    let probe_address = probe_address(operator);
     let unreachable = || ObserveError::NoModules {
         endpoints: connect.join(", "),
         seconds: wait.as_secs_f64(),
