@@ -56,6 +56,16 @@ pub enum Command {
     /// Example: slate demo --seed 3 --dashboard 127.0.0.1:8080
     Demo(crate::command::demo::DemoArgs),
 
+    /// Make a team's keys: a certificate authority, then a key and certificate for each
+    /// module and operator, for a secured team (TLS with mutual authentication, and
+    /// each identity allowed to speak only in its own name; docs/security.md).
+    ///
+    /// Example: slate keys init team-keys
+    ///
+    /// Example: slate keys issue team-keys team/r1/nav team/r2/loco team/alice
+    #[command(subcommand)]
+    Keys(KeysCommand),
+
     /// Run a team of modules from one file: one `slate node` process each, supervised.
     ///
     /// The team file lists robots and the kinds of module each runs; launch writes each
@@ -223,6 +233,16 @@ pub struct LiveArgs {
         allow_negative_numbers = true
     )]
     pub wait: f64,
+
+    /// The team's keys folder, to join a secured team over tls/ endpoints as an operator
+    /// (with --operator; docs/security.md).
+    #[arg(long, value_name = "DIR", requires = "operator")]
+    pub keys: Option<std::path::PathBuf>,
+
+    /// The operator whose key and certificate in --keys to use, TEAM/NAME (made by `slate
+    /// keys issue DIR TEAM/NAME`); the observer joins as TEAM/ROBOT/cli-NAME-PID.
+    #[arg(long, value_name = "TEAM/NAME", requires = "keys")]
+    pub operator: Option<String>,
 }
 
 /// Arguments of `slate node`.
@@ -352,6 +372,51 @@ pub struct PlayArgs {
     /// Serve the dashboard of the replayed board there (like "127.0.0.1:8080").
     #[arg(long, value_name = "ADDR")]
     pub dashboard: Option<std::net::SocketAddr>,
+}
+
+/// `slate keys` verbs.
+#[derive(Debug, Subcommand)]
+pub enum KeysCommand {
+    /// Make the team's certificate authority in DIR: ca.pem (give it to every member)
+    /// and ca.key (keep it where keys are issued; it is written readable by you only).
+    ///
+    /// Example: slate keys init team-keys
+    Init(KeysInitArgs),
+
+    /// Issue keys and certificates signed by DIR's authority: for a module address
+    /// TEAM/ROBOT/MODULE (DIR/TEAM/ROBOT/MODULE.pem and .key), or for an operator TEAM/NAME
+    /// (DIR/TEAM/NAME.pem and .key), who runs the CLI with `--keys DIR --operator
+    /// TEAM/NAME`. The certificate's common name is the identity; private keys are
+    /// written readable by you only (0600).
+    ///
+    /// Example: slate keys issue team-keys team/r1/nav team/alice
+    Issue(KeysIssueArgs),
+}
+
+/// Arguments of `slate keys init`.
+#[derive(Debug, clap::Args)]
+pub struct KeysInitArgs {
+    /// The team's keys folder (made if missing).
+    pub dir: std::path::PathBuf,
+
+    /// Replace an existing authority (every certificate it signed stops being accepted).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Arguments of `slate keys issue`.
+#[derive(Debug, clap::Args)]
+pub struct KeysIssueArgs {
+    /// The team's keys folder, with its authority (`slate keys init`).
+    pub dir: std::path::PathBuf,
+
+    /// Module addresses TEAM/ROBOT/MODULE and operators TEAM/NAME.
+    #[arg(required = true, value_name = "IDENTITY")]
+    pub identities: Vec<String>,
+
+    /// Replace existing keys and certificates of these identities.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// `slate plan` verbs.

@@ -9,8 +9,11 @@ use tracing_subscriber::filter::Targets;
 use tracing_subscriber::prelude::*;
 use tracing_subscriber::{Registry, reload};
 
-/// The default filter of `slate node`: slate's own news, and only warnings from Zenoh.
-pub const NODE: &str = "warn,slate=info,slate_node=info,slate_ici=info,slate_zenoh=info,slate_dashboard=info,zenoh::net::protocol::gossip=off";
+/// The default filter of `slate node`: slate's own news, and only warnings from Zenoh
+/// (but not `Skipping name verification of TLS server`, which a secured node's TLS links
+/// warn of on every connection: a module's identity is its certificate's name, not its
+/// host's, by design; docs/security.md).
+pub const NODE: &str = "warn,slate=info,slate_node=info,slate_ici=info,slate_zenoh=info,slate_dashboard=info,zenoh::net::protocol::gossip=off,zenoh_link_tls::utils=error";
 
 /// The default filter of the other verbs: errors only (and not Zenoh's gossip about
 /// links it has not finished opening, which a short-lived observer always races).

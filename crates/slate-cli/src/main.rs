@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use clap::Parser;
 use clap::error::ErrorKind;
 
-use crate::cli::{Cli, Command, PlanCommand};
+use crate::cli::{Cli, Command, KeysCommand, PlanCommand};
 use crate::command::Failed;
 
 fn main() -> ExitCode {
@@ -35,6 +35,8 @@ fn main() -> ExitCode {
         Command::Bench(args) => command::bench::run(&args, format),
         Command::Check(args) => command::check::run(&args, format),
         Command::Demo(args) => command::demo::run(&args, format),
+        Command::Keys(KeysCommand::Init(args)) => command::keys::init(&args, format),
+        Command::Keys(KeysCommand::Issue(args)) => command::keys::issue(&args, format),
         Command::Launch(args) => command::launch::run(&args, format, cli.log.as_deref()),
         Command::Node(args) => command::node::run(&args, format, &logs),
         Command::Tree(args) => command::tree::run(&args, format),

@@ -9,6 +9,9 @@ mod demo;
 // Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit.
 #[path = "cli/errors.rs"]
 mod errors;
+// `slate keys`: a team's certificate authority and its members' keys.
+#[path = "cli/keys.rs"]
+mod keys;
 // `slate launch`: the example teams as processes, restarts, SIGTERM, `--check`.
 #[path = "cli/launch.rs"]
 mod launch;
@@ -27,6 +30,9 @@ mod restart;
 // A node keeping its board (`state`) killed mid-write and restarted; a damaged store.
 #[path = "cli/state.rs"]
 mod state;
+// Secured teams: TLS with keys from `slate keys`, each member speaking only as itself.
+#[path = "cli/secure.rs"]
+mod secure;
 // A team of `slate node` processes on loopback, and `slate` run with a time limit (helpers).
 #[path = "cli/support.rs"]
 mod support;

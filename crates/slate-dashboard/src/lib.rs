@@ -22,9 +22,12 @@
 //! ```
 //!
 //! Routes: `GET /` (the page, self-contained), `GET /api/snapshot` (the JSON),
-//! `GET /ws` (a WebSocket pushing the JSON every 250 ms), `GET /healthz`.
+//! `GET /ws` (a WebSocket pushing the JSON every 250 ms), `GET /healthz`; nothing writes.
+//! On an address other than loopback, every route but `/healthz` requires a token
+//! ([`serve_with_token`]).
 #![warn(missing_docs)]
 
+mod access;
 mod contract;
 mod error;
 mod page;
@@ -42,5 +45,5 @@ pub use contract::{
 pub use error::ServeError;
 #[cfg(feature = "testing")]
 pub use sample::SampleTeam;
-pub use server::{Dashboard, serve};
+pub use server::{Dashboard, serve, serve_with_token};
 pub use source::DashboardSource;

@@ -36,14 +36,18 @@ impl Shared {
     }
 }
 
-/// The dashboard's routes.
-pub(crate) fn router(shared: Arc<Shared>) -> Router {
+/// The dashboard's routes, all read-only (`GET`), behind the token if there is one.
+pub(crate) fn router(shared: Arc<Shared>, token: Option<Arc<str>>) -> Router {
     Router::new()
         .route("/", get(page))
         .route("/api/snapshot", get(snapshot))
         .route("/ws", get(ws))
         .route("/healthz", get(healthz))
         .with_state(shared)
+        .layer(axum::middleware::from_fn_with_state(
+            token,
+            crate::access::require,
+        ))
 }
 
 /// Resolves once the server is told to stop (or its handle is gone).

@@ -17,11 +17,24 @@ const GRACE: Duration = Duration::from_secs(2);
 const BLOCKING_GRACE: Duration = Duration::from_secs(1);
 
 /// Serves the dashboard for `source` on `addr` until the returned [`Dashboard`] is stopped
-/// or dropped.
+/// or dropped: open to anyone on a loopback address, behind a generated token on any
+/// other ([`serve_with_token`]).
 ///
 /// The address is bound before this returns, so a busy port is reported here
 /// ([`ServeError::AddrInUse`]) and port 0 picks a free port ([`Dashboard::local_addr`]).
 pub fn serve(addr: SocketAddr, source: Arc<dyn DashboardSource>) -> Result<Dashboard, ServeError> {
+    serve_with_token(addr, source, None)
+}
+
+/// [`serve`], requiring `token` (`?token=TOKEN` or `Authorization: Bearer TOKEN`) on every
+/// route but `/healthz`. Without one, a loopback address needs none and any other gets a
+/// generated one, which [`Dashboard::url`] carries and the start is logged with.
+pub fn serve_with_token(
+    addr: SocketAddr,
+    source: Arc<dyn DashboardSource>,
+    token: Option<String>,
+) -> Result<Dashboard, ServeError> {
+    let token = crate::access::token_for(addr, token).map_err(ServeError::Start)?;
     let listener = std::net::TcpListener::bind(addr).map_err(|e| ServeError::bind(addr, e))?;
     listener.set_nonblocking(true).map_err(ServeError::Start)?;
     let local_addr = listener.local_addr().map_err(ServeError::Start)?;
@@ -34,17 +47,22 @@ pub fn serve(addr: SocketAddr, source: Arc<dyn DashboardSource>) -> Result<Dashb
         tokio::net::TcpListener::from_std(listener).map_err(ServeError::Start)?
     };
     let (stop, stopped) = watch::channel(false);
-    let app = routes::router(Shared::new(source, stopped.clone()));
+    let app = routes::router(
+        Shared::new(source, stopped.clone()),
+        token.as_deref().map(Arc::from),
+    );
     let thread = std::thread::Builder::new()
         .name("slate-dashboard".into())
         .spawn(move || run(runtime, listener, app, stopped))
         .map_err(ServeError::Start)?;
-    tracing::info!(%local_addr, "dashboard serving on http://{local_addr}/");
-    Ok(Dashboard {
+    let dashboard = Dashboard {
         local_addr,
+        token,
         stop,
         thread: Some(thread),
-    })
+    };
+    tracing::info!(%local_addr, "dashboard serving on {}", dashboard.url());
+    Ok(dashboard)
 }
 
 /// The server thread: serve until told to stop, give open requests [`GRACE`], then drop
@@ -74,6 +92,8 @@ fn run(
 #[derive(Debug)]
 pub struct Dashboard {
     local_addr: SocketAddr,
+    /// What a client must show, if anything.
+    token: Option<String>,
     stop: watch::Sender<bool>,
     thread: Option<JoinHandle<()>>,
 }
@@ -84,9 +104,18 @@ impl Dashboard {
         self.local_addr
     }
 
-    /// The page's URL, e.g. `http://127.0.0.1:8080/`.
+    /// The page's URL, e.g. `http://127.0.0.1:8080/`, with `?token=TOKEN` when the
+    /// dashboard requires one.
     pub fn url(&self) -> String {
-        format!("http://{}/", self.local_addr)
+        match &self.token {
+            Some(token) => format!("http://{}/?token={token}", self.local_addr),
+            None => format!("http://{}/", self.local_addr),
+        }
+    }
+
+    /// The token clients must show, if any.
+    pub fn token(&self) -> Option<&str> {
+        self.token.as_deref()
     }
 
     /// Stops the server and waits for its thread; the port is free when this returns.

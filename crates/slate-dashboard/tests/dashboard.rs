@@ -1,6 +1,9 @@
 //! Integration tests of the dashboard server: one binary, one module per area in
 //! `tests/dashboard/`.
 
+// Who may read it: a token when one is required; no route writes.
+#[path = "dashboard/access.rs"]
+mod access;
 // Headless Chromium against a live dashboard: the map, values changing, no console errors.
 #[path = "dashboard/browser.rs"]
 mod browser;

@@ -50,13 +50,20 @@ pub struct NodeConfig {
     pub files: Vec<SourceFile>,
     /// The ICI's settings: interest, export policy, liveliness and timing.
     pub ici: IciConfig,
-    /// Where to serve the dashboard, if anywhere.
+    /// Where to serve the dashboard, if anywhere (a bare port is on 127.0.0.1).
     pub dashboard: Option<SocketAddr>,
+    /// The token the dashboard's clients must show (`?token=` or `Authorization: Bearer`);
+    /// without one, a dashboard on an address other than loopback generates one.
+    pub dashboard_token: Option<String>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
     /// Where to keep the board across restarts, if anywhere (`state`, and `[storage]`
     /// for when it commits).
     pub state: Option<StateConfig>,
+    /// The team's keys folder (`[security] keys`, made by `slate keys`): the node then
+    /// runs over TLS with mutual authentication as its address, under the team's access
+    /// control (docs/security.md). `None`: links neither authenticated nor encrypted.
+    pub security: Option<PathBuf>,
 }
 
 /// A `.slate` file a node loads at start, and the placeholders replaced in its text
@@ -85,6 +92,7 @@ const TOP: &[&str] = &[
     "interest",
     "export",
     "dashboard",
+    "dashboard_token",
     "zenoh",
     "zenoh_config",
     "ici",
@@ -92,9 +100,12 @@ const TOP: &[&str] = &[
     "recording",
     "state",
     "storage",
+    "security",
 ];
 /// Keys of `[storage]`.
 const STORAGE: &[&str] = &["commit_every", "commit_changes", "queue", "durability"];
+/// Keys of `[security]`.
+const SECURITY: &[&str] = &["keys"];
 /// Keys of `[recording]`.
 const RECORDING: &[&str] = &["max_bytes", "max_duration", "flush", "stats", "queue"];
 /// Keys of `[zenoh]`.
@@ -127,8 +138,10 @@ impl NodeConfig {
             files: Vec::new(),
             ici: IciConfig::default(),
             dashboard: None,
+            dashboard_token: None,
             record: None,
             state: None,
+            security: None,
         }
     }
 
@@ -160,6 +173,7 @@ impl NodeConfig {
             config.ici.export = read_class_set(&top, "export", &list)?;
         }
         config.dashboard = dashboard(&mut top)?;
+        config.dashboard_token = dashboard_token(&mut top)?;
         if let Some(zenoh) = top.table("zenoh", ZENOH)? {
             config.zenoh = zenoh_section(zenoh)?;
         }
@@ -169,6 +183,9 @@ impl NodeConfig {
         }
         config.record = record(&mut top, base)?;
         config.state = state(&mut top, base)?;
+        if let Some(security) = top.table("security", SECURITY)? {
+            config.security = Some(security_section(security, base)?);
+        }
         top.finish()?;
         Ok(config)
     }
@@ -252,14 +269,38 @@ fn substitution(pairs: toml::Table) -> Result<Substitution, String> {
     Substitution::new(pairs).map_err(|e| e.to_string())
 }
 
+/// `dashboard = "HOST:PORT"`, or a bare port (on 127.0.0.1: the dashboard is served on
+/// loopback unless told otherwise).
 fn dashboard(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
-    const EXPECTED: &str = "an address to serve the dashboard on, like \"127.0.0.1:8080\"";
+    const EXPECTED: &str =
+        "an address to serve the dashboard on, like \"127.0.0.1:8080\" (or a port, on 127.0.0.1)";
     let Some(text) = top.str("dashboard", EXPECTED)? else {
         return Ok(None);
     };
+    let loopback = |port: u16| SocketAddr::from(([127, 0, 0, 1], port));
     text.parse()
+        .or_else(|_| text.parse().map(loopback))
         .map(Some)
         .map_err(|_| top.invalid("dashboard", EXPECTED, &format!("{text:?}")))
+}
+
+/// `dashboard_token = "TOKEN"`: at least 16 printable characters, none of them space, `&`,
+/// `#`, `%` or `+` (it travels in a URL's query and a header, unescaped).
+fn dashboard_token(top: &mut Fields) -> Result<Option<String>, ConfigError> {
+    const EXPECTED: &str =
+        "a token of at least 16 letters, digits or punctuation (no spaces, &, #, % or +)";
+    let Some(token) = top.str("dashboard_token", EXPECTED)? else {
+        return Ok(None);
+    };
+    let usable = token.len() >= 16
+        && token
+            .chars()
+            .all(|c| c.is_ascii_graphic() && !matches!(c, '&' | '#' | '%' | '+'));
+    if !usable {
+        let found = format!("a token of {} characters that cannot be used", token.len());
+        return Err(top.invalid("dashboard_token", EXPECTED, &found));
+    }
+    Ok(Some(token))
 }
 
 /// `record = "FILE.mcap"`, with its `[recording]` settings.
@@ -367,6 +408,17 @@ fn zenoh_file(top: &mut Fields, base: &Path) -> Result<Option<PathBuf>, ConfigEr
         "the path of a Zenoh config file, like \"zenoh.json5\"",
     )?;
     Ok(file.map(|f| base.join(f)))
+}
+
+/// `[security] keys = "DIR"`: the team's keys folder, relative to the config's folder.
+/// Its files are read and checked when the node starts.
+fn security_section(mut t: Fields, base: &Path) -> Result<PathBuf, ConfigError> {
+    const EXPECTED: &str = "the team's keys folder made by `slate keys`, like \"team-keys\"";
+    let Some(dir) = t.str("keys", EXPECTED)? else {
+        return Err(t.invalid("keys", EXPECTED, "nothing"));
+    };
+    t.finish()?;
+    Ok(base.join(dir))
 }
 
 /// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
@@ -484,7 +536,10 @@ mod tests {
             interest = ["Vehicle", "Obstacle:surroundings,system"]
             export = ["Vehicle:self"]
             dashboard = "127.0.0.1:8080"
+            dashboard_token = "0123456789abcdef0123"
             zenoh_config = "zenoh.json5"
+            [security]
+            keys = "team-keys"
             [zenoh]
             mode = "router"
             listen = ["tcp/127.0.0.1:7447"]
@@ -521,6 +576,8 @@ mod tests {
             ClassSet::none().class_in("Vehicle", &[Context::Self_])
         );
         assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
+        assert_eq!(c.dashboard_token.as_deref(), Some("0123456789abcdef0123"));
+        assert_eq!(c.security, Some(PathBuf::from("/etc/slate/team-keys")));
         assert_eq!(c.zenoh.mode, Mode::Router);
         assert_eq!(c.zenoh.file, Some(PathBuf::from("/etc/slate/zenoh.json5")));
         assert!(c.zenoh.multicast_scouting);
@@ -590,6 +647,10 @@ mod tests {
                 "m.toml: key `dashboard`: expected an address to serve the dashboard on",
             ),
             (
+                "address = \"t/r/m\"\ndashboard_token = \"short\"",
+                "m.toml: key `dashboard_token`: expected a token of at least 16",
+            ),
+            (
                 "address = \"t/r/m\"\n[ici]\nquiet = 5",
                 "m.toml: key `ici.quiet`: expected a duration like \"250ms\"",
             ),
@@ -615,6 +676,12 @@ mod tests {
             );
             assert!(!err.contains('\n'), "one line: {err}");
         }
+    }
+
+    #[test]
+    fn a_dashboard_given_a_port_only_is_served_on_loopback() {
+        let c = parse("address = \"t/r/m\"\ndashboard = \"8080\"").unwrap();
+        assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
     }
 
     #[test]

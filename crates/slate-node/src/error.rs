@@ -99,6 +99,9 @@ pub enum StartError {
     /// The state directory (`state` in the config) cannot be opened or read.
     #[error("{0}")]
     State(#[from] crate::state::StateError),
+    /// The team's keys (`[security]` in the config) cannot be used.
+    #[error("cannot use the team's keys: {0}")]
+    Keys(#[from] crate::team_keys::KeysError),
 }
 
 /// Why an observer could not join a live team.
@@ -127,6 +130,17 @@ pub enum ObserveError {
     /// The observer's node did not start.
     #[error("{0}")]
     Start(#[from] StartError),
+    /// The observer's address is not one the operator's certificate may speak as.
+    #[error(
+        "{identity} may join only as TEAM/ROBOT/{}PID, not as {address}; leave out --as or give such an address",
+        identity.observer_prefix()
+    )]
+    NotOperator {
+        /// The address asked for.
+        address: slate_model::Address,
+        /// The operator.
+        identity: crate::team_keys::Identity,
+    },
 }
 
 /// Any error a program running nodes meets: a config, a start, an observer, the ICI, a

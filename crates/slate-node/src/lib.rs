@@ -51,6 +51,7 @@ mod node;
 mod observer;
 pub mod record;
 pub mod state;
+pub mod team_keys;
 mod timers;
 mod view;
 
@@ -59,7 +60,9 @@ pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
-pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
+pub use observer::{
+    OBSERVER_PREFIX, ObserverOptions, OperatorKeys, discover, is_observer, observe,
+};
 pub use record::{RecordConfig, RecordError, RecordStats};
 pub use slate_dashboard::STALE_AFTER_S;
 pub use state::{StateConfig, StateError, StateStats};

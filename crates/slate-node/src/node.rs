@@ -19,6 +19,7 @@ use crate::error::StartError;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
 use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
 use crate::state::{Keeper, Restored, StateConfig, StateError, StateStats, Store};
+use crate::team_keys::{self, Identity};
 use crate::timers::Timers;
 use crate::view::View;
 
@@ -67,6 +68,7 @@ pub struct NodeBuilder {
     ici: IciConfig,
     sources: Vec<Source>,
     dashboard: Option<SocketAddr>,
+    dashboard_token: Option<String>,
     record: Option<RecordConfig>,
     state: Option<StateConfig>,
 }
@@ -83,6 +85,7 @@ impl NodeBuilder {
             ici: IciConfig::default(),
             sources: Vec::new(),
             dashboard: None,
+            dashboard_token: None,
             record: None,
             state: None,
         }
@@ -147,6 +150,13 @@ impl NodeBuilder {
         self
     }
 
+    /// Requires `token` of the dashboard's clients (without it, a dashboard on an
+    /// address other than loopback generates one; [`Node::dashboard_url`] carries it).
+    pub fn dashboard_token(mut self, token: String) -> Self {
+        self.dashboard_token = Some(token);
+        self
+    }
+
     /// Records the board from the start (`docs/recording.md`).
     pub fn record(mut self, config: RecordConfig) -> Self {
         self.record = Some(config);
@@ -207,6 +217,8 @@ impl NodeBuilder {
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
+                // Once open: a start that fails is one error line (docs/cli.md).
+                say_how_secured(&self.address, &config);
                 (t, config.listen.clone())
             }
             TransportChoice::Custom(t) => (t, Vec::new()),
@@ -248,7 +260,8 @@ impl NodeBuilder {
         }
         node.started();
         if let Some(addr) = self.dashboard {
-            let dashboard = slate_dashboard::serve(addr, node.view.clone());
+            let token = self.dashboard_token;
+            let dashboard = slate_dashboard::serve_with_token(addr, node.view.clone(), token);
             match dashboard {
                 Ok(d) => node.threads.lock().dashboard = Some(d),
                 Err(e) => {
@@ -346,15 +359,27 @@ impl Node {
     }
 
     /// Starts a node from its config (Zenoh, the files, interest, export, dashboard).
+    ///
+    /// With `[security]`, the team's keys are checked first (readable, the certificate
+    /// for this address and signed by the team's authority, the key its own): the node
+    /// refuses to start otherwise, naming the file and what to do.
     pub fn start(config: &NodeConfig) -> Result<Node, StartError> {
+        let mut zenoh = config.zenoh.clone();
+        if let Some(dir) = &config.security {
+            let me = Identity::Module(config.address.clone());
+            zenoh.security = Some(team_keys::security(dir, &me)?);
+        }
         let mut b = NodeBuilder::new(config.address.clone())
-            .zenoh(config.zenoh.clone())
+            .zenoh(zenoh)
             .ici(config.ici.clone());
         for f in &config.files {
             b = b.file(f.clone());
         }
         if let Some(d) = config.dashboard {
             b = b.dashboard(d);
+        }
+        if let Some(token) = &config.dashboard_token {
+            b = b.dashboard_token(token.clone());
         }
         if let Some(r) = &config.record {
             b = b.record(r.clone());
@@ -536,5 +561,25 @@ impl Node {
 impl Drop for Node {
     fn drop(&mut self) {
         self.close();
+    }
+}
+
+/// One log line at start: whether the node's links are authenticated and encrypted, and
+/// how to make them so when they are not.
+fn say_how_secured(me: &Address, config: &ZenohConfig) {
+    match &config.security {
+        Some(s) => match &s.team {
+            Some(team) => tracing::info!(
+                "{me}: secured: TLS with mutual authentication as {me}; access control for {} modules and {} operators",
+                team.modules.len(),
+                team.operators.len()
+            ),
+            None => tracing::info!(
+                "{me}: secured: TLS with mutual authentication, through the node it connects to"
+            ),
+        },
+        None => tracing::info!(
+            "{me}: insecure: links are neither authenticated nor encrypted, and anyone on the network may speak as any module (add [security] keys = \"DIR\" to the config; docs/security.md)"
+        ),
     }
 }

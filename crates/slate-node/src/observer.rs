@@ -13,11 +13,12 @@ use std::time::{Duration, Instant};
 
 use slate_ici::{ClassSet, IciConfig, Transport};
 use slate_model::Address;
-use slate_zenoh::{Mode, OpenError, ZenohConfig, ZenohTransport, keys};
+use slate_zenoh::{Mode, OpenError, Security, ZenohConfig, ZenohTransport, keys};
 use zenoh::Wait;
 
 use crate::error::{ObserveError, StartError};
 use crate::node::Node;
+use crate::team_keys::{self, Identity};
 
 /// The module segment of observers' addresses starts with this.
 pub const OBSERVER_PREFIX: &str = "cli-";
@@ -33,6 +34,18 @@ pub struct ObserverOptions {
     pub address: Option<Address>,
     /// How long to wait for modules to answer and for their catch-up answers.
     pub wait: Duration,
+    /// An operator's keys, to join a secured team (`None`: an insecure team).
+    pub operator: Option<OperatorKeys>,
+}
+
+/// An operator's keys: the team's keys folder and the operator's identity in it
+/// (`slate keys issue DIR TEAM/NAME`).
+#[derive(Clone, Debug)]
+pub struct OperatorKeys {
+    /// The keys folder.
+    pub dir: std::path::PathBuf,
+    /// The operator, `team/name`.
+    pub identity: Identity,
 }
 
 impl Default for ObserverOptions {
@@ -41,6 +54,7 @@ impl Default for ObserverOptions {
             connect: vec!["tcp/127.0.0.1:7447".to_owned()],
             address: None,
             wait: Duration::from_secs(5),
+            operator: None,
         }
     }
 }
@@ -51,33 +65,55 @@ impl Default for ObserverOptions {
 /// modules along the same path, in order, so a module that sees it come up can reach it
 /// at once (a peer would be reached over links of its own, opened a little later, and
 /// the first messages to it could be lost).
-fn zenoh_config(connect: &[String]) -> ZenohConfig {
+fn zenoh_config(connect: &[String], security: Option<Security>) -> ZenohConfig {
     ZenohConfig {
         mode: Mode::Client,
         listen: Vec::new(),
         connect: connect.to_vec(),
         multicast_scouting: false,
         file: None,
+        security,
     }
+}
+
+/// The operator's checked keys (as a node checks its own), if it has any.
+fn operator_security(options: &ObserverOptions) -> Result<Option<Security>, ObserveError> {
+    let Some(keys) = &options.operator else {
+        return Ok(None);
+    };
+    let mut security = team_keys::security(&keys.dir, &keys.identity).map_err(StartError::Keys)?;
+    // A client hears the team through the node it connects to, which relays every
+    // module's messages: that node's access control judges them (`Security::team`).
+    security.team = None;
+    Ok(Some(security))
 }
 
 /// Joins the team reachable through `options.connect` as an observer, and returns once
 /// it has caught up with every module it found (or `options.wait` has passed).
 pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
     let deadline = Instant::now() + options.wait;
+    let security = operator_security(options)?;
+    let identity = options.operator.as_ref().map(|k| &k.identity);
     let (address, modules) = match &options.address {
         Some(a) => (a.clone(), BTreeSet::new()),
         None => {
-            let modules = discover(&options.connect, options.wait)?;
-            (observer_address(&modules)?, modules)
+            let keys = security.clone().zip(identity);
+            let modules = discover_with(&options.connect, options.wait, keys)?;
+            (observer_address(&modules, identity)?, modules)
         }
     };
+    if let Some(identity) = identity.filter(|i| !i.may_speak_as(&address)) {
+        return Err(ObserveError::NotOperator {
+            address,
+            identity: identity.clone(),
+        });
+    }
     let ici = IciConfig::default()
         .interest(ClassSet::all())
         .export(ClassSet::all())
         .observer(true);
     let node = Node::builder(address)
-        .zenoh(zenoh_config(&options.connect))
+        .zenoh(zenoh_config(&options.connect, security))
         .ici(ici)
         .start()
         .map_err(|e| match e {
@@ -99,8 +135,12 @@ pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
     Ok(node)
 }
 
-/// `TEAM/ROBOT/cli-PID` on the robot of the first module (not an observer) found.
-fn observer_address(modules: &BTreeSet<Address>) -> Result<Address, ObserveError> {
+/// `TEAM/ROBOT/cli-PID` on the robot of the first module (not an observer) found; for an
+/// operator `TEAM/ROBOT/cli-NAME-PID`.
+fn observer_address(
+    modules: &BTreeSet<Address>,
+    operator: Option<&Identity>,
+) -> Result<Address, ObserveError> {
     let teams: BTreeSet<&str> = modules.iter().map(Address::team).collect();
     if teams.len() > 1 {
         let teams: Vec<&str> = teams.into_iter().collect();
@@ -118,8 +158,12 @@ fn observer_address(modules: &BTreeSet<Address>) -> Result<Address, ObserveError
             seconds: 0.0,
         });
     };
+    let prefix = match operator {
+        Some(identity) => identity.observer_prefix(),
+        None => OBSERVER_PREFIX.to_owned(),
+    };
     let text = format!(
-        "{}/{}/{OBSERVER_PREFIX}{}",
+        "{}/{}/{prefix}{}",
         first.team(),
         first.robot(),
         std::process::id()
@@ -136,7 +180,7 @@ pub fn is_observer(address: &Address) -> bool {
 /// which says nobody answered; a malformed endpoint says so itself.
 fn unreachable_unless_malformed(e: OpenError, options: &ObserverOptions) -> ObserveError {
     match e {
-        OpenError::Endpoint(_) => ObserveError::Open(e),
+        OpenError::Endpoint(_) | OpenError::Insecure { .. } => ObserveError::Open(e),
         _ => ObserveError::NoModules {
             endpoints: options.connect.join(", "),
             seconds: options.wait.as_secs_f64(),
@@ -147,20 +191,44 @@ fn unreachable_unless_malformed(e: OpenError, options: &ObserverOptions) -> Obse
 /// The slate modules alive on the Zenoh network reachable through `connect`, of every
 /// team, found by their liveliness tokens within `wait`.
 pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>, ObserveError> {
+    discover_with(connect, wait, None)
+}
+
+/// The probe's address: `slate-probe/cli/pPID`, or for an operator one its certificate
+/// may speak as, `TEAM/probe/cli-NAME-pPID` (a secured team's access control would refuse
+/// the probe's liveliness token otherwise).
+fn probe_address(operator: Option<&Identity>) -> Address {
+    let pid = std::process::id();
+    let text = match operator {
+        Some(identity) => format!(
+            "{}/probe/{}p{pid}",
+            identity.team(),
+            identity.observer_prefix()
+        ),
+        None => format!("slate-probe/cli/p{pid}"),
+    };
+    Address::new(&text).unwrap_or_else(|_| Address::unknown())
+}
+
+/// [`discover`], over a secured session when `security` is given.
+fn discover_with(
+    connect: &[String],
+    wait: Duration,
+    keys: Option<(Security, &Identity)>,
+) -> Result<BTreeSet<Address>, ObserveError> {
+    let (security, operator) = keys.unzip();
     let deadline = Instant::now() + wait;
-    let probe_address = Address::new(&format!("slate-probe/cli/p{}", std::process::id()))
-        .unwrap_or_else(|_| Address::unknown());
+    let probe_address = probe_address(operator);
     let unreachable = || ObserveError::NoModules {
         endpoints: connect.join(", "),
         seconds: wait.as_secs_f64(),
     };
     // A client that reaches no node fails to open; a malformed endpoint is no such case.
-    let probe = ZenohTransport::open(probe_address.clone(), &zenoh_config(connect)).map_err(
-        |e| match e {
-            OpenError::Endpoint(_) => ObserveError::Open(e),
-            _ => unreachable(),
-        },
-    )?;
+    let config = zenoh_config(connect, security);
+    let probe = ZenohTransport::open(probe_address.clone(), &config).map_err(|e| match e {
+        OpenError::Endpoint(_) | OpenError::Insecure { .. } => ObserveError::Open(e),
+        _ => unreachable(),
+    })?;
     let mut found = BTreeSet::new();
     while found.is_empty() && Instant::now() < deadline {
         let left = deadline.saturating_duration_since(Instant::now());

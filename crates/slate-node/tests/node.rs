@@ -21,6 +21,9 @@ mod router;
 // A node keeps its board across a restart (`state`); its peers keep its objects.
 #[path = "node/state.rs"]
 mod state;
+// Secured sessions: a member speaks only in its own name, an outsider gets no link.
+#[path = "node/secure.rs"]
+mod secure;
 // Nodes on the deterministic simulator: reports, late joiners, plans with acks, shutdown.
 #[path = "node/sim.rs"]
 mod sim;

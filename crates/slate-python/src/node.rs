@@ -62,6 +62,7 @@ fn zenoh(
         connect,
         multicast_scouting: false,
         file: None,
+        security: None,
     })
 }
 

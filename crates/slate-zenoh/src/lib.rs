@@ -11,7 +11,9 @@
 mod endpoint;
 pub mod keys;
 mod outbox;
+mod security;
 mod transport;
 
 pub use endpoint::{EndpointError, PROTOCOLS, check_endpoint};
+pub use security::{OPERATOR_PREFIX, SECURE_PROTOCOLS, Security, TeamIdentities};
 pub use transport::{Mode, OpenError, ZenohConfig, ZenohTransport};

@@ -60,6 +60,10 @@ pub struct ZenohConfig {
     /// Zenoh setting are written as Zenoh documents them; slate's keys are applied on top
     /// ([`ZenohConfig::to_zenoh`] says which).
     pub file: Option<PathBuf>,
+    /// TLS with mutual authentication and access control by identity (`None`: links
+    /// neither authenticated nor encrypted). With it, every endpoint must be `tls/` or
+    /// `quic/`.
+    pub security: Option<crate::Security>,
 }
 
 /// The session could not be opened.
@@ -88,6 +92,14 @@ pub enum OpenError {
         /// Zenoh's reason, without its source locations.
         reason: String,
     },
+    /// A secured session was given an endpoint that is not `tls/` or `quic/`.
+    #[error(
+        "endpoint {endpoint:?} is not secured: a node with [security] listens and connects only with tls/HOST:PORT or quic/HOST:PORT endpoints (write tls/ in place of tcp/)"
+    )]
+    Insecure {
+        /// The endpoint as given.
+        endpoint: String,
+    },
 }
 
 impl ZenohConfig {
@@ -114,6 +126,7 @@ impl ZenohConfig {
         for endpoint in self.listen.iter().chain(&self.connect) {
             crate::check_endpoint(endpoint)?;
         }
+        self.check_secure_endpoints()?;
         let mut c = self.base()?;
         for (key, value) in self.settings() {
             c.insert_json5(key, &value).map_err(|e| OpenError::Config {
@@ -122,6 +135,25 @@ impl ZenohConfig {
             })?;
         }
         Ok(c)
+    }
+
+    /// With [`security`](ZenohConfig::security), every endpoint is `tls/` or `quic/`: a
+    /// `tcp/` listener would take links that carry no identity (the access control would
+    /// then refuse all they say, as from nobody, which reads like a node that is down).
+    fn check_secure_endpoints(&self) -> Result<(), OpenError> {
+        if self.security.is_none() {
+            return Ok(());
+        }
+        let plain = self.listen.iter().chain(&self.connect).find(|e| {
+            let protocol = e.split_once('/').map_or(e.as_str(), |(p, _)| p);
+            !crate::security::SECURE_PROTOCOLS.contains(&protocol)
+        });
+        match plain {
+            Some(e) => Err(OpenError::Insecure {
+                endpoint: e.clone(),
+            }),
+            None => Ok(()),
+        }
     }
 
     /// The file's config, or Zenoh's defaults.
@@ -164,6 +196,9 @@ impl ZenohConfig {
         // slate stamps its own packets (hybrid logical clock); Zenoh need not add bytes.
         let off = "{ router: false, peer: false, client: false }".to_owned();
         settings.push(("timestamping/enabled", off));
+        if let Some(security) = &self.security {
+            settings.extend(security.settings());
+        }
         settings
     }
 }

@@ -8,7 +8,10 @@ use anyhow::Context as _;
 use crossbeam_channel::Receiver;
 use serde_json::{Value as Json, json};
 use slate_model::{Address, Board, Packet, Value};
-use slate_node::{Node, ObserveError, ObserverOptions, inspect::Classes, is_observer, observe};
+use slate_node::team_keys::Identity;
+use slate_node::{
+    Node, ObserveError, ObserverOptions, OperatorKeys, inspect::Classes, is_observer, observe,
+};
 use slate_zenoh::OpenError;
 
 use crate::cli::LiveArgs;
@@ -31,6 +34,7 @@ pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
         connect: live.connect.clone(),
         address,
         wait,
+        operator: operator_keys(live)?,
     };
     observe(&options).map_err(|e| match e {
         ObserveError::Open(OpenError::Endpoint(bad)) => {
@@ -38,6 +42,23 @@ pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
         }
         other => other.into(),
     })
+}
+
+/// `--keys DIR --operator TEAM/NAME`, if given (clap requires both or neither).
+fn operator_keys(live: &LiveArgs) -> anyhow::Result<Option<OperatorKeys>> {
+    let (Some(dir), Some(operator)) = (&live.keys, &live.operator) else {
+        return Ok(None);
+    };
+    let identity = Identity::parse(operator)
+        .ok()
+        .filter(|i| matches!(i, Identity::Operator { .. }))
+        .with_context(|| {
+            format!("--operator {operator:?}: expected an operator TEAM/NAME, as issued by `slate keys issue DIR TEAM/NAME`")
+        })?;
+    Ok(Some(OperatorKeys {
+        dir: dir.clone(),
+        identity,
+    }))
 }
 
 /// Fires once on SIGINT (Ctrl-C) or SIGTERM. The handler is installed on first use.

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod check;
 pub mod demo;
 pub mod get;
+pub mod keys;
 pub mod launch;
 mod live;
 pub mod ls;

@@ -186,6 +186,20 @@ impl NodeProc {
             "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [{export}]\ndashboard = \"{dashboard}\"\n{top}\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n{ici}\n",
             connect.join(", ")
         );
+        NodeProc::spawn(dir, address, &config, endpoint, dashboard)
+    }
+
+    /// Starts `slate node` with the config text `config` (written to `dir`), which listens
+    /// on `endpoint` and serves its dashboard at `dashboard`; returns once it printed its
+    /// ready line.
+    pub fn spawn(
+        dir: &Path,
+        address: &str,
+        config: &str,
+        endpoint: String,
+        dashboard: String,
+    ) -> NodeProc {
+        let stem = address.replace('/', "_");
         let path = dir.join(format!("{stem}.toml"));
         std::fs::write(&path, config).unwrap();
         let log = dir.join(format!("{stem}.log"));

@@ -757,10 +757,17 @@
     render(snapshot);
   }
 
+  // The page's own `?token=...`, passed on to the snapshot and WebSocket routes (a
+  // dashboard on an address other than loopback requires it).
+  const tokenQuery = (() => {
+    const token = new URLSearchParams(location.search).get('token');
+    return token ? '?token=' + encodeURIComponent(token) : '';
+  })();
+
   function connect() {
     if (forcePoll || typeof WebSocket !== 'function' || !location.host) { startPolling(); return; }
     try {
-      socket = new WebSocket((location.protocol === 'https:' ? 'wss:' : 'ws:') + '//' + location.host + '/ws');
+      socket = new WebSocket((location.protocol === 'https:' ? 'wss:' : 'ws:') + '//' + location.host + '/ws' + tokenQuery);
     } catch (e) { socket = null; startPolling(); setTimeout(connect, RETRY_WS_MS); return; }
     socket.onopen = () => { stopPolling(); setConn('live'); };
     socket.onmessage = (ev) => { if (typeof ev.data === 'string') accept(ev.data); };
@@ -783,7 +790,7 @@
     if (polling) return;
     polling = true;
     try {
-      const response = await fetch('/api/snapshot', { cache: 'no-store' });
+      const response = await fetch('/api/snapshot' + tokenQuery, { cache: 'no-store' });
       if (response.ok) {
         accept(await response.text());
         if (!socket) setConn('polling');

@@ -1,0 +1,391 @@
+//! Secured teams (docs/security.md): `slate node` processes on 127.0.0.1 with keys from
+//! `slate keys`, over TLS with mutual authentication and the generated access control.
+//! Values flow and the operator's CLI works; a node without a team certificate cannot
+//! join; a member cannot speak in another module's name (finding 3, which an insecure
+//! team still shows); a node with a missing or mismatched key file does not start.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use slate_ici::{ClassSet, IciConfig};
+use slate_model::Address;
+use slate_node::Node;
+use slate_node::team_keys::{self, Identity};
+use slate_zenoh::{Security, ZenohConfig};
+
+use crate::support::{
+    NodeProc, Team, WORLD, entry, eventually, free_port, http_get, show, slate, steps, wait_output,
+};
+
+/// The team's keys: nav, cam and loco, gps (a member that does not run a node) and the
+/// operator alice.
+fn keys(team: &Team) -> PathBuf {
+    let dir = team.dir.join("keys");
+    let d = dir.to_str().unwrap();
+    crate::support::slate_ok(&["keys", "init", d]);
+    crate::support::slate_ok(&[
+        "keys",
+        "issue",
+        d,
+        "t/r1/nav",
+        "t/r1/cam",
+        "t/r2/loco",
+        "t/r3/gps",
+        "t/alice",
+    ]);
+    dir
+}
+
+/// Starts a secured `slate node` for `address` loading WORLD and `extra`, listening on a
+/// tls/ endpoint and connected to the team's nodes so far.
+fn add_secured(team: &mut Team, keys: &Path, address: &str, extra: &str) {
+    let stem = address.replace('/', "_");
+    std::fs::write(team.dir.join("world.slate"), WORLD).unwrap();
+    std::fs::write(team.dir.join(format!("{stem}.slate")), extra).unwrap();
+    let endpoint = format!("tls/127.0.0.1:{}", free_port());
+    let dashboard = format!("127.0.0.1:{}", free_port());
+    let connect: Vec<String> = team
+        .nodes
+        .iter()
+        .map(|n| format!("{:?}", n.endpoint))
+        .collect();
+    let config = format!(
+        "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [\"Thing\"]\ndashboard = \"{dashboard}\"\n\n[security]\nkeys = {:?}\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n",
+        keys.display().to_string(),
+        connect.join(", ")
+    );
+    let node = NodeProc::spawn(&team.dir, address, &config, endpoint, dashboard);
+    assert!(
+        node.log()
+            .contains("secured: TLS with mutual authentication"),
+        "{}",
+        node.log()
+    );
+    team.nodes.push(node);
+}
+
+/// A secured team of nav (which owns rock), `others` (loaded with nothing more), every
+/// node meeting every other.
+fn secured_team(name: &str, others: &[&str]) -> (Team, PathBuf) {
+    let mut team = Team::new(name);
+    let keys = keys(&team);
+    add_secured(
+        &mut team,
+        &keys,
+        "t/r1/nav",
+        "object rock : Obstacle { range = 7.5; }",
+    );
+    for address in others {
+        add_secured(&mut team, &keys, address, "");
+    }
+    team.wait_connected();
+    (team, keys)
+}
+
+/// `--keys DIR --operator t/alice`.
+fn as_alice(keys: &Path) -> [String; 4] {
+    [
+        "--keys".into(),
+        keys.display().to_string(),
+        "--operator".into(),
+        "t/alice".into(),
+    ]
+}
+
+fn with<'a>(args: &[&'a str], more: &'a [String]) -> Vec<&'a str> {
+    args.iter()
+        .copied()
+        .chain(more.iter().map(String::as_str))
+        .collect()
+}
+
+#[test]
+fn a_secured_team_of_three_shares_values_and_serves_its_operator() {
+    let (team, keys) = secured_team("secure-three", &["t/r1/cam", "t/r2/loco"]);
+    for node in &team.nodes {
+        assert!(
+            node.wait_value("rock", "range", "7.5"),
+            "{}: {}",
+            node.address,
+            team.logs()
+        );
+    }
+    // Every command reaches the team through nav, which owns rock: one path, so that the
+    // observer's view does not depend on links between the others settling.
+    let alice = as_alice(&keys);
+    let via_nav = |args: &[&str]| {
+        let mut all = with(args, &alice);
+        all.extend(["--connect", team.node("t/r1/nav").endpoint.as_str()]);
+        slate(&all)
+    };
+    // watch, started first, says on stderr when it is watching.
+    let watch_args = with(
+        &["watch", "rock.range", "--count", "1", "--format", "json"],
+        &alice,
+    );
+    let mut watcher = team.spawn_via("t/r1/nav", &watch_args);
+    let stderr = watcher.0.as_mut().and_then(|c| c.stderr.take()).unwrap();
+    let mut stderr = BufReader::new(stderr);
+    let mut line = String::new();
+    while stderr.read_line(&mut line).unwrap() > 0 && !line.starts_with("watching") {
+        line.clear();
+    }
+    assert!(line.starts_with("watching rock.range"), "{line}");
+
+    // `get` and `put` (each idempotent) are retried for a while: an operator's observer
+    // joining a secured team sometimes receives a catch-up answer before the classes it
+    // needs, sees its peers go down and up, and misses their state (seen only with the
+    // access control on; the open issue is in docs/security.md).
+    let until_ok = |args: &[&str]| {
+        let mut out = via_nav(args);
+        let ok = eventually(Duration::from_secs(15), || {
+            out.status.success() || {
+                out = via_nav(args);
+                false
+            }
+        });
+        assert!(ok, "{}\n{}", show(&out), team.logs());
+        out
+    };
+    let got = until_ok(&["get", "rock.range", "--format", "json"]);
+    let got: serde_json::Value = serde_json::from_slice(&got.stdout).unwrap();
+    assert_eq!(got["attrs"][0]["value"], 7.5, "{got}");
+    until_ok(&["put", "rock.range", "3.25"]);
+    for node in &team.nodes {
+        assert!(
+            node.wait_value("rock", "range", "3.25"),
+            "{}: {}",
+            node.address,
+            team.logs()
+        );
+    }
+    let out = wait_output(watcher.take(), Duration::from_secs(20));
+    assert!(out.status.success(), "{}", show(&out));
+    let seen: serde_json::Value =
+        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().next().unwrap()).unwrap();
+    assert_eq!(seen["value"], 3.25, "{seen}");
+    let source = seen["source"].as_str().unwrap();
+    assert!(source.starts_with("t/r1/cli-alice-"), "{seen}");
+
+    // A plan from the operator, acknowledged step by step.
+    let plan = team.dir.join("near.slate");
+    std::fs::write(&plan, "plan near { trigger: rock.range < 5.0; termination: rock.range < 5.0; action { set rock.range = 1.0; } }").unwrap();
+    let plan_path = plan.display().to_string();
+    let out = via_nav(&[
+        "plan",
+        "send",
+        &plan_path,
+        "--to",
+        "t/r2/loco",
+        "--timeout",
+        "20",
+        "--format",
+        "json",
+    ]);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    assert_eq!(
+        steps(&out).first().map(String::as_str),
+        Some("received"),
+        "{}",
+        show(&out)
+    );
+    assert!(
+        steps(&out).contains(&"accepted".to_owned()),
+        "{}",
+        show(&out)
+    );
+    // Host names are not checked by design; Zenoh's warning of it on every link is not
+    // shown by default.
+    let logs = team.logs();
+    assert!(!logs.contains("Skipping name verification"), "{logs}");
+    team.stop();
+}
+
+#[test]
+fn the_cli_without_the_operators_keys_finds_no_module_of_a_secured_team() {
+    let (team, _keys) = secured_team("secure-nokeys", &["t/r2/loco"]);
+    let out = team.slate(&["get", "rock.range", "--wait", "2"]);
+    assert!(!out.status.success(), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no slate module reachable"), "{err}");
+    team.stop();
+}
+
+#[test]
+fn a_node_without_a_team_certificate_cannot_join_a_secured_team() {
+    let (mut team, keys) = secured_team("secure-outsider", &["t/r2/loco"]);
+    // An insecure node that connects to the team's tls/ endpoints: no link (it has no
+    // certificate, and does not trust the team's authority).
+    let connect: Vec<String> = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+    let outsider = NodeProc::start(
+        &team.dir,
+        "t/r9/spy",
+        "object decoy : Obstacle { range = 66.0; }",
+        &connect,
+    );
+    // A member that joins after it shows the team was hearing newcomers meanwhile.
+    add_secured(
+        &mut team,
+        &keys,
+        "t/r3/gps",
+        "object beacon : Obstacle { range = 1.0; }",
+    );
+    let loco = team.node("t/r2/loco");
+    assert!(loco.wait_value("beacon", "range", "1.0"), "{}", team.logs());
+    let snap = loco.snapshot();
+    assert!(entry(&snap["objects"], "name", "decoy").is_none(), "{snap}");
+    assert!(
+        entry(&snap["objects"], "name", "t_r9_spy").is_none(),
+        "{snap}"
+    );
+    assert_eq!(outsider.snapshot()["summary"]["peers alive"], 0);
+    outsider.stop();
+    team.stop();
+}
+
+/// A module started in this process as `address` on `endpoints`, holding the keys of
+/// `holder` (none: insecure), exporting everything: an impostor.
+fn impostor(address: &str, endpoints: Vec<String>, security: Option<Security>) -> Node {
+    let source = format!("{WORLD}\nobject decoy : Obstacle {{ range = 66.0; }}");
+    Node::builder(Address::new(address).unwrap())
+        .zenoh(ZenohConfig {
+            connect: endpoints,
+            security,
+            ..ZenohConfig::default()
+        })
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .source("impostor.slate", &source)
+        .start()
+        .expect("the impostor starts")
+}
+
+/// Finding 3 on an insecure team: a participant that announces itself as the module
+/// t/r1/cam is taken for it, and its objects are on the others' boards.
+#[test]
+fn a_participant_announcing_itself_as_another_module_is_believed_on_an_insecure_team() {
+    let team = Team::connected(
+        "insecure-impostor",
+        &[
+            ("t/r1/nav", "object rock : Obstacle { range = 7.5; }"),
+            ("t/r2/loco", ""),
+        ],
+    );
+    let endpoints = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+    let fake = impostor("t/r1/cam", endpoints, None);
+    let loco = team.node("t/r2/loco");
+    assert!(loco.wait_value("decoy", "range", "66.0"), "{}", team.logs());
+    let owner = entry(&loco.snapshot()["objects"], "name", "decoy").unwrap()["owner"].clone();
+    assert_eq!(owner, "t/r1/cam");
+    fake.close();
+    team.stop();
+}
+
+/// Finding 3 on a secured team: the same participant, holding a member's certificate
+/// (gps's) but announcing itself as t/r1/cam, is refused at the link: its objects are on
+/// no board, while its own name (a control, in the same process) gets through.
+#[test]
+fn a_member_announcing_itself_as_another_module_is_refused_on_a_secured_team() {
+    let (team, keys) = secured_team("secure-impostor", &["t/r2/loco"]);
+    let endpoints: Vec<String> = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+    let gps = Identity::parse("t/r3/gps").unwrap();
+    let held = team_keys::security(&keys, &gps).unwrap();
+    let fake = impostor("t/r1/cam", endpoints.clone(), Some(held.clone()));
+    let honest = Node::builder(Address::new("t/r3/gps").unwrap())
+        .zenoh(ZenohConfig {
+            connect: endpoints,
+            security: Some(held),
+            ..ZenohConfig::default()
+        })
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .source("w.slate", WORLD)
+        .source("gps.slate", "object beacon : Obstacle { range = 1.0; }")
+        .start()
+        .unwrap();
+    // The impostor started first: by the time the honest member is heard, it would be.
+    for node in &team.nodes {
+        assert!(node.wait_value("beacon", "range", "1.0"), "{}", team.logs());
+        let snap = node.snapshot();
+        assert!(entry(&snap["objects"], "name", "decoy").is_none(), "{snap}");
+        assert!(
+            entry(&snap["objects"], "name", "t_r1_cam").is_none(),
+            "{snap}"
+        );
+    }
+    honest.close();
+    fake.close();
+    team.stop();
+}
+
+#[test]
+fn a_secured_node_with_a_missing_key_file_does_not_start_and_names_it() {
+    let team = Team::new("secure-missing");
+    let keys = keys(&team);
+    let key = keys.join("t/r1/nav.key");
+    std::fs::remove_file(&key).unwrap();
+    let config = team.dir.join("nav.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "address = \"t/r1/nav\"\n[security]\nkeys = {:?}\n[zenoh]\nlisten = [\"tls/127.0.0.1:{}\"]\n",
+            keys.display().to_string(),
+            free_port()
+        ),
+    )
+    .unwrap();
+    let out = slate(&["node", "--config", config.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&format!("{}: cannot read it", key.display()))
+            && err.contains("issue the module's key with `slate keys issue`"),
+        "{err}"
+    );
+    // A certificate for another address in nav's place is refused too.
+    std::fs::copy(keys.join("t/r1/cam.pem"), keys.join("t/r1/nav.pem")).unwrap();
+    std::fs::copy(keys.join("t/r1/cam.key"), &key).unwrap();
+    let out = slate(&["node", "--config", config.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("this certificate is for t/r1/cam, not t/r1/nav"),
+        "{err}"
+    );
+    // And an endpoint that is not TLS.
+    std::fs::write(
+        &config,
+        format!(
+            "address = \"t/r1/cam\"\n[security]\nkeys = {:?}\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{}\"]\n",
+            keys.display().to_string(),
+            free_port()
+        ),
+    )
+    .unwrap();
+    let out = slate(&["node", "--config", config.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("is not secured: a node with [security] listens and connects only with tls/"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_node_with_a_dashboard_token_serves_its_board_only_to_who_shows_it() {
+    let team = Team::new("dashboard-token");
+    let token = "0123456789abcdef-token";
+    let top = format!("dashboard_token = \"{token}\"");
+    let node = NodeProc::start_config(
+        &team.dir,
+        "t/r1/nav",
+        "object rock : Obstacle { range = 7.5; }",
+        &[],
+        &["\"Thing\"", "", &top],
+    );
+    let refused = http_get(&node.dashboard, "/api/snapshot");
+    assert_eq!(refused.status, 401, "{}", refused.body);
+    assert!(refused.body.contains("needs its token"), "{}", refused.body);
+    let shown = http_get(&node.dashboard, &format!("/api/snapshot?token={token}"));
+    assert_eq!(shown.status, 200);
+    assert!(entry(&shown.json()["objects"], "name", "rock").is_some());
+    let (clean, _) = node.stop();
+    assert!(clean);
+}
