@@ -48,7 +48,7 @@ import threading
 import time
 import urllib.request
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import datetime, timezone
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -71,6 +71,9 @@ plan write_count {
     action { set gsr.count = gsr.count + 1; }
 }
 """
+# The nodes' log filter; $REALLINK_LOG adds to it (like `zenoh=debug` to see Zenoh's
+# sessions open and close). The `peer ... up|down` lines must stay at info.
+NODE_LOG = ",".join(filter(None, ["warn,slate_node=info", os.environ.get("REALLINK_LOG")]))
 LOG_LINE = re.compile(r"^(\S+Z)\s+\w+\s+slate_node::monitor: peer (\S+) (up|down)\s*$")
 ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
@@ -253,7 +256,7 @@ class Team:
             cmd = ["ip", "netns", "exec", self.nets.names[m.robot], self.slate, "node"]
             with open(m.log, "wb") as log:
                 m.proc = subprocess.Popen(
-                    [*cmd, "--config", str(cfg), "--log", "warn,slate_node=info"],
+                    [*cmd, "--config", str(cfg), "--log", NODE_LOG],
                     stdout=subprocess.DEVNULL,
                     stderr=log,
                     start_new_session=True,
@@ -329,9 +332,11 @@ def impair_then_converge(team: Team, scn: Scenario, result: dict) -> float | Non
     """The partition (or the hold under impairment), then the convergence wait."""
     others = [r for r in range(3) if r != scn.cut]
     if scn.partition:
+        result["cut_at"] = utc(time.time())
         team.radio.cut([scn.cut], others)
         time.sleep(scn.partition)
         team.radio.cut([scn.cut], others, cut=False)
+        result["healed_at"] = utc(time.time())
     else:
         time.sleep(scn.hold)
     healed = time.time()
@@ -340,6 +345,11 @@ def impair_then_converge(team: Team, scn: Scenario, result: dict) -> float | Non
     done = wait_converged(team, target, healed + scn.window)
     result["counts_at_end"] = team.counts()
     return None if done is None else round(done - healed, 2)
+
+
+def utc(t: float) -> str:
+    """A Unix time as the nodes' logs write it, to line the two up."""
+    return datetime.fromtimestamp(t, timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
 def finish(result: dict, team: Team, scn: Scenario, end: float) -> dict:
@@ -366,7 +376,7 @@ def scenarios(args: argparse.Namespace) -> list[Scenario]:
         return [Scenario(f"loss-{args.loss:g}", loss, hold=args.seconds, topology=args.topology)]
     if args.command == "short":
         return [
-            Scenario("partition-3s", partition=3.0),
+            Scenario("partition-10s", partition=10.0),
             Scenario("loss-0.3", Impairment(loss=0.3), hold=10.0),
         ]
     return [
