@@ -236,11 +236,15 @@ class Team:
     def __init__(self, slate: str, topology: str, workdir: Path) -> None:
         self.slate, self.workdir = slate, workdir
         self.mods = team_modules()
+        self.boards: Boards | None = None
         self.nets = Namespaces(3)
         self.radio = Radio(self.nets.fds)
-        self.radio.start()
-        self.boards: Boards | None = None
-        self._write_files(connections(self.mods, topology))
+        try:
+            self.radio.start()
+            self._write_files(connections(self.mods, topology))
+        except BaseException:
+            self.close()
+            raise
 
     def _write_files(self, peers: dict[str, list[Module]]) -> None:
         (self.workdir / "world.slate").write_text(WORLD)
