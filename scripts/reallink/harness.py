@@ -375,7 +375,8 @@ def scenarios(args: argparse.Namespace) -> list[Scenario]:
     """The scenarios a command line asks for."""
     loss = Impairment(loss=args.loss) if args.loss else Impairment()
     if args.command == "partition":
-        return [Scenario(f"partition-{args.seconds:g}s", loss, partition=args.seconds, topology=args.topology)]
+        name = f"partition-{args.seconds:g}s" + ("-chain" if args.topology == "chain" else "")
+        return [Scenario(name, loss, partition=args.seconds, topology=args.topology)]
     if args.command == "loss":
         return [Scenario(f"loss-{args.loss:g}", loss, hold=args.seconds, topology=args.topology)]
     if args.command == "short":
