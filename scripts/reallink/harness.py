@@ -104,6 +104,7 @@ class Module:
     port: int
     dashboard: int
     writer: bool = False
+    protocol: str = "tcp"  # of its endpoint: tcp or udp
     proc: subprocess.Popen[bytes] | None = None
     log: Path | None = None
 
@@ -118,7 +119,7 @@ def team_modules() -> list[Module]:
 
 
 def endpoint(m: Module) -> str:
-    return f"tcp/{Namespaces.address(m.robot)}:{m.port}"
+    return f"{m.protocol}/{Namespaces.address(m.robot)}:{m.port}"
 
 
 def node_config(m: Module, peers: list[Module]) -> str:
@@ -227,21 +228,24 @@ class Scenario:
     window: float = 15.0
     linger: float = 3.0
     topology: str = "mesh"
+    protocol: str = "tcp"
 
 
 class Team:
     """The namespaces, the radio and the node processes of one run; `close` stops every
     process by pid and deletes every namespace."""
 
-    def __init__(self, slate: str, topology: str, workdir: Path) -> None:
+    def __init__(self, slate: str, scn: Scenario, workdir: Path) -> None:
         self.slate, self.workdir = slate, workdir
         self.mods = team_modules()
+        for m in self.mods:
+            m.protocol = scn.protocol
         self.boards: Boards | None = None
         self.nets = Namespaces(3)
         self.radio = Radio(self.nets.fds)
         try:
             self.radio.start()
-            self._write_files(connections(self.mods, topology))
+            self._write_files(connections(self.mods, scn.topology))
         except BaseException:
             self.close()
             raise
@@ -312,7 +316,7 @@ def never_cut(scn: Scenario, a: int, b: int) -> bool:
 def run(scn: Scenario, slate: str, keep: bool = False) -> dict:
     """Runs one scenario; returns what it measured (see the module's doc)."""
     workdir = Path(tempfile.mkdtemp(prefix="slate-reallink-"))
-    team = Team(slate, scn.topology, workdir)
+    team = Team(slate, scn, workdir)
     result: dict = {"scenario": scn.name, "workdir": str(workdir)}
     try:
         team.start()
@@ -374,11 +378,13 @@ def finish(result: dict, team: Team, scn: Scenario, end: float) -> dict:
 def scenarios(args: argparse.Namespace) -> list[Scenario]:
     """The scenarios a command line asks for."""
     loss = Impairment(loss=args.loss) if args.loss else Impairment()
+    how = {"topology": args.topology, "protocol": args.protocol}
+    suffix = "-udp" if args.protocol == "udp" else ""
     if args.command == "partition":
         name = f"partition-{args.seconds:g}s" + ("-chain" if args.topology == "chain" else "")
-        return [Scenario(name, loss, partition=args.seconds, topology=args.topology)]
+        return [Scenario(name + suffix, loss, partition=args.seconds, **how)]
     if args.command == "loss":
-        return [Scenario(f"loss-{args.loss:g}", loss, hold=args.seconds, topology=args.topology)]
+        return [Scenario(f"loss-{args.loss:g}{suffix}", loss, hold=args.seconds, **how)]
     if args.command == "short":
         return [
             Scenario("partition-10s", partition=10.0),
@@ -401,6 +407,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--seconds", type=float, default=10.0, help="partition length, or time under loss")
     p.add_argument("--loss", type=float, default=0.0, help="loss probability on every link (0..1)")
     p.add_argument("--topology", choices=["mesh", "chain"], default="mesh")
+    p.add_argument("--protocol", choices=["tcp", "udp"], default="tcp", help="the nodes' Zenoh links")
     p.add_argument("--slate", help="the slate binary (default: $SLATE_BIN, else target/{debug,release}/slate)")
     p.add_argument("--keep", action="store_true", help="keep every run's configs and node logs")
     args = p.parse_args(argv)
