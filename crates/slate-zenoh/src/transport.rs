@@ -807,6 +807,16 @@ mod tests {
 
     use super::*;
 
+    /// Zenoh's TCP links must close without lingering: a lingering close of a link to
+    /// an unreachable peer blocks one of Zenoh's receive threads, and every other link
+    /// of the session goes deaf meanwhile (docs/real-links.md). zenoh-link-tcp reads the
+    /// setting when it is compiled, from the environment `.cargo/config.toml` gives every
+    /// crate of this build, this one included.
+    #[test]
+    fn zenoh_tcp_links_are_built_to_close_without_lingering() {
+        assert_eq!(option_env!("TCP_LINGER_TIMEOUT"), Some("0"));
+    }
+
     #[test]
     fn a_malformed_endpoint_is_refused_with_the_form_to_write() {
         let config = ZenohConfig {

@@ -141,6 +141,57 @@ fn a_killed_module_is_dead_on_every_other_board_and_alive_again_when_back() {
     }
 }
 
+/// The transport at `watcher` says `peer` went down while the two still talk (Zenoh
+/// withdraws a liveliness token when a session elsewhere fails); the watcher's board must
+/// keep `peer` alive all along, over `seconds`, and never count it lost.
+fn a_false_down_kills_nothing(seed: u64, watcher: &str, peer: &str, seconds: u32) {
+    let team = Team::grid(seed, SimConfig::default(), 2, 2);
+    team.run(1.0);
+    let (watcher, peer) = (addr(watcher), addr(peer));
+    let name = module_object_name(&peer);
+    let member = team.members.iter().find(|m| m.address == watcher).unwrap();
+    let alive = || member.board.read(&name, "alive").map(|p| p.value).ok();
+    assert_eq!(alive(), Some(Value::Bool(true)));
+    team.net.false_down(&watcher, &peer);
+    for _ in 0..seconds * 10 {
+        assert_eq!(
+            alive(),
+            Some(Value::Bool(true)),
+            "{peer} marked dead on {watcher}"
+        );
+        team.run(0.1);
+    }
+    assert_eq!(member.ici.stats().liveliness.lost, 0);
+}
+
+#[test]
+fn a_transport_down_does_not_kill_a_mate_still_heard() {
+    a_false_down_kills_nothing(33, "t/r0/m0", "t/r0/m1", 3);
+}
+
+#[test]
+fn a_transport_down_does_not_kill_a_remote_module_still_heard() {
+    a_false_down_kills_nothing(34, "t/r0/m0", "t/r1/m0", 8);
+}
+
+#[test]
+fn a_transport_down_of_a_module_that_went_silent_kills_it_after_the_timeout() {
+    // The lease is longer than the test: the only down is the one given below.
+    let config = SimConfig {
+        lease: secs(1000.0),
+        ..SimConfig::default()
+    };
+    let team = Team::grid(35, config, 1, 2);
+    team.run(1.0);
+    let (watcher, victim) = (addr("t/r0/m0"), addr("t/r0/m1"));
+    team.net.kill(&victim);
+    team.net.false_down(&watcher, &victim);
+    let name = module_object_name(&victim);
+    let alive = || team.board("t/r0/m0").read(&name, "alive").unwrap().value;
+    team.run(2.0);
+    assert_eq!(alive(), Value::Bool(false));
+}
+
 #[test]
 fn a_silent_module_is_declared_dead_by_the_heartbeat_timeout() {
     // The transport never reports it down (a lease longer than the test): only the

@@ -103,6 +103,16 @@ impl SimNet {
         self.net.lock().drop_next_publish(from, receivers);
     }
 
+    /// Test hook: the transport at `to` tells its handler, now, that `peer` went down,
+    /// while the two still reach each other and exchange messages, as Zenoh does when a
+    /// liveliness token is withdrawn by a session or route that failed elsewhere. No up
+    /// follows: the transport still counts the peer as up.
+    #[cfg(feature = "testing")]
+    pub fn false_down(&self, to: &Address, peer: &Address) {
+        let calls = self.net.lock().false_down(to, peer);
+        Self::call(calls);
+    }
+
     /// A new endpoint at `address`. Joining an address already in use restarts it: the
     /// old endpoint is dead from now on, and peers see it go down and come up again.
     pub fn join(&self, address: &Address) -> Arc<SimTransport> {
@@ -208,6 +218,11 @@ impl SimNet {
                 Action::Review { to, peer } => net.review(to, &peer),
             }
         };
+        Self::call(calls);
+    }
+
+    /// Calls the handlers, with no lock held.
+    fn call(calls: Vec<Call>) {
         for call in calls {
             match call {
                 Call::Message(handler, from, payload) => handler.message(&from, &payload),

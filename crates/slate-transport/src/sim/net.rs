@@ -290,6 +290,18 @@ impl Net {
             .collect()
     }
 
+    /// A peer-down event for `peer` at the endpoint at `to`, though both are alive and
+    /// reach each other; their views are left as they are. Nothing when `to` is unknown
+    /// or has no handler.
+    #[cfg(feature = "testing")]
+    pub fn false_down(&mut self, to: &Address, peer: &Address) -> Vec<Call> {
+        let Some(index) = self.current.get(to).copied() else {
+            return Vec::new();
+        };
+        let handler = self.endpoints[index].handler.clone();
+        handler.map_or_else(Vec::new, |h| vec![Call::Peer(h, peer.clone(), false)])
+    }
+
     /// Starts or stops `index`'s reception of publications on `link`.
     pub fn listen(&mut self, index: usize, link: LinkKind, on: bool) {
         let ep = &mut self.endpoints[index];
