@@ -15,6 +15,9 @@ mod launch;
 // Teams of two and three `slate node` processes: reports, plans, a late joiner, shutdown.
 #[path = "cli/multi.rs"]
 mod multi;
+// `slate hz`, `stats` and `bw` against a two-node team written at a known rate.
+#[path = "cli/observe.rs"]
+mod observe;
 // Verbs that need no team: `check`, `bench`, `help`, and argument errors.
 #[path = "cli/offline.rs"]
 mod offline;

@@ -124,6 +124,15 @@ pub enum ObserveError {
     /// The observer's node did not start.
     #[error("{0}")]
     Start(#[from] StartError),
+    /// A module filter is not `TEAM[/ROBOT[/MODULE]]` (segments of letters, digits, `_`,
+    /// `-`, or `*`).
+    #[error(
+        "{filter:?} is not a module address: expected TEAM, TEAM/ROBOT or TEAM/ROBOT/MODULE, like team/r1/nav"
+    )]
+    BadFilter {
+        /// The filter given.
+        filter: String,
+    },
 }
 
 /// Any error a program running nodes meets: a config, a start, an observer, the ICI, a

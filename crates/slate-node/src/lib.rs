@@ -50,6 +50,7 @@ mod monitor;
 mod node;
 mod observer;
 pub mod record;
+pub mod stats;
 mod timers;
 mod view;
 
@@ -61,4 +62,5 @@ pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};
 pub use record::{RecordConfig, RecordError, RecordStats};
 pub use slate_dashboard::STALE_AFTER_S;
+pub use stats::{ModuleStats, StatsProbe, query_stats};
 pub use timers::TICK;

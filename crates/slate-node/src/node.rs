@@ -13,6 +13,7 @@ use slate_ici::{
 use slate_model::{Address, Board, Clock};
 use slate_plans::{Engine, LinkName, LoadError, Loaded};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
+use zenoh::query::Queryable;
 
 use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
@@ -186,9 +187,11 @@ impl NodeBuilder {
         for (name, policy) in engine.link_policies() {
             LinkPolicy::from(&policy).apply_to(link_kind(name), &mut ici_config);
         }
+        let mut zenoh = None;
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
+                zenoh = Some(t.clone());
                 (t, config.listen.clone())
             }
             TransportChoice::Custom(t) => (t, Vec::new()),
@@ -217,6 +220,7 @@ impl NodeBuilder {
                 timers,
                 dashboard: None,
                 recorder: None,
+                stats: None,
             }),
             closed: AtomicBool::new(false),
         };
@@ -227,6 +231,9 @@ impl NodeBuilder {
             return Err(e.into());
         }
         node.started();
+        if let Some(z) = zenoh {
+            node.serve_stats(&z);
+        }
         if let Some(addr) = self.dashboard {
             let dashboard = slate_dashboard::serve(addr, node.view.clone());
             match dashboard {
@@ -278,6 +285,8 @@ struct Threads {
     timers: Option<Timers>,
     dashboard: Option<Dashboard>,
     recorder: Option<Recorder>,
+    /// The queryable answering `slate stats` (on Zenoh only).
+    stats: Option<Queryable<()>>,
 }
 
 /// One module of a robot: a [`Board`], its plan [`Engine`], its [`Ici`] over a
@@ -440,6 +449,15 @@ impl Node {
         self.threads.lock().recorder.as_ref().map(Recorder::stats)
     }
 
+    /// Answers stats queries on `zenoh` (`crate::stats`); a node that cannot still runs,
+    /// and says so.
+    fn serve_stats(&self, zenoh: &ZenohTransport) {
+        match crate::stats::serve(zenoh.session(), &self.view) {
+            Ok(q) => self.threads.lock().stats = Some(q),
+            Err(e) => tracing::warn!("slate stats will not see this node: {e}"),
+        }
+    }
+
     /// Has it been closed?
     pub fn is_closed(&self) -> bool {
         self.closed.load(Ordering::Acquire)
@@ -456,6 +474,7 @@ impl Node {
         if let Some(d) = threads.dashboard.take() {
             d.stop();
         }
+        drop(threads.stats.take());
         if let Some(mut t) = threads.timers.take() {
             t.stop();
         }

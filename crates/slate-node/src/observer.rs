@@ -9,6 +9,7 @@
 //! has been dead for the ICI's `forget_dead` (10 min by default).
 
 use std::collections::BTreeSet;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use slate_ici::{ClassSet, IciConfig, Transport};
@@ -147,34 +148,56 @@ fn unreachable_unless_malformed(e: OpenError, options: &ObserverOptions) -> Obse
 /// The slate modules alive on the Zenoh network reachable through `connect`, of every
 /// team, found by their liveliness tokens within `wait`.
 pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>, ObserveError> {
-    let deadline = Instant::now() + wait;
-    let probe_address = Address::new(&format!("slate-probe/cli/p{}", std::process::id()))
-        .unwrap_or_else(|_| Address::unknown());
     let unreachable = || ObserveError::NoModules {
         endpoints: connect.join(", "),
         seconds: wait.as_secs_f64(),
     };
-    // A client that reaches no node fails to open; a malformed endpoint is no such case.
-    let probe = ZenohTransport::open(probe_address.clone(), &zenoh_config(connect)).map_err(
-        |e| match e {
-            OpenError::Endpoint(_) => ObserveError::Open(e),
-            _ => unreachable(),
-        },
-    )?;
-    let mut found = BTreeSet::new();
-    while found.is_empty() && Instant::now() < deadline {
-        let left = deadline.saturating_duration_since(Instant::now());
-        found = query_alive(&probe, left.min(Duration::from_millis(500)));
-        found.remove(&probe_address);
-        if found.is_empty() {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
+    let probe = open_probe(connect, wait)?;
+    let found = alive_within(&probe, wait);
     probe.close();
     if found.is_empty() {
         return Err(unreachable());
     }
     Ok(found)
+}
+
+/// The modules `probe` finds alive (itself left out): the first liveliness query that
+/// finds any within `wait`, asked again every 50 ms until then; empty if none did.
+pub(crate) fn alive_within(probe: &ZenohTransport, wait: Duration) -> BTreeSet<Address> {
+    let deadline = Instant::now() + wait;
+    let mut found = BTreeSet::new();
+    while found.is_empty() && Instant::now() < deadline {
+        let left = deadline.saturating_duration_since(Instant::now());
+        found = query_alive(probe, left.min(Duration::from_millis(500)));
+        found.remove(&probe_address());
+        if found.is_empty() {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    found
+}
+
+/// The address of a probe: a team of its own, so that no module takes it for a mate.
+fn probe_address() -> Address {
+    Address::new(&format!("slate-probe/cli/p{}", std::process::id()))
+        .unwrap_or_else(|_| Address::unknown())
+}
+
+/// A bare Zenoh client of the nodes at `connect`, for queries (liveliness, counters).
+/// A client that reaches no node fails to open, which says nobody answered; a malformed
+/// endpoint says so itself.
+/// (`wait` is how long the caller was to wait, for the error.)
+pub(crate) fn open_probe(
+    connect: &[String],
+    wait: Duration,
+) -> Result<Arc<ZenohTransport>, ObserveError> {
+    ZenohTransport::open(probe_address(), &zenoh_config(connect)).map_err(|e| match e {
+        OpenError::Endpoint(_) => ObserveError::Open(e),
+        _ => ObserveError::NoModules {
+            endpoints: connect.join(", "),
+            seconds: wait.as_secs_f64(),
+        },
+    })
 }
 
 /// One liveliness query for every slate module of every team.

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod check;
 pub mod demo;
 pub mod get;
+pub mod hz;
 pub mod launch;
 mod live;
 pub mod ls;
@@ -13,6 +14,7 @@ pub mod plan;
 pub mod play;
 pub mod put;
 pub mod record;
+pub mod stats;
 pub mod tree;
 pub mod watch;
 
