@@ -82,6 +82,8 @@ pub enum Command {
     /// json`, one JSON object) and one when it stops.
     ///
     /// Example: slate node --config nav.toml --log info,slate_ici=debug
+    ///
+    /// Example: slate node --config nav.toml --foxglove 127.0.0.1:8765
     Node(NodeArgs),
 
     /// Print the class tree of a live team, or of .slate files.
@@ -311,6 +313,11 @@ pub struct NodeArgs {
     /// The module's TOML config.
     #[arg(long, short, value_name = "FILE")]
     pub config: std::path::PathBuf,
+
+    /// Serve the Foxglove WebSocket protocol here, like 127.0.0.1:8765 (overrides the
+    /// config's `foxglove`): one channel per class, objects with a position on /slate/scene.
+    #[arg(long, value_name = "ADDR")]
+    pub foxglove: Option<std::net::SocketAddr>,
 }
 
 /// Arguments of `slate tree`.

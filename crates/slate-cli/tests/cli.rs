@@ -9,6 +9,9 @@ mod demo;
 // Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit.
 #[path = "cli/errors.rs"]
 mod errors;
+// `slate node --foxglove`: a Foxglove WebSocket client's channels, schemas and packets.
+#[path = "cli/foxglove.rs"]
+mod foxglove;
 // `slate launch`: the example teams as processes, restarts, SIGTERM, `--check`.
 #[path = "cli/launch.rs"]
 mod launch;

@@ -51,6 +51,8 @@ pub struct NodeConfig {
     pub ici: IciConfig,
     /// Where to serve the dashboard, if anywhere.
     pub dashboard: Option<SocketAddr>,
+    /// Where to serve the Foxglove WebSocket protocol, if anywhere (docs/foxglove.md).
+    pub foxglove: Option<SocketAddr>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
 }
@@ -81,6 +83,7 @@ const TOP: &[&str] = &[
     "interest",
     "export",
     "dashboard",
+    "foxglove",
     "zenoh",
     "zenoh_config",
     "ici",
@@ -119,6 +122,7 @@ impl NodeConfig {
             files: Vec::new(),
             ici: IciConfig::default(),
             dashboard: None,
+            foxglove: None,
             record: None,
         }
     }
@@ -151,6 +155,7 @@ impl NodeConfig {
             config.ici.export = read_class_set(&top, "export", &list)?;
         }
         config.dashboard = dashboard(&mut top)?;
+        config.foxglove = foxglove(&mut top)?;
         if let Some(zenoh) = top.table("zenoh", ZENOH)? {
             config.zenoh = zenoh_section(zenoh)?;
         }
@@ -250,6 +255,17 @@ fn dashboard(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
     text.parse()
         .map(Some)
         .map_err(|_| top.invalid("dashboard", EXPECTED, &format!("{text:?}")))
+}
+
+fn foxglove(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
+    const EXPECTED: &str =
+        "an address to serve Foxglove's WebSocket protocol on, like \"127.0.0.1:8765\"";
+    let Some(text) = top.str("foxglove", EXPECTED)? else {
+        return Ok(None);
+    };
+    text.parse()
+        .map(Some)
+        .map_err(|_| top.invalid("foxglove", EXPECTED, &format!("{text:?}")))
 }
 
 /// `record = "FILE.mcap"`, with its `[recording]` settings.
@@ -542,6 +558,10 @@ mod tests {
             (
                 "address = \"t/r/m\"\ndashboard = \"localhost\"",
                 "m.toml: key `dashboard`: expected an address to serve the dashboard on",
+            ),
+            (
+                "address = \"t/r/m\"\nfoxglove = \"localhost\"",
+                "m.toml: key `foxglove`: expected an address to serve Foxglove's WebSocket protocol on",
             ),
             (
                 "address = \"t/r/m\"\n[ici]\nquiet = 5",

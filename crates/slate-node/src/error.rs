@@ -96,6 +96,9 @@ pub enum StartError {
     /// The recording (`record` in the config) did not start.
     #[error("cannot record: {0}")]
     Record(#[from] crate::record::RecordError),
+    /// The Foxglove server (`foxglove` in the config) did not start.
+    #[error(transparent)]
+    Foxglove(#[from] crate::foxglove::FoxgloveError),
 }
 
 /// Why an observer could not join a live team.

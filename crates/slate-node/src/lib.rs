@@ -45,6 +45,7 @@
 mod config;
 mod error;
 mod fields;
+mod foxglove;
 pub mod inspect;
 mod monitor;
 mod node;
@@ -57,6 +58,7 @@ mod view;
 pub use config::{NodeConfig, SourceFile, class_set, parse_toml, read_text};
 pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;
+pub use foxglove::{FoxgloveError, SCENE_TOPIC};
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{OBSERVER_PREFIX, ObserverOptions, discover, is_observer, observe};

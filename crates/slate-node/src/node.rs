@@ -17,6 +17,7 @@ use zenoh::query::Queryable;
 
 use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
+use crate::foxglove::Foxglove;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
 use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
 use crate::timers::Timers;
@@ -67,6 +68,7 @@ pub struct NodeBuilder {
     ici: IciConfig,
     sources: Vec<Source>,
     dashboard: Option<SocketAddr>,
+    foxglove: Option<SocketAddr>,
     record: Option<RecordConfig>,
 }
 
@@ -82,6 +84,7 @@ impl NodeBuilder {
             ici: IciConfig::default(),
             sources: Vec::new(),
             dashboard: None,
+            foxglove: None,
             record: None,
         }
     }
@@ -136,6 +139,13 @@ impl NodeBuilder {
             name: name.to_owned(),
             text: text.to_owned(),
         });
+        self
+    }
+
+    /// Serves the Foxglove WebSocket protocol on `addr` (port 0: any free port, see
+    /// [`Node::foxglove_addr`]): docs/foxglove.md.
+    pub fn foxglove(mut self, addr: SocketAddr) -> Self {
+        self.foxglove = Some(addr);
         self
     }
 
@@ -221,6 +231,7 @@ impl NodeBuilder {
                 dashboard: None,
                 recorder: None,
                 stats: None,
+                foxglove: None,
             }),
             closed: AtomicBool::new(false),
         };
@@ -233,6 +244,15 @@ impl NodeBuilder {
         node.started();
         if let Some(z) = zenoh {
             node.serve_stats(&z);
+        }
+        if let Some(addr) = self.foxglove {
+            match Foxglove::start(addr, &node.view.board) {
+                Ok(f) => node.threads.lock().foxglove = Some(f),
+                Err(e) => {
+                    node.close();
+                    return Err(e.into());
+                }
+            }
         }
         if let Some(addr) = self.dashboard {
             let dashboard = slate_dashboard::serve(addr, node.view.clone());
@@ -287,6 +307,7 @@ struct Threads {
     recorder: Option<Recorder>,
     /// The queryable answering `slate stats` (on Zenoh only).
     stats: Option<Queryable<()>>,
+    foxglove: Option<Foxglove>,
 }
 
 /// One module of a robot: a [`Board`], its plan [`Engine`], its [`Ici`] over a
@@ -331,6 +352,9 @@ impl Node {
         }
         if let Some(d) = config.dashboard {
             b = b.dashboard(d);
+        }
+        if let Some(f) = config.foxglove {
+            b = b.foxglove(f);
         }
         if let Some(r) = &config.record {
             b = b.record(r.clone());
@@ -406,6 +430,11 @@ impl Node {
         &self.view.listen
     }
 
+    /// Where its Foxglove server listens, if it serves one.
+    pub fn foxglove_addr(&self) -> Option<SocketAddr> {
+        self.threads.lock().foxglove.as_ref().map(Foxglove::addr)
+    }
+
     /// The dashboard's URL, if it serves one.
     pub fn dashboard_url(&self) -> Option<String> {
         self.threads.lock().dashboard.as_ref().map(Dashboard::url)
@@ -475,6 +504,9 @@ impl Node {
             d.stop();
         }
         drop(threads.stats.take());
+        if let Some(mut f) = threads.foxglove.take() {
+            f.stop();
+        }
         if let Some(mut t) = threads.timers.take() {
             t.stop();
         }

@@ -12,15 +12,19 @@ use crate::logging::Logs;
 
 /// Starts the node, says where it listens, waits for a signal, stops cleanly.
 pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitCode> {
-    let config = NodeConfig::read(&args.config)?;
+    let mut config = NodeConfig::read(&args.config)?;
+    if let Some(addr) = args.foxglove {
+        config.foxglove = Some(addr);
+    }
     let signals = interrupted()?;
     let node = logs.quiet_zenoh(|| Node::start(&config))?;
     let dashboard = node.dashboard_url();
+    let foxglove = node.foxglove_addr().map(|a| format!("ws://{a}"));
     match format {
         Format::Json => print_line(&json!({
             "event": "ready", "address": node.address().as_str(),
             "listening": node.listening(), "connect": config.zenoh.connect,
-            "dashboard": dashboard, "pid": std::process::id(),
+            "dashboard": dashboard, "foxglove": foxglove, "pid": std::process::id(),
             "record": config.record.as_ref().map(|r| r.path.display().to_string()),
         }))?,
         Format::Text => {
@@ -29,8 +33,9 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
                 l => l.join(", "),
             };
             let dashboard = dashboard.map_or(String::new(), |u| format!("; dashboard at {u}"));
+            let foxglove = foxglove.map_or(String::new(), |u| format!("; Foxglove at {u}"));
             println!(
-                "slate node {}: listening on {listening}{dashboard}",
+                "slate node {}: listening on {listening}{dashboard}{foxglove}",
                 node.address()
             );
         }
