@@ -16,7 +16,7 @@ use slate_ici::{IciStats, LinkKind, MsgKind, Traffic, Transport};
 use slate_model::Address;
 use slate_zenoh::keys;
 use zenoh::Wait;
-use zenoh::query::{Query, Queryable};
+use zenoh::query::{Query, QueryTarget, Queryable};
 
 use crate::error::ObserveError;
 use crate::observer::{alive_within, is_observer, open_probe};
@@ -324,7 +324,14 @@ fn matches(key: &str, address: &Address) -> bool {
 
 /// One query on `key`; the answers that parse, observers left out, sorted by address.
 fn ask(probe: &slate_zenoh::ZenohTransport, key: &str, timeout: Duration) -> Vec<ModuleStats> {
-    let Ok(replies) = probe.session().get(key).timeout(timeout).wait() else {
+    // Every matching queryable, one per module (not Zenoh's "best matching" one).
+    let Ok(replies) = probe
+        .session()
+        .get(key)
+        .target(QueryTarget::All)
+        .timeout(timeout)
+        .wait()
+    else {
         return Vec::new();
     };
     let mut out: Vec<ModuleStats> = Vec::new();
