@@ -23,7 +23,7 @@ fn main() -> ExitCode {
     } else {
         logging::OBSERVER
     };
-    let logs = match logging::init(cli.log.as_deref(), default) {
+    let logs = match logging::init(cli.log.as_deref(), default, cli.log_format) {
         Ok(logs) => logs,
         Err(e) => {
             eprintln!("slate: error: {e}");
