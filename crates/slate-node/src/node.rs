@@ -445,6 +445,13 @@ impl Node {
         self.view.log.events()
     }
 
+    /// Every event logged from now on (peers up and down, plan progress, conflicts,
+    /// failed functions), as it is logged; a follower that falls 1024 events behind
+    /// misses the newer ones.
+    pub fn follow_events(&self) -> crossbeam_channel::Receiver<NodeEvent> {
+        self.view.log.follow()
+    }
+
     /// The dashboard's view of this node, as JSON (`docs/dashboard.md`).
     pub fn snapshot(&self) -> serde_json::Value {
         self.view.snapshot()

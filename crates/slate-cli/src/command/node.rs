@@ -10,7 +10,8 @@ use crate::cli::{Format, NodeArgs};
 use crate::command::live::{interrupted, print_line};
 use crate::logging::Logs;
 
-/// Starts the node, says where it listens, waits for a signal, stops cleanly.
+/// Starts the node, says where it listens, waits for a signal (with `--format json`,
+/// printing each event of its log meanwhile), stops cleanly.
 pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitCode> {
     let mut config = NodeConfig::read(&args.config)?;
     if let Some(addr) = args.foxglove {
@@ -40,7 +41,7 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
             );
         }
     }
-    let _ = signals.recv();
+    stream_events(&node, format, signals)?;
     let peers = node.peers().len();
     let revision = node.board().revision();
     node.close();
@@ -52,4 +53,33 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
         Format::Text => println!("slate node {}: stopped", node.address()),
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Waits for SIGINT or SIGTERM; with `--format json`, prints each event the node logs
+/// meanwhile as one line: `{"event": "news", "time", "level", "text"}` (peers up and down,
+/// plan progress, conflicts; the same sentences its log on stderr has).
+fn stream_events(
+    node: &Node,
+    format: Format,
+    signals: &crossbeam_channel::Receiver<()>,
+) -> anyhow::Result<()> {
+    if format == Format::Text {
+        let _ = signals.recv();
+        return Ok(());
+    }
+    let events = node.follow_events();
+    loop {
+        crossbeam_channel::select! {
+            recv(signals) -> _ => return Ok(()),
+            recv(events) -> e => match e {
+                Ok(e) => print_line(&json!({
+                    "event": "news", "time": e.time, "level": e.level, "text": e.text,
+                }))?,
+                Err(_) => {
+                    let _ = signals.recv();
+                    return Ok(());
+                }
+            },
+        }
+    }
 }
