@@ -7,5 +7,10 @@ cd "$(dirname "$0")/.."
 source scripts/lib.sh
 need_cargo
 
-step "building slate (release) and running the demo"
+# The build is visible (cargo prints each crate it compiles, and a progress bar on a
+# terminal): on a fresh machine it takes minutes, which must not look like a hang.
+step "building slate (release; the first build takes a few minutes)"
+cargo build --release -p slate-cli
+
+step "running the demo"
 cargo run --release -q -p slate-cli -- demo "$@"

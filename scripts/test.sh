@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs every test of slate: formatting, lints, the Rust test suites (unit, integration,
 # property, doc, example, transport conformance over the simulator and over Zenoh on
-# 127.0.0.1, the dashboard in headless Chromium), then the Python package's tests.
+# 127.0.0.1, the dashboard in headless Chromium), then the Python package's tests, and
+# `pip install ./python` in a fresh virtualenv.
 # CI runs exactly this (.ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,3 +21,6 @@ cargo test --workspace
 
 step "python package: build with maturin, then pytest"
 bash python/build.sh
+
+step "python package: pip install ./python in a fresh virtualenv, then a board and two nodes"
+bash python/install/check.sh

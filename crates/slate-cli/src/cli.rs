@@ -16,6 +16,11 @@ pub struct Cli {
     #[arg(long, global = true, value_name = "FILTER")]
     pub log: Option<String>,
 
+    /// How log lines on stderr are written: readable text, or one JSON object per line
+    /// (tracing-subscriber's JSON: timestamp, level, target, fields with the message).
+    #[arg(long, global = true, value_enum, default_value_t = LogFormat::Text)]
+    pub log_format: LogFormat,
+
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -27,6 +32,15 @@ pub enum Format {
     /// Human-readable text.
     Text,
     /// JSON: one object (one per line for the verbs that stream).
+    Json,
+}
+
+/// How log lines are written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LogFormat {
+    /// Human-readable lines.
+    Text,
+    /// One JSON object per line.
     Json,
 }
 
@@ -97,6 +111,8 @@ pub enum Command {
     /// error; --reset-state moves it aside.
     ///
     /// Example: slate node --config nav.toml --log info,slate_ici=debug
+    ///
+    /// Example: slate node --config nav.toml --foxglove 127.0.0.1:8765
     Node(NodeArgs),
 
     /// Print the class tree of a live team, or of .slate files.
@@ -170,6 +186,38 @@ pub enum Command {
     ///
     /// Example: slate record -o vehicles.mcap Vehicle Obstacle --max-size-mb 512
     Record(RecordArgs),
+
+    /// Show each module's counters: messages and bytes per second per link and message
+    /// kind, drops, catch-ups, peers.
+    ///
+    /// Asks every module reachable through `--connect` (or only ADDR: TEAM, TEAM/ROBOT or
+    /// TEAM/ROBOT/MODULE) for its ICI's counters twice, `--interval` apart, and prints the
+    /// rates between the two answers (measured by each module's own clock) beside the
+    /// totals. `--watch` goes on asking every interval until Ctrl-C. It joins no team: a
+    /// bare Zenoh client asks, and nothing is left on any board.
+    ///
+    /// Example: slate stats
+    ///
+    /// Example: slate stats team/r1/nav --watch --format json
+    Stats(StatsArgs),
+
+    /// Show each module's bytes per second on each link (robot and team), out and in.
+    ///
+    /// What `slate stats` measures, all message kinds together, one line per module and
+    /// link, like `ros2 topic bw`.
+    ///
+    /// Example: slate bw --watch
+    Bw(StatsArgs),
+
+    /// Show how often an attribute is written: rate, min/max/std of the intervals.
+    ///
+    /// Joins the team as an observer, watches OBJ.ATTR, and prints once a second, as
+    /// `ros2 topic hz` does, the rate over the last `--window` updates. Intervals are
+    /// those between the packets' stamps (when their source wrote them), so the network's
+    /// jitter does not show. Runs until Ctrl-C or `--count` reports.
+    ///
+    /// Example: slate hz gsr.position --window 50
+    Hz(HzArgs),
 
     /// Replay a recording: rebuild the recorded board on a manual clock, message by
     /// message, at the recorded pace (`--speed`), and print the board it ends with.
@@ -245,6 +293,59 @@ pub struct LiveArgs {
     pub operator: Option<String>,
 }
 
+/// Arguments of `slate stats` and `slate bw`.
+#[derive(Debug, clap::Args)]
+pub struct StatsArgs {
+    /// The modules to show: TEAM, TEAM/ROBOT or TEAM/ROBOT/MODULE (default: all).
+    #[arg(value_name = "ADDR")]
+    pub address: Option<String>,
+
+    /// Keep asking every interval until Ctrl-C (one JSON object per line with `--format json`).
+    #[arg(long)]
+    pub watch: bool,
+
+    /// Seconds between the two answers a rate is measured over.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
+    pub interval: f64,
+
+    /// Zenoh endpoint of a node to connect to (repeatable).
+    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
+    pub connect: Vec<String>,
+
+    /// Seconds to wait for the modules to answer (it goes on as soon as all have).
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 5.0,
+        allow_negative_numbers = true
+    )]
+    pub wait: f64,
+}
+
+/// Arguments of `slate hz`.
+#[derive(Debug, clap::Args)]
+pub struct HzArgs {
+    /// The attribute, `OBJ.ATTR`.
+    #[arg(value_name = "OBJ.ATTR")]
+    pub target: String,
+
+    /// How many of the last updates the figures are over.
+    #[arg(long, value_name = "N", default_value_t = 100, value_parser = clap::value_parser!(u64).range(2..=100_000))]
+    pub window: u64,
+
+    /// Stop after this many reports (default: at Ctrl-C).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub count: Option<u64>,
+
+    #[command(flatten)]
+    pub live: LiveArgs,
+}
+
 /// Arguments of `slate node`.
 #[derive(Debug, clap::Args)]
 pub struct NodeArgs {
@@ -257,6 +358,10 @@ pub struct NodeArgs {
     /// damaged or unwanted state.
     #[arg(long)]
     pub reset_state: bool,
+    /// Serve the Foxglove WebSocket protocol here, like 127.0.0.1:8765 (overrides the
+    /// config's `foxglove`): one channel per class, objects with a position on /slate/scene.
+    #[arg(long, value_name = "ADDR")]
+    pub foxglove: Option<std::net::SocketAddr>,
 }
 
 /// Arguments of `slate tree`.

@@ -1,10 +1,13 @@
 //! Logs on stderr through `tracing`: the filter comes from `--log`, else `RUST_LOG`, else
 //! the verb's default ([`NODE`] for `slate node`, [`OBSERVER`] for the others). Filters are
-//! `LEVEL` or `target=LEVEL` pairs, like `info,slate_ici=debug,zenoh=warn`.
+//! `LEVEL` or `target=LEVEL` pairs, like `info,slate_ici=debug,zenoh=warn`. Lines are
+//! text, or JSON objects with `--log-format json`.
 
 use std::io::IsTerminal;
 
 use anyhow::Context as _;
+
+use crate::cli::LogFormat;
 use tracing_subscriber::filter::Targets;
 use tracing_subscriber::prelude::*;
 use tracing_subscriber::{Registry, reload};
@@ -22,8 +25,9 @@ pub const OBSERVER: &str = "error,zenoh::net::protocol::gossip=off";
 /// Zenoh's messages while a node starts: errors only (and slate's own are unchanged).
 const QUIET_ZENOH: &str = "zenoh=error";
 
-/// Installs the subscriber; the handle narrows its filter while a node starts.
-pub fn init(flag: Option<&str>, default: &str) -> anyhow::Result<Logs> {
+/// Installs the subscriber, writing text or JSON lines; the handle narrows its filter
+/// while a node starts.
+pub fn init(flag: Option<&str>, default: &str, format: LogFormat) -> anyhow::Result<Logs> {
     let env = std::env::var("RUST_LOG")
         .ok()
         .filter(|s| !s.trim().is_empty());
@@ -36,12 +40,23 @@ pub fn init(flag: Option<&str>, default: &str) -> anyhow::Result<Logs> {
         format!("{from} {spec:?} is not a log filter (like `info` or `warn,slate_ici=debug`)")
     })?;
     let (filter, reload) = reload::Layer::new(targets);
-    let layer = tracing_subscriber::fmt::layer()
-        .with_writer(std::io::stderr)
-        .with_ansi(std::io::stderr().is_terminal())
-        .with_target(true);
+    let json = format == LogFormat::Json;
+    let text = (!json).then(|| {
+        tracing_subscriber::fmt::layer()
+            .with_writer(std::io::stderr)
+            .with_ansi(std::io::stderr().is_terminal())
+            .with_target(true)
+    });
+    let json = json.then(|| {
+        tracing_subscriber::fmt::layer()
+            .json()
+            .with_writer(std::io::stderr)
+            .with_target(true)
+    });
     tracing_subscriber::registry()
-        .with(layer.with_filter(filter))
+        .with(filter)
+        .with(text)
+        .with(json)
         .try_init()
         .context("cannot install the logger")?;
     Ok(Logs {

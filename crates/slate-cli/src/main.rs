@@ -23,7 +23,7 @@ fn main() -> ExitCode {
     } else {
         logging::OBSERVER
     };
-    let logs = match logging::init(cli.log.as_deref(), default) {
+    let logs = match logging::init(cli.log.as_deref(), default, cli.log_format) {
         Ok(logs) => logs,
         Err(e) => {
             eprintln!("slate: error: {e}");
@@ -46,6 +46,9 @@ fn main() -> ExitCode {
         Command::Watch(args) => command::watch::run(&args, format),
         Command::Record(args) => command::record::run(&args, format),
         Command::Play(args) => command::play::run(&args, format),
+        Command::Stats(args) => command::stats::run(&args, format),
+        Command::Bw(args) => command::stats::bw(&args, format),
+        Command::Hz(args) => command::hz::run(&args, format),
         Command::Plan(PlanCommand::Send(args)) => command::plan::send(&args, format),
         Command::Plan(PlanCommand::Ls(args)) => command::plan::ls(&args, format),
         Command::Plan(PlanCommand::Cancel(args)) => command::plan::cancel(&args, format),

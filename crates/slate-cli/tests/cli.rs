@@ -12,12 +12,18 @@ mod errors;
 // `slate keys`: a team's certificate authority and its members' keys.
 #[path = "cli/keys.rs"]
 mod keys;
+// `slate node --foxglove`: a Foxglove WebSocket client's channels, schemas and packets.
+#[path = "cli/foxglove.rs"]
+mod foxglove;
 // `slate launch`: the example teams as processes, restarts, SIGTERM, `--check`.
 #[path = "cli/launch.rs"]
 mod launch;
 // Teams of two and three `slate node` processes: reports, plans, a late joiner, shutdown.
 #[path = "cli/multi.rs"]
 mod multi;
+// `slate hz`, `stats` and `bw` against a two-node team written at a known rate.
+#[path = "cli/observe.rs"]
+mod observe;
 // Verbs that need no team: `check`, `bench`, `help`, and argument errors.
 #[path = "cli/offline.rs"]
 mod offline;

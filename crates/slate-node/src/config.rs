@@ -55,6 +55,8 @@ pub struct NodeConfig {
     /// The token the dashboard's clients must show (`?token=` or `Authorization: Bearer`);
     /// without one, a dashboard on an address other than loopback generates one.
     pub dashboard_token: Option<String>,
+    /// Where to serve the Foxglove WebSocket protocol, if anywhere (docs/foxglove.md).
+    pub foxglove: Option<SocketAddr>,
     /// Where to record the board, if anywhere (`record`, and `[recording]` for rotation).
     pub record: Option<RecordConfig>,
     /// Where to keep the board across restarts, if anywhere (`state`, and `[storage]`
@@ -93,6 +95,7 @@ const TOP: &[&str] = &[
     "export",
     "dashboard",
     "dashboard_token",
+    "foxglove",
     "zenoh",
     "zenoh_config",
     "ici",
@@ -139,6 +142,7 @@ impl NodeConfig {
             ici: IciConfig::default(),
             dashboard: None,
             dashboard_token: None,
+            foxglove: None,
             record: None,
             state: None,
             security: None,
@@ -174,6 +178,7 @@ impl NodeConfig {
         }
         config.dashboard = dashboard(&mut top)?;
         config.dashboard_token = dashboard_token(&mut top)?;
+        config.foxglove = foxglove(&mut top)?;
         if let Some(zenoh) = top.table("zenoh", ZENOH)? {
             config.zenoh = zenoh_section(zenoh)?;
         }
@@ -301,6 +306,18 @@ fn dashboard_token(top: &mut Fields) -> Result<Option<String>, ConfigError> {
         return Err(top.invalid("dashboard_token", EXPECTED, &found));
     }
     Ok(Some(token))
+}
+
+/// `foxglove = "ADDR"`: where to serve Foxglove's WebSocket protocol.
+fn foxglove(top: &mut Fields) -> Result<Option<SocketAddr>, ConfigError> {
+    const EXPECTED: &str =
+        "an address to serve Foxglove's WebSocket protocol on, like \"127.0.0.1:8765\"";
+    let Some(text) = top.str("foxglove", EXPECTED)? else {
+        return Ok(None);
+    };
+    text.parse()
+        .map(Some)
+        .map_err(|_| top.invalid("foxglove", EXPECTED, &format!("{text:?}")))
 }
 
 /// `record = "FILE.mcap"`, with its `[recording]` settings.
@@ -649,6 +666,10 @@ mod tests {
             (
                 "address = \"t/r/m\"\ndashboard_token = \"short\"",
                 "m.toml: key `dashboard_token`: expected a token of at least 16",
+            ),
+            (
+                "address = \"t/r/m\"\nfoxglove = \"localhost\"",
+                "m.toml: key `foxglove`: expected an address to serve Foxglove's WebSocket protocol on",
             ),
             (
                 "address = \"t/r/m\"\n[ici]\nquiet = 5",

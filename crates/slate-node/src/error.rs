@@ -102,6 +102,9 @@ pub enum StartError {
     /// The team's keys (`[security]` in the config) cannot be used.
     #[error("cannot use the team's keys: {0}")]
     Keys(#[from] crate::team_keys::KeysError),
+    /// The Foxglove server (`foxglove` in the config) did not start.
+    #[error(transparent)]
+    Foxglove(#[from] crate::foxglove::FoxgloveError),
 }
 
 /// Why an observer could not join a live team.
@@ -140,6 +143,15 @@ pub enum ObserveError {
         address: slate_model::Address,
         /// The operator.
         identity: crate::team_keys::Identity,
+    },
+    /// A module filter is not `TEAM[/ROBOT[/MODULE]]` (segments of letters, digits, `_`,
+    /// `-`, or `*`).
+    #[error(
+        "{filter:?} is not a module address: expected TEAM, TEAM/ROBOT or TEAM/ROBOT/MODULE, like team/r1/nav"
+    )]
+    BadFilter {
+        /// The filter given.
+        filter: String,
     },
 }
 

@@ -45,12 +45,14 @@
 mod config;
 mod error;
 mod fields;
+mod foxglove;
 pub mod inspect;
 mod monitor;
 mod node;
 mod observer;
 pub mod record;
 pub mod state;
+pub mod stats;
 pub mod team_keys;
 mod timers;
 mod view;
@@ -58,6 +60,7 @@ mod view;
 pub use config::{NodeConfig, SourceFile, class_set, parse_toml, read_text};
 pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;
+pub use foxglove::{FoxgloveError, SCENE_TOPIC};
 pub use monitor::{Level, NodeEvent};
 pub use node::{Node, NodeBuilder, TransportChoice};
 pub use observer::{
@@ -66,4 +69,5 @@ pub use observer::{
 pub use record::{RecordConfig, RecordError, RecordStats};
 pub use slate_dashboard::STALE_AFTER_S;
 pub use state::{StateConfig, StateError, StateStats};
+pub use stats::{ModuleStats, StatsProbe, query_stats};
 pub use timers::TICK;

@@ -40,9 +40,12 @@ pub struct NodeEvent {
     pub text: String,
 }
 
-/// The last [`KEEP`] events.
+/// The last [`KEEP`] events, and the channels of those who follow them as they come.
 #[derive(Default)]
-pub(crate) struct EventLog(Mutex<VecDeque<NodeEvent>>);
+pub(crate) struct EventLog(Mutex<VecDeque<NodeEvent>>, Mutex<Vec<Sender<NodeEvent>>>);
+
+/// Events a follower may have waiting before newer ones are dropped for it.
+const FOLLOW_QUEUE: usize = 1024;
 
 impl EventLog {
     pub fn push(&self, board: &Board, level: Level, text: String) {
@@ -56,7 +59,29 @@ impl EventLog {
         if log.len() == KEEP {
             log.pop_front();
         }
-        log.push_back(NodeEvent { time, level, text });
+        let event = NodeEvent { time, level, text };
+        log.push_back(event.clone());
+        drop(log);
+        self.tell_followers(&event);
+    }
+
+    /// Every event from now on, as it is logged; a follower that lets [`FOLLOW_QUEUE`]
+    /// wait misses the newer ones (nothing waits for it, nothing grows).
+    pub fn follow(&self) -> Receiver<NodeEvent> {
+        let (tx, rx) = crossbeam_channel::bounded(FOLLOW_QUEUE);
+        self.1.lock().push(tx);
+        rx
+    }
+
+    /// Hands `event` to each follower; forgets those that hung up.
+    fn tell_followers(&self, event: &NodeEvent) {
+        use crossbeam_channel::TrySendError;
+        self.1.lock().retain(|tx| {
+            !matches!(
+                tx.try_send(event.clone()),
+                Err(TrySendError::Disconnected(_))
+            )
+        });
     }
 
     pub fn events(&self) -> Vec<NodeEvent> {

@@ -13,9 +13,11 @@ use slate_ici::{
 use slate_model::{Address, Board, Clock};
 use slate_plans::{Engine, LinkName, LoadError, Loaded};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
+use zenoh::query::Queryable;
 
 use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
+use crate::foxglove::Foxglove;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
 use crate::record::{RecordConfig, RecordError, RecordStats, Recorder};
 use crate::state::{Keeper, Restored, StateConfig, StateError, StateStats, Store};
@@ -69,6 +71,7 @@ pub struct NodeBuilder {
     sources: Vec<Source>,
     dashboard: Option<SocketAddr>,
     dashboard_token: Option<String>,
+    foxglove: Option<SocketAddr>,
     record: Option<RecordConfig>,
     state: Option<StateConfig>,
 }
@@ -86,6 +89,7 @@ impl NodeBuilder {
             sources: Vec::new(),
             dashboard: None,
             dashboard_token: None,
+            foxglove: None,
             record: None,
             state: None,
         }
@@ -141,6 +145,13 @@ impl NodeBuilder {
             name: name.to_owned(),
             text: text.to_owned(),
         });
+        self
+    }
+
+    /// Serves the Foxglove WebSocket protocol on `addr` (port 0: any free port, see
+    /// [`Node::foxglove_addr`]): docs/foxglove.md.
+    pub fn foxglove(mut self, addr: SocketAddr) -> Self {
+        self.foxglove = Some(addr);
         self
     }
 
@@ -214,11 +225,13 @@ impl NodeBuilder {
         for (name, policy) in engine.link_policies() {
             LinkPolicy::from(&policy).apply_to(link_kind(name), &mut ici_config);
         }
+        let mut zenoh = None;
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
                 // Once open: a start that fails is one error line (docs/cli.md).
                 say_how_secured(&self.address, &config);
+                zenoh = Some(t.clone());
                 (t, config.listen.clone())
             }
             TransportChoice::Custom(t) => (t, Vec::new()),
@@ -248,6 +261,8 @@ impl NodeBuilder {
                 dashboard: None,
                 recorder: None,
                 keeper,
+                stats: None,
+                foxglove: None,
             }),
             restored,
             closed: AtomicBool::new(false),
@@ -259,6 +274,18 @@ impl NodeBuilder {
             return Err(e.into());
         }
         node.started();
+        if let Some(z) = zenoh {
+            node.serve_stats(&z);
+        }
+        if let Some(addr) = self.foxglove {
+            match Foxglove::start(addr, &node.view.board) {
+                Ok(f) => node.threads.lock().foxglove = Some(f),
+                Err(e) => {
+                    node.close();
+                    return Err(e.into());
+                }
+            }
+        }
         if let Some(addr) = self.dashboard {
             let token = self.dashboard_token;
             let dashboard = slate_dashboard::serve_with_token(addr, node.view.clone(), token);
@@ -322,6 +349,9 @@ struct Threads {
     dashboard: Option<Dashboard>,
     recorder: Option<Recorder>,
     keeper: Option<Keeper>,
+    /// The queryable answering `slate stats` (on Zenoh only).
+    stats: Option<Queryable<()>>,
+    foxglove: Option<Foxglove>,
 }
 
 /// One module of a robot: a [`Board`], its plan [`Engine`], its [`Ici`] over a
@@ -380,6 +410,9 @@ impl Node {
         }
         if let Some(token) = &config.dashboard_token {
             b = b.dashboard_token(token.clone());
+        }
+        if let Some(f) = config.foxglove {
+            b = b.foxglove(f);
         }
         if let Some(r) = &config.record {
             b = b.record(r.clone());
@@ -465,6 +498,11 @@ impl Node {
         &self.view.listen
     }
 
+    /// Where its Foxglove server listens, if it serves one.
+    pub fn foxglove_addr(&self) -> Option<SocketAddr> {
+        self.threads.lock().foxglove.as_ref().map(Foxglove::addr)
+    }
+
     /// The dashboard's URL, if it serves one.
     pub fn dashboard_url(&self) -> Option<String> {
         self.threads.lock().dashboard.as_ref().map(Dashboard::url)
@@ -473,6 +511,13 @@ impl Node {
     /// The last events: peers up and down, plan progress, failed active functions.
     pub fn events(&self) -> Vec<NodeEvent> {
         self.view.log.events()
+    }
+
+    /// Every event logged from now on (peers up and down, plan progress, conflicts,
+    /// failed functions), as it is logged; a follower that falls 1024 events behind
+    /// misses the newer ones.
+    pub fn follow_events(&self) -> crossbeam_channel::Receiver<NodeEvent> {
+        self.view.log.follow()
     }
 
     /// The dashboard's view of this node, as JSON (`docs/dashboard.md`).
@@ -519,6 +564,15 @@ impl Node {
         self.view.state.as_ref().map(|s| s.lock().clone())
     }
 
+    /// Answers stats queries on `zenoh` (`crate::stats`); a node that cannot still runs,
+    /// and says so.
+    fn serve_stats(&self, zenoh: &ZenohTransport) {
+        match crate::stats::serve(zenoh.session(), &self.view) {
+            Ok(q) => self.threads.lock().stats = Some(q),
+            Err(e) => tracing::warn!("slate stats will not see this node: {e}"),
+        }
+    }
+
     /// Has it been closed?
     pub fn is_closed(&self) -> bool {
         self.closed.load(Ordering::Acquire)
@@ -534,6 +588,10 @@ impl Node {
         let mut threads = self.threads.lock();
         if let Some(d) = threads.dashboard.take() {
             d.stop();
+        }
+        drop(threads.stats.take());
+        if let Some(mut f) = threads.foxglove.take() {
+            f.stop();
         }
         if let Some(mut t) = threads.timers.take() {
             t.stop();

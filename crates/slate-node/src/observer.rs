@@ -9,6 +9,7 @@
 //! has been dead for the ICI's `forget_dead` (10 min by default).
 
 use std::collections::BTreeSet;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use slate_ici::{ClassSet, IciConfig, Transport};
@@ -194,9 +195,44 @@ pub fn discover(connect: &[String], wait: Duration) -> Result<BTreeSet<Address>,
     discover_with(connect, wait, None)
 }
 
-/// The probe's address: `slate-probe/cli/pPID`, or for an operator one its certificate
-/// may speak as, `TEAM/probe/cli-NAME-pPID` (a secured team's access control would refuse
-/// the probe's liveliness token otherwise).
+/// [`discover`], over a secured session when `keys` are given.
+fn discover_with(
+    connect: &[String],
+    wait: Duration,
+    keys: Option<(Security, &Identity)>,
+) -> Result<BTreeSet<Address>, ObserveError> {
+    let probe = open_probe(connect, wait, keys)?;
+    let found = alive_within(&probe, wait);
+    probe.close();
+    if found.is_empty() {
+        return Err(ObserveError::NoModules {
+            endpoints: connect.join(", "),
+            seconds: wait.as_secs_f64(),
+        });
+    }
+    Ok(found)
+}
+
+/// The modules `probe` finds alive (itself left out): the first liveliness query that
+/// finds any within `wait`, asked again every 50 ms until then; empty if none did.
+pub(crate) fn alive_within(probe: &ZenohTransport, wait: Duration) -> BTreeSet<Address> {
+    let deadline = Instant::now() + wait;
+    let mut found = BTreeSet::new();
+    while found.is_empty() && Instant::now() < deadline {
+        let left = deadline.saturating_duration_since(Instant::now());
+        found = query_alive(probe, left.min(Duration::from_millis(500)));
+        found.remove(probe.address());
+        if found.is_empty() {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    found
+}
+
+/// The probe's address: `slate-probe/cli/pPID` (a team of its own, so that no module
+/// takes it for a mate), or for an operator one its certificate may speak as,
+/// `TEAM/probe/cli-NAME-pPID` (a secured team's access control would refuse the
+/// probe's liveliness token otherwise).
 fn probe_address(operator: Option<&Identity>) -> Address {
     let pid = std::process::id();
     let text = match operator {
@@ -210,39 +246,24 @@ fn probe_address(operator: Option<&Identity>) -> Address {
     Address::new(&text).unwrap_or_else(|_| Address::unknown())
 }
 
-/// [`discover`], over a secured session when `security` is given.
-fn discover_with(
+/// A bare Zenoh client of the nodes at `connect` (secured when `keys` are given), for
+/// queries (liveliness, counters). A client that reaches no node fails to open, which
+/// says nobody answered; a malformed endpoint says so itself. (`wait` is how long the
+/// caller was to wait, for the error.)
+pub(crate) fn open_probe(
     connect: &[String],
     wait: Duration,
     keys: Option<(Security, &Identity)>,
-) -> Result<BTreeSet<Address>, ObserveError> {
+) -> Result<Arc<ZenohTransport>, ObserveError> {
     let (security, operator) = keys.unzip();
-    let deadline = Instant::now() + wait;
-    let probe_address = probe_address(operator);
-    let unreachable = || ObserveError::NoModules {
-        endpoints: connect.join(", "),
-        seconds: wait.as_secs_f64(),
-    };
-    // A client that reaches no node fails to open; a malformed endpoint is no such case.
     let config = zenoh_config(connect, security);
-    let probe = ZenohTransport::open(probe_address.clone(), &config).map_err(|e| match e {
+    ZenohTransport::open(probe_address(operator), &config).map_err(|e| match e {
         OpenError::Endpoint(_) | OpenError::Insecure { .. } => ObserveError::Open(e),
-        _ => unreachable(),
-    })?;
-    let mut found = BTreeSet::new();
-    while found.is_empty() && Instant::now() < deadline {
-        let left = deadline.saturating_duration_since(Instant::now());
-        found = query_alive(&probe, left.min(Duration::from_millis(500)));
-        found.remove(&probe_address);
-        if found.is_empty() {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-    probe.close();
-    if found.is_empty() {
-        return Err(unreachable());
-    }
-    Ok(found)
+        _ => ObserveError::NoModules {
+            endpoints: connect.join(", "),
+            seconds: wait.as_secs_f64(),
+        },
+    })
 }
 
 /// One liveliness query for every slate module of every team.

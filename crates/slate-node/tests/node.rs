@@ -9,6 +9,9 @@ mod deep_plan;
 // The dashboard a node serves: its snapshot follows docs/dashboard.md.
 #[path = "node/dashboard.rs"]
 mod dashboard;
+// The Foxglove server a node serves: its port, its stop, a port in use.
+#[path = "node/foxglove.rs"]
+mod foxglove;
 // A node hands the `link` blocks of the files it loads to its ICI.
 #[path = "node/links.rs"]
 mod links;

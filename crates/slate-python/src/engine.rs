@@ -27,11 +27,12 @@ pub(crate) struct Source {
 pub(crate) fn source(obj: &Bound<'_, PyAny>, name: Option<String>) -> PyResult<Source> {
     let py = obj.py();
     if let Ok(s) = obj.cast::<PyString>() {
-        let s = s.to_str()?;
+        // `to_cow`: the abi3 build (CPython >= 3.9) has no borrowed `to_str` before 3.10.
+        let s = s.to_cow()?;
         if s.contains(['\n', '{', ';']) {
             return Ok(Source {
                 name: name.unwrap_or_else(|| "<source>".to_owned()),
-                text: s.to_owned(),
+                text: s.into_owned(),
             });
         }
     }

@@ -199,7 +199,7 @@ pub(crate) fn to_value(obj: &Bound<'_, PyAny>) -> PyResult<Value> {
         });
     }
     if let Ok(s) = obj.cast::<PyString>() {
-        return Ok(Value::Str(Arc::from(s.to_str()?)));
+        return Ok(Value::Str(Arc::from(&*s.to_cow()?)));
     }
     if let Ok(r) = obj.cast::<Reference>() {
         return Ok(Value::Ref(Arc::from(r.get().name.as_str())));

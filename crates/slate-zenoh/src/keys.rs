@@ -5,6 +5,7 @@
 //! slate/to/{team}/{robot}/{module}/from/{team}/{robot}/{module}    direct sends
 //! slate/alive/{team}/{robot}/{module}                              liveliness tokens
 //! slate/sync/{team}/{robot}/{module}                               listen barriers
+//! slate/stats/{team}/{robot}/{module}                              counters (a query)
 //! ```
 //! A key names the sending module (and the addressee); the message kind is the first byte
 //! of the payload, so that a module needs one key per link kind and one per addressee,
@@ -78,13 +79,24 @@ pub fn sync_for(me: &Address, link: LinkKind) -> String {
     }
 }
 
+/// Where `me` answers queries for its counters (`slate stats`).
+pub fn stats(me: &Address) -> String {
+    format!("{ROOT}/stats/{me}")
+}
+
+/// The counters' keys of the modules matching `team`, `robot` and `module`, each a
+/// segment or `*`.
+pub fn stats_of(team: &str, robot: &str, module: &str) -> String {
+    format!("{ROOT}/stats/{team}/{robot}/{module}")
+}
+
 /// The sending module of a publication or direct key, or of a liveliness key.
 pub fn source(key: &str) -> Option<Address> {
     let parts: Vec<&str> = key.split('/').collect();
     let addr = match parts.as_slice() {
         [ROOT, "pub", _link, t, r, m] => [*t, *r, *m],
         [ROOT, "to", _, _, _, "from", t, r, m] => [*t, *r, *m],
-        [ROOT, "alive", t, r, m] => [*t, *r, *m],
+        [ROOT, "alive" | "stats", t, r, m] => [*t, *r, *m],
         _ => return None,
     };
     Address::new(&addr.join("/")).ok()
@@ -108,7 +120,9 @@ mod tests {
         let d = direct(&cam, &nav);
         assert_eq!(d, "slate/to/t/r1/cam/from/t/r1/nav");
         assert_eq!(source(&d), Some(nav.clone()));
-        assert_eq!(source(&alive(&cam)), Some(cam));
+        assert_eq!(source(&alive(&cam)), Some(cam.clone()));
+        assert_eq!(source(&stats(&cam)), Some(cam));
+        assert_eq!(stats_of("t", "*", "*"), "slate/stats/t/*/*");
         assert_eq!(source("slate/elsewhere"), None);
         assert_eq!(source("slate/alive/t/r 1/x"), None);
     }

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod check;
 pub mod demo;
 pub mod get;
+pub mod hz;
 pub mod keys;
 pub mod launch;
 mod live;
@@ -14,6 +15,7 @@ pub mod plan;
 pub mod play;
 pub mod put;
 pub mod record;
+pub mod stats;
 pub mod tree;
 pub mod watch;
 

@@ -10,20 +10,25 @@ use crate::cli::{Format, NodeArgs};
 use crate::command::live::{interrupted, print_line};
 use crate::logging::Logs;
 
-/// Starts the node, says where it listens, waits for a signal, stops cleanly.
+/// Starts the node, says where it listens, waits for a signal (with `--format json`,
+/// printing each event of its log meanwhile), stops cleanly.
 pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitCode> {
-    let config = NodeConfig::read(&args.config)?;
+    let mut config = NodeConfig::read(&args.config)?;
+    if let Some(addr) = args.foxglove {
+        config.foxglove = Some(addr);
+    }
     if args.reset_state {
         reset_state(&config)?;
     }
     let signals = interrupted()?;
     let node = logs.quiet_zenoh(|| Node::start(&config))?;
     let dashboard = node.dashboard_url();
+    let foxglove = node.foxglove_addr().map(|a| format!("ws://{a}"));
     match format {
         Format::Json => print_line(&json!({
             "event": "ready", "address": node.address().as_str(),
             "listening": node.listening(), "connect": config.zenoh.connect,
-            "dashboard": dashboard, "pid": std::process::id(),
+            "dashboard": dashboard, "foxglove": foxglove, "pid": std::process::id(),
             "record": config.record.as_ref().map(|r| r.path.display().to_string()),
             "state": config.state.as_ref().map(|s| s.dir.display().to_string()),
             "restored": node.restored().map(|r| json!({
@@ -36,13 +41,14 @@ pub fn run(args: &NodeArgs, format: Format, logs: &Logs) -> anyhow::Result<ExitC
                 l => l.join(", "),
             };
             let dashboard = dashboard.map_or(String::new(), |u| format!("; dashboard at {u}"));
+            let foxglove = foxglove.map_or(String::new(), |u| format!("; Foxglove at {u}"));
             println!(
-                "slate node {}: listening on {listening}{dashboard}",
+                "slate node {}: listening on {listening}{dashboard}{foxglove}",
                 node.address()
             );
         }
     }
-    let _ = signals.recv();
+    stream_events(&node, format, signals)?;
     let peers = node.peers().len();
     let revision = node.board().revision();
     node.close();
@@ -73,4 +79,33 @@ fn reset_state(config: &NodeConfig) -> anyhow::Result<()> {
         ),
     }
     Ok(())
+}
+
+/// Waits for SIGINT or SIGTERM; with `--format json`, prints each event the node logs
+/// meanwhile as one line: `{"event": "news", "time", "level", "text"}` (peers up and down,
+/// plan progress, conflicts; the same sentences its log on stderr has).
+fn stream_events(
+    node: &Node,
+    format: Format,
+    signals: &crossbeam_channel::Receiver<()>,
+) -> anyhow::Result<()> {
+    if format == Format::Text {
+        let _ = signals.recv();
+        return Ok(());
+    }
+    let events = node.follow_events();
+    loop {
+        crossbeam_channel::select! {
+            recv(signals) -> _ => return Ok(()),
+            recv(events) -> e => match e {
+                Ok(e) => print_line(&json!({
+                    "event": "news", "time": e.time, "level": e.level, "text": e.text,
+                }))?,
+                Err(_) => {
+                    let _ = signals.recv();
+                    return Ok(());
+                }
+            },
+        }
+    }
 }

@@ -146,3 +146,31 @@ fn a_node_on_a_port_in_use_says_so_in_one_line() {
     assert!(!err.contains(".rs:") && !err.contains("registry"), "{err}");
     team.stop();
 }
+
+/// `--log-format json`: every log line on stderr is one JSON object (tracing-subscriber's:
+/// timestamp, level, target, fields); the error stays the one `slate: error:` line.
+#[test]
+fn log_format_json_writes_each_log_line_as_a_json_object() {
+    let out = crate::support::slate(&[
+        "stats",
+        "--connect",
+        "tcp/127.0.0.1:1",
+        "--wait",
+        "1",
+        "--log",
+        "debug",
+        "--log-format",
+        "json",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    let (errors, logs): (Vec<&str>, Vec<&str>) =
+        err.lines().partition(|l| l.starts_with("slate: error:"));
+    assert_eq!(errors.len(), 1, "{err}");
+    assert!(!logs.is_empty(), "no log line at debug: {err}");
+    for line in logs {
+        let j: serde_json::Value =
+            serde_json::from_str(line).unwrap_or_else(|e| panic!("{e}: {line}"));
+        assert!(j["level"].is_string() && j["target"].is_string(), "{line}");
+        assert!(j["fields"].is_object(), "{line}");
+    }
+}

@@ -184,6 +184,38 @@ fn objects(class: &str, endpoint: &str) -> Vec<String> {
         .collect()
 }
 
+/// Does `slate stats` through `endpoint` show exactly the modules `addresses`, each
+/// hearing every other?
+fn all_up(endpoint: &str, addresses: &[&str]) -> bool {
+    let args = [
+        "stats",
+        "--interval",
+        "0.2",
+        "--connect",
+        endpoint,
+        "--format",
+        "json",
+    ];
+    let out = slate(&args);
+    let j: Json = serde_json::from_slice(&out.stdout).unwrap_or(Json::Null);
+    let modules = j["modules"].as_array().cloned().unwrap_or_default();
+    let answered: Vec<&str> = modules
+        .iter()
+        .filter_map(|m| m["address"].as_str())
+        .collect();
+    let hears_all = |m: &Json| {
+        let peers = m["peers"].as_array().cloned().unwrap_or_default();
+        let mates = peers
+            .iter()
+            .filter_map(Json::as_str)
+            .filter(|p| !p.contains("/cli-"));
+        mates.count() == addresses.len() - 1
+    };
+    let mut sorted = addresses.to_vec();
+    sorted.sort_unstable();
+    answered == sorted && modules.iter().all(hears_all)
+}
+
 /// Launches `file`, waits until `ls CLASS` shows every one of `expected`, stops it with
 /// SIGTERM, and checks that launch exited 0 and no module process is left.
 fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected: &[&str]) {
@@ -198,6 +230,13 @@ fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected
     assert!(seen, "{expected:?} not on the board\n{}", launched.output());
     let pids = launched.started();
     assert_eq!(pids.len(), usize::from(modules), "{}", launched.output());
+    let addresses: Vec<&str> = pids.iter().map(|(a, _)| a.as_str()).collect();
+    let up = eventually(Duration::from_secs(30), || all_up(&endpoint, &addresses));
+    assert!(
+        up,
+        "not every module up in `slate stats`\n{}",
+        launched.output()
+    );
     assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
     let left: Vec<_> = pids.iter().filter(|(_, pid)| alive(*pid)).collect();
     assert!(

@@ -95,3 +95,38 @@ fn three_nodes_a_plan_with_acks_and_a_late_joiner_that_catches_up() {
     );
     team.stop();
 }
+
+/// `slate node --format json` streams its events after its ready line, one JSON object
+/// each (`"event": "news"`), and ends with its `stopped` line.
+#[test]
+fn a_node_with_format_json_streams_its_events_on_stdout() {
+    let mut team = Team::connected("news", &[("t/r1/nav", ""), ("t/r2/loco", "")]);
+    let loco = team.nodes.pop().unwrap();
+    assert!(loco.stop().0, "t/r2/loco did not stop cleanly");
+    let nav = team.nodes.pop().unwrap();
+    let down = eventually(Duration::from_secs(15), || {
+        nav.log().contains("peer t/r2/loco down")
+    });
+    assert!(down, "{}", nav.log());
+    let (clean, rest) = nav.stop();
+    assert!(clean);
+    let lines: Vec<serde_json::Value> = rest
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect();
+    let news: Vec<&str> = lines
+        .iter()
+        .filter(|j| j["event"] == "news")
+        .filter_map(|j| j["text"].as_str())
+        .collect();
+    for said in ["peer t/r2/loco up", "peer t/r2/loco down"] {
+        assert!(news.contains(&said), "{said:?} not in {news:?}");
+    }
+    let last = lines.last().unwrap();
+    assert_eq!(last["event"], "stopped", "{rest}");
+    assert!(
+        lines
+            .iter()
+            .all(|j| j["event"] != "news" || j["level"].is_string())
+    );
+}

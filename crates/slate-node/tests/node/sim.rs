@@ -282,3 +282,20 @@ fn a_simulated_node_logs_its_events_as_the_clock_moves() {
         "no peer event in {texts:?}"
     );
 }
+
+/// `Node::follow_events` hands over each event as it is logged (here, a peer coming up
+/// after the follow began), and a follower that hangs up is forgotten, not blocking.
+#[test]
+fn a_follower_gets_each_event_as_it_is_logged() {
+    let net = SimNet::new(7);
+    let nav = start(&net, "t/r1/nav", "");
+    let events = nav.follow_events();
+    drop(nav.follow_events());
+    let _loco = start(&net, "t/r2/loco", "");
+    let heard = run_until(&net, 3.0, || {
+        events
+            .try_iter()
+            .any(|e| e.text == "peer t/r2/loco up" && e.level == Level::Info)
+    });
+    assert!(heard, "{:?}", nav.events());
+}
