@@ -60,13 +60,17 @@ def frame(src: int, dst: int, size: int = 100) -> bytes:
     return bytes([2, 0, 0, 0, 0, dst, 2, 0, 0, 0, 0, src]) + bytes(size - 12)
 
 
+# Socket pairs whose one end a radio under test holds by file number only.
+KEPT_OPEN: list[tuple[socket.socket, socket.socket]] = []
+
+
 def radio_between_sockets(imp: Impairment) -> tuple[Radio, list[socket.socket]]:
     """A two-port radio whose ports are datagram socket pairs (no root, no TAP)."""
     pairs = [socket.socketpair(socket.AF_UNIX, socket.SOCK_DGRAM) for _ in range(2)]
     for ours, _ in pairs:
         ours.setblocking(False)
     radio = Radio([ours.fileno() for ours, _ in pairs], seed=7)
-    radio.ports = pairs  # keeps the radio's ends open as long as the radio
+    KEPT_OPEN.extend(pairs)  # the radio's ends, open as long as the test run
     radio.set_impairment(imp)
     radio.start()
     return radio, [theirs for _, theirs in pairs]

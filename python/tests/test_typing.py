@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
 
 PYTHON_DIR = Path(__file__).resolve().parent.parent
 EXAMPLES = PYTHON_DIR.parent / "examples" / "python"
+# The real-link harness, which tests/test_reallink.py imports (and so type-checks too).
+REALLINK = PYTHON_DIR.parent / "scripts" / "reallink"
 
 
 def run(*args: str) -> subprocess.CompletedProcess[str]:
@@ -17,6 +20,7 @@ def run(*args: str) -> subprocess.CompletedProcess[str]:
         capture_output=True,
         text=True,
         timeout=300,
+        env={**os.environ, "MYPYPATH": str(REALLINK)},
     )
 
 

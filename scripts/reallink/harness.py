@@ -50,6 +50,7 @@ import urllib.request
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any, Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -154,11 +155,15 @@ class Boards:
         self.counts: dict[str, int | None] = {m.address: None for m in mods}
         self.stopping = threading.Event()
         self.threads = [
-            thread_in(ns, lambda r=r: self._poll([m for m in mods if m.robot == r]), f"boards-{r}")
+            thread_in(ns, self._poller([m for m in mods if m.robot == r]), f"boards-{r}")
             for r, ns in enumerate(ns_names)
         ]
         for t in self.threads:
             t.start()
+
+    def _poller(self, mods: list[Module]) -> Callable[[], None]:
+        """The body of one robot's polling thread."""
+        return lambda: self._poll(mods)
 
     def _poll(self, mods: list[Module]) -> None:
         while not self.stopping.wait(0.2):
@@ -262,6 +267,7 @@ class Team:
         for m in self.mods:
             cfg = self.workdir / f"{m.address.replace('/', '_')}.toml"
             cmd = ["ip", "netns", "exec", self.nets.names[m.robot], self.slate, "node"]
+            assert m.log is not None, "prepare() names every module's log"
             with open(m.log, "wb") as log:
                 m.proc = subprocess.Popen(
                     [*cmd, "--config", str(cfg), "--log", NODE_LOG],
@@ -313,11 +319,11 @@ def never_cut(scn: Scenario, a: int, b: int) -> bool:
     return a == b or not scn.partition or scn.cut not in (a, b)
 
 
-def run(scn: Scenario, slate: str, keep: bool = False) -> dict:
+def run(scn: Scenario, slate: str, keep: bool = False) -> dict[str, Any]:
     """Runs one scenario; returns what it measured (see the module's doc)."""
     workdir = Path(tempfile.mkdtemp(prefix="slate-reallink-"))
     team = Team(slate, scn, workdir)
-    result: dict = {"scenario": scn.name, "workdir": str(workdir)}
+    result: dict[str, Any] = {"scenario": scn.name, "workdir": str(workdir)}
     try:
         team.start()
         start_ok = wait_converged(team, 1, time.time() + 30)
@@ -336,7 +342,7 @@ def run(scn: Scenario, slate: str, keep: bool = False) -> dict:
             shutil.rmtree(workdir, ignore_errors=True)
 
 
-def impair_then_converge(team: Team, scn: Scenario, result: dict) -> float | None:
+def impair_then_converge(team: Team, scn: Scenario, result: dict[str, Any]) -> float | None:
     """The partition (or the hold under impairment), then the convergence wait."""
     others = [r for r in range(3) if r != scn.cut]
     if scn.partition:
@@ -360,7 +366,7 @@ def utc(t: float) -> str:
     return datetime.fromtimestamp(t, timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
-def finish(result: dict, team: Team, scn: Scenario, end: float) -> dict:
+def finish(result: dict[str, Any], team: Team, scn: Scenario, end: float) -> dict[str, Any]:
     """Collects the liveliness marks and decides whether the run held."""
     robot = {m.address: m.robot for m in team.mods}
     false = []
@@ -434,7 +440,7 @@ def main(argv: list[str]) -> int:
     return 0 if all(r["ok"] for r in results) else 1
 
 
-def summary(results: list[dict]) -> str:
+def summary(results: list[dict[str, Any]]) -> str:
     """One line per scenario: runs converged, false marks, slowest convergence."""
     lines = []
     for name in dict.fromkeys(r["scenario"] for r in results):
