@@ -25,7 +25,7 @@ use parking_lot::Mutex;
 pub use file::{MESSAGE_ENCODING, METADATA, PROFILE, SCHEMA_ENCODING, rotated_path};
 pub(crate) use message::PacketMessage;
 pub use replay::{Raw, RawMessage, Recording, ReplayError, Step, Timed, board_state, class_def};
-pub(crate) use replay::{declared_type, value_of};
+pub(crate) use replay::{declared_type, packet_meta, value_of};
 pub use schema::class_schema;
 
 use crate::view::View;

@@ -245,13 +245,7 @@ fn step(topic: &str, j: Json) -> Option<Step> {
 fn packet(j: &Json) -> Option<Step> {
     let attr = j["attr"].as_str()?.to_owned();
     let value = j["values"].get(&attr)?.clone();
-    let packet = Packet {
-        value: Value::None,
-        accuracy: j["accuracy"].as_f64()?,
-        confidence: j["confidence"].as_f64()?,
-        timestamp: Timestamp::from_raw(j["hlc"].as_u64()?),
-        source: Address::new(j["source"].as_str()?).ok()?,
-    };
+    let packet = packet_meta(j)?;
     Some(Step::Packet {
         object: j["object"].as_str()?.to_owned(),
         attr,
@@ -348,6 +342,18 @@ pub(crate) fn declared_type(board: &Board, object: &str, attr: &str) -> Option<V
         &info.class
     };
     board.attr_decl(class, attr).map(|d| d.ty)
+}
+
+/// A recorded packet's accuracy, confidence, stamp (`hlc`) and source, its value left
+/// `None`: the reader types the value (`value_of`) once it knows the attribute's type.
+pub(crate) fn packet_meta(j: &Json) -> Option<Packet> {
+    Some(Packet {
+        value: Value::None,
+        accuracy: j["accuracy"].as_f64()?,
+        confidence: j["confidence"].as_f64()?,
+        timestamp: Timestamp::from_raw(j["hlc"].as_u64()?),
+        source: Address::new(j["source"].as_str()?).ok()?,
+    })
 }
 
 /// A recorded JSON value as a value of type `ty` (`null`: cleared).

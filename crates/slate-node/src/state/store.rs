@@ -6,7 +6,7 @@ use std::str::FromStr;
 
 use redb::{Database, ReadableTable, TableDefinition};
 use serde_json::{Value as Json, json};
-use slate_model::{Address, ClassDef, Context, NewObject, Packet, Timestamp, Value};
+use slate_model::{Address, ClassDef, Context, NewObject, Packet};
 
 use super::pending::{ObjectRecord, Pending};
 use super::{Durability, StateError};
@@ -324,17 +324,10 @@ fn packet_json(p: &Packet) -> Json {
 }
 
 fn saved_packet(object: &str, attr: &str, j: &Json) -> Option<SavedPacket> {
-    let packet = Packet {
-        value: Value::None,
-        accuracy: j["accuracy"].as_f64()?,
-        confidence: j["confidence"].as_f64()?,
-        timestamp: Timestamp::from_raw(j["hlc"].as_u64()?),
-        source: Address::new(j["source"].as_str()?).ok()?,
-    };
     Some(SavedPacket {
         object: object.to_owned(),
         attr: attr.to_owned(),
         value: j["value"].clone(),
-        packet,
+        packet: crate::record::packet_meta(j)?,
     })
 }

@@ -415,16 +415,36 @@ mod tests {
         assert!(st.team.speakers[&addr("t/r1/g")].state_ask.is_none());
     }
 
-    #[test]
-    fn the_gateway_forwards_a_state_ask_to_each_member_named() {
-        let (_net, mut st) = state();
+    /// A gateway of m0, m1 and m2 (stream tag 77); with a `backlog` of `(member,
+    /// answer)`, its radio 900 B in debt at 1 000 B/s and one lifecycle message of that
+    /// member queued (`answer`: a part of its state answer).
+    fn gateway_of_three(backlog: Option<(u8, bool)>) -> Gateway {
         let limits = HistoryLimits {
             bytes: 4096,
             age: Duration::from_secs(60),
         };
         let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
         gw.members = vec![member("m0"), member("m1"), member("m2")];
-        st.team.gateway = Some(gw);
+        if let Some((member, answer)) = backlog {
+            gw.bucket = TokenBucket::new(8_000, 100, START);
+            gw.bucket.spend(1_000, START);
+            let message = super::super::test_state::lifecycle(1);
+            let (mark, since) = (None, START);
+            gw.queue.push(Queued {
+                member,
+                message,
+                mark,
+                since,
+                answer,
+            });
+        }
+        gw
+    }
+
+    #[test]
+    fn the_gateway_forwards_a_state_ask_to_each_member_named() {
+        let (_net, mut st) = state();
+        st.team.gateway = Some(gateway_of_three(None));
         st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, false));
         assert_eq!(sent(&st, LinkKind::Robot, MsgKind::StateRequest), 2);
         st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(78), 0b110, false));
@@ -438,22 +458,7 @@ mod tests {
     #[test]
     fn a_gateway_holds_state_asks_while_its_queue_waits_for_the_radio() {
         let (_net, mut st) = state();
-        let limits = HistoryLimits {
-            bytes: 4096,
-            age: Duration::from_secs(60),
-        };
-        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
-        gw.members = vec![member("m0"), member("m1"), member("m2")];
-        gw.bucket = TokenBucket::new(8_000, 100, START);
-        gw.bucket.spend(1_000, START);
-        gw.queue.push(Queued {
-            member: 0,
-            message: super::super::test_state::lifecycle(1),
-            mark: None,
-            since: START,
-            answer: false,
-        });
-        st.team.gateway = Some(gw);
+        st.team.gateway = Some(gateway_of_three(Some((0, false))));
         st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, false));
         st.on_team(&addr("t/r4/g"), &state_nack(StreamTag(77), 0b010, true));
         st.forward_held_state_asks();
@@ -471,22 +476,7 @@ mod tests {
     #[test]
     fn an_ask_for_a_member_whose_answer_is_queued_is_served_by_it() {
         let (_net, mut st) = state();
-        let limits = HistoryLimits {
-            bytes: 4096,
-            age: Duration::from_secs(60),
-        };
-        let mut gw = Gateway::new(StreamTag(77), 1, Framer::new(1024, ms(250)), limits);
-        gw.members = vec![member("m0"), member("m1"), member("m2")];
-        gw.bucket = TokenBucket::new(8_000, 100, START);
-        gw.bucket.spend(1_000, START);
-        gw.queue.push(Queued {
-            member: 1,
-            message: super::super::test_state::lifecycle(1),
-            mark: None,
-            since: START,
-            answer: true,
-        });
-        st.team.gateway = Some(gw);
+        st.team.gateway = Some(gateway_of_three(Some((1, true))));
         st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, false));
         st.now = START + ms(2000);
         st.pump();
