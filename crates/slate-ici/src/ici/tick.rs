@@ -206,20 +206,29 @@ impl State {
     }
 
     /// A peer came up or went down, as the transport says. Up is news: greet it and
-    /// catch up. Down is a hint: it stops what waits on the peer (its catch-up), but the
-    /// peer stays alive until it has been silent past its link's timeout ([`timeouts`]),
-    /// never sooner, because a transport's down can be false while the peer's messages
-    /// still arrive (Zenoh withdraws a liveliness token when a session or route
-    /// elsewhere fails, and slate's Zenoh transport says down for a peer that falls
-    /// behind). Liveliness is what the ICI hears (docs/ici.md, *Liveliness*).
+    /// catch up. Down stops what waits on the peer (its catch-up), and is believed only
+    /// if the ICI has not heard the peer for one heartbeat period of its link: a
+    /// transport's down can be false while the peer's messages still arrive (Zenoh
+    /// withdraws a liveliness token when a session or route elsewhere fails, and slate's
+    /// Zenoh transport says down for a peer that falls behind). A peer still heard stays
+    /// alive until it has been silent past its link's timeout ([`timeouts`]).
+    /// Liveliness is what the ICI hears (docs/ici.md, *Liveliness*).
     ///
     /// [`timeouts`]: Self::timeouts
     pub fn on_peer(&mut self, peer: &Address, up: bool) {
         let now = self.now;
+        let heartbeat = self
+            .config
+            .link(LinkKind::between(&self.me, peer))
+            .heartbeat;
         let p = self.peer(peer);
         p.up = up;
         p.catch_up = None;
         if !up {
+            let silent = now.saturating_sub(p.last_heard) >= heartbeat;
+            if silent && p.alive == Some(true) {
+                self.lost(peer);
+            }
             return;
         }
         p.last_heard = now;

@@ -193,6 +193,28 @@ fn a_transport_down_of_a_module_that_went_silent_kills_it_after_the_timeout() {
 }
 
 #[test]
+fn a_transport_down_of_a_module_silent_for_a_heartbeat_period_is_believed_at_once() {
+    // A robot that died: its modules were silent for longer than their heartbeat when the
+    // transport's lease ran out, so the down is the news (the demo's robot death is seen
+    // in 1.9 s this way, not after the 5 s team timeout).
+    let config = SimConfig {
+        lease: secs(1000.0),
+        ..SimConfig::default()
+    };
+    let team = Team::grid(36, config, 2, 1);
+    team.run(1.0);
+    let (watcher, victim) = (addr("t/r0/m0"), addr("t/r1/m0"));
+    team.net.kill(&victim);
+    team.run(1.5); // past the team heartbeat (1 s), well within its timeout (5 s)
+    let name = module_object_name(&victim);
+    let alive = || team.board("t/r0/m0").read(&name, "alive").unwrap().value;
+    assert_eq!(alive(), Value::Bool(true), "not yet timed out");
+    team.net.false_down(&watcher, &victim);
+    team.run(0.1);
+    assert_eq!(alive(), Value::Bool(false));
+}
+
+#[test]
 fn a_silent_module_is_declared_dead_by_the_heartbeat_timeout() {
     // The transport never reports it down (a lease longer than the test): only the
     // ICI's heartbeat timeout can tell.
