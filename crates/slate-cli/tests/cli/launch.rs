@@ -138,6 +138,16 @@ impl Launched {
     }
 
     /// What launch printed, for failure messages.
+    /// Every process in `pids` (from [`started`](Self::started)) has exited: none left
+    /// as an orphan.
+    fn assert_all_gone(&self, pids: &[(String, u32)]) {
+        assert!(
+            pids.iter().all(|(_, p)| !alive(*p)),
+            "{pids:?}\n{}",
+            self.output()
+        );
+    }
+
     fn output(&self) -> String {
         let events: Vec<String> = self.events.iter().map(Json::to_string).collect();
         let err = std::fs::read_to_string(&self.stderr).unwrap_or_default();
@@ -342,11 +352,7 @@ fn a_module_killed_is_restarted_by_launch_and_catches_up_with_the_team() {
     );
     let pids = launched.started();
     assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
-    assert!(
-        pids.iter().all(|(_, p)| !alive(*p)),
-        "{pids:?}\n{}",
-        launched.output()
-    );
+    launched.assert_all_gone(&pids);
 }
 
 #[test]
@@ -361,11 +367,7 @@ fn launch_exits_non_zero_and_stops_the_others_when_a_module_cannot_start() {
     let err = std::fs::read_to_string(&launched.stderr).unwrap();
     assert!(err.contains("small/base/console could not start"), "{err}");
     let pids = launched.started();
-    assert!(
-        pids.iter().all(|(_, p)| !alive(*p)),
-        "{pids:?}\n{}",
-        launched.output()
-    );
+    launched.assert_all_gone(&pids);
 }
 
 #[test]

@@ -104,6 +104,20 @@ fn send_until_initiated(
     (h, got)
 }
 
+/// The first `n` steps of `h` (or those within 10 s of real time) while plans are
+/// loaded on the circuits' own thread: virtual time runs in small slices, with real time
+/// between them for that thread to work in.
+fn wait_steps_loaded(net: &SimNet, h: &PlanHandle, n: usize) -> Vec<PlanStep> {
+    let mut got = Vec::new();
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while got.len() < n && std::time::Instant::now() < deadline {
+        net.run_for(secs(0.01));
+        std::thread::sleep(Duration::from_millis(5));
+        got.extend(h.acks().try_iter());
+    }
+    got
+}
+
 fn wait_steps(net: &SimNet, h: &PlanHandle, got: &mut Vec<PlanStep>, n: usize, max: f64) {
     net.run_until(
         || {
@@ -415,8 +429,8 @@ fn a_partitioned_destination_is_lost_and_its_acks_resume_after_the_heal() {
     let (h, mut got) = send_until_initiated(&net, &origin, "t/r2/cell", WELD);
 
     net.partition(&[addr("t/r1/planner")], &[addr("t/r2/cell")]);
-    // Lost once silent past the team link's timeout (30 s here), not at the transport's
-    // down, which is only a hint.
+    // Lost once the ICI believes it dead: at the transport's down if it was already
+    // silent a heartbeat period, else past the team link's timeout (30 s here).
     wait_steps(&net, &h, &mut got, 4, 35.0);
     assert_eq!(got[3], PlanStep::DestinationLost);
     cell.board.write("part", "temp", 150.0).unwrap(); // its ack is cut
@@ -629,13 +643,7 @@ fn on_the_system_clock_timer_driven_steps_reach_the_origin() {
     net.run_for(secs(0.5));
     let plan = "plan later { initiation: age(c.n) > 0.2s; action { report c; } }";
     let h = origin.send(&addr("t/r2/cell"), plan).unwrap();
-    let mut got = Vec::new();
-    let deadline = std::time::Instant::now() + Duration::from_secs(10);
-    while got.len() < 4 && std::time::Instant::now() < deadline {
-        net.run_for(secs(0.01));
-        std::thread::sleep(Duration::from_millis(5));
-        got.extend(h.acks().try_iter());
-    }
+    let got = wait_steps_loaded(&net, &h, 4);
     assert_eq!(
         got[..3],
         [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
@@ -814,13 +822,7 @@ fn on_the_system_clock_a_plan_received_is_loaded_off_the_thread_that_delivers_it
     cell_board.add_hook(writer.clone());
     net.run_for(secs(0.5));
     let h = origin.send(&addr("t/r2/cell"), WELD).unwrap();
-    let mut got = Vec::new();
-    let deadline = std::time::Instant::now() + Duration::from_secs(10);
-    while got.len() < 3 && std::time::Instant::now() < deadline {
-        net.run_for(secs(0.01));
-        std::thread::sleep(Duration::from_millis(5));
-        got.extend(h.acks().try_iter());
-    }
+    let got = wait_steps_loaded(&net, &h, 3);
     assert_eq!(
         got,
         [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]

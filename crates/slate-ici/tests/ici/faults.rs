@@ -6,7 +6,7 @@ use std::sync::Arc;
 use slate_ici::{Ici, IciConfig, LinkConfig, LinkKind, Rng, SimConfig, module_object_name};
 use slate_model::{Context, NewObject, Timestamp, Update, Value};
 
-use crate::support::{Member, Team, addr, classes, open, secs, workload};
+use crate::support::{Team, addr, classes, open, secs, workload};
 
 /// 3 robots × 2 modules on links with these faults, some random work, then the boards
 /// must agree (faults still on).
@@ -338,13 +338,7 @@ fn start_from_files(team: &mut Team, address: &str, speed: f64) {
         .unwrap();
     let initial = Update::new(speed).timestamp(Timestamp::ZERO);
     board.write("gsr", "speed", initial).unwrap();
-    let ici = Ici::new(board.clone(), team.net.join(&address), open()).unwrap();
-    team.put(Member {
-        address,
-        board,
-        ici,
-        config: open(),
-    });
+    team.join(board, open());
 }
 
 fn speed(team: &Team, address: &str) -> Option<f64> {

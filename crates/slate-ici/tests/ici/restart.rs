@@ -5,10 +5,9 @@
 
 use std::sync::Arc;
 
-use slate_ici::Ici;
 use slate_model::{Board, MODULE_CLASS, NewObject, PLAN_CLASS, Packet};
 
-use crate::support::{Member, Team, addr, classes, open};
+use crate::support::{Team, addr, classes, open};
 
 const NAV: &str = "t/r1/nav";
 const PEERS: [&str; 2] = ["t/r1/cam", "t/r2/loco"];
@@ -56,13 +55,7 @@ fn restart_nav(team: &mut Team, restored: Option<&Kept>) {
             r.unwrap();
         }
     }
-    let ici = Ici::new(board.clone(), team.net.join(&address), open()).unwrap();
-    team.put(Member {
-        address,
-        board,
-        ici,
-        config: open(),
-    });
+    team.join(board, open());
 }
 
 /// nav creates `probe` at run time and writes it; every peer holds it.

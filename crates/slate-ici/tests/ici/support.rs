@@ -90,6 +90,13 @@ impl Team {
     pub fn add_with(&mut self, address: &str, config: IciConfig, defs: &[ClassDef]) -> &Member {
         let address = addr(address);
         let board = self.board_at(&address, defs);
+        self.join(board, config)
+    }
+
+    /// Starts an ICI on `board` (made by [`board_at`](Self::board_at) and filled, as a
+    /// node loads its files or restores its state before it joins) and makes it a member.
+    pub fn join(&mut self, board: Arc<Board>, config: IciConfig) -> &Member {
+        let address = board.address().clone();
         let transport = self.net.join(&address);
         let ici = Ici::new(board.clone(), transport, config.clone()).unwrap();
         self.put(Member {
