@@ -64,6 +64,10 @@ if [ ! -f "$stamp" ]; then
 fi
 
 echo "==> maturin develop ${profile[*]:-(dev profile)}" >&2
+# A native module left by an earlier build under another name (the per-version
+# `_slate.cpython-3XX-*.so` of builds before the abi3 wheel) would be imported before the
+# `_slate.abi3.so` built now: remove every one first.
+rm -f "$root"/python/slate/_slate.*.so
 (
   cd "$root/python"
   VIRTUAL_ENV="$venv" PATH="$venv/bin:$PATH" "$venv/bin/maturin" develop --quiet ${profile[@]+"${profile[@]}"}

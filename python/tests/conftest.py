@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import os
+import random
+import socket
 import subprocess
 import sys
 import textwrap
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -46,6 +50,27 @@ def world_file(tmp_path: Path) -> Path:
     path = tmp_path / "world.slate"
     path.write_text(WORLD)
     return path
+
+
+def free_endpoint() -> str:
+    """A Zenoh endpoint on 127.0.0.1 whose port is free and below the kernel's ephemeral
+    range, as the Rust tests' `slate_testing::free_ports` draws them: a node connecting
+    to a mate before it listens can take a port in that range by a TCP self-connect."""
+    try:
+        with open("/proc/sys/net/ipv4/ip_local_port_range") as f:
+            ephemeral = int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        ephemeral = 32768
+    draw = random.Random(os.getpid() ^ time.time_ns())
+    for _ in range(200):
+        port = draw.randrange(10_000, max(ephemeral, 10_001))
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+        return f"tcp/127.0.0.1:{port}"
+    raise RuntimeError(f"no free TCP port on 127.0.0.1 below {ephemeral}")
 
 
 def run_with_timeout(fn: Callable[[], object], seconds: float = 20.0) -> None:

@@ -3,7 +3,6 @@ acknowledgements, errors, closing."""
 
 from __future__ import annotations
 
-import socket
 import time
 from collections.abc import Callable, Iterator
 
@@ -11,7 +10,7 @@ import pytest
 
 import slate
 
-from .conftest import run_with_timeout
+from .conftest import free_endpoint, run_with_timeout
 
 WORLD = """
 class Vehicle {
@@ -19,12 +18,6 @@ class Vehicle {
     mode: string = "auto";
 }
 """
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def eventually(condition: Callable[[], bool], seconds: float = 10.0) -> bool:

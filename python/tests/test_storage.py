@@ -3,12 +3,13 @@
 
 from __future__ import annotations
 
-import socket
 from pathlib import Path
 
 import pytest
 
 import slate
+
+from .conftest import free_endpoint
 
 WORLD = """
 class Vehicle {
@@ -16,12 +17,6 @@ class Vehicle {
     mode: string = "auto";
 }
 """
-
-
-def free_endpoint() -> str:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return f"tcp/127.0.0.1:{s.getsockname()[1]}"
 
 
 def nav_board() -> slate.Board:
