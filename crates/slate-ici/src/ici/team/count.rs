@@ -122,16 +122,17 @@ mod tests {
         let mut stats = IciStats::default();
         let frame = TeamMsg::Frame(TeamFrame {
             seq: 3,
+            check: 0,
             parts: two_reports(),
         });
         let total = count_sent(&mut stats, MsgKind::TeamFrame, &frame);
         let reports = stats.get(LinkKind::Team, MsgKind::Report);
         assert_eq!((reports.sent_msgs, reports.sent_bytes), (2, 65));
         let envelope = stats.get(LinkKind::Team, MsgKind::TeamFrame);
-        // Header, seq, the first part's byte and length, the last part's byte.
-        assert_eq!((envelope.sent_msgs, envelope.sent_bytes), (1, 5));
+        // Header, tag check, seq, the first part's byte and length, the last part's byte.
+        assert_eq!((envelope.sent_msgs, envelope.sent_bytes), (1, 6));
         assert_eq!(stats.link(LinkKind::Team).sent_bytes, total as u64);
-        assert_eq!((stats.team.frames, stats.team.envelope_bytes), (1, 5));
+        assert_eq!((stats.team.frames, stats.team.envelope_bytes), (1, 6));
     }
 
     #[test]
@@ -140,6 +141,7 @@ mod tests {
         let bodies = vec![two_reports(), vec![Part::member(0, report(30))]];
         let repair = TeamMsg::Repair(TeamRepair {
             from: 1,
+            check: 0,
             content: RepairContent::Replay(bodies),
         });
         let total = count_sent(&mut stats, MsgKind::TeamRepair, &repair);
@@ -165,6 +167,7 @@ mod tests {
         let mut stats = IciStats::default();
         let frame = TeamMsg::Frame(TeamFrame {
             seq: 9,
+            check: 0,
             parts: vec![first, rest],
         });
         let total = count_sent(&mut stats, MsgKind::TeamFrame, &frame);
@@ -203,7 +206,12 @@ mod tests {
         st.on_message(&gw, &hello(&gw));
         let parts = vec![Part::member(0, lifecycle(1)), Part::member(0, lifecycle(2))];
         let inner: usize = parts.iter().map(|p| p.bytes.len()).sum();
-        let frame = TeamMsg::Frame(TeamFrame { seq: 1, parts }).encode();
+        let frame = TeamMsg::Frame(TeamFrame {
+            seq: 1,
+            check: 0,
+            parts,
+        })
+        .encode();
         st.on_message(&gw, &frame);
         let lifecycle = st.stats.get(LinkKind::Team, MsgKind::Lifecycle);
         assert_eq!(
@@ -220,7 +228,12 @@ mod tests {
         let gw = addr("t/r1/m1");
         st.on_message(&gw, &hello(&gw));
         let parts = vec![Part::member(0, lifecycle(1))];
-        let frame = TeamMsg::Frame(TeamFrame { seq: 1, parts }).encode();
+        let frame = TeamMsg::Frame(TeamFrame {
+            seq: 1,
+            check: 0,
+            parts,
+        })
+        .encode();
         st.on_message(&gw, &frame);
         st.on_message(&gw, &frame);
         let all = st.stats.link(LinkKind::Team).recv_bytes;
@@ -238,12 +251,14 @@ mod tests {
         let _other_robot = net.join(&addr("t/r1/m1"));
         let frame = TeamMsg::Frame(TeamFrame {
             seq: 1,
+            check: 0,
             parts: two_reports(),
         });
         st.publish_team_msg(MsgKind::TeamFrame, &frame);
         let bodies = vec![two_reports()];
         let repair = TeamMsg::Repair(TeamRepair {
             from: 1,
+            check: 0,
             content: RepairContent::Replay(bodies),
         });
         st.publish_team_msg(MsgKind::TeamRepair, &repair);

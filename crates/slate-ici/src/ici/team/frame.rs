@@ -31,6 +31,8 @@ const FILL: u8 = 0x0C;
 const DATA: u8 = 0x20;
 const MULTI_PART: u8 = 0x2F;
 const REPAIR: u8 = 0x3F;
+/// Bytes before a frame's or repair's first position: the header and the tag check.
+pub(crate) const FRAME_HEADER: usize = 2;
 
 /// Members a robot can have: the part byte's 5-bit index, less the two special codes.
 pub(crate) const MAX_MEMBERS: u8 = 30;
@@ -83,6 +85,17 @@ type Result<T> = std::result::Result<T, TeamFrameError>;
 /// correctness, since each repair is checked against its own stream.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub(crate) struct StreamTag(pub u16);
+
+impl StreamTag {
+    /// What each frame and repair carries of its stream's tag: the low byte. It tells a
+    /// frame of a gateway's new epoch, heard before the new hello, from the old epoch's
+    /// position of the same number (which the old hello would otherwise make it): a
+    /// second byte would only shrink the chance that two epochs of one gateway share
+    /// the byte (1 in 256 per restart) further.
+    pub fn check(self) -> u8 {
+        self.0 as u8
+    }
+}
 
 impl StreamTag {
     /// The tag of the stream `gateway` starts in its incarnation `incarnation`.
@@ -178,6 +191,8 @@ impl Part {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct TeamFrame {
     pub seq: u64,
+    /// Its stream's [`StreamTag::check`].
+    pub check: u8,
     pub parts: Vec<Part>,
 }
 
@@ -195,7 +210,7 @@ impl TeamFrame {
 
     /// The frame's length once encoded, without encoding it (the gateway's MTU check).
     pub fn encoded_len(&self) -> usize {
-        let header = 1 + var_len(self.seq);
+        let header = FRAME_HEADER + var_len(self.seq);
         match self.single() {
             Some((_, message)) => header + message.len(),
             None => header + parts_len(&self.parts),
@@ -218,6 +233,8 @@ pub(crate) enum RepairContent {
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct TeamRepair {
     pub from: u64,
+    /// Its stream's [`StreamTag::check`].
+    pub check: u8,
     pub content: RepairContent,
 }
 
@@ -234,7 +251,7 @@ impl TeamRepair {
     /// The repair's length once encoded, without encoding it (to split at the MTU).
     pub fn encoded_len(&self) -> usize {
         let span = self.span();
-        let head = 1 + var_len(span.from) + var_len(span.n) + 1;
+        let head = FRAME_HEADER + var_len(span.from) + var_len(span.n) + 1;
         match &self.content {
             RepairContent::Replay(bodies) => {
                 head + bodies.iter().map(|b| body_len(b)).sum::<usize>()
@@ -468,12 +485,12 @@ fn write_parts(w: &mut Writer, parts: &[Part]) {
 fn write_frame(w: &mut Writer, f: &TeamFrame) {
     match f.single() {
         Some((index, message)) => {
-            w.0.push(DATA | index);
+            w.0.extend_from_slice(&[DATA | index, f.check]);
             w.var(f.seq);
             w.0.extend_from_slice(message);
         }
         None => {
-            w.0.push(MULTI_PART);
+            w.0.extend_from_slice(&[MULTI_PART, f.check]);
             w.var(f.seq);
             write_parts(w, &f.parts);
         }
@@ -481,7 +498,7 @@ fn write_frame(w: &mut Writer, f: &TeamFrame) {
 }
 
 fn write_repair(w: &mut Writer, r: &TeamRepair) {
-    w.0.push(REPAIR);
+    w.0.extend_from_slice(&[REPAIR, r.check]);
     write_span(w, r.span());
     match &r.content {
         RepairContent::Replay(bodies) => {
@@ -737,18 +754,20 @@ fn read_classes(r: &mut Reader<'_>) -> Result<ClassSet> {
 }
 
 fn read_single(r: &mut Reader<'_>, index: u8) -> Result<TeamFrame> {
-    let seq = r.var()?;
+    let (check, seq) = (r.byte()?, r.var()?);
     let only = Part::member(index, rest(r).to_vec());
     Ok(TeamFrame {
         seq,
+        check,
         parts: vec![only],
     })
 }
 
 fn read_multi(r: &mut Reader<'_>) -> Result<TeamFrame> {
-    let seq = r.var()?;
+    let (check, seq) = (r.byte()?, r.var()?);
     Ok(TeamFrame {
         seq,
+        check,
         parts: read_parts(r)?,
     })
 }
@@ -806,6 +825,7 @@ fn read_addressed(r: &mut Reader<'_>) -> Result<PartOf> {
 }
 
 fn read_repair(r: &mut Reader<'_>) -> Result<TeamRepair> {
+    let check = r.byte()?;
     let span = read_span(r)?;
     let content = match r.byte()? {
         0 => RepairContent::Replay(read_bodies(r, span.n)?),
@@ -817,6 +837,7 @@ fn read_repair(r: &mut Reader<'_>) -> Result<TeamRepair> {
     };
     Ok(TeamRepair {
         from: span.from,
+        check,
         content,
     })
 }
@@ -1045,7 +1066,11 @@ mod tests {
     }
 
     fn frame(seq: u64, parts: Vec<Part>) -> TeamMsg {
-        TeamMsg::Frame(TeamFrame { seq, parts })
+        TeamMsg::Frame(TeamFrame {
+            seq,
+            check: 0xA5,
+            parts,
+        })
     }
 
     fn range(from: u64, n: u64) -> Span {
@@ -1130,6 +1155,7 @@ mod tests {
             ),
             TeamMsg::Repair(TeamRepair {
                 from: 40,
+                check: 0xA5,
                 content: RepairContent::Replay(vec![
                     vec![Part::member(1, vec![0x11, 3])],
                     vec![fragment.clone(), Part::member(0, vec![])],
@@ -1137,6 +1163,7 @@ mod tests {
             }),
             TeamMsg::Repair(TeamRepair {
                 from: 40,
+                check: 0xA5,
                 content: RepairContent::Difference {
                     n: 5,
                     parts: vec![Part::member(1, vec![0x0C, 1, 4])],
@@ -1242,26 +1269,27 @@ mod tests {
     #[test]
     fn a_lone_message_of_a_low_member_goes_in_single_part_form() {
         let msg = frame(5, vec![Part::member(3, b"abc".to_vec())]);
-        assert_eq!(msg.encode(), [0x23, 5, b'a', b'b', b'c']);
+        assert_eq!(msg.encode(), [0x23, 0xA5, 5, b'a', b'b', b'c']);
         let TeamMsg::Frame(f) = msg else { return };
-        assert_eq!(f.encoded_len(), 5);
+        assert_eq!(f.encoded_len(), 6);
     }
 
     #[test]
     fn a_high_member_a_fragment_or_a_second_part_takes_the_multi_part_form() {
         let high = frame(5, vec![Part::member(15, vec![0xAA])]);
-        assert_eq!(high.encode(), [0x2F, 5, 15 | PART_LAST, 0xAA]);
+        assert_eq!(high.encode(), [0x2F, 0xA5, 5, 15 | PART_LAST, 0xAA]);
         let fragment = Part {
             more: true,
             ..Part::member(3, vec![0xAA])
         };
         let more = PART_MORE | PART_LAST | 3;
-        assert_eq!(frame(5, vec![fragment]).encode(), [0x2F, 5, more, 0xAA]);
+        let fragment = frame(5, vec![fragment]).encode();
+        assert_eq!(fragment, [0x2F, 0xA5, 5, more, 0xAA]);
         let two = frame(
             5,
             vec![Part::member(2, vec![1, 2]), Part::member(0, vec![3])],
         );
-        assert_eq!(two.encode(), [0x2F, 5, 2, 2, 1, 2, PART_LAST, 3]);
+        assert_eq!(two.encode(), [0x2F, 0xA5, 5, 2, 2, 1, 2, PART_LAST, 3]);
     }
 
     #[test]
@@ -1279,7 +1307,7 @@ mod tests {
         let p = PART_ADDRESSED | PART_CONT | PART_LAST;
         assert_eq!(
             frame(1, vec![part]).encode(),
-            [0x2F, 1, p, 1, 2, 4, 1, 0x15]
+            [0x2F, 0xA5, 1, p, 1, 2, 4, 1, 0x15]
         );
     }
 
@@ -1305,18 +1333,19 @@ mod tests {
 
     #[test]
     fn a_frame_whose_last_part_is_not_marked_last_is_refused() {
-        let unmarked = [0x2F, 1, 2, 1, 0xAA];
+        let unmarked = [0x2F, 0xA5, 1, 2, 1, 0xAA];
         assert_eq!(
             decode(&unmarked),
             Err(TeamFrameError::Bad("the last part is not marked LAST"))
         );
-        assert_eq!(decode(&[0x2F, 1]), Err(TeamFrameError::Bad("no parts")));
+        let empty = decode(&[0x2F, 0xA5, 1]);
+        assert_eq!(empty, Err(TeamFrameError::Bad("no parts")));
     }
 
     #[test]
     fn a_part_longer_than_the_frame_is_refused() {
         assert_eq!(
-            decode(&[0x2F, 1, 2, 9, 0xAA]),
+            decode(&[0x2F, 0xA5, 1, 2, 9, 0xAA]),
             Err(TeamFrameError::Truncated)
         );
     }
@@ -1325,6 +1354,7 @@ mod tests {
     fn a_repair_covers_its_positions_by_replay_or_as_a_whole() {
         let replay = TeamRepair {
             from: 10,
+            check: 0xA5,
             content: RepairContent::Replay(vec![
                 vec![Part::member(1, vec![7])],
                 vec![Part::member(2, vec![8])],
@@ -1333,10 +1363,11 @@ mod tests {
         assert_eq!(replay.span(), range(10, 2));
         let bytes = TeamMsg::Repair(replay).encode();
         let body = |m| [2, m | PART_LAST, m + 6];
-        let expected = [&[0x3F, 10, 2, 0][..], &body(1), &body(2)].concat();
+        let expected = [&[0x3F, 0xA5, 10, 2, 0][..], &body(1), &body(2)].concat();
         assert_eq!(bytes, expected);
         let whole = TeamRepair {
             from: 10,
+            check: 0xA5,
             content: RepairContent::Difference {
                 n: 30,
                 parts: vec![Part::member(1, vec![7])],
@@ -1348,7 +1379,7 @@ mod tests {
 
     #[test]
     fn a_replay_with_more_positions_than_bytes_is_refused() {
-        let bytes = [0x3F, 10, 100, 0, 2, PART_LAST, 7];
+        let bytes = [0x3F, 0xA5, 10, 100, 0, 2, PART_LAST, 7];
         assert_eq!(
             decode(&bytes),
             Err(TeamFrameError::Bad("more positions than bytes"))
@@ -1466,7 +1497,7 @@ mod tests {
         let request = &samples()[12];
         assert!(decode(&with_byte(request, 1, 4)).is_err(), "state flags");
         let repair = &samples()[2];
-        assert!(decode(&with_byte(repair, 3, 2)).is_err(), "repair mode");
+        assert!(decode(&with_byte(repair, 4, 2)).is_err(), "repair mode");
     }
 
     #[test]
@@ -1501,7 +1532,7 @@ mod tests {
             decode(&heartbeat(1 << 30).encode()),
             Err(TeamFrameError::Bad("member bitmap"))
         );
-        let addressed = [0x2F, 1, PART_ADDRESSED | PART_LAST, 0, 0, 30, 0];
+        let addressed = [0x2F, 0xA5, 1, PART_ADDRESSED | PART_LAST, 0, 0, 30, 0];
         assert_eq!(decode(&addressed), Err(TeamFrameError::Bad("member index")));
     }
 
@@ -1629,7 +1660,11 @@ mod tests {
                 RepairContent::Difference { n, .. } => *n,
             };
             let from = from.min(u64::MAX - n);
-            TeamMsg::Repair(TeamRepair { from, content })
+            TeamMsg::Repair(TeamRepair {
+                from,
+                check: from as u8,
+                content,
+            })
         })
     }
 
@@ -1806,7 +1841,7 @@ mod tests {
 
         #[test]
         fn a_data_frames_encoded_len_is_its_length(seq in any::<u64>(), parts in parts()) {
-            let f = TeamFrame { seq, parts };
+            let f = TeamFrame { seq, check: seq as u8, parts };
             prop_assert_eq!(f.encoded_len(), TeamMsg::Frame(f.clone()).encode().len());
         }
 

@@ -13,7 +13,8 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use super::frame::{
-    MAX_MEMBERS, Member, Part, PartOf, SINGLE_PART_MEMBERS, StateRequest, StreamTag, TeamFrame,
+    FRAME_HEADER, MAX_MEMBERS, Member, Part, PartOf, SINGLE_PART_MEMBERS, StateRequest, StreamTag,
+    TeamFrame,
 };
 use super::history::{History, HistoryLimits};
 use super::nack::{RepairScheduler, RepairTiming};
@@ -35,11 +36,13 @@ pub(crate) struct Framer {
     open_len: usize,
     /// When the open frame got its first part.
     opened_at: Option<Duration>,
+    /// The stream's [`StreamTag::check`], which every frame carries.
+    check: u8,
 }
 
-/// The smallest MTU a framer works with: a header, a 10-byte position, a part byte
-/// and one byte of message. Smaller settings are raised to it.
-const MIN_MTU: usize = 13;
+/// The smallest MTU a framer works with: a header and tag check, a 10-byte position, a
+/// part byte and one byte of message. Smaller settings are raised to it.
+const MIN_MTU: usize = FRAME_HEADER + 12;
 
 impl Framer {
     pub fn new(mtu: usize, batch: Duration) -> Framer {
@@ -50,7 +53,14 @@ impl Framer {
             open: Vec::new(),
             open_len: 0,
             opened_at: None,
+            check: 0,
         }
+    }
+
+    /// The framer for the stream tagged `tag`.
+    pub fn tagged(self, tag: StreamTag) -> Framer {
+        let check = tag.check();
+        Framer { check, ..self }
     }
 
     /// The last position handed out.
@@ -98,6 +108,7 @@ impl Framer {
         let parts = std::mem::take(&mut self.open);
         Some(TeamFrame {
             seq: self.seq,
+            check: self.check,
             parts,
         })
     }
@@ -106,7 +117,7 @@ impl Framer {
     /// of a low member goes in single-part form (no part byte), anything else in
     /// multi-part form, the last part without its length.
     fn fits(&self, part: &Part) -> bool {
-        let header = 1 + var_len(self.seq + 1);
+        let header = FRAME_HEADER + var_len(self.seq + 1);
         let single = matches!(part.of, PartOf::Member(m) if m < SINGLE_PART_MEMBERS);
         let len = if self.open.is_empty() && single {
             header + part.bytes.len()
@@ -125,7 +136,7 @@ impl Framer {
         let mut first = true;
         while !rest.is_empty() {
             self.seq += 1;
-            let room = self.mtu - 2 - var_len(self.seq);
+            let room = self.mtu - FRAME_HEADER - 1 - var_len(self.seq);
             let (chunk, after) = rest.split_at(room.min(rest.len()));
             let part = Part {
                 of: PartOf::Member(member),
@@ -135,6 +146,7 @@ impl Framer {
             };
             frames.push(TeamFrame {
                 seq: self.seq,
+                check: self.check,
                 parts: vec![part],
             });
             (rest, first) = (after, false);
@@ -212,7 +224,7 @@ impl Gateway {
         Gateway {
             epoch,
             tag,
-            framer,
+            framer: framer.tagged(tag),
             history: History::new(limits),
             members: Vec::new(),
             version: 0,
@@ -507,7 +519,7 @@ mod tests {
     proptest! {
         #[test]
         fn framing_keeps_every_message_in_order_within_the_mtu(
-            mtu in 13usize..200,
+            mtu in MIN_MTU..200,
             sent in proptest::collection::vec((0u8..30, proptest::collection::vec(any::<u8>(), 1..300)), 0..20),
         ) {
             let mut framer = Framer::new(mtu, ms(250));

@@ -16,6 +16,7 @@ use super::frame::{
     MAX_MEMBERS, PartOf, RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamMsg,
 };
 use super::outer::{Change, Fragment, Heard, Outer};
+use super::repair::ANY_TAG;
 use crate::ici::state::State;
 use crate::{LinkKind, MsgKind};
 
@@ -130,6 +131,9 @@ impl State {
         let Some(tag) = s.hello.as_ref().map(|h| h.tag) else {
             return self.park(from, frame);
         };
+        if frame.check != tag.check() {
+            return self.park_other_epoch(from, frame);
+        }
         let outer = s.outer.get_or_insert_with(|| Outer::new(tag.0, max_nack));
         let Heard::Fresh(change) = outer.receive(tag.0, frame.seq, now) else {
             return;
@@ -145,6 +149,16 @@ impl State {
             .team_protocol
             .as_ref()
             .map_or(64, |p| p.max_nack_frames)
+    }
+
+    /// A frame of another epoch than the hello's: a new epoch's whose hello has not come
+    /// (the gateway restarted, or another module took the role), or a late one of an
+    /// earlier epoch. Read against this hello it would be the same position of the old
+    /// stream, its parts the old members' messages. It waits for the next hello, which
+    /// is asked for: there it is taken if it is that hello's, and dropped if not.
+    fn park_other_epoch(&mut self, from: &Address, frame: TeamFrame) {
+        self.park(from, frame);
+        self.ask_hello(from, Some(ANY_TAG));
     }
 
     /// Keeps a frame until its robot's hello comes, and NACKs the hello.
@@ -229,7 +243,7 @@ impl State {
     /// A robot hello: its members (incarnations, restarts, liveliness), a new epoch if
     /// the tag is new; the frames parked for it are handed on.
     fn on_robot_hello(&mut self, from: &Address, hello: RobotHello) {
-        let max_nack = self.max_nack_frames();
+        let (max_nack, check) = (self.max_nack_frames(), hello.tag.check());
         let s = self.speaker(from);
         if s.hello
             .as_ref()
@@ -272,7 +286,9 @@ impl State {
         self.team.interest_dirty = true;
         self.apply_alive(from);
         let parked: Vec<TeamFrame> = self.speaker(from).parked.drain(..).collect();
-        parked.into_iter().for_each(|f| self.on_team_frame(from, f));
+        let (this, other): (Vec<_>, Vec<_>) = parked.into_iter().partition(|f| f.check == check);
+        self.stats.rejects.stale += other.len() as u64;
+        this.into_iter().for_each(|f| self.on_team_frame(from, f));
     }
 
     /// A member's incarnation as its robot's hello says it: a new one runs today's
@@ -471,12 +487,55 @@ mod tests {
         frame_of(0, seq, message)
     }
 
+    /// A frame of `t/r1/g`'s stream in the epoch of [`hello`].
     fn frame_of(member: u8, seq: u64, message: Vec<u8>) -> Vec<u8> {
+        frame_in(9, member, seq, message)
+    }
+
+    /// A frame of `t/r1/g`'s stream in epoch `epoch`.
+    fn frame_in(epoch: u64, member: u8, seq: u64, message: Vec<u8>) -> Vec<u8> {
         TeamMsg::Frame(TeamFrame {
             seq,
+            check: StreamTag::of(&addr("t/r1/g"), epoch).check(),
             parts: vec![Part::member(member, message)],
         })
         .encode()
+    }
+
+    #[test]
+    fn a_frame_of_a_new_epoch_heard_before_its_hello_is_not_read_as_the_old_epochs() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        st.on_team(&gw, &hello(&gw));
+        st.on_team(&gw, &frame(2, lifecycle(2)));
+        // The gateway restarts (epoch 10); its first frame comes before its hello, at
+        // the position the old stream still misses.
+        st.on_team(&gw, &frame_in(10, 0, 1, lifecycle(1)));
+        let outer = |st: &State| st.team.speakers[&gw].outer.as_ref().map(Outer::have);
+        assert_eq!(
+            outer(&st),
+            Some(0),
+            "position 1 of epoch 9 is still missing"
+        );
+        assert_eq!(st.team.speakers[&gw].parked.len(), 1);
+        let new = TeamMsg::Hello(robot_hello(&gw, 10, &["m1", "m2"])).encode();
+        st.on_team(&gw, &new);
+        assert_eq!(outer(&st), Some(1), "taken as epoch 10's first frame");
+    }
+
+    #[test]
+    fn a_late_frame_of_an_earlier_epoch_is_dropped_when_the_next_hello_comes() {
+        let (_net, mut st) = state();
+        let gw = addr("t/r1/g");
+        let new = TeamMsg::Hello(robot_hello(&gw, 10, &["m1", "m2"])).encode();
+        st.on_team(&gw, &new);
+        st.on_team(&gw, &frame_in(9, 0, 1, lifecycle(1)));
+        let stale = st.stats.rejects.stale;
+        st.on_team(&gw, &new);
+        let s = &st.team.speakers[&gw];
+        assert!(s.parked.is_empty());
+        assert_eq!(s.outer.as_ref().map(Outer::have), Some(0));
+        assert_eq!(st.stats.rejects.stale, stale + 1);
     }
 
     #[test]

@@ -96,31 +96,36 @@ pub(crate) fn nack_seed(me: &Address, started_raw: u64) -> u64 {
 }
 
 /// Replays of `bodies` (consecutive positions from the first one's, each with its
-/// original parts), split so that every repair is at most `mtu` bytes. A body too
-/// large to fit with a repair's header alone goes alone (the transport may refuse it).
-pub(crate) fn replays(bodies: Vec<(u64, Vec<Part>)>, mtu: usize) -> Vec<TeamRepair> {
+/// original parts) of the stream tagged `tag`, split so that every repair is at most
+/// `mtu` bytes. A body too large to fit with a repair's header alone goes alone (the
+/// transport may refuse it).
+pub(crate) fn replays(
+    tag: StreamTag,
+    bodies: Vec<(u64, Vec<Part>)>,
+    mtu: usize,
+) -> Vec<TeamRepair> {
     let mut out: Vec<TeamRepair> = Vec::new();
     let (mut from, mut open): (u64, Vec<Vec<Part>>) = (0, Vec::new());
     for (seq, parts) in bodies {
         let follows = !open.is_empty() && from + open.len() as u64 == seq;
-        if follows && fits(from, &mut open, &parts, mtu) {
+        if follows && fits(tag, from, &mut open, &parts, mtu) {
             continue;
         }
         if !open.is_empty() {
-            out.push(replay(from, std::mem::take(&mut open)));
+            out.push(replay(tag, from, std::mem::take(&mut open)));
         }
         (from, open) = (seq, vec![parts]);
     }
     if !open.is_empty() {
-        out.push(replay(from, open));
+        out.push(replay(tag, from, open));
     }
     out
 }
 
 /// Adds `parts` to the open replay if the repair stays within `mtu`.
-fn fits(from: u64, open: &mut Vec<Vec<Part>>, parts: &[Part], mtu: usize) -> bool {
+fn fits(tag: StreamTag, from: u64, open: &mut Vec<Vec<Part>>, parts: &[Part], mtu: usize) -> bool {
     open.push(parts.to_vec());
-    let candidate = replay(from, std::mem::take(open));
+    let candidate = replay(tag, from, std::mem::take(open));
     let ok = candidate.encoded_len() <= mtu;
     if let RepairContent::Replay(back) = candidate.content {
         *open = back;
@@ -131,9 +136,10 @@ fn fits(from: u64, open: &mut Vec<Vec<Part>>, parts: &[Part], mtu: usize) -> boo
     ok
 }
 
-fn replay(from: u64, bodies: Vec<Vec<Part>>) -> TeamRepair {
+fn replay(tag: StreamTag, from: u64, bodies: Vec<Vec<Part>>) -> TeamRepair {
     TeamRepair {
         from,
+        check: tag.check(),
         content: RepairContent::Replay(bodies),
     }
 }
@@ -297,6 +303,7 @@ impl State {
         for (i, parts) in bodies.into_iter().enumerate() {
             let frame = TeamFrame {
                 seq: repair.from + i as u64,
+                check: repair.check,
                 parts,
             };
             self.stats.team.repaired += 1;
@@ -501,6 +508,7 @@ impl State {
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
+        let tag = gw.tag;
         let lookup = gw.history.get(range.first(), range.n(), now);
         let gone = lookup.gone.map(|(from, n)| Gone {
             tag: gw.tag,
@@ -510,7 +518,7 @@ impl State {
         if let Some(gone) = gone {
             self.publish_team_msg(MsgKind::Gone, &TeamMsg::Gone(gone));
         }
-        for repair in replays(bodies_of(&lookup.held), mtu) {
+        for repair in replays(tag, bodies_of(&lookup.held), mtu) {
             self.publish_team_msg(MsgKind::TeamRepair, &TeamMsg::Repair(repair));
         }
     }
@@ -568,10 +576,11 @@ mod tests {
         TeamMsg::Hello(robot_hello(gateway, epoch, &["m1"])).encode()
     }
 
-    /// A frame at `seq` holding m1's lifecycle message `seq`.
+    /// A frame of `t/r1/g`'s stream at `seq` holding m1's lifecycle message `seq`.
     fn frame(seq: u64) -> Vec<u8> {
         let parts = vec![Part::member(0, lifecycle(seq))];
-        TeamMsg::Frame(TeamFrame { seq, parts }).encode()
+        let check = tag_of(&addr("t/r1/g")).check();
+        TeamMsg::Frame(TeamFrame { seq, check, parts }).encode()
     }
 
     fn nack(tag: StreamTag, from: u64, n: u64) -> Vec<u8> {
@@ -642,6 +651,7 @@ mod tests {
             .collect();
         let repair = TeamRepair {
             from: 1,
+            check: tag_of(&gw).check(),
             content: RepairContent::Replay(bodies),
         };
         st.on_team(&gw, &TeamMsg::Repair(repair).encode());
@@ -776,7 +786,7 @@ mod tests {
     #[test]
     fn consecutive_bodies_share_a_repair_up_to_the_mtu() {
         let bodies: Vec<(u64, Vec<Part>)> = (5..10).map(|s| (s, vec![part(0, 30)])).collect();
-        let repairs = replays(bodies, 80);
+        let repairs = replays(StreamTag(7), bodies, 80);
         assert!(repairs.len() > 1);
         let mut next = 5;
         for r in &repairs {
@@ -795,7 +805,7 @@ mod tests {
             (4, vec![part(1, 4)]),
             (9, vec![part(0, 4)]),
         ];
-        let repairs = replays(bodies, 1024);
+        let repairs = replays(StreamTag(7), bodies, 1024);
         let spans: Vec<(u64, u64)> = repairs.iter().map(|r| (r.from, r.span().n)).collect();
         assert_eq!(spans, vec![(3, 2), (9, 1)]);
     }
