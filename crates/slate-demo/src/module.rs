@@ -8,6 +8,8 @@ use std::time::Duration;
 use slate_ici::{ClassSet, IciConfig, TeamProtocol};
 use slate_model::{Address, Context};
 use slate_node::Node;
+use slate_node::PlanSender;
+use slate_node::authority::default_plans_from;
 
 use crate::config::{Speakers, TeamLink, TeamMedium};
 use crate::error::DemoError;
@@ -121,6 +123,16 @@ fn classes(names: &[&str]) -> ClassSet {
     names.iter().fold(ClassSet::none(), |s, c| s.class(c))
 }
 
+/// Who may send a module plans: its robot's modules, the team's operators, and the
+/// console at the base, which sends each robot its mission plans (and whose plans the
+/// execution controller sends on to its robot's modules).
+fn plans_from() -> Vec<PlanSender> {
+    let console = format!("team/{}/{}", crate::team::BASE, Role::Console.name());
+    let mut senders = default_plans_from();
+    senders.extend(console.parse::<PlanSender>().ok());
+    senders
+}
+
 /// The team protocol's preset for the demo's link, its gateway's token bucket at 80 %
 /// of a radio's budget, or at 70 % of the shared acoustic channel's divided among the
 /// `gateways` that share it (so that together they never offer it more).
@@ -167,6 +179,7 @@ impl Module {
             .transport(net.join(&address)?)
             .clock(net.clock())
             .ici(role.ici_config(speakers, link, team.len() + 1))
+            .plans_from(plans_from())
             .start()?;
         let module = Module {
             role,

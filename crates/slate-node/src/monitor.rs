@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
-use slate_ici::{ClassSet, Ici, MODULE_CLASS};
+use slate_ici::{ClassSet, Ici, MODULE_CLASS, RefusedPlan};
 use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Filter, Value, Watch};
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
@@ -103,7 +103,7 @@ impl Monitor {
     pub fn start(
         board: &Arc<Board>,
         engine: &Engine,
-        ici: (&Ici, ClassSet),
+        ici: (&Ici, ClassSet, Receiver<RefusedPlan>),
         log: Arc<EventLog>,
     ) -> Monitor {
         let (stop, stopped) = crossbeam_channel::bounded(1);
@@ -117,6 +117,7 @@ impl Monitor {
             alive: Mutex::new(HashMap::new()),
             board_events: board.events(),
             plan_events: engine.events(),
+            refused_plans: ici.2,
             board: Arc::downgrade(board),
         };
         if board.clock().is_manual() {
@@ -194,6 +195,8 @@ struct Sources {
     alive: Mutex<HashMap<String, Value>>,
     board_events: Receiver<BoardEvent>,
     plan_events: Receiver<PlanEvent>,
+    /// Plans the circuits refused for want of authority.
+    refused_plans: Receiver<RefusedPlan>,
     board: std::sync::Weak<Board>,
 }
 
@@ -265,6 +268,9 @@ impl Sources {
             let (level, text) = plan_event(&e);
             log.push(board, level, text);
         }
+        for r in self.refused_plans.try_iter() {
+            log.push(board, Level::Warn, refused_plan(&r));
+        }
     }
 }
 
@@ -301,6 +307,11 @@ impl Sources {
             }
         }
     }
+}
+
+/// A plan refused for want of authority, as a sentence (its reason says who may send).
+fn refused_plan(r: &RefusedPlan) -> String {
+    format!("plan {} from {} refused: {}", r.name, r.from, r.reason)
 }
 
 /// A board event as a sentence (the event log's, and a recording's `text`).

@@ -3,12 +3,12 @@
 
 use std::time::Duration;
 
-use slate_ici::SimNet;
+use slate_ici::{ClassSet, IciConfig, SimNet};
 use slate_model::Value;
 use slate_node::{Level, Node};
 use slate_wire::PlanStep;
 
-use crate::support::{addr, eventually, run_until, start};
+use crate::support::{addr, eventually, on_net, plans_from, run_until, start};
 
 fn speed(node: &Node) -> Option<f64> {
     node.board().read("gsr", "speed").ok()?.value.as_f64()
@@ -47,7 +47,11 @@ fn a_late_joiner_catches_up_with_the_current_state() {
 fn a_plan_sent_from_a_node_is_acknowledged_step_by_step() {
     let net = SimNet::new(3);
     let planner = start(&net, "t/r1/planner", "");
-    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    let loco = on_net(&net, "t/r2/loco", "object gsr : Vehicle context self;")
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .plans_from(plans_from(&["robot", "t/r1/planner"]))
+        .start()
+        .unwrap();
     net.run_for(Duration::from_millis(500));
     let handle = planner
         .send_plan(
@@ -298,4 +302,50 @@ fn a_follower_gets_each_event_as_it_is_logged() {
             .any(|e| e.text == "peer t/r2/loco up" && e.level == Level::Info)
     });
     assert!(heard, "{:?}", nav.events());
+}
+
+#[test]
+fn a_plan_from_another_robots_module_is_refused_by_default_and_logged() {
+    // Issue 17, finding 2: by default a node takes plans from its robot's modules and the
+    // team's operators only.
+    let net = SimNet::new(5);
+    let stranger = start(&net, "t/r9/evil", "");
+    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    let mate = start(&net, "t/r2/exec", "");
+    net.run_for(Duration::from_millis(500));
+    let pwn = "plan pwn { action { set gsr.mode = \"pwned\"; } }";
+    let handle = stranger.send_plan(&addr("t/r2/loco"), pwn).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
+    let [PlanStep::Received, PlanStep::Rejected { reason }] = steps.as_slice() else {
+        panic!("{steps:?}")
+    };
+    assert!(
+        reason.contains("t/r9/evil may not send plans to t/r2/loco"),
+        "{reason}"
+    );
+    assert_eq!(
+        loco.board().read("gsr", "mode").unwrap().value,
+        Value::from("auto")
+    );
+    let events = loco.events();
+    let refused = events
+        .iter()
+        .find(|e| e.text.starts_with("plan pwn from t/r9/evil refused"));
+    assert!(
+        refused.is_some_and(|e| e.level == Level::Warn),
+        "{events:?}"
+    );
+    assert_eq!(loco.circuits().stats().unauthorised, 1);
+    assert_eq!(loco.snapshot()["summary"]["plans refused: no authority"], 1);
+
+    let own = "plan own { action { set gsr.mode = \"manual\"; } }";
+    let handle = mate.send_plan(&addr("t/r2/loco"), own).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
+    assert_eq!(
+        steps[..2],
+        [PlanStep::Received, PlanStep::Accepted],
+        "{steps:?}"
+    );
 }
