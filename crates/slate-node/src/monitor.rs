@@ -328,6 +328,16 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
         BoardEvent::ClassConflict { class, peer } => format!(
             "class {class} is defined differently by {peer}: objects of {class} are not merged with it"
         ),
+        BoardEvent::FutureStamp {
+            object,
+            attr,
+            source,
+            ahead,
+            ..
+        } => format!(
+            "packet for {object}.{attr} from {source} refused: stamped {:.1} s ahead of this board's clock, beyond its tolerance (its clock or this one's is wrong)",
+            ahead.as_secs_f64()
+        ),
         other => format!("{other:?}"),
     }
 }

@@ -1,6 +1,7 @@
 //! Nodes on the deterministic simulator: reports, late joiners, plans with acks,
 //! cancellation by another module, shutdown.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use slate_ici::{ClassSet, IciConfig, SimNet};
@@ -347,5 +348,49 @@ fn a_plan_from_another_robots_module_is_refused_by_default_and_logged() {
         steps[..2],
         [PlanStep::Received, PlanStep::Accepted],
         "{steps:?}"
+    );
+}
+
+#[test]
+fn a_packet_stamped_beyond_the_clock_tolerance_is_refused_counted_and_an_event() {
+    // Issue 17, finding 3 (a packet stamped far in the future holds an attribute): a
+    // module whose clock is an hour ahead writes; the receiver refuses its packets.
+    let net = SimNet::new(6);
+    let loco = start(&net, "t/r2/loco", "object rock : Obstacle;");
+    loco.board().write("rock", "range", 7.5).unwrap();
+    let clock = slate_model::Clock::manual();
+    clock
+        .set(net.clock().physical() + Duration::from_secs(3600))
+        .unwrap();
+    let evil_addr = addr("t/r1/evil");
+    let evil = Arc::new(
+        slate_model::Board::builder()
+            .clock(clock)
+            .address(evil_addr.clone())
+            .build(),
+    );
+    let engine = slate_plans::Engine::new(&evil);
+    engine.load("world.slate", slate_testing::WORLD).unwrap();
+    let config = IciConfig::default().export(ClassSet::all());
+    let _ici = slate_ici::Ici::new(evil.clone(), net.join(&evil_addr), config).unwrap();
+    net.run_for(Duration::from_millis(500));
+    evil.create("Obstacle", "decoy").unwrap();
+    evil.write("decoy", "range", 66.0).unwrap();
+    net.run_for(Duration::from_millis(500));
+    loco.board().write("rock", "range", 8.0).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let held = loco.board().read("decoy", "range").ok();
+    assert!(
+        held.as_ref().is_none_or(|p| p.value.as_f64() != Some(66.0)),
+        "{held:?}"
+    );
+    assert!(loco.ici().stats().rejects.future >= 1);
+    let events = loco.events();
+    let refused = events.iter().find(|e| {
+        e.text.contains("from t/r1/evil refused") && e.text.contains("ahead of this board's clock")
+    });
+    assert!(
+        refused.is_some_and(|e| e.level == Level::Warn),
+        "{events:?}"
     );
 }
