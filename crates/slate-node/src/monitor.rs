@@ -23,6 +23,9 @@ const KEEP: usize = 300;
 /// interest stays unknown, and nothing is sent to it live).
 const REGREET: Duration = Duration::from_secs(1);
 
+/// Undecodable messages are told of at most this often (a flood is one event a second).
+const UNDECODABLE_EVERY: Duration = Duration::from_secs(1);
+
 /// How often the monitor looks at the board's events and the engine's.
 const POLL: Duration = Duration::from_millis(50);
 
@@ -118,6 +121,7 @@ impl Monitor {
             board_events: board.events(),
             plan_events: engine.events(),
             refused_plans: ici.2,
+            undecodable: Mutex::new((0, None)),
             board: Arc::downgrade(board),
         };
         if board.clock().is_manual() {
@@ -197,6 +201,9 @@ struct Sources {
     plan_events: Receiver<PlanEvent>,
     /// Plans the circuits refused for want of authority.
     refused_plans: Receiver<RefusedPlan>,
+    /// Received messages that did not decode: how many the log has told of, and when it
+    /// last did (board time).
+    undecodable: Mutex<(u64, Option<Duration>)>,
     board: std::sync::Weak<Board>,
 }
 
@@ -270,6 +277,27 @@ impl Sources {
         }
         for r in self.refused_plans.try_iter() {
             log.push(board, Level::Warn, refused_plan(&r));
+        }
+        self.undecodable_news(board, log);
+    }
+
+    /// Received messages that did not decode since the last time told, as one event at
+    /// most every [`UNDECODABLE_EVERY`] of board time, whatever their number.
+    fn undecodable_news(&self, board: &Board, log: &EventLog) {
+        let count = crate::stats::Drops::of(&self.ici.stats()).undecodable;
+        let now = board.clock().physical();
+        let mut told = self.undecodable.lock();
+        let due = told
+            .1
+            .is_none_or(|at| now.saturating_sub(at) >= UNDECODABLE_EVERY);
+        if count > told.0 && due {
+            let text = format!(
+                "{} received messages did not decode and were refused (slate stats: drops.undecodable, {count} in all)",
+                count - told.0
+            );
+            *told = (count, Some(now));
+            drop(told);
+            log.push(board, Level::Warn, text);
         }
     }
 }

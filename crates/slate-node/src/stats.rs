@@ -196,7 +196,8 @@ impl TrafficRow {
 }
 
 impl Drops {
-    fn of(s: &IciStats) -> Self {
+    /// The drops among an ICI's counters.
+    pub(crate) fn of(s: &IciStats) -> Self {
         let r = &s.rejects;
         let t = &s.team;
         Drops {

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::{ClassSet, IciConfig, SimNet};
+use slate_ici::{ClassSet, IciConfig, SimNet, Transport};
 use slate_model::Value;
 use slate_node::{Level, Node};
 use slate_wire::PlanStep;
@@ -393,4 +393,34 @@ fn a_packet_stamped_beyond_the_clock_tolerance_is_refused_counted_and_an_event()
         refused.is_some_and(|e| e.level == Level::Warn),
         "{events:?}"
     );
+}
+
+#[test]
+fn messages_that_do_not_decode_are_counted_and_an_event() {
+    // Issue 17's fuzzing found garbage refused and counted; an operator also sees it in
+    // the node's events (one per second at most, whatever the flood).
+    let net = SimNet::new(7);
+    let loco = start(&net, "t/r2/loco", "object rock : Obstacle;");
+    let garbage = net.join(&addr("t/r9/noise"));
+    net.run_for(Duration::from_millis(500));
+    for i in 0..50_u8 {
+        let bytes = [0xff, i, 0x13, 0x37, 0x00, 0x42];
+        garbage
+            .send(&addr("t/r2/loco"), slate_ici::MsgKind::Report, &bytes)
+            .unwrap();
+        net.run_for(Duration::from_millis(20));
+    }
+    net.run_for(Duration::from_millis(1500));
+    let stats = loco.ici().stats();
+    assert!(stats.rejects.decode.rejected() >= 50, "{:?}", stats.rejects);
+    let events = loco.events();
+    let undecodable: Vec<_> = events
+        .iter()
+        .filter(|e| e.text.contains("did not decode"))
+        .collect();
+    assert!(
+        !undecodable.is_empty() && undecodable.len() <= 3,
+        "{events:?}"
+    );
+    assert!(undecodable.iter().all(|e| e.level == Level::Warn));
 }
