@@ -55,7 +55,10 @@ def main() -> int:
     endpoint = free_endpoint()
     board = slate.Board(address="team/r1/loco")
     board.load(WORLD)
-    with slate.Node("team/r1/loco", board, listen=[endpoint], export=["Vehicle"]) as loco, \
+    # A module takes plans from its own robot and the team's operators by default: loco
+    # names the base's planner too (docs/security.md, "Authority over plans").
+    with slate.Node("team/r1/loco", board, listen=[endpoint], export=["Vehicle"],
+                    plans_from=["robot", "operators", "team/base/planner"]) as loco, \
             slate.Node("team/base/planner", connect=[endpoint]) as planner:
         if not wait_for(lambda: "team/r1/loco" in planner.peers()):
             print("planner: team/r1/loco never came up")

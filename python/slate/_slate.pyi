@@ -574,12 +574,16 @@ class Node:
         dashboard: str | None = None,
         record: str | os.PathLike[str] | None = None,
         state: str | os.PathLike[str] | None = None,
+        plans_from: Sequence[str] | None = None,
     ) -> Node:
         """`record=`: record the board to this MCAP file from the start
         (docs/recording.md). `state=`: keep the board in this directory and restore it
         first, before the node joins the team (docs/design.md, "A restart with its
         board"); load the board's files before making the node, or their objects clash
-        with the restored ones. A damaged state directory raises NodeError naming it."""
+        with the restored ones. A damaged state directory raises NodeError naming it.
+        `plans_from=`: who may send this node plans, as `[authority] plans_from` in a
+        node's config: "robot", "operators" and address patterns like "t/*/planner"
+        (default: its robot's modules and the team's operators; docs/security.md)."""
     @property
     def address(self) -> str: ...
     @property

@@ -37,8 +37,13 @@ def pair() -> Iterator[tuple[slate.Node, slate.Node]]:
     nav_board.load(WORLD + "object gsr : Vehicle context self;")
     loco_board = slate.Board(address="t/r2/loco")
     loco_board.load(WORLD)
-    nav = slate.Node("t/r1/nav", nav_board, listen=[endpoint], export=["Thing"])
-    loco = slate.Node("t/r2/loco", loco_board, connect=[endpoint], export=["Thing"])
+    # Each may send the other plans (by default a node takes them from its robot only).
+    nav = slate.Node(
+        "t/r1/nav", nav_board, listen=[endpoint], export=["Thing"], plans_from=["robot", "t/r2/loco"]
+    )
+    loco = slate.Node(
+        "t/r2/loco", loco_board, connect=[endpoint], export=["Thing"], plans_from=["robot", "t/r1/nav"]
+    )
     try:
         assert eventually(lambda: nav.peers() == ["t/r2/loco"] and loco.peers() == ["t/r1/nav"])
         yield nav, loco
@@ -112,6 +117,32 @@ def test_a_plan_the_destination_cannot_load_is_rejected_with_the_reason(
         assert handle.get(timeout=0.1) is None
 
     run_with_timeout(check)
+
+
+def test_a_plan_from_a_module_without_authority_is_rejected_with_the_reason() -> None:
+    endpoint = free_endpoint()
+    nav_board = slate.Board(address="t/r1/nav")
+    nav_board.load(WORLD + "object gsr : Vehicle context self;")
+    nav = slate.Node("t/r1/nav", nav_board, listen=[endpoint])
+    evil = slate.Node("t/r9/evil", connect=[endpoint])
+    try:
+
+        def check() -> None:
+            assert eventually(lambda: "t/r9/evil" in nav.peers())
+            pwn = 'plan pwn { action { set gsr.mode = "pwned"; } }'
+            handle = evil.send_plan(pwn, to="t/r1/nav")
+            steps = [handle.get(timeout=10) for _ in range(2)]
+            assert [s.step for s in steps if s] == ["received", "rejected"]
+            assert steps[1] and "t/r9/evil may not send plans to t/r1/nav" in steps[1].detail
+            assert nav.board.read("gsr", "mode").value == "auto"
+            assert nav.snapshot()["summary"]["plans refused: no authority"] == 1
+            with pytest.raises(ValueError, match="plans_from"):
+                slate.Node("t/r1/other", plans_from=["everyone"])
+
+        run_with_timeout(check)
+    finally:
+        evil.close()
+        nav.close()
 
 
 def test_cancel_a_plan_from_its_handle(pair: tuple[slate.Node, slate.Node]) -> None:

@@ -184,6 +184,9 @@ pub struct DemoConfig {
     /// Who speaks on the team link: every module (today's protocol, the default) or one
     /// gateway per robot (the team protocol being built, docs/team-protocol.md).
     pub speakers: Speakers,
+    /// On Zenoh: a secured team (docs/security.md), with keys made for the run in a
+    /// temporary folder, TLS with mutual authentication and the generated access control.
+    pub secure: bool,
 }
 
 /// Who speaks on the team link.
@@ -213,6 +216,7 @@ impl Default for DemoConfig {
             team_link: TeamLink::default(),
             deck: None,
             speakers: Speakers::Modules,
+            secure: false,
         }
     }
 }
@@ -267,6 +271,12 @@ impl DemoConfig {
         self
     }
 
+    /// Runs a secured team (with [`NetworkKind::Zenoh`] only).
+    pub fn secure(mut self, secure: bool) -> Self {
+        self.secure = secure;
+        self
+    }
+
     /// Sets the deck phase before launch.
     pub fn deck(mut self, deck: Option<Duration>) -> Self {
         self.deck = deck;
@@ -303,6 +313,9 @@ impl DemoConfig {
             return bad(
                 "--team-link acoustic is a simulated channel: use it with --network sim".into(),
             );
+        }
+        if self.secure && self.network != NetworkKind::Zenoh {
+            return bad("--secure secures Zenoh's links: use it with --network zenoh".into());
         }
         if self.deck.is_some_and(|d| d < MIN_DECK) {
             return bad(format!(

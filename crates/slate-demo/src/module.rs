@@ -8,6 +8,8 @@ use std::time::Duration;
 use slate_ici::{ClassSet, IciConfig, TeamProtocol};
 use slate_model::{Address, Context};
 use slate_node::Node;
+use slate_node::PlanSender;
+use slate_node::authority::default_plans_from;
 
 use crate::config::{Speakers, TeamLink, TeamMedium};
 use crate::error::DemoError;
@@ -121,6 +123,42 @@ fn classes(names: &[&str]) -> ClassSet {
     names.iter().fold(ClassSet::none(), |s, c| s.class(c))
 }
 
+/// The files [`Module::load_files`] loads, as (label, text), for a node to load before
+/// it joins.
+fn sources(
+    role: Role,
+    robot: &str,
+    team: &[String],
+    medium: TeamMedium,
+) -> Result<Vec<(String, String)>, DemoError> {
+    let mut out = Vec::new();
+    for file in std::iter::once(files::CLASSES).chain(role.files().iter().copied()) {
+        out.push((file.label(robot), for_robot(file, robot)?));
+    }
+    if role == Role::Console {
+        for r in team {
+            out.push((
+                files::MISSION.label(r),
+                files::terse(&for_robot(files::MISSION, r)?),
+            ));
+        }
+    }
+    for file in Role::medium_files(medium) {
+        out.push((file.label(robot), for_robot(*file, robot)?));
+    }
+    Ok(out)
+}
+
+/// Who may send a module plans: its robot's modules, the team's operators, and the
+/// console at the base, which sends each robot its mission plans (and whose plans the
+/// execution controller sends on to its robot's modules).
+fn plans_from() -> Vec<PlanSender> {
+    let console = format!("team/{}/{}", crate::team::BASE, Role::Console.name());
+    let mut senders = default_plans_from();
+    senders.extend(console.parse::<PlanSender>().ok());
+    senders
+}
+
 /// The team protocol's preset for the demo's link, its gateway's token bucket at 80 %
 /// of a radio's budget, or at 70 % of the shared acoustic channel's divided among the
 /// `gateways` that share it (so that together they never offer it more).
@@ -163,28 +201,44 @@ impl Module {
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
-        let node = Node::builder(address.clone())
+        let mut builder = Node::builder(address.clone())
             .transport(net.join(&address)?)
             .clock(net.clock())
             .ici(role.ici_config(speakers, link, team.len() + 1))
-            .start()?;
+            .plans_from(plans_from());
+        if !net.is_virtual() {
+            // In real time the robot's other modules may already be speaking: its shared
+            // objects must be declared before it joins, or theirs arrive first and clash.
+            for (label, text) in sources(role, robot, team, link.medium)? {
+                builder = builder.source(&label, &text);
+            }
+        }
         let module = Module {
             role,
             robot: robot.to_owned(),
-            node,
+            node: builder.start()?,
         };
-        for file in std::iter::once(files::CLASSES).chain(role.files().iter().copied()) {
-            module.load(file, robot)?;
-        }
-        if role == Role::Console {
-            for r in team {
-                module.load_terse(files::MISSION, r)?;
-            }
-        }
-        for file in Role::medium_files(link.medium) {
-            module.load(*file, robot)?;
+        if net.is_virtual() {
+            module.load_files(team, link.medium)?;
         }
         Ok(module)
+    }
+
+    /// Loads the classes, the role's files, the console's missions and the medium's files.
+    fn load_files(&self, team: &[String], medium: TeamMedium) -> Result<(), DemoError> {
+        let robot = self.robot.as_str();
+        for file in std::iter::once(files::CLASSES).chain(self.role.files().iter().copied()) {
+            self.load(file, robot)?;
+        }
+        if self.role == Role::Console {
+            for r in team {
+                self.load_terse(files::MISSION, r)?;
+            }
+        }
+        for file in Role::medium_files(medium) {
+            self.load(*file, robot)?;
+        }
+        Ok(())
     }
 
     fn load(&self, file: SlateFile, robot: &str) -> Result<(), DemoError> {

@@ -71,7 +71,15 @@ impl Network {
 
     /// Zenoh on loopback.
     pub fn zenoh() -> Network {
-        Network::Zenoh(zenoh_net::ZenohNet::new())
+        Network::Zenoh(zenoh_net::ZenohNet::new(None))
+    }
+
+    /// Zenoh on loopback as a secured team of `members` (docs/security.md): keys made for
+    /// them in a temporary folder (removed with the network), TLS links with mutual
+    /// authentication, and the access control generated from the keys.
+    pub fn secured_zenoh(members: &[Address]) -> Result<Network, DemoError> {
+        let keys = zenoh_net::Keys::make(members)?;
+        Ok(Network::Zenoh(zenoh_net::ZenohNet::new(Some(keys))))
     }
 
     /// The clock every board on this network uses.
@@ -126,10 +134,13 @@ mod zenoh_net {
     use std::sync::Arc;
     use std::time::{Duration, Instant};
 
+    use std::path::PathBuf;
+
     use parking_lot::Mutex;
     use slate_ici::Transport;
     use slate_model::Address;
-    use slate_zenoh::{ZenohConfig, ZenohTransport};
+    use slate_node::team_keys::{self, Identity};
+    use slate_zenoh::{Security, ZenohConfig, ZenohTransport};
 
     use crate::error::DemoError;
 
@@ -139,14 +150,57 @@ mod zenoh_net {
         endpoints: Mutex<Vec<String>>,
         transports: Mutex<Vec<Arc<ZenohTransport>>>,
         next_wake: Mutex<Option<Instant>>,
+        /// A secured team's keys (`None`: plain TCP).
+        keys: Option<Keys>,
+    }
+
+    /// A secured team's keys folder, made by `slate keys`' code for this run and removed
+    /// when dropped.
+    pub struct Keys {
+        dir: PathBuf,
+    }
+
+    impl Keys {
+        /// A team authority and a key and certificate for each of `members`.
+        pub fn make(members: &[Address]) -> Result<Keys, DemoError> {
+            let stamp = std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .unwrap_or_default()
+                .as_nanos();
+            let dir = std::env::temp_dir()
+                .join(format!("slate-demo-keys-{}-{stamp}", std::process::id()));
+            let keys = Keys { dir };
+            let failed = |e: team_keys::KeysError| {
+                DemoError::Network(format!("cannot make the team's keys: {e}"))
+            };
+            team_keys::init(&keys.dir, false).map_err(failed)?;
+            for member in members {
+                team_keys::issue(&keys.dir, &Identity::Module(member.clone()), false)
+                    .map_err(failed)?;
+            }
+            Ok(keys)
+        }
+
+        /// What `address`'s session needs to run secured.
+        fn security(&self, address: &Address) -> Result<Security, DemoError> {
+            team_keys::security(&self.dir, &Identity::Module(address.clone()))
+                .map_err(|e| DemoError::Network(format!("{address}: {e}")))
+        }
+    }
+
+    impl Drop for Keys {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
     }
 
     impl ZenohNet {
-        pub fn new() -> Self {
+        pub fn new(keys: Option<Keys>) -> Self {
             ZenohNet {
                 endpoints: Mutex::new(Vec::new()),
                 transports: Mutex::new(Vec::new()),
                 next_wake: Mutex::new(None),
+                keys,
             }
         }
 
@@ -155,10 +209,17 @@ mod zenoh_net {
                 .and_then(|l| l.local_addr())
                 .map(|a| a.port())
                 .map_err(|e| DemoError::Network(format!("no free port on 127.0.0.1: {e}")))?;
-            let endpoint = format!("tcp/127.0.0.1:{port}");
+            let protocol = if self.keys.is_some() { "tls" } else { "tcp" };
+            let endpoint = format!("{protocol}/127.0.0.1:{port}");
+            let security = self
+                .keys
+                .as_ref()
+                .map(|k| k.security(address))
+                .transpose()?;
             let config = ZenohConfig {
                 listen: vec![endpoint.clone()],
                 connect: self.endpoints.lock().clone(),
+                security,
                 ..ZenohConfig::default()
             };
             let t = ZenohTransport::open(address.clone(), &config)
@@ -185,6 +246,26 @@ mod zenoh_net {
             if wake > now {
                 std::thread::sleep(wake - now);
             }
+        }
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+
+        #[test]
+        fn a_secured_networks_keys_are_its_members_own_and_go_with_it() {
+            let members = ["team/r1/nav", "team/base/console"].map(|a| Address::new(a).unwrap());
+            let keys = Keys::make(&members).unwrap();
+            let dir = keys.dir.clone();
+            for m in &members {
+                let security = keys.security(m).unwrap();
+                let team = security.team.unwrap();
+                assert_eq!(team.modules.len(), 2, "{:?}", team.modules);
+            }
+            let net = ZenohNet::new(Some(keys));
+            drop(net);
+            assert!(!dir.exists(), "{}", dir.display());
         }
     }
 }

@@ -8,6 +8,7 @@ use parking_lot::Mutex;
 use serde_json::Value;
 use slate_dashboard::Status;
 use slate_ici::LinkKind;
+use slate_model::Address;
 use slate_wire::PlanStep;
 
 use crate::config::DemoConfig;
@@ -69,11 +70,14 @@ impl Demo {
     /// Sets up the world, the network and every module; nothing has moved yet.
     pub fn start(config: DemoConfig) -> Result<Demo, DemoError> {
         config.validate()?;
+        let layout = Layout::generate(config.seed, config.robots);
         let net = match config.network {
             NetworkKind::Sim => Network::sim(config.seed, &first_team_link(&config)),
+            NetworkKind::Zenoh if config.secure => {
+                Network::secured_zenoh(&team_addresses(&layout))?
+            }
             NetworkKind::Zenoh => Network::zenoh(),
         };
-        let layout = Layout::generate(config.seed, config.robots);
         let world = World::new(&layout, config.seed);
         let mut team = Team::start(
             &net,
@@ -333,6 +337,17 @@ impl Demo {
 }
 
 /// Bytes per message kind, by the kinds' names.
+/// Every module's address: each robot's, and the console at the base.
+fn team_addresses(layout: &Layout) -> Vec<Address> {
+    let robots = layout.regions.iter().map(|r| r.robot.as_str());
+    let modules = robots.flat_map(|r| Role::ROBOT.map(|role| (r.to_owned(), role)));
+    let console = std::iter::once((crate::team::BASE.to_owned(), Role::Console));
+    modules
+        .chain(console)
+        .filter_map(|(robot, role)| Address::new(&format!("team/{robot}/{}", role.name())).ok())
+        .collect()
+}
+
 fn names(
     by_kind: &std::collections::BTreeMap<slate_ici::MsgKind, u64>,
 ) -> std::collections::BTreeMap<String, u64> {

@@ -17,9 +17,11 @@
 //! sub-plans, like the paper's welding cell), and its `report` actions go out through
 //! [`Ici::report`]. The protocol is described in `docs/ici.md` ("Plan circuits").
 
+mod authority;
 mod destination;
 mod origin;
 
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
@@ -31,6 +33,7 @@ use slate_plans::{Diagnostic, Diagnostics, Engine, Item, Outgoing, PlanEvent, Sp
 use slate_wire::{Message, PlanStep};
 
 use crate::{Ici, PlanHandler, SendRawError};
+pub use authority::{AddressPattern, PatternError, PlanAuthority};
 use destination::Destination;
 use origin::Origin;
 
@@ -60,6 +63,9 @@ pub struct CircuitStats {
     pub rejected: u64,
     /// Of those, plans rejected because [`MAX_QUEUED_PLANS`] were already waiting.
     pub busy: u64,
+    /// Of those, plans rejected because their sender or their origin has no authority
+    /// to send this module plans ([`PlanAuthority`]).
+    pub unauthorised: u64,
 }
 
 /// The counters behind [`CircuitStats`].
@@ -69,6 +75,7 @@ struct Counters {
     accepted: AtomicU64,
     rejected: AtomicU64,
     busy: AtomicU64,
+    unauthorised: AtomicU64,
 }
 
 impl Counters {
@@ -78,6 +85,7 @@ impl Counters {
             accepted: self.accepted.load(Ordering::Relaxed),
             rejected: self.rejected.load(Ordering::Relaxed),
             busy: self.busy.load(Ordering::Relaxed),
+            unauthorised: self.unauthorised.load(Ordering::Relaxed),
         }
     }
 }
@@ -95,7 +103,7 @@ pub const LOST_WAIT: Duration = Duration::from_secs(30);
 /// ```
 /// use std::sync::Arc;
 /// use std::time::Duration;
-/// use slate_ici::{Ici, IciConfig, PlanCircuits, SimNet};
+/// use slate_ici::{AddressPattern, Ici, IciConfig, PlanAuthority, PlanCircuits, SimNet};
 /// use slate_model::{Address, Board};
 /// use slate_plans::Engine;
 /// use slate_wire::PlanStep;
@@ -110,10 +118,12 @@ pub const LOST_WAIT: Duration = Duration::from_secs(30);
 ///     Ok((engine.clone(), PlanCircuits::attach(&ici, &engine)))
 /// };
 /// let (_, planner) = start("team/r1/planner")?;
-/// let (cell_engine, _cell) = start("team/r2/cell")?;
+/// let (cell_engine, cell) = start("team/r2/cell")?;
 /// net.run_for(Duration::from_millis(200)); // they meet
 ///
+/// // By default only the modules of its own robot may send the cell plans.
 /// let to = Address::new("team/r2/cell")?;
+/// cell.set_authority(PlanAuthority::own_robot(&to).allow(AddressPattern::new("team/r1/planner")?));
 /// let handle = planner.send(&to, "plan hot { trigger: cell.t > 50.0; action { set cell.t = 50.0; } }")?;
 /// net.run_for(Duration::from_millis(200));
 /// let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
@@ -234,6 +244,15 @@ pub(crate) struct Inner {
     listener: Mutex<Option<Arc<dyn ClockListener>>>,
     /// Plans received, accepted, rejected.
     counters: Counters,
+    /// Who may send this module plans.
+    authority: Mutex<PlanAuthority>,
+    /// The origin each plan received runs for (plan name → origin), named as the origin of
+    /// the plans it sends on; a plan not in it is this module's own. One entry per plan
+    /// the engine holds for another module.
+    runs_for: Mutex<HashMap<String, Address>>,
+    /// Those told of each plan refused for want of authority (see
+    /// [`PlanCircuits::refusals`]).
+    refusals: Mutex<Vec<Sender<RefusedPlan>>>,
     /// On the system clock, where `Plan` and `PlanCancel` messages go to be handled on the
     /// circuits' thread, not on the transport's; `None` on a manual clock.
     queue: Option<Sender<(Address, Message)>>,
@@ -264,6 +283,9 @@ impl PlanCircuits {
             draining: Mutex::new(()),
             listener: Mutex::new(None),
             counters: Counters::default(),
+            authority: Mutex::new(PlanAuthority::own_robot(ici.address())),
+            runs_for: Mutex::new(HashMap::new()),
+            refusals: Mutex::new(Vec::new()),
             queue: (!manual).then_some(queue),
         });
         let weak = Arc::downgrade(&inner);
@@ -309,17 +331,64 @@ impl PlanCircuits {
     pub fn stats(&self) -> CircuitStats {
         self.inner.counters.snapshot()
     }
+
+    /// Sets who may send this module plans (by default the modules of its own robot):
+    /// plans received from then on are judged by it.
+    pub fn set_authority(&self, authority: PlanAuthority) {
+        *self.inner.authority.lock() = authority;
+    }
+
+    /// Who may send this module plans.
+    pub fn authority(&self) -> PlanAuthority {
+        self.inner.authority.lock().clone()
+    }
+
+    /// Every plan refused from now on for want of authority, as it is refused; a receiver
+    /// that lets [`MAX_QUEUED_REFUSALS`] wait misses the newer ones (nothing waits for it).
+    pub fn refusals(&self) -> Receiver<RefusedPlan> {
+        let (tx, rx) = crossbeam_channel::bounded(MAX_QUEUED_REFUSALS);
+        self.inner.refusals.lock().push(tx);
+        rx
+    }
+}
+
+/// Refusals a receiver of [`PlanCircuits::refusals`] may have waiting.
+pub const MAX_QUEUED_REFUSALS: usize = 256;
+
+/// A plan refused because its sender or its origin may not send this module plans.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct RefusedPlan {
+    /// The module that sent it.
+    pub from: Address,
+    /// The origin it named (the module whose plan it is).
+    pub origin: Address,
+    /// The plan's name.
+    pub name: String,
+    /// The reason acknowledged on its circuit.
+    pub reason: String,
 }
 
 impl Inner {
     fn send(self: &Arc<Self>, to: &Address, text: &str) -> Result<PlanHandle, SendPlanError> {
+        let me = self.me.clone();
+        self.send_for(to, text, &me)
+    }
+
+    /// Sends a plan of `origin`: this module's own, or the origin of the received plan
+    /// that sends it on (so it carries no more authority than its origin has).
+    fn send_for(
+        self: &Arc<Self>,
+        to: &Address,
+        text: &str,
+        origin: &Address,
+    ) -> Result<PlanHandle, SendPlanError> {
         if text.len() > MAX_PLAN_TEXT_BYTES {
             return Err(SendPlanError::TooLarge { bytes: text.len() });
         }
         let name = one_plan("plan.slate", text)
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
-        let (acks, msg) = self.origin.lock().open(circuit, &name, text, to, &self.me);
+        let (acks, msg) = self.origin.lock().open(circuit, &name, text, to, origin);
         if let Err(e) = self.transmit(to, msg) {
             self.origin.lock().forget(circuit);
             return Err(e.into());
@@ -409,7 +478,7 @@ impl Inner {
             return;
         }
         let now = self.now();
-        let resend = self.origin.lock().resume(peer, &self.me, now);
+        let resend = self.origin.lock().resume(peer, now);
         for msg in resend {
             self.transmit_logged(peer, msg);
         }
@@ -418,7 +487,7 @@ impl Inner {
     /// Timers: circuits whose acks have a gap ask for them again.
     fn tick(self: &Arc<Self>) {
         let now = self.now();
-        let due = self.origin.lock().gaps_due(now, &self.me);
+        let due = self.origin.lock().gaps_due(now);
         for (to, msg) in due {
             self.transmit_logged(&to, msg);
         }
@@ -453,7 +522,7 @@ impl Inner {
 
     fn on_outgoing(self: &Arc<Self>, out: Outgoing) {
         match out {
-            Outgoing::Plan(p) => match self.send(&p.to, &p.text) {
+            Outgoing::Plan(p) => match self.send_for(&p.to, &p.text, &self.runs_for(&p.origin)) {
                 Ok(h) => {
                     tracing::debug!(plan = %p.origin, sub = %h.name, to = %h.to, circuit = h.circuit, "sub-plan sent");
                 }
@@ -471,6 +540,18 @@ impl Inner {
                 tracing::trace!(plan = %r.origin, sent, "explicit report");
             }
         }
+    }
+}
+
+impl Inner {
+    /// The origin a plan of the engine runs for: the one it was received from, or this
+    /// module for its own plans (and its rules).
+    fn runs_for(&self, plan: &str) -> Address {
+        let runs_for = self.runs_for.lock();
+        runs_for
+            .get(plan)
+            .cloned()
+            .unwrap_or_else(|| self.me.clone())
     }
 }
 

@@ -8,7 +8,7 @@ use slate_model::{
 use slate_plans::LoadError;
 use slate_wire::{DecodeError, EncodeError};
 
-use crate::{IciStartError, SendError, SendPlanError, SendRawError};
+use crate::{IciStartError, PatternError, SendError, SendPlanError, SendRawError};
 
 /// Any error of this crate, of the world model beneath it, of a `.slate` load or of the
 /// codec. Each variant holds the precise error unchanged and displays as it does.
@@ -36,6 +36,9 @@ pub enum Error {
     /// A plan could not be sent ([`PlanCircuits::send`](crate::PlanCircuits::send)).
     #[error(transparent)]
     SendPlan(#[from] SendPlanError),
+    /// A text is no address pattern ([`AddressPattern::new`](crate::AddressPattern::new)).
+    #[error(transparent)]
+    Pattern(#[from] PatternError),
     /// The transport refused a message.
     #[error(transparent)]
     Send(#[from] SendError),

@@ -56,8 +56,9 @@ mod error;
 mod ici;
 
 pub use circuits::{
-    ACK_GAP_GRACE, CircuitStats, CircuitStatus, LOST_WAIT, MAX_PLAN_TEXT_BYTES, MAX_QUEUED_PLANS,
-    PlanCircuits, PlanHandle, SendPlanError,
+    ACK_GAP_GRACE, AddressPattern, CircuitStats, CircuitStatus, LOST_WAIT, MAX_PLAN_TEXT_BYTES,
+    MAX_QUEUED_PLANS, MAX_QUEUED_REFUSALS, PatternError, PlanAuthority, PlanCircuits, PlanHandle,
+    RefusedPlan, SendPlanError,
 };
 pub use error::Error;
 pub use ici::{

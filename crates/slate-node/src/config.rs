@@ -10,6 +10,7 @@ use slate_model::{Address, Context};
 use slate_plans::Substitution;
 use slate_zenoh::{Mode, ZenohConfig};
 
+use crate::authority::{PlanSender, default_plans_from};
 use crate::error::ConfigError;
 use crate::fields::{Fields, describe};
 use crate::record::RecordConfig;
@@ -66,6 +67,9 @@ pub struct NodeConfig {
     /// runs over TLS with mutual authentication as its address, under the team's access
     /// control (docs/security.md). `None`: links neither authenticated nor encrypted.
     pub security: Option<PathBuf>,
+    /// Who may send this module plans (`[authority] plans_from`): by default its robot's
+    /// modules and the team's operators.
+    pub plans_from: Vec<PlanSender>,
 }
 
 /// A `.slate` file a node loads at start, and the placeholders replaced in its text
@@ -104,7 +108,10 @@ const TOP: &[&str] = &[
     "state",
     "storage",
     "security",
+    "authority",
 ];
+/// Keys of `[authority]`.
+const AUTHORITY: &[&str] = &["plans_from"];
 /// Keys of `[storage]`.
 const STORAGE: &[&str] = &["commit_every", "commit_changes", "queue", "durability"];
 /// Keys of `[security]`.
@@ -146,6 +153,7 @@ impl NodeConfig {
             record: None,
             state: None,
             security: None,
+            plans_from: default_plans_from(),
         }
     }
 
@@ -190,6 +198,9 @@ impl NodeConfig {
         config.state = state(&mut top, base)?;
         if let Some(security) = top.table("security", SECURITY)? {
             config.security = Some(security_section(security, base)?);
+        }
+        if let Some(authority) = top.table("authority", AUTHORITY)? {
+            config.plans_from = authority_section(authority)?;
         }
         top.finish()?;
         Ok(config)
@@ -438,6 +449,21 @@ fn security_section(mut t: Fields, base: &Path) -> Result<PathBuf, ConfigError> 
     Ok(base.join(dir))
 }
 
+/// `[authority] plans_from = ["robot", "operators", "team/base/console"]`: who may send
+/// this module plans (each entry a word or an address pattern; docs/security.md).
+fn authority_section(mut t: Fields) -> Result<Vec<PlanSender>, ConfigError> {
+    const EXPECTED: &str =
+        "a list of \"robot\", \"operators\" and address patterns like \"team/*/planner\"";
+    let list = t.strings("plans_from", EXPECTED)?.unwrap_or_default();
+    let senders = list
+        .iter()
+        .map(|entry| entry.parse::<PlanSender>())
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| t.invalid("plans_from", EXPECTED, &e.to_string()))?;
+    t.finish()?;
+    Ok(senders)
+}
+
 /// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
 fn is_endpoint(text: &str) -> bool {
     text.split_once('/')
@@ -542,6 +568,23 @@ mod tests {
 
     fn parse(text: &str) -> Result<NodeConfig, ConfigError> {
         NodeConfig::parse("m.toml", text, Path::new("/etc/slate"))
+    }
+
+    #[test]
+    fn authority_says_who_may_send_plans_and_defaults_to_the_robot_and_operators() {
+        let plain = parse("address = \"t/r1/nav\"").unwrap();
+        assert_eq!(plain.plans_from, [PlanSender::Robot, PlanSender::Operators]);
+        let c = parse(
+            "address = \"t/r1/nav\"\n[authority]\nplans_from = [\"robot\", \"t/base/console\"]",
+        )
+        .unwrap();
+        let console = "t/base/console".parse().unwrap();
+        assert_eq!(c.plans_from, [PlanSender::Robot, console]);
+        let err = parse("address = \"t/r1/nav\"\n[authority]\nplans_from = [\"everyone\"]")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("authority.plans_from"), "{err}");
+        assert!(err.contains("\"robot\", \"operators\""), "{err}");
     }
 
     #[test]

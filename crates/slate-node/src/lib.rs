@@ -42,6 +42,7 @@
 //! `watch`, `tree`, `ls` and `plan` verbs).
 #![warn(missing_docs)]
 
+pub mod authority;
 mod config;
 mod error;
 mod fields;
@@ -57,6 +58,7 @@ pub mod team_keys;
 mod timers;
 mod view;
 
+pub use authority::PlanSender;
 pub use config::{NodeConfig, SourceFile, class_set, parse_toml, read_text};
 pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;

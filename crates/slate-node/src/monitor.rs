@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
-use slate_ici::{ClassSet, Ici, MODULE_CLASS};
+use slate_ici::{ClassSet, Ici, MODULE_CLASS, RefusedPlan};
 use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Filter, Value, Watch};
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
@@ -22,6 +22,9 @@ const KEEP: usize = 300;
 /// that has just appeared can be lost while the network's routes to it settle (then its
 /// interest stays unknown, and nothing is sent to it live).
 const REGREET: Duration = Duration::from_secs(1);
+
+/// Undecodable messages are told of at most this often (a flood is one event a second).
+const UNDECODABLE_EVERY: Duration = Duration::from_secs(1);
 
 /// How often the monitor looks at the board's events and the engine's.
 const POLL: Duration = Duration::from_millis(50);
@@ -103,7 +106,7 @@ impl Monitor {
     pub fn start(
         board: &Arc<Board>,
         engine: &Engine,
-        ici: (&Ici, ClassSet),
+        ici: (&Ici, ClassSet, Receiver<RefusedPlan>),
         log: Arc<EventLog>,
     ) -> Monitor {
         let (stop, stopped) = crossbeam_channel::bounded(1);
@@ -117,6 +120,8 @@ impl Monitor {
             alive: Mutex::new(HashMap::new()),
             board_events: board.events(),
             plan_events: engine.events(),
+            refused_plans: ici.2,
+            undecodable: Mutex::new((0, None)),
             board: Arc::downgrade(board),
         };
         if board.clock().is_manual() {
@@ -194,6 +199,11 @@ struct Sources {
     alive: Mutex<HashMap<String, Value>>,
     board_events: Receiver<BoardEvent>,
     plan_events: Receiver<PlanEvent>,
+    /// Plans the circuits refused for want of authority.
+    refused_plans: Receiver<RefusedPlan>,
+    /// Received messages that did not decode: how many the log has told of, and when it
+    /// last did (board time).
+    undecodable: Mutex<(u64, Option<Duration>)>,
     board: std::sync::Weak<Board>,
 }
 
@@ -265,6 +275,30 @@ impl Sources {
             let (level, text) = plan_event(&e);
             log.push(board, level, text);
         }
+        for r in self.refused_plans.try_iter() {
+            log.push(board, Level::Warn, refused_plan(&r));
+        }
+        self.undecodable_news(board, log);
+    }
+
+    /// Received messages that did not decode since the last time told, as one event at
+    /// most every [`UNDECODABLE_EVERY`] of board time, whatever their number.
+    fn undecodable_news(&self, board: &Board, log: &EventLog) {
+        let count = crate::stats::Drops::of(&self.ici.stats()).undecodable;
+        let now = board.clock().physical();
+        let mut told = self.undecodable.lock();
+        let due = told
+            .1
+            .is_none_or(|at| now.saturating_sub(at) >= UNDECODABLE_EVERY);
+        if count > told.0 && due {
+            let text = format!(
+                "{} received messages did not decode and were refused (slate stats: drops.undecodable, {count} in all)",
+                count - told.0
+            );
+            *told = (count, Some(now));
+            drop(told);
+            log.push(board, Level::Warn, text);
+        }
     }
 }
 
@@ -303,6 +337,11 @@ impl Sources {
     }
 }
 
+/// A plan refused for want of authority, as a sentence (its reason says who may send).
+fn refused_plan(r: &RefusedPlan) -> String {
+    format!("plan {} from {} refused: {}", r.name, r.from, r.reason)
+}
+
 /// A board event as a sentence (the event log's, and a recording's `text`).
 pub(crate) fn board_event(e: &BoardEvent) -> String {
     match e {
@@ -316,6 +355,16 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
         BoardEvent::ChainCut(c) => format!("chain of active functions cut: {c}"),
         BoardEvent::ClassConflict { class, peer } => format!(
             "class {class} is defined differently by {peer}: objects of {class} are not merged with it"
+        ),
+        BoardEvent::FutureStamp {
+            object,
+            attr,
+            source,
+            ahead,
+            ..
+        } => format!(
+            "packet for {object}.{attr} from {source} refused: stamped {:.1} s ahead of this board's clock, beyond its tolerance (its clock or this one's is wrong)",
+            ahead.as_secs_f64()
         ),
         other => format!("{other:?}"),
     }

@@ -15,6 +15,7 @@ use slate_plans::{Engine, LinkName, LoadError, Loaded};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 use zenoh::query::Queryable;
 
+use crate::authority::{PlanSender, default_plans_from, plan_authority};
 use crate::config::{NodeConfig, SourceFile};
 use crate::error::StartError;
 use crate::foxglove::Foxglove;
@@ -74,6 +75,7 @@ pub struct NodeBuilder {
     foxglove: Option<SocketAddr>,
     record: Option<RecordConfig>,
     state: Option<StateConfig>,
+    plans_from: Vec<PlanSender>,
 }
 
 impl NodeBuilder {
@@ -92,6 +94,7 @@ impl NodeBuilder {
             foxglove: None,
             record: None,
             state: None,
+            plans_from: default_plans_from(),
         }
     }
 
@@ -182,6 +185,13 @@ impl NodeBuilder {
         self
     }
 
+    /// Who may send the node plans (by default its robot's modules and the team's
+    /// operators: [`default_plans_from`]).
+    pub fn plans_from(mut self, senders: Vec<PlanSender>) -> Self {
+        self.plans_from = senders;
+        self
+    }
+
     /// Starts the node: loads the sources, restores its state, joins the network, starts the ICI, the plan
     /// circuits, the timers (on the system clock) and the dashboard.
     pub fn start(self) -> Result<Node, StartError> {
@@ -226,6 +236,8 @@ impl NodeBuilder {
             LinkPolicy::from(&policy).apply_to(link_kind(name), &mut ici_config);
         }
         let mut zenoh = None;
+        let operators = secured_operators(&self.address, &self.transport);
+        let authority = plan_authority(&self.address, &self.plans_from, operators.as_deref());
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
@@ -247,8 +259,10 @@ impl NodeBuilder {
         let links: Vec<LinkName> = engine.link_policies().into_keys().collect();
         apply_link_policies(&ici, &engine, &links);
         let circuits = Arc::new(PlanCircuits::attach(&ici, &engine));
+        circuits.set_authority(authority);
         let log = Arc::new(EventLog::default());
-        let monitor = Monitor::start(&board, &engine, (&ici, interest), log.clone());
+        let refusals = circuits.refusals();
+        let monitor = Monitor::start(&board, &engine, (&ici, interest, refusals), log.clone());
         let timers = system_clock.then(|| Timers::start(ici.clone()));
         let mut view = View::new(board, engine, ici, transport, circuits, log, listen);
         view.state = keeper.as_ref().map(Keeper::shared_stats);
@@ -299,6 +313,17 @@ impl NodeBuilder {
         }
         Ok(node)
     }
+}
+
+/// The names of a secured team's operators, from the keys its Zenoh session runs with
+/// (`None`: an insecure team, or a transport of the caller's).
+fn secured_operators(me: &Address, transport: &TransportChoice) -> Option<Vec<String>> {
+    let TransportChoice::Zenoh(config) = transport else {
+        return None;
+    };
+    let team = config.security.as_ref()?.team.as_ref()?;
+    let names = team.operators.iter().filter(|(t, _)| t == me.team());
+    Some(names.map(|(_, name)| name.clone()).collect())
 }
 
 /// Hands the engine's merged policies of `links` (the `link` blocks of every file it
@@ -420,7 +445,7 @@ impl Node {
         if let Some(s) = &config.state {
             b = b.state(s.clone());
         }
-        b.start()
+        b.plans_from(config.plans_from.clone()).start()
     }
 
     fn started(&self) {

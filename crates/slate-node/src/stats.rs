@@ -12,7 +12,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
-use slate_ici::{IciStats, LinkKind, MsgKind, Traffic, Transport};
+use slate_ici::{CircuitStats, IciStats, LinkKind, MsgKind, Traffic, Transport};
 use slate_model::Address;
 use slate_zenoh::keys;
 use zenoh::Wait;
@@ -41,6 +41,39 @@ pub struct ModuleStats {
     pub catch_up: CatchUps,
     /// Packets received and what they did to the board.
     pub merges: Merges,
+    /// Plans received on circuits and what became of them (absent from the answers of
+    /// nodes that predate it: zeros).
+    #[serde(default)]
+    pub plans: Plans,
+}
+
+/// Plans received on circuits (docs/ici.md, "Plan circuits").
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Plans {
+    /// Plans that opened a circuit here.
+    pub received: u64,
+    /// Loaded and acknowledged `Accepted`.
+    pub accepted: u64,
+    /// Refused with a reason on their circuit, for any reason.
+    pub rejected: u64,
+    /// Of those, refused because their sender or origin has no authority to send this
+    /// module plans (`[authority] plans_from`).
+    pub unauthorised: u64,
+    /// Of those, refused because the module was busy loading others.
+    pub busy: u64,
+}
+
+impl Plans {
+    /// The counters of a module's plan circuits.
+    pub fn of(s: &CircuitStats) -> Self {
+        Plans {
+            received: s.received,
+            accepted: s.accepted,
+            rejected: s.rejected,
+            unauthorised: s.unauthorised,
+            busy: s.busy,
+        }
+    }
 }
 
 /// Messages and bytes one way and the other on one link kind, of one message kind.
@@ -123,6 +156,7 @@ impl ModuleStats {
                 applied: stats.merges.applied,
                 kept: stats.merges.kept,
             },
+            plans: Plans::default(),
         }
     }
 
@@ -162,7 +196,8 @@ impl TrafficRow {
 }
 
 impl Drops {
-    fn of(s: &IciStats) -> Self {
+    /// The drops among an ICI's counters.
+    pub(crate) fn of(s: &IciStats) -> Self {
         let r = &s.rejects;
         let t = &s.team;
         Drops {
@@ -199,12 +234,13 @@ pub(crate) fn serve(session: &zenoh::Session, view: &Arc<View>) -> zenoh::Result
         .declare_queryable(key)
         .callback(move |q: Query| {
             let Some(view) = weak.upgrade() else { return };
-            let stats = ModuleStats::of(
+            let mut stats = ModuleStats::of(
                 view.board.address(),
                 &view.ici.stats(),
                 &view.ici.alive_peers(),
                 started.elapsed(),
             );
+            stats.plans = Plans::of(&view.circuits.stats());
             let body = serde_json::to_vec(&stats).unwrap_or_default();
             if let Err(e) = q.reply(reply_key.as_str(), body).wait() {
                 tracing::debug!(error = %e, "stats query not answered");

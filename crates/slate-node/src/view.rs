@@ -102,6 +102,7 @@ impl View {
             ("revision", json!(stats.revision)),
             ("plans received", json!(plans.received)),
             ("plans rejected", json!(plans.rejected)),
+            ("plans refused: no authority", json!(plans.unauthorised)),
         ]
         .into_iter()
         .chain(self.state_summary())

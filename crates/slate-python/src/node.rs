@@ -105,10 +105,22 @@ fn check_not_open(py: Python<'_>, address: &Address, board: &Arc<Board>) -> PyRe
     Ok(())
 }
 
+/// `plans_from=`'s entries, or a ValueError naming the one that is wrong.
+fn plan_senders(entries: &[String]) -> PyResult<Vec<slate_node::PlanSender>> {
+    let parse = |e: &String| {
+        e.parse().map_err(|why: slate_ici::PatternError| {
+            pyo3::exceptions::PyValueError::new_err(format!(
+                "plans_from: {why}; or \"robot\" or \"operators\""
+            ))
+        })
+    };
+    entries.iter().map(parse).collect()
+}
+
 #[pymethods]
 impl PyNode {
     #[new]
-    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None, record=None, state=None))]
+    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None, record=None, state=None, plans_from=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -122,6 +134,7 @@ impl PyNode {
         dashboard: Option<&str>,
         record: Option<PathBuf>,
         state: Option<PathBuf>,
+        plans_from: Option<Vec<String>>,
     ) -> PyResult<Self> {
         let addr = to_address(py, address)?;
         let board = match board {
@@ -163,6 +176,9 @@ impl PyNode {
         }
         if let Some(dir) = state {
             builder = builder.state(StateConfig::new(dir));
+        }
+        if let Some(entries) = plans_from {
+            builder = builder.plans_from(plan_senders(&entries)?);
         }
         let node = py
             .detach(|| builder.start())

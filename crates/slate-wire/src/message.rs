@@ -184,7 +184,9 @@ pub struct Plan {
     pub source_text: String,
     /// Destination module.
     pub to: Address,
-    /// Module that sent it and receives the acks.
+    /// The module whose plan it is, on whose authority it runs: the module that sent it,
+    /// or, for a plan sent on by a plan received, that plan's origin. Acks go to the
+    /// module that sent it (the transport's sender).
     pub origin: Address,
 }
 

@@ -29,6 +29,12 @@ pub struct DemoArgs {
     #[arg(long, value_enum, default_value_t = Network::Sim)]
     pub network: Network,
 
+    /// With --network zenoh: run a secured team (docs/security.md): keys made for the run
+    /// in a temporary folder (as `slate keys` makes them), TLS links with mutual
+    /// authentication, and the access control generated from the keys.
+    #[arg(long)]
+    pub secure: bool,
+
     /// What carries the team link on the simulator: a radio per robot, or one shared
     /// half-duplex acoustic channel for the whole team (32-byte frames, 20 % frame loss,
     /// 1-2 s latency).
@@ -153,6 +159,7 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
             Network::Sim => NetworkKind::Sim,
             Network::Zenoh => NetworkKind::Zenoh,
         })
+        .secure(args.secure)
         .duration(Duration::from_secs_f64(args.duration))
         .fault_at((!args.no_fault).then_some(args.fault_at))
         .deck(args.deck.map(Duration::from_secs_f64))

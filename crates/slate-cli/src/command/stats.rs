@@ -157,6 +157,7 @@ fn stats_json(m: &Measured) -> Json {
         "drops": s.drops,
         "catch_up": s.catch_up,
         "merges": s.merges,
+        "plans": s.plans,
     })
 }
 
@@ -205,6 +206,11 @@ fn print_stats_text(m: &Measured) {
     println!(
         "  catch-ups: gaps {}, requested {}, retried {}, completed {}, answered {}",
         c.gaps, c.requested, c.retried, c.completed, c.answered
+    );
+    let p = &s.plans;
+    println!(
+        "  plans received: {}, accepted {}, rejected {} (no authority {}, busy {})",
+        p.received, p.accepted, p.rejected, p.unauthorised, p.busy
     );
 }
 

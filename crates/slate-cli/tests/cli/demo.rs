@@ -47,3 +47,46 @@ fn demo_refuses_a_team_rate_of_zero() {
     let err = slate_err(&["demo", "--team-rate", "0", "--quiet"]);
     assert!(err.contains("--team-rate"), "{err}");
 }
+
+#[test]
+fn demo_runs_as_a_secured_team_over_zenoh_and_completes() {
+    // One robot on Zenoh with TLS links and the generated access control, keys made in a
+    // temporary folder. The run ends once the mission completes (about 80 s of real
+    // time); the wait is bounded.
+    let out = crate::support::wait_output(
+        std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
+            .args([
+                "demo",
+                "--network",
+                "zenoh",
+                "--secure",
+                "--robots",
+                "1",
+                "--no-fault",
+                "--quiet",
+                "--format",
+                "json",
+            ])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("slate demo starts"),
+        std::time::Duration::from_secs(300),
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap_or_else(|e| {
+        panic!("{e}: {}", String::from_utf8_lossy(&out.stderr));
+    });
+    assert_eq!(j["network"], "zenoh", "{j}");
+    assert_eq!(j["mission_complete"], true, "{j}");
+    assert_eq!(j["targets_found"], j["targets_total"], "{j}");
+    assert_eq!(j["plans_rejected"], 0, "{j}");
+}
+
+#[test]
+fn demo_refuses_secure_without_zenoh() {
+    let err = slate_err(&["demo", "--secure", "--quiet"]);
+    assert!(
+        err.contains("--secure") && err.contains("--network zenoh"),
+        "{err}"
+    );
+}

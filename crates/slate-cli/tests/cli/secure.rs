@@ -40,6 +40,11 @@ fn keys(team: &Team) -> PathBuf {
 /// Starts a secured `slate node` for `address` loading WORLD and `extra`, listening on a
 /// tls/ endpoint and connected to the team's nodes so far.
 fn add_secured(team: &mut Team, keys: &Path, address: &str, extra: &str) {
+    add_secured_with(team, keys, address, extra, "");
+}
+
+/// [`add_secured`], with more TOML at the end of the config (`[authority]`, say).
+fn add_secured_with(team: &mut Team, keys: &Path, address: &str, extra: &str, toml: &str) {
     let stem = address.replace('/', "_");
     std::fs::write(team.dir.join("world.slate"), WORLD).unwrap();
     std::fs::write(team.dir.join(format!("{stem}.slate")), extra).unwrap();
@@ -51,7 +56,7 @@ fn add_secured(team: &mut Team, keys: &Path, address: &str, extra: &str) {
         .map(|n| format!("{:?}", n.endpoint))
         .collect();
     let config = format!(
-        "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [\"Thing\"]\ndashboard = \"{dashboard}\"\n\n[security]\nkeys = {:?}\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n",
+        "address = \"{address}\"\nfiles = [\"world.slate\", \"{stem}.slate\"]\nexport = [\"Thing\"]\ndashboard = \"{dashboard}\"\n\n[security]\nkeys = {:?}\n\n[zenoh]\nlisten = [\"{endpoint}\"]\nconnect = [{}]\n\n[ici]\nrobot_timeout = \"2s\"\nteam_timeout = \"3s\"\n{toml}",
         keys.display().to_string(),
         connect.join(", ")
     );
@@ -388,4 +393,94 @@ fn a_node_with_a_dashboard_token_serves_its_board_only_to_who_shows_it() {
     assert!(entry(&shown.json()["objects"], "name", "rock").is_some());
     let (clean, _) = node.stop();
     assert!(clean);
+}
+
+/// The texts of a node's events (its dashboard's `events`).
+fn event_texts(node: &NodeProc) -> Vec<String> {
+    let snap = node.snapshot();
+    let events = snap["events"].as_array().cloned().unwrap_or_default();
+    events
+        .iter()
+        .filter_map(|e| e["text"].as_str().map(str::to_owned))
+        .collect()
+}
+
+#[test]
+fn a_plan_from_a_module_without_authority_is_rejected_with_a_reason() {
+    // Issue 17, finding 2, on a secured team: cam (robot r1) sends loco (robot r2) a plan; loco accepts plans from its own robot only (not even from the
+    // operators), so it refuses cam's plan and the operator's, each with the reason on its
+    // circuit, an event and a counter; its board is unchanged.
+    let mut team = Team::new("secure-authority");
+    let keys = keys(&team);
+    add_secured(
+        &mut team,
+        &keys,
+        "t/r1/nav",
+        "object rock : Obstacle { range = 7.5; }",
+    );
+    let robot_only = "\n[authority]\nplans_from = [\"robot\"]\n";
+    add_secured_with(&mut team, &keys, "t/r2/loco", "", robot_only);
+    // Its trigger becomes true once rock arrives from nav, after cam joined the team.
+    let push = r#"plan push { trigger: any o: Obstacle where o.range > 5.0; action {
+        send plan pwn { trigger: any o: Obstacle where o.range > 5.0; action { set o.range = 66.0; } } to "t/r2/loco";
+    } }"#;
+    add_secured(&mut team, &keys, "t/r1/cam", push);
+    team.wait_connected();
+    let loco = team.node("t/r2/loco");
+    assert!(loco.wait_value("rock", "range", "7.5"), "{}", team.logs());
+    let refused = |from: &str| {
+        eventually(Duration::from_secs(20), || {
+            event_texts(loco).iter().any(|t| {
+                t.contains(&format!("from {from}")) && t.contains("may not send plans to t/r2/loco")
+            })
+        })
+    };
+    assert!(
+        refused("t/r1/cam"),
+        "{:?}\n{}",
+        event_texts(loco),
+        team.logs()
+    );
+
+    let plan = team.dir.join("steer.slate");
+    std::fs::write(&plan, "plan steer { action { set rock.range = 66.0; } }").unwrap();
+    let plan_path = plan.display().to_string();
+    let alice = as_alice(&keys);
+    let mut args = with(
+        &[
+            "plan",
+            "send",
+            &plan_path,
+            "--to",
+            "t/r2/loco",
+            "--timeout",
+            "20",
+        ],
+        &alice,
+    );
+    args.extend(["--connect", team.node("t/r2/loco").endpoint.as_str()]);
+    let out = slate(&args);
+    assert!(!out.status.success(), "{}", show(&out));
+    let printed = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(printed.contains("rejected"), "{printed}");
+    assert!(
+        printed.contains("may not send plans to t/r2/loco")
+            && printed.contains("accepts plans only from t/r2/*"),
+        "{printed}"
+    );
+    assert!(
+        refused("t/r1/cli-alice-") || refused("t/r2/cli-alice-"),
+        "{:?}",
+        event_texts(loco)
+    );
+    let snap = loco.snapshot();
+    assert_eq!(snap["summary"]["plans refused: no authority"], 2, "{snap}");
+    assert_eq!(loco.value("rock", "range").as_deref(), Some("7.5"));
+    let pwn = entry(&snap["plans"], "name", "pwn").map(|p| p["state"].clone());
+    assert!(pwn.is_none() || pwn == Some("rejected".into()), "{snap}");
+    team.stop();
 }

@@ -10,7 +10,9 @@ use slate_model::Address;
 use slate_plans::PlanEvent;
 use slate_wire::{Message, Plan, PlanAck, PlanStep};
 
-use super::{CircuitStatus, Inner, MAX_PLAN_TEXT_BYTES, closes, one_plan};
+use crossbeam_channel::TrySendError;
+
+use super::{CircuitStatus, Inner, MAX_PLAN_TEXT_BYTES, RefusedPlan, closes, one_plan};
 
 /// Closed circuits remembered (to answer an origin that missed their last steps).
 const MAX_CLOSED: usize = 1024;
@@ -286,6 +288,10 @@ impl Inner {
         let Some(key) = self.open(from, &plan) else {
             return;
         };
+        if let Some(reason) = self.unauthorised(from, &plan) {
+            self.rejected(&key, &plan.name, reason);
+            return;
+        }
         let checked = self
             .check(&plan)
             .and_then(|()| self.destination.lock().claim(&key, &plan.name));
@@ -295,10 +301,37 @@ impl Inner {
             loaded.map(|_| ()).map_err(|e| e.rendered)
         });
         match outcome {
-            Ok(()) => self.accepted(&key, &plan.name),
+            Ok(()) => {
+                self.runs_for.lock().insert(plan.name.clone(), plan.origin);
+                self.accepted(&key, &plan.name);
+            }
             Err(reason) => self.rejected(&key, &plan.name, reason),
         }
         self.drain();
+    }
+
+    /// Why `from` or the origin `plan` names may not send this module plans (judged
+    /// before the text is parsed), counted and told to those following refusals.
+    fn unauthorised(&self, from: &Address, plan: &Plan) -> Option<String> {
+        let reason = self
+            .authority
+            .lock()
+            .refusal(&self.me, from, &plan.origin)?;
+        self.counters.unauthorised.fetch_add(1, Ordering::Relaxed);
+        tracing::warn!(%from, origin = %plan.origin, plan = %plan.name, "plan refused: no authority");
+        let refused = RefusedPlan {
+            from: from.clone(),
+            origin: plan.origin.clone(),
+            name: plan.name.clone(),
+            reason: reason.clone(),
+        };
+        self.refusals.lock().retain(|tx| {
+            !matches!(
+                tx.try_send(refused.clone()),
+                Err(TrySendError::Disconnected(_))
+            )
+        });
+        Some(reason)
     }
 
     /// A plan arrived while [`MAX_QUEUED_PLANS`](super::MAX_QUEUED_PLANS) were waiting:

@@ -35,6 +35,8 @@ struct Sent {
     name: String,
     text: String,
     to: Address,
+    /// The origin the plan names: this module, or the origin of the plan that sent it on.
+    origin: Address,
     /// Every step delivered, in order (remote steps and local `DestinationLost`).
     steps: Vec<PlanStep>,
     /// The destination's next step number to deliver (from 1).
@@ -73,13 +75,13 @@ impl Sent {
         }
     }
 
-    fn plan(&self, circuit: u64, me: &Address) -> Message {
+    fn plan(&self, circuit: u64) -> Message {
         Message::Plan(Plan {
             circuit,
             name: self.name.clone(),
             source_text: self.text.clone(),
             to: self.to.clone(),
-            origin: me.clone(),
+            origin: self.origin.clone(),
         })
     }
 
@@ -89,20 +91,22 @@ impl Sent {
 }
 
 impl Origin {
-    /// Opens a circuit; returns its acks' receiver and the plan message to send.
+    /// Opens a circuit for a plan of `origin` (this module's own, or the origin of the
+    /// plan that sends it on); returns its acks' receiver and the plan message to send.
     pub fn open(
         &mut self,
         circuit: u64,
         name: &str,
         text: &str,
         to: &Address,
-        me: &Address,
+        origin: &Address,
     ) -> (Receiver<PlanStep>, Message) {
         let (tx, rx) = crossbeam_channel::unbounded();
         let sent = Sent {
             name: name.to_owned(),
             text: text.to_owned(),
             to: to.clone(),
+            origin: origin.clone(),
             steps: Vec::new(),
             next: 1,
             early: BTreeMap::new(),
@@ -113,7 +117,7 @@ impl Origin {
             cancel: false,
             lost: false,
         };
-        let msg = sent.plan(circuit, me);
+        let msg = sent.plan(circuit);
         self.circuits.insert(circuit, sent);
         (rx, msg)
     }
@@ -187,14 +191,14 @@ impl Origin {
     /// loads one it never got, and answers one it knows with all its steps), and the
     /// cancellations asked for. Until the destination answers, [`gaps_due`](Self::gaps_due)
     /// sends the plan again (at most [`MAX_GAP_ASKS`] times).
-    pub fn resume(&mut self, peer: &Address, me: &Address, now: Duration) -> Vec<Message> {
+    pub fn resume(&mut self, peer: &Address, now: Duration) -> Vec<Message> {
         let mut out = Vec::new();
         for (&circuit, c) in &mut self.circuits {
             if c.to != *peer || !c.is_open() {
                 continue;
             }
             c.gap_since = c.gap_since.or(Some(now));
-            out.push(c.plan(circuit, me));
+            out.push(c.plan(circuit));
             if c.cancel {
                 out.push(Message::PlanCancel { circuit });
             }
@@ -205,7 +209,7 @@ impl Origin {
     /// Circuits whose gap stayed open past the grace: the plan to send again, to ask
     /// for the steps. A gap asked for in vain [`MAX_GAP_ASKS`] times is skipped; a plan
     /// sent again to a destination back is sent at most [`MAX_RESENDS`] times unanswered.
-    pub fn gaps_due(&mut self, now: Duration, me: &Address) -> Vec<(Address, Message)> {
+    pub fn gaps_due(&mut self, now: Duration) -> Vec<(Address, Message)> {
         let mut out = Vec::new();
         for (&circuit, c) in &mut self.circuits {
             let Some(since) = c.gap_since else { continue };
@@ -231,7 +235,7 @@ impl Origin {
             }
             c.asks += 1;
             c.gap_since = Some(now);
-            out.push((c.to.clone(), c.plan(circuit, me)));
+            out.push((c.to.clone(), c.plan(circuit)));
         }
         out
     }
@@ -305,7 +309,7 @@ mod tests {
         o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
         o.lost(&d);
         o.lost(&d);
-        let resend = o.resume(&d, &addr("t/r1/o"), Duration::ZERO);
+        let resend = o.resume(&d, Duration::ZERO);
         assert_eq!(resend.len(), 1, "the plan goes again");
         o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
         o.ack(&d, ack(2, PlanStep::Accepted), Duration::ZERO);
@@ -323,22 +327,18 @@ mod tests {
     #[test]
     fn a_plan_sent_again_to_a_destination_back_is_sent_again_until_it_answers() {
         let (mut o, _rx, d) = opened();
-        let me = addr("t/r1/o");
         o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
         o.lost(&d);
         let at = Duration::from_secs(10);
-        assert_eq!(o.resume(&d, &me, at).len(), 1);
+        assert_eq!(o.resume(&d, at).len(), 1);
         // That plan message was lost (sent before the restarted module could read it).
-        let again = o.gaps_due(at + ACK_GAP_GRACE, &me);
+        let again = o.gaps_due(at + ACK_GAP_GRACE);
         assert_eq!(again.len(), 1, "no answer: the plan goes again");
         assert!(matches!(again[0].1, Message::Plan(_)));
         // A restarted destination answers with its own steps from 1: duplicates here,
         // but an answer.
         o.ack(&d, ack(1, PlanStep::Received), at + ACK_GAP_GRACE);
-        assert!(
-            o.gaps_due(at + 3 * ACK_GAP_GRACE, &me).is_empty(),
-            "answered"
-        );
+        assert!(o.gaps_due(at + 3 * ACK_GAP_GRACE).is_empty(), "answered");
     }
 
     #[test]
@@ -366,21 +366,14 @@ mod tests {
     #[test]
     fn a_gap_is_asked_for_then_skipped() {
         let (mut o, rx, d) = opened();
-        let me = addr("t/r1/o");
         o.ack(&d, ack(3, PlanStep::Initiated), Duration::ZERO);
-        assert!(
-            o.gaps_due(Duration::from_millis(500), &me).is_empty(),
-            "grace"
-        );
+        assert!(o.gaps_due(Duration::from_millis(500)).is_empty(), "grace");
         let mut asked = 0;
         for s in 1..=4 {
-            asked += o.gaps_due(Duration::from_secs(s), &me).len();
+            asked += o.gaps_due(Duration::from_secs(s)).len();
         }
         assert_eq!(asked, 3);
         assert_eq!(rx.try_iter().collect::<Vec<_>>(), [PlanStep::Initiated]);
-        assert!(
-            o.gaps_due(Duration::from_secs(9), &me).is_empty(),
-            "no gap left"
-        );
+        assert!(o.gaps_due(Duration::from_secs(9)).is_empty(), "no gap left");
     }
 }

@@ -7,8 +7,9 @@ use std::time::Duration;
 
 use parking_lot::Mutex;
 use slate_ici::{
-    ClassSet, Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats, MAX_PLAN_TEXT_BYTES,
-    MsgKind, PlanCircuits, PlanHandle, Rng, SendError, SendPlanError, SimConfig, SimNet, Transport,
+    AddressPattern, ClassSet, Handler, Ici, IciConfig, LinkConfig, LinkKind, LinkStats,
+    MAX_PLAN_TEXT_BYTES, MsgKind, PlanAuthority, PlanCircuits, PlanHandle, Rng, SendError,
+    SendPlanError, SimConfig, SimNet, Transport,
 };
 use slate_model::{Address, Board};
 use slate_plans::{Engine, PlanState};
@@ -63,6 +64,9 @@ fn module_on(
     engine.load("world.slate", world).unwrap();
     let ici = Ici::new(board.clone(), transport, config).unwrap();
     let circuits = PlanCircuits::attach(&ici, &engine);
+    // These tests are about circuits: any module may send plans (the authority tests
+    // below set their own).
+    circuits.set_authority(PlanAuthority::anyone());
     Module {
         board,
         engine,
@@ -633,6 +637,7 @@ fn on_the_system_clock_timer_driven_steps_reach_the_origin() {
         let timers = engine.run_timers();
         let ici = Ici::new(board, transport, config()).unwrap();
         let circuits = PlanCircuits::attach(&ici, &engine);
+        circuits.set_authority(PlanAuthority::anyone());
         (engine, circuits, timers)
     };
     let (_e1, origin, _t1) = start("t/r1/planner", "");
@@ -811,7 +816,9 @@ fn on_the_system_clock_a_plan_received_is_loaded_off_the_thread_that_delivers_it
         let engine = Engine::new(&board);
         engine.load("world.slate", CELL).unwrap();
         let ici = Ici::new(board.clone(), transport, config()).unwrap();
-        (board, PlanCircuits::attach(&ici, &engine))
+        let circuits = PlanCircuits::attach(&ici, &engine);
+        circuits.set_authority(PlanAuthority::anyone());
+        (board, circuits)
     };
     let (_b1, origin) = start("t/r1/planner");
     let (cell_board, cell) = start("t/r2/cell");
@@ -830,4 +837,117 @@ fn on_the_system_clock_a_plan_received_is_loaded_off_the_thread_that_delivers_it
     let loader = writer.thread.lock().clone();
     assert_eq!(loader.as_deref(), Some("slate-plan-circuits"));
     assert_eq!(cell.stats().accepted, 1);
+}
+
+/// `module`, judging plans by `authority` (`None`: the ICI's default, its own robot).
+fn module_with_authority(
+    net: &SimNet,
+    address: &str,
+    world: &str,
+    authority: Option<PlanAuthority>,
+) -> Module {
+    let m = module(net, address, world);
+    let authority = authority.unwrap_or_else(|| PlanAuthority::own_robot(&addr(address)));
+    m.circuits.set_authority(authority);
+    m
+}
+
+fn pattern(text: &str) -> AddressPattern {
+    AddressPattern::new(text).unwrap()
+}
+
+#[test]
+fn a_plan_from_a_module_without_authority_is_rejected_with_a_reason_and_counted() {
+    // Issue 17, finding 2: a plan from a module that is none of the cell's robot's is
+    // refused before it is parsed; the cell's own robot's modules may send it plans.
+    let net = SimNet::new(71);
+    let stranger = module(&net, "t/r9/evil", "");
+    let cell = module_with_authority(&net, "t/r2/cell", CELL, None);
+    let mate = module(&net, "t/r2/exec", "");
+    let refusals = cell.circuits.refusals();
+    net.run_for(secs(0.5));
+    let pwn = "plan pwn { action { set part.done = true; } }";
+    let h = stranger.circuits.send(&addr("t/r2/cell"), pwn).unwrap();
+    let mut got = Vec::new();
+    wait_steps(&net, &h, &mut got, 2, 5.0);
+    let reason = rejected(&got);
+    assert!(
+        reason.contains("t/r9/evil may not send plans to t/r2/cell"),
+        "{reason}"
+    );
+    assert!(reason.contains("only from t/r2/*"), "{reason}");
+    assert!(cell.engine.status("pwn").is_none());
+    assert_eq!(cell.board.read("part", "done").unwrap().value, false.into());
+    let refused: Vec<_> = refusals.try_iter().collect();
+    assert_eq!(refused.len(), 1, "{refused:?}");
+    assert_eq!(
+        (refused[0].from.as_str(), refused[0].name.as_str()),
+        ("t/r9/evil", "pwn")
+    );
+    let stats = cell.circuits.stats();
+    assert_eq!(
+        (stats.received, stats.rejected, stats.unauthorised),
+        (1, 1, 1),
+        "{stats:?}"
+    );
+
+    let (_h, got) = send_until_initiated(&net, &mate, "t/r2/cell", WELD);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+}
+
+#[test]
+fn a_module_named_in_the_authority_may_send_plans() {
+    let (net, origin, cell) = planner_and_cell(72);
+    let authority = PlanAuthority::own_robot(&addr("t/r2/cell")).allow(pattern("t/*/planner"));
+    cell.circuits.set_authority(authority);
+    still_welds(&net, &origin, &cell);
+    assert_eq!(cell.circuits.stats().unauthorised, 0);
+}
+
+#[test]
+fn a_plan_cannot_send_itself_on_beyond_what_its_origin_may_send() {
+    // The planner may command the cell's execution controller, not its torch: a plan it
+    // sends the controller may not send the torch a sub-plan either (the sub-plan names
+    // the planner as its origin), though the controller itself may.
+    let net = SimNet::new(73);
+    let planner = module(&net, "t/base/planner", "");
+    let exec_authority =
+        PlanAuthority::own_robot(&addr("t/cell/exec")).allow(pattern("t/base/planner"));
+    let exec = module_with_authority(&net, "t/cell/exec", CELL, Some(exec_authority));
+    let torch = module_with_authority(&net, "t/cell/torch", CELL, None);
+    net.run_for(secs(0.5));
+    let relay = r#"plan relay {
+        trigger: part.ready == true;
+        action {
+            send plan burn { action { set torch.on = true; } } to "t/cell/torch";
+        }
+    }"#;
+    let (_h, got) = send_until_initiated(&net, &planner, "t/cell/exec", relay);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    exec.board.write("part", "ready", true).unwrap();
+    net.run_for(secs(1.0));
+    let subs = exec.circuits.sent();
+    let [sub] = subs.as_slice() else {
+        panic!("{subs:?}")
+    };
+    let reason = rejected(&sub.steps);
+    assert!(
+        reason.contains(
+            "t/cell/exec sent on a plan of t/base/planner, which may not send plans to t/cell/torch"
+        ),
+        "{reason}"
+    );
+    assert!(torch.engine.status("burn").is_none());
+    assert_eq!(torch.board.read("torch", "on").unwrap().value, false.into());
+    assert_eq!(torch.circuits.stats().unauthorised, 1);
+
+    let own = "plan own { action { set torch.on = true; } }";
+    let (_h, got) = send_until_initiated(&net, &exec, "t/cell/torch", own);
+    assert_eq!(got[..2], [PlanStep::Received, PlanStep::Accepted]);
 }

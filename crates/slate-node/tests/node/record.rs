@@ -13,7 +13,7 @@ use slate_node::RecordConfig;
 use slate_node::record::{PROFILE, rotated_path, topic};
 use slate_testing::temp_dir;
 
-use crate::support::{addr, on_net, run_until, start};
+use crate::support::{addr, on_net, plans_from, run_until, start};
 
 /// One message read back: its topic, schema name and encoding, and its JSON.
 #[derive(Debug)]
@@ -185,7 +185,11 @@ fn plan_progress_circuit_steps_and_liveliness_are_recorded() {
         .record(RecordConfig::new(&path))
         .start()
         .unwrap();
-    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    let loco = on_net(&net, "t/r2/loco", "object gsr : Vehicle context self;")
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .plans_from(plans_from(&["robot", "t/r1/planner"]))
+        .start()
+        .unwrap();
     assert!(run_until(&net, 2.0, || planner.peers().len() == 1));
     let plan = "plan slow { trigger: gsr.speed > 5.0; termination: gsr.mode == \"slow\"; action { set gsr.mode = \"slow\"; } }";
     let handle = planner.send_plan(&addr("t/r2/loco"), plan).unwrap();

@@ -1,14 +1,15 @@
 //! Nodes on the deterministic simulator: reports, late joiners, plans with acks,
 //! cancellation by another module, shutdown.
 
+use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::SimNet;
+use slate_ici::{ClassSet, IciConfig, SimNet, Transport};
 use slate_model::Value;
 use slate_node::{Level, Node};
 use slate_wire::PlanStep;
 
-use crate::support::{addr, eventually, run_until, start};
+use crate::support::{addr, eventually, on_net, plans_from, run_until, start};
 
 fn speed(node: &Node) -> Option<f64> {
     node.board().read("gsr", "speed").ok()?.value.as_f64()
@@ -47,7 +48,11 @@ fn a_late_joiner_catches_up_with_the_current_state() {
 fn a_plan_sent_from_a_node_is_acknowledged_step_by_step() {
     let net = SimNet::new(3);
     let planner = start(&net, "t/r1/planner", "");
-    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    let loco = on_net(&net, "t/r2/loco", "object gsr : Vehicle context self;")
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .plans_from(plans_from(&["robot", "t/r1/planner"]))
+        .start()
+        .unwrap();
     net.run_for(Duration::from_millis(500));
     let handle = planner
         .send_plan(
@@ -298,4 +303,124 @@ fn a_follower_gets_each_event_as_it_is_logged() {
             .any(|e| e.text == "peer t/r2/loco up" && e.level == Level::Info)
     });
     assert!(heard, "{:?}", nav.events());
+}
+
+#[test]
+fn a_plan_from_another_robots_module_is_refused_by_default_and_logged() {
+    // Issue 17, finding 2: by default a node takes plans from its robot's modules and the
+    // team's operators only.
+    let net = SimNet::new(5);
+    let stranger = start(&net, "t/r9/evil", "");
+    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    let mate = start(&net, "t/r2/exec", "");
+    net.run_for(Duration::from_millis(500));
+    let pwn = "plan pwn { action { set gsr.mode = \"pwned\"; } }";
+    let handle = stranger.send_plan(&addr("t/r2/loco"), pwn).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
+    let [PlanStep::Received, PlanStep::Rejected { reason }] = steps.as_slice() else {
+        panic!("{steps:?}")
+    };
+    assert!(
+        reason.contains("t/r9/evil may not send plans to t/r2/loco"),
+        "{reason}"
+    );
+    assert_eq!(
+        loco.board().read("gsr", "mode").unwrap().value,
+        Value::from("auto")
+    );
+    let events = loco.events();
+    let refused = events
+        .iter()
+        .find(|e| e.text.starts_with("plan pwn from t/r9/evil refused"));
+    assert!(
+        refused.is_some_and(|e| e.level == Level::Warn),
+        "{events:?}"
+    );
+    assert_eq!(loco.circuits().stats().unauthorised, 1);
+    assert_eq!(loco.snapshot()["summary"]["plans refused: no authority"], 1);
+
+    let own = "plan own { action { set gsr.mode = \"manual\"; } }";
+    let handle = mate.send_plan(&addr("t/r2/loco"), own).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let steps: Vec<PlanStep> = handle.acks().try_iter().collect();
+    assert_eq!(
+        steps[..2],
+        [PlanStep::Received, PlanStep::Accepted],
+        "{steps:?}"
+    );
+}
+
+#[test]
+fn a_packet_stamped_beyond_the_clock_tolerance_is_refused_counted_and_an_event() {
+    // Issue 17, finding 3 (a packet stamped far in the future holds an attribute): a
+    // module whose clock is an hour ahead writes; the receiver refuses its packets.
+    let net = SimNet::new(6);
+    let loco = start(&net, "t/r2/loco", "object rock : Obstacle;");
+    loco.board().write("rock", "range", 7.5).unwrap();
+    let clock = slate_model::Clock::manual();
+    clock
+        .set(net.clock().physical() + Duration::from_secs(3600))
+        .unwrap();
+    let evil_addr = addr("t/r1/evil");
+    let evil = Arc::new(
+        slate_model::Board::builder()
+            .clock(clock)
+            .address(evil_addr.clone())
+            .build(),
+    );
+    let engine = slate_plans::Engine::new(&evil);
+    engine.load("world.slate", slate_testing::WORLD).unwrap();
+    let config = IciConfig::default().export(ClassSet::all());
+    let _ici = slate_ici::Ici::new(evil.clone(), net.join(&evil_addr), config).unwrap();
+    net.run_for(Duration::from_millis(500));
+    evil.create("Obstacle", "decoy").unwrap();
+    evil.write("decoy", "range", 66.0).unwrap();
+    net.run_for(Duration::from_millis(500));
+    loco.board().write("rock", "range", 8.0).unwrap();
+    net.run_for(Duration::from_millis(500));
+    let held = loco.board().read("decoy", "range").ok();
+    assert!(
+        held.as_ref().is_none_or(|p| p.value.as_f64() != Some(66.0)),
+        "{held:?}"
+    );
+    assert!(loco.ici().stats().rejects.future >= 1);
+    let events = loco.events();
+    let refused = events.iter().find(|e| {
+        e.text.contains("from t/r1/evil refused") && e.text.contains("ahead of this board's clock")
+    });
+    assert!(
+        refused.is_some_and(|e| e.level == Level::Warn),
+        "{events:?}"
+    );
+}
+
+#[test]
+fn messages_that_do_not_decode_are_counted_and_an_event() {
+    // Issue 17's fuzzing found garbage refused and counted; an operator also sees it in
+    // the node's events (one per second at most, whatever the flood).
+    let net = SimNet::new(7);
+    let loco = start(&net, "t/r2/loco", "object rock : Obstacle;");
+    let garbage = net.join(&addr("t/r9/noise"));
+    net.run_for(Duration::from_millis(500));
+    for i in 0..50_u8 {
+        let bytes = [0xff, i, 0x13, 0x37, 0x00, 0x42];
+        garbage
+            .send(&addr("t/r2/loco"), slate_ici::MsgKind::Report, &bytes)
+            .unwrap();
+        net.run_for(Duration::from_millis(20));
+    }
+    net.run_for(Duration::from_millis(1500));
+    let stats = loco.ici().stats();
+    assert!(stats.rejects.decode.rejected() >= 50, "{:?}", stats.rejects);
+    let events = loco.events();
+    let undecodable: Vec<_> = events
+        .iter()
+        .filter(|e| e.text.contains("did not decode"))
+        .collect();
+    assert!(
+        !undecodable.is_empty() && undecodable.len() <= 3,
+        "{events:?}"
+    );
+    assert!(undecodable.iter().all(|e| e.level == Level::Warn));
 }

@@ -29,6 +29,14 @@ pub fn start(net: &SimNet, address: &str, extra: &str) -> Node {
         .expect("node starts")
 }
 
+/// A `plans_from` list (`"robot"`, `"operators"`, address patterns).
+pub fn plans_from(entries: &[&str]) -> Vec<slate_node::PlanSender> {
+    entries
+        .iter()
+        .map(|e| e.parse().expect("a plans_from entry"))
+        .collect()
+}
+
 /// Runs the network until `done` (at most `max` of virtual time).
 pub fn run_until(net: &SimNet, max: f64, done: impl FnMut() -> bool) -> bool {
     net.run_until(done, Duration::from_secs_f64(max))
