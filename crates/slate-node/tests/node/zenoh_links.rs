@@ -141,21 +141,24 @@ fn a_plain_zenoh_config_files_lease_decides_how_soon_a_silent_peer_is_dropped() 
         format!("zenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n");
     let nav = module(&d, "t/r1/nav", &listen);
     let radio = Freezer::new(port);
-    let connect = format!("[zenoh]\nconnect = [\"tcp/127.0.0.1:{}\"]\n", radio.port);
+    let connect = format!(
+        "[zenoh]\nconnect = [\"tcp/127.0.0.1:{}\"]\n[ici]\nteam_timeout = \"30s\"\n",
+        radio.port
+    );
     let base = module(&d, "t/r2/base", &connect);
     let met = eventually(Duration::from_secs(20), || {
         alive(&base, "t/r1/nav") == Some(true)
     });
     assert!(met, "r2/base never heard r1/nav");
     radio.freeze();
-    // The team link's own timeout is 5 s and Zenoh's default lease 10 s: a down within
-    // 4 s is the file's lease at work.
-    let dropped = eventually(Duration::from_secs(4), || {
+    // The team link's timeout is 30 s here and Zenoh's default lease 10 s: a down
+    // within 8 s is the file's lease at work.
+    let dropped = eventually(Duration::from_secs(8), || {
         alive(&base, "t/r1/nav") == Some(false)
     });
     assert!(
         dropped,
-        "r2/base still holds r1/nav alive 4 s after the link froze"
+        "r2/base still holds r1/nav alive 8 s after the link froze"
     );
     base.close();
     nav.close();
