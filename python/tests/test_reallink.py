@@ -5,6 +5,7 @@ is run on demand (docs/real-links.md)."""
 
 from __future__ import annotations
 
+import argparse
 import socket
 import sys
 from pathlib import Path
@@ -53,6 +54,19 @@ def test_at_30_percent_loss_the_team_converges_and_no_mate_is_marked_dead(slate_
     robot = {m.address: m.robot for m in harness.team_modules()}
     mates = [m for m in result["false_marks"] if robot[m["board"]] == robot[m["peer"]]]
     assert mates == [], result
+
+
+def test_plan_send_at_30_percent_loss_prints_every_acknowledgement_the_destination_produced(
+    slate_bin: str,
+) -> None:
+    # Three plans across the lossy team link (`harness.py plansend` runs ten).
+    args = argparse.Namespace(protocol="tcp", topology="mesh", loss=0.3, runs=3, timeout=60.0, keep=False)
+    results = harness.plansend_run(args, slate_bin)
+    assert len(results) == 3, results
+    for r in results:
+        assert r["exit"] == 0, r
+        assert r["missing"] == [], r
+        assert "terminated" in r["destination"], r
 
 
 def frame(src: int, dst: int, size: int = 100) -> bytes:

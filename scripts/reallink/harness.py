@@ -56,6 +56,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from netns import Namespaces, sweep_leftovers, thread_in, unavailable  # noqa: E402
 from radio import Impairment, Radio  # noqa: E402
+import plansend  # noqa: E402
+import wirebytes  # noqa: E402
 
 SKIP = 77
 ROOT = Path(__file__).resolve().parents[2]
@@ -72,6 +74,7 @@ plan write_count {
     action { set gsr.count = gsr.count + 1; }
 }
 """
+FILES = {"world.slate": WORLD, "writer.slate": WRITER}
 # The nodes' log filter; $REALLINK_LOG adds to it (like `zenoh=debug` to see Zenoh's
 # sessions open and close). The `peer ... up|down` lines must stay at info.
 NODE_LOG = ",".join(filter(None, ["warn,slate_node=info", os.environ.get("REALLINK_LOG")]))
@@ -106,6 +109,9 @@ class Module:
     dashboard: int
     writer: bool = False
     protocol: str = "tcp"  # of its endpoint: tcp or udp
+    zenoh_config: str | None = None  # a Zenoh config file for the node (`zenoh_config`)
+    export: str = "Thing"  # the classes it exports to the team link
+    extra: str = ""  # TOML appended to the node's config (like an `[ici]` table)
     proc: subprocess.Popen[bytes] | None = None
     log: Path | None = None
 
@@ -130,11 +136,13 @@ def node_config(m: Module, peers: list[Module]) -> str:
         [
             f'address = "{m.address}"',
             f"files = {json.dumps(files)}",
-            'export = ["Thing"]',
+            f"export = [{json.dumps(m.export)}]",
             f'dashboard = "127.0.0.1:{m.dashboard}"',
+            f"zenoh_config = {json.dumps(m.zenoh_config)}" if m.zenoh_config else "",
             "[zenoh]",
             f'listen = ["{endpoint(m)}"]',
             f"connect = {json.dumps([endpoint(p) for p in peers])}",
+            m.extra,
             "",
         ]
     )
@@ -240,24 +248,33 @@ class Team:
     """The namespaces, the radio and the node processes of one run; `close` stops every
     process by pid and deletes every namespace."""
 
-    def __init__(self, slate: str, scn: Scenario, workdir: Path) -> None:
+    def __init__(
+        self,
+        slate: str,
+        scn: Scenario,
+        workdir: Path,
+        mods: list[Module] | None = None,
+        files: dict[str, str] | None = None,
+    ) -> None:
+        """`mods` (default: the team of three robots) and the .slate `files` they load
+        (default: the counter's world and the writer's plan)."""
         self.slate, self.workdir = slate, workdir
-        self.mods = team_modules()
+        self.mods = mods if mods is not None else team_modules()
         for m in self.mods:
             m.protocol = scn.protocol
         self.boards: Boards | None = None
-        self.nets = Namespaces(3)
+        self.nets = Namespaces(1 + max(m.robot for m in self.mods))
         self.radio = Radio(self.nets.fds)
         try:
             self.radio.start()
-            self._write_files(connections(self.mods, scn.topology))
+            self._write_files(connections(self.mods, scn.topology), files or FILES)
         except BaseException:
             self.close()
             raise
 
-    def _write_files(self, peers: dict[str, list[Module]]) -> None:
-        (self.workdir / "world.slate").write_text(WORLD)
-        (self.workdir / "writer.slate").write_text(WRITER)
+    def _write_files(self, peers: dict[str, list[Module]], files: dict[str, str]) -> None:
+        for name, text in files.items():
+            (self.workdir / name).write_text(text)
         for m in self.mods:
             name = m.address.replace("/", "_")
             (self.workdir / f"{name}.toml").write_text(node_config(m, peers[m.address]))
@@ -265,17 +282,21 @@ class Team:
 
     def start(self) -> None:
         for m in self.mods:
-            cfg = self.workdir / f"{m.address.replace('/', '_')}.toml"
-            cmd = ["ip", "netns", "exec", self.nets.names[m.robot], self.slate, "node"]
-            assert m.log is not None, "prepare() names every module's log"
-            with open(m.log, "wb") as log:
-                m.proc = subprocess.Popen(
-                    [*cmd, "--config", str(cfg), "--log", NODE_LOG],
-                    stdout=subprocess.DEVNULL,
-                    stderr=log,
-                    start_new_session=True,
-                )
+            self.start_module(m)
         self.boards = Boards(self.nets.names, self.mods)
+
+    def start_module(self, m: Module) -> None:
+        """Starts module `m`'s `slate node` in its robot's namespace."""
+        cfg = self.workdir / f"{m.address.replace('/', '_')}.toml"
+        cmd = ["ip", "netns", "exec", self.nets.names[m.robot], self.slate, "node"]
+        assert m.log is not None, "_write_files names every module's log"
+        with open(m.log, "wb") as log:
+            m.proc = subprocess.Popen(
+                [*cmd, "--config", str(cfg), "--log", NODE_LOG],
+                stdout=subprocess.DEVNULL,
+                stderr=log,
+                start_new_session=True,
+            )
 
     def counts(self) -> dict[str, int | None]:
         return dict(self.boards.counts) if self.boards else {}
@@ -381,6 +402,75 @@ def finish(result: dict[str, Any], team: Team, scn: Scenario, end: float) -> dic
     return result
 
 
+def bytes_run(args: argparse.Namespace, slate: str) -> dict[str, Any]:
+    """The `bytes` command: slate's cost per update and idle on one team link, then the
+    raw Zenoh baseline on the same radio (wirebytes.py)."""
+    mods = [
+        Module(f"{TEAM}/r1/writer", 0, PORT, DASHBOARD, writer=True),
+        Module(f"{TEAM}/r2/nav", 1, PORT, DASHBOARD),
+    ]
+    for m in mods:
+        m.zenoh_config = str(Path(args.zenoh_config).resolve()) if args.zenoh_config else None
+        m.extra = args.node_toml or ""
+        m.export = "Vehicle"  # not the plans' own objects: one attribute's updates only
+    world = WORLD + (args.world_extra or "")
+    files = {"world.slate": world, "writer.slate": wirebytes.writer_plans(args.updates)}
+    workdir = Path(tempfile.mkdtemp(prefix="slate-reallink-"))
+    scn = Scenario("bytes", protocol=args.protocol, topology=args.topology)
+    team = Team(slate, scn, workdir, mods, files)
+    result: dict[str, Any] = {"scenario": f"bytes-{args.protocol}", "workdir": str(workdir)}
+    try:
+        result["slate"] = wirebytes.slate_run(team, args.updates, args.idle)
+        if team.boards:
+            team.boards.stop()
+        for m in team.mods:
+            stop_process(m.proc)
+        python = wirebytes.zenoh_python(args.zenoh_python)
+        if python is None:
+            result["zenoh"] = {"ok": False, "why": "skipped: no Python that imports zenoh (--zenoh-python)"}
+        elif not args.no_baseline:
+            result["zenoh"] = wirebytes.raw_run(team, python, args.protocol, args.updates, args.idle)
+    finally:
+        team.close()
+    result["ok"] = bool(result["slate"].get("ok"))
+    if not args.keep and result["ok"]:
+        shutil.rmtree(workdir, ignore_errors=True)
+    return result
+
+
+def plansend_run(args: argparse.Namespace, slate: str) -> list[dict[str, Any]]:
+    """The `plansend` command: `args.runs` plans sent across the lossy radio
+    (plansend.py); one result per plan."""
+    mods = [Module(f"{TEAM}/r1/nav", 0, PORT, DASHBOARD), Module(f"{TEAM}/r2/nav", 1, PORT, DASHBOARD, writer=True)]
+    workdir = Path(tempfile.mkdtemp(prefix="slate-reallink-"))
+    scn = Scenario("plansend", protocol=args.protocol, topology=args.topology)
+    files = {"world.slate": plansend.WORLD, "writer.slate": plansend.START}
+    team = Team(slate, scn, workdir, mods, files)
+    results: list[dict[str, Any]] = []
+    try:
+        team.start()
+        if not met(team, time.time() + 30):
+            return [{"ok": False, "why": "the two nodes did not meet", "workdir": str(workdir)}]
+        team.radio.set_impairment(Impairment(loss=args.loss))
+        for i in range(1, args.runs + 1):
+            results.append(plansend.send_once(team, slate, i, args.timeout))
+            print(json.dumps(results[-1]), flush=True)
+    finally:
+        team.close()
+        if not args.keep and results and all(r["ok"] for r in results):
+            shutil.rmtree(workdir, ignore_errors=True)
+    return results
+
+
+def met(team: Team, deadline: float) -> bool:
+    """Waits until r1's board holds gsr.count, which only r2's node writes."""
+    while time.time() < deadline:
+        if team.counts().get(f"{TEAM}/r1/nav") is not None:
+            return True
+        time.sleep(0.2)
+    return False
+
+
 def scenarios(args: argparse.Namespace) -> list[Scenario]:
     """The scenarios a command line asks for."""
     loss = Impairment(loss=args.loss) if args.loss else Impairment()
@@ -408,7 +498,7 @@ def scenarios(args: argparse.Namespace) -> list[Scenario]:
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("command", choices=["short", "long", "partition", "loss"], help="which scenarios")
+    p.add_argument("command", choices=["short", "long", "partition", "loss", "bytes", "plansend"], help="which scenarios")
     p.add_argument("--runs", type=int, default=None, help="runs of each scenario (short: 1, long: 20, else 5)")
     p.add_argument("--seconds", type=float, default=10.0, help="partition length, or time under loss")
     p.add_argument("--loss", type=float, default=0.0, help="loss probability on every link (0..1)")
@@ -416,9 +506,17 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--protocol", choices=["tcp", "udp"], default="tcp", help="the nodes' Zenoh links")
     p.add_argument("--slate", help="the slate binary (default: $SLATE_BIN, else target/{debug,release}/slate)")
     p.add_argument("--keep", action="store_true", help="keep every run's configs and node logs")
+    p.add_argument("--updates", type=int, default=300, help="bytes: updates at 20 Hz (ten times as many at 200 Hz)")
+    p.add_argument("--idle", type=float, default=20.0, help="bytes: seconds of idle measured")
+    p.add_argument("--zenoh-config", help="bytes: a Zenoh config file every node is given (zenoh_config)")
+    p.add_argument("--node-toml", help="bytes: TOML appended to every node's config, like '[ici]\\nteam_heartbeat = \"3s\"'")
+    p.add_argument("--zenoh-python", help="bytes: a Python that imports zenoh, for the baseline (default: $ZENOH_PYTHON)")
+    p.add_argument("--world-extra", help="bytes: slate text added to the world file, like 'link team { ... }'")
+    p.add_argument("--timeout", type=float, default=60.0, help="plansend: the command's --timeout, seconds")
+    p.add_argument("--no-baseline", action="store_true", help="bytes: measure slate only")
     args = p.parse_args(argv)
     if args.runs is None:
-        args.runs = {"short": 1, "long": 20}.get(args.command, 5)
+        args.runs = {"short": 1, "long": 20, "bytes": 1, "plansend": 10}.get(args.command, 5)
     return args
 
 
@@ -431,6 +529,17 @@ def main(argv: list[str]) -> int:
     sweep_leftovers()
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     slate = find_slate(args.slate)
+    if args.command == "bytes":
+        out = [bytes_run(args, slate) for _ in range(args.runs)]
+        for r in out:
+            print(json.dumps(r), flush=True)
+            print(wirebytes.summary(r), file=sys.stderr)
+        return 0 if all(r["ok"] for r in out) else 1
+    if args.command == "plansend":
+        sent = plansend_run(args, slate)
+        held = sum(1 for r in sent if r["ok"])
+        print(f"plansend at {args.loss:g} loss: {held}/{len(sent)} printed every acknowledgement and exited 0", file=sys.stderr)
+        return 0 if sent and held == len(sent) else 1
     results = []
     for scn in scenarios(args):
         for _ in range(args.runs):

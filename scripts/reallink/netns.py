@@ -82,6 +82,10 @@ class Namespaces:
         self.names.append(ns)
         self.fds.append(open_tap(tap))
         ip("link", "set", tap, "netns", ns)
+        # No IPv6: its address autoconfiguration and multicast reports would cross the
+        # radio and be counted as the team's bytes.
+        sysctl = ["ip", "netns", "exec", ns, "sysctl", "-qw", "net.ipv6.conf.all.disable_ipv6=1"]
+        subprocess.run(sysctl, capture_output=True, timeout=10, check=False)
         ip("-n", ns, "link", "set", "lo", "up")
         ip("-n", ns, "addr", "add", f"{self.address(robot)}/24", "dev", tap)
         ip("-n", ns, "link", "set", tap, "up")

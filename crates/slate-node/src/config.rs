@@ -4,6 +4,7 @@
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
+use std::time::Duration;
 
 use slate_ici::{ClassSet, IciConfig, LinkKind};
 use slate_model::{Address, Context};
@@ -128,12 +129,19 @@ const ICI: &[&str] = &[
     "team_timeout",
     "quiet",
     "gap_grace",
+    "team_report_every",
     "catch_up_retry",
     "max_report_items",
     "max_tombstones",
     "max_sources",
     "forget_dead",
 ];
+
+/// A node's team link sends one attribute at most every 200 ms (`[ici]
+/// team_report_every`, `"0s"` for every value at once): each report on a radio costs a
+/// frame's headers, several times the value's own bytes (docs/performance.md, *Bytes on
+/// the radio*), and the last value still arrives, at most this much later.
+pub const TEAM_REPORT_EVERY: Duration = Duration::from_millis(200);
 
 const CLASSES: &str =
     "a list of class names, each optionally with contexts (\"Obstacle:surroundings,system\")";
@@ -146,7 +154,7 @@ impl NodeConfig {
             address,
             zenoh: ZenohConfig::default(),
             files: Vec::new(),
-            ici: IciConfig::default(),
+            ici: IciConfig::default().team_report_every(Some(TEAM_REPORT_EVERY)),
             dashboard: None,
             dashboard_token: None,
             foxglove: None,
@@ -487,6 +495,9 @@ fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     if let Some(d) = t.duration("quiet")? {
         ici.quiet = d;
     }
+    if let Some(d) = t.duration("team_report_every")? {
+        ici.team_report_every = (!d.is_zero()).then_some(d);
+    }
     if let Some(d) = t.duration("gap_grace")? {
         ici.gap_grace = d;
     }
@@ -613,6 +624,7 @@ mod tests {
             quiet = "250ms"
             gap_grace = "50ms"
             catch_up_retry = "1s"
+            team_report_every = "0s"
             max_report_items = 64
             max_tombstones = 100
             "#,
@@ -647,6 +659,7 @@ mod tests {
         assert_eq!(c.ici.quiet, Duration::from_millis(250));
         assert_eq!(c.ici.gap_grace, Duration::from_millis(50));
         assert_eq!(c.ici.catch_up_retry, Duration::from_secs(1));
+        assert_eq!(c.ici.team_report_every, None, "0s: every value at once");
         assert_eq!((c.ici.max_report_items, c.ici.max_tombstones), (64, 100));
     }
 
@@ -655,6 +668,7 @@ mod tests {
         let c = parse("address = \"t/r1/nav\"").unwrap();
         assert_eq!(c, NodeConfig::new(Address::new("t/r1/nav").unwrap()));
         assert!(!c.zenoh.multicast_scouting);
+        assert_eq!(c.ici.team_report_every, Some(TEAM_REPORT_EVERY));
         assert!(c.ici.interest.is_all());
         assert!(c.ici.export.is_empty());
     }

@@ -36,3 +36,6 @@ mod slow_reader;
 // A team of nodes on one simulated network (the helper module).
 #[path = "node/support.rs"]
 mod support;
+// Zenoh's own settings reach a node (a config file's lease), and `udp/` links work.
+#[path = "node/zenoh_links.rs"]
+mod zenoh_links;

@@ -13,7 +13,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyString;
 use slate_ici::{IciConfig, LOST_WAIT};
 use slate_model::{Address, Board};
-use slate_node::{Node, RecordConfig, StateConfig};
+use slate_node::{ModuleStats, Node, RecordConfig, StateConfig};
 use slate_wire::PlanStep;
 use slate_zenoh::{Mode, ZenohConfig};
 
@@ -269,6 +269,26 @@ impl PyNode {
     /// links, events; see docs/dashboard.md).
     fn snapshot(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         let text = py.detach(|| self.node.snapshot().to_string());
+        let json = py.import("json")?;
+        Ok(json
+            .call_method1("loads", (PyString::new(py, &text),))?
+            .unbind())
+    }
+
+    /// The ICI's counters, as `slate stats --format json` prints a module's (docs/cli.md):
+    /// `traffic` per link and message kind, `drops`, `catch_up` (`gaps` found in a
+    /// source's stream: what the network lost or dropped), `merges`, `peers`.
+    fn stats(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let text = py.detach(|| {
+            let ici = self.node.ici().stats();
+            let stats = ModuleStats::of(
+                self.node.address(),
+                &ici,
+                &self.node.peers(),
+                Duration::ZERO,
+            );
+            serde_json::to_string(&stats).unwrap_or_default()
+        });
         let json = py.import("json")?;
         Ok(json
             .call_method1("loads", (PyString::new(py, &text),))?

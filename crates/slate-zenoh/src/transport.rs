@@ -2,7 +2,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Weak, mpsc};
 use std::thread::JoinHandle;
 use std::time::Duration;
@@ -255,6 +255,10 @@ pub(crate) struct Inner {
     /// several allocations); cleared when it grows past [`MAX_SOURCES`].
     sources: Mutex<FxHashMap<String, Address>>,
     token: Mutex<Option<LivelinessToken>>,
+    /// The queue to the delivery thread ([`spawn_inbox`]) and that thread.
+    inbox: Mutex<Option<InboxThread>>,
+    /// Publications dropped because the delivery thread was [`INBOX_CAPACITY`] behind.
+    behind_dropped: AtomicU64,
     closed: AtomicBool,
 }
 
@@ -283,11 +287,16 @@ impl ZenohTransport {
             declarer: Mutex::new(None),
             sources: Mutex::new(FxHashMap::default()),
             token: Mutex::new(None),
+            inbox: Mutex::new(None),
+            behind_dropped: AtomicU64::new(0),
             closed: AtomicBool::new(false),
         });
         let declarer = spawn_declarer(Arc::downgrade(&inner))
             .map_err(|e| OpenError::Zenoh(format!("cannot start a thread: {e}")))?;
         *inner.declarer.lock() = Some(declarer);
+        let inbox = spawn_inbox(Arc::downgrade(&inner))
+            .map_err(|e| OpenError::Zenoh(format!("cannot start a thread: {e}")))?;
+        *inner.inbox.lock() = Some(inbox);
         declare(&inner).map_err(zerr)?;
         Ok(Arc::new(ZenohTransport { inner }))
     }
@@ -388,6 +397,40 @@ enum Task {
 /// The thread that declares peers' keys and reports congestion, and how to tell it.
 type Declarer = (mpsc::Sender<(Address, Task)>, JoinHandle<()>);
 
+/// Messages heard (and peer events) waiting for the delivery thread, at most: a handler
+/// this far behind loses publications, so that what it is given is never more than
+/// this many messages old (docs/ici.md, *A receiver that falls behind*).
+pub(crate) const INBOX_CAPACITY: usize = 256;
+
+/// What the delivery thread hands to the handler.
+enum Delivery {
+    /// A message from a module.
+    Message(Address, Vec<u8>),
+    /// A peer came up (`true`) or went down.
+    Peer(Address, bool),
+}
+
+/// The queue to the delivery thread, and the thread.
+type InboxThread = (mpsc::SyncSender<Delivery>, JoinHandle<()>);
+
+/// Starts the delivery thread: it runs the handler for what Zenoh's callbacks heard, so
+/// that a slow handler (a board whose active functions are slow) never holds Zenoh's
+/// receive threads, whose backlog (in TCP and Zenoh's buffers) would otherwise be
+/// drained in full before a catch-up answer behind it. It ends when the transport
+/// closes.
+fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
+    let (tx, rx) = mpsc::sync_channel::<Delivery>(INBOX_CAPACITY);
+    let thread = std::thread::Builder::new()
+        .name("slate-zenoh-rx".into())
+        .spawn(move || {
+            for d in rx {
+                let Some(inner) = inner.upgrade() else { return };
+                inner.deliver(d);
+            }
+        })?;
+    Ok((tx, thread))
+}
+
 /// Starts the thread that declares (and undeclares) the keys of peers as they come up
 /// (and go down), and reports peers that fall behind; it ends when the transport closes.
 fn spawn_declarer(inner: Weak<Inner>) -> std::io::Result<Declarer> {
@@ -412,6 +455,7 @@ impl Inner {
         if self.closed.load(Ordering::Acquire) {
             return;
         }
+        let publication = link.is_some();
         let Some(from) = self.source(s.key_expr().as_str()) else {
             return;
         };
@@ -430,9 +474,39 @@ impl Inner {
         self.stats
             .lock()
             .received(link, MsgKind::of(&payload), payload.len());
-        let handler = self.handler.read().clone();
-        if let Some(h) = handler {
-            h.message(&from, &payload);
+        if self.handler.read().is_some() {
+            self.hand_over(Delivery::Message(from, payload.into()), publication);
+        }
+    }
+
+    /// Queues `d` for the delivery thread. A publication finds the queue full when the
+    /// handler is [`INBOX_CAPACITY`] messages behind: it is dropped (best effort, like
+    /// Zenoh's own congestion drop: the ICI sees the gap and catches up with the
+    /// latest state). A direct send or a peer event waits for room, as it did when the
+    /// handler ran on Zenoh's thread.
+    fn hand_over(&self, d: Delivery, droppable: bool) {
+        let Some(tx) = self.inbox.lock().as_ref().map(|(tx, _)| tx.clone()) else {
+            return;
+        };
+        if !droppable {
+            let _ = tx.send(d);
+        } else if let Err(mpsc::TrySendError::Full(_)) = tx.try_send(d) {
+            let n = self.behind_dropped.fetch_add(1, Ordering::Relaxed) + 1;
+            tracing::debug!(dropped = n, "handler behind: publication dropped");
+        }
+    }
+
+    /// Hands one queued delivery to the handler (on the delivery thread).
+    fn deliver(&self, d: Delivery) {
+        if self.closed.load(Ordering::Acquire) {
+            return;
+        }
+        let Some(h) = self.handler.read().clone() else {
+            return;
+        };
+        match d {
+            Delivery::Message(from, payload) => h.message(&from, &payload),
+            Delivery::Peer(peer, up) => h.peer(&peer, up),
         }
     }
 
@@ -472,9 +546,9 @@ impl Inner {
         if changed {
             self.tell(&peer, Task::Keys(up));
         }
-        let handler = self.handler.read().clone();
-        if let (true, false, Some(h)) = (changed, reported_down, handler) {
-            h.peer(&peer, up);
+        // Through the delivery queue, behind the messages heard before it.
+        if changed && !reported_down && self.handler.read().is_some() {
+            self.hand_over(Delivery::Peer(peer, up), false);
         }
     }
 
@@ -751,6 +825,13 @@ impl Transport for ZenohTransport {
         }
         let declarer = self.inner.declarer.lock().take();
         if let Some((tx, thread)) = declarer {
+            drop(tx);
+            if thread.thread().id() != std::thread::current().id() {
+                let _ = thread.join();
+            }
+        }
+        let inbox = self.inner.inbox.lock().take();
+        if let Some((tx, thread)) = inbox {
             drop(tx);
             if thread.thread().id() != std::thread::current().id() {
                 let _ = thread.join();

@@ -67,6 +67,13 @@ pub struct IciConfig {
     /// link): `Some` turns it on with these settings; `None` (the default) keeps the
     /// per-module team protocol of docs/ici.md. A switch while the new path is built.
     pub team_protocol: Option<TeamProtocol>,
+    /// The team link's own minimum interval between two reports of one of this module's
+    /// attributes (`None`, the default: every value goes at once). A value written
+    /// sooner is held and sent when the interval ends (trailing edge), so the last one
+    /// always arrives; an attribute the team link policy gives a filter of its own
+    /// (`link team { report ... }`) keeps that one. A radio pays a frame's headers for
+    /// every report (docs/performance.md, *Bytes on the radio*): `slate node` sets 200 ms.
+    pub team_report_every: Option<Duration>,
 }
 
 /// Whether a member listens to the team link itself (docs/team-protocol.md, 2.1).
@@ -197,6 +204,7 @@ impl Default for IciConfig {
             max_sources: slate_wire::MAX_SOURCES,
             observer: false,
             team_protocol: None,
+            team_report_every: None,
         }
     }
 }
@@ -217,6 +225,13 @@ impl IciConfig {
     /// Sets heartbeat and timeout of one kind of link.
     pub fn liveliness(mut self, link: LinkKind, heartbeat: Duration, timeout: Duration) -> Self {
         *self.link_mut(link) = Liveliness { heartbeat, timeout };
+        self
+    }
+
+    /// Sets the team link's minimum interval between reports of one attribute
+    /// ([`IciConfig::team_report_every`]; `None`: none).
+    pub fn team_report_every(mut self, every: Option<Duration>) -> Self {
+        self.team_report_every = every;
         self
     }
 

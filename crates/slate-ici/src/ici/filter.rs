@@ -218,9 +218,11 @@ impl Filters {
         }
     }
 
-    /// Replaces the overrides of `link` (an empty set removes the link's filters).
+    /// Replaces the overrides of `link` (an empty set removes the link's filters,
+    /// unless the link has a minimum interval of its own, whose held values stay).
     pub fn set_link(&mut self, link: LinkKind, overrides: Overrides) {
-        if overrides.is_empty() {
+        let keep = self.links.get(&link).is_some_and(|l| l.every.is_some());
+        if overrides.is_empty() && !keep {
             self.links.remove(&link);
         } else {
             self.links.entry(link).or_default().overrides = overrides;
@@ -229,6 +231,20 @@ impl Filters {
 
     /// The filters of `link`, if its policy overrides any attribute.
     pub fn link(&mut self, link: LinkKind) -> Option<&mut LinkFilters> {
+        self.links.get_mut(&link)
+    }
+
+    /// The filters of `link` with `every` as the link's own minimum interval for the
+    /// attributes its policy does not override ([`LinkFilters::every`]); `None` if the
+    /// link has neither.
+    pub fn link_every(
+        &mut self,
+        link: LinkKind,
+        every: Option<Duration>,
+    ) -> Option<&mut LinkFilters> {
+        if every.is_some() {
+            self.links.entry(link).or_default().every = every;
+        }
         self.links.get_mut(&link)
     }
 
@@ -266,10 +282,14 @@ pub(crate) enum LinkVerdict {
     Never,
 }
 
-/// One link kind's filters: the overrides of its link policy, and their states.
+/// One link kind's filters: the overrides of its link policy, the link's own minimum
+/// interval, and their states.
 #[derive(Default)]
 pub(crate) struct LinkFilters {
     overrides: Overrides,
+    /// The minimum interval between two reports of an attribute on this link, for the
+    /// attributes without an override (`IciConfig::team_report_every`).
+    every: Option<Duration>,
     filters: AttrFilters,
 }
 
@@ -284,10 +304,14 @@ impl LinkFilters {
         now: Duration,
         quiet: Duration,
     ) -> LinkVerdict {
-        let policy = match self.override_of(lineage, &key.1) {
-            None => return LinkVerdict::Send,
-            Some(LinkReport::Never) => return LinkVerdict::Never,
-            Some(LinkReport::Policy(p)) => p.clone(),
+        let policy = match (self.override_of(lineage, &key.1), self.every) {
+            (None, None) => return LinkVerdict::Send,
+            (None, Some(every)) => ReportPolicy {
+                min_interval: Some(every),
+                ..ReportPolicy::default()
+            },
+            (Some(LinkReport::Never), _) => return LinkVerdict::Never,
+            (Some(LinkReport::Policy(p)), _) => p.clone(),
         };
         match self.filters.offer(key, packet, &policy, now, quiet) {
             Some(_) => LinkVerdict::Send,

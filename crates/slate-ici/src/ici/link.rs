@@ -171,10 +171,13 @@ impl State {
     /// packets (relays) and lifecycle items pass.
     pub(super) fn link_filter(&mut self, link: LinkKind, chosen: &mut SmallVec<[&Item; 8]>) {
         let (now, quiet) = (self.now, self.config.quiet);
+        let every = (link == LinkKind::Team)
+            .then_some(self.config.team_report_every)
+            .flatten();
         let State {
             filters, me, stats, ..
         } = self;
-        let Some(filters) = filters.link(link) else {
+        let Some(filters) = filters.link_every(link, every) else {
             return;
         };
         let (mut held, mut never) = (0, 0);

@@ -55,6 +55,32 @@ fn a_team_filter_holds_a_value_the_robot_link_sends_and_its_trailing_edge_reache
 }
 
 #[test]
+fn a_team_report_interval_sends_an_attribute_at_most_once_per_interval_and_its_last_value() {
+    // 20 Hz for 2 s, with the team link's own 200 ms interval: at most one report per
+    // interval leaves on the team link (a radio pays a frame for each), the robot link
+    // takes every value, and the last value reaches the other robot.
+    let mut team = Team::new(12);
+    let every = Some(Duration::from_millis(200));
+    team.add("t/r1/sensor", open().team_report_every(every));
+    team.add("t/r1/console", IciConfig::default());
+    team.add("t/r2/base", IciConfig::default());
+    team.run(0.5);
+    team.board("t/r1/sensor").create("Vehicle", "gsr").unwrap();
+    team.run(0.5);
+    let before = team.member("t/r1/sensor").ici.stats();
+    let sent = |s: &slate_ici::IciStats, link| s.get(link, MsgKind::Report).sent_msgs;
+    team.write_series("t/r1/sensor", "gsr", "speed", 1..=40, 0.05);
+    team.run(0.5);
+    let after = team.member("t/r1/sensor").ici.stats();
+    let on_team = sent(&after, LinkKind::Team) - sent(&before, LinkKind::Team);
+    let on_robot = sent(&after, LinkKind::Robot) - sent(&before, LinkKind::Robot);
+    assert!(on_team <= 12, "{on_team} team reports for 40 values in 2 s");
+    assert_eq!(on_robot, 40);
+    assert_eq!(speed(&team, "t/r2/base"), Some(40.0), "the trailing edge");
+    assert_eq!(speed(&team, "t/r1/console"), Some(40.0));
+}
+
+#[test]
 fn never_keeps_an_attribute_off_the_team_link() {
     let policy = LinkPolicy::default().report("Vehicle", "mode", LinkReport::Never);
     let team = team_with(policy);

@@ -1,0 +1,199 @@
+//! Zenoh's own settings reach a node, and its link kinds work, on 127.0.0.1: a plain
+//! Zenoh config file's lease decides how soon a silent session is dropped, and two
+//! nodes share values over `udp/` links.
+
+use std::io::{Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::path::Path;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use slate_model::Value;
+use slate_node::{Node, NodeConfig};
+use slate_testing::{eventually, free_port, temp_dir};
+
+/// Starts a module from a TOML config written in `dir` (`world.slate` loaded).
+fn module(dir: &Path, address: &str, extra: &str) -> Node {
+    let stem = address.replace('/', "_");
+    let toml = format!(
+        "address = \"{address}\"\nfiles = [\"world.slate\"]\nexport = [\"Vehicle\"]\n{extra}"
+    );
+    std::fs::write(dir.join(format!("{stem}.toml")), toml).unwrap();
+    let config = NodeConfig::read(&dir.join(format!("{stem}.toml"))).unwrap();
+    Node::start(&config).unwrap_or_else(|e| panic!("{address}: {e}"))
+}
+
+/// `alive` of `peer`'s `Module` object on `node`'s board, if there is one.
+fn alive(node: &Node, peer: &str) -> Option<bool> {
+    let object = peer.replace('/', "_");
+    match node.board().read(&object, "alive").ok()?.value {
+        Value::Bool(b) => Some(b),
+        _ => None,
+    }
+}
+
+/// A TCP forwarder on 127.0.0.1 to `target` that can be frozen: it then stops moving
+/// bytes but keeps both connections open, as a radio out of range does (no close, no
+/// reset: only the lease can tell). Stopped, with its threads, when dropped.
+struct Freezer {
+    port: u16,
+    frozen: Arc<AtomicBool>,
+    stop: Arc<AtomicBool>,
+    threads: Vec<JoinHandle<()>>,
+}
+
+impl Freezer {
+    fn new(target: u16) -> Freezer {
+        let listener = TcpListener::bind(("127.0.0.1", free_port())).unwrap();
+        listener.set_nonblocking(true).unwrap();
+        let port = listener.local_addr().unwrap().port();
+        let (frozen, stop) = (
+            Arc::new(AtomicBool::new(false)),
+            Arc::new(AtomicBool::new(false)),
+        );
+        let (f, s) = (frozen.clone(), stop.clone());
+        let accept = std::thread::spawn(move || accept_loop(listener, target, f, s));
+        Freezer {
+            port,
+            frozen,
+            stop,
+            threads: vec![accept],
+        }
+    }
+
+    fn freeze(&self) {
+        self.frozen.store(true, Ordering::SeqCst);
+    }
+}
+
+impl Drop for Freezer {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        for t in self.threads.drain(..) {
+            let _ = t.join();
+        }
+    }
+}
+
+/// Accepts connections until stopped; each is forwarded both ways to `target`.
+fn accept_loop(listener: TcpListener, target: u16, frozen: Arc<AtomicBool>, stop: Arc<AtomicBool>) {
+    let mut pumps = Vec::new();
+    while !stop.load(Ordering::SeqCst) {
+        let Ok((inbound, _)) = listener.accept() else {
+            std::thread::sleep(Duration::from_millis(10));
+            continue;
+        };
+        let Ok(outbound) = TcpStream::connect(("127.0.0.1", target)) else {
+            continue;
+        };
+        for (from, to) in [
+            (inbound.try_clone().unwrap(), outbound.try_clone().unwrap()),
+            (outbound, inbound),
+        ] {
+            let (f, s) = (frozen.clone(), stop.clone());
+            pumps.push(std::thread::spawn(move || pump(from, to, f, s)));
+        }
+    }
+    for p in pumps {
+        let _ = p.join();
+    }
+}
+
+/// Copies bytes from `from` to `to` while not frozen, until stopped or either closes.
+fn pump(mut from: TcpStream, mut to: TcpStream, frozen: Arc<AtomicBool>, stop: Arc<AtomicBool>) {
+    from.set_read_timeout(Some(Duration::from_millis(50)))
+        .unwrap();
+    let mut buf = [0u8; 16 * 1024];
+    while !stop.load(Ordering::SeqCst) {
+        if frozen.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_millis(20));
+            continue;
+        }
+        match from.read(&mut buf) {
+            Ok(0) => return,
+            Ok(n) if to.write_all(&buf[..n]).is_err() => return,
+            Ok(_) => {}
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) => {}
+            Err(_) => return,
+        }
+    }
+}
+
+#[test]
+fn a_plain_zenoh_config_files_lease_decides_how_soon_a_silent_peer_is_dropped() {
+    let d = temp_dir("node-zenoh-lease");
+    std::fs::write(d.join("world.slate"), crate::support::WORLD).unwrap();
+    // A Zenoh file as Zenoh documents it: a 1 s lease (Zenoh's default is 10 s), which a
+    // session announces to its peers: they drop it once silent that long.
+    std::fs::write(
+        d.join("zenoh.json5"),
+        "{ transport: { link: { tx: { lease: 1000 } } } }",
+    )
+    .unwrap();
+    let port = free_port();
+    let listen =
+        format!("zenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n");
+    let nav = module(&d, "t/r1/nav", &listen);
+    let radio = Freezer::new(port);
+    let connect = format!(
+        "[zenoh]\nconnect = [\"tcp/127.0.0.1:{}\"]\n[ici]\nteam_timeout = \"30s\"\n",
+        radio.port
+    );
+    let base = module(&d, "t/r2/base", &connect);
+    let met = eventually(Duration::from_secs(20), || {
+        alive(&base, "t/r1/nav") == Some(true)
+    });
+    assert!(met, "r2/base never heard r1/nav");
+    radio.freeze();
+    // The team link's timeout is 30 s here and Zenoh's default lease 10 s: a down
+    // within 8 s is the file's lease at work.
+    let dropped = eventually(Duration::from_secs(8), || {
+        alive(&base, "t/r1/nav") == Some(false)
+    });
+    assert!(
+        dropped,
+        "r2/base still holds r1/nav alive 8 s after the link froze"
+    );
+    base.close();
+    nav.close();
+    drop(radio);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn two_nodes_share_a_value_over_udp_links() {
+    let d = temp_dir("node-zenoh-udp");
+    std::fs::write(d.join("world.slate"), crate::support::WORLD).unwrap();
+    let endpoint = format!("udp/127.0.0.1:{}", free_port());
+    let nav = module(
+        &d,
+        "t/r1/nav",
+        &format!("[zenoh]\nlisten = [{endpoint:?}]\n"),
+    );
+    let base = module(
+        &d,
+        "t/r2/base",
+        &format!("[zenoh]\nconnect = [{endpoint:?}]\n"),
+    );
+    assert_eq!(nav.listening(), std::slice::from_ref(&endpoint));
+    assert!(eventually(Duration::from_secs(20), || base.peers().len() == 1));
+    nav.board().create("Vehicle", "gsr").unwrap();
+    nav.board().write("gsr", "speed", 2.5).unwrap();
+    let speed = || {
+        base.board()
+            .read("gsr", "speed")
+            .ok()
+            .and_then(|p| p.value.as_f64())
+    };
+    let arrived = eventually(Duration::from_secs(20), || speed() == Some(2.5));
+    assert!(arrived, "r2/base holds {:?}", speed());
+    base.close();
+    nav.close();
+    std::fs::remove_dir_all(&d).unwrap();
+}
