@@ -389,3 +389,29 @@ fn a_node_with_a_dashboard_token_serves_its_board_only_to_who_shows_it() {
     let (clean, _) = node.stop();
     assert!(clean);
 }
+
+/// `slate stats`, `bw` and `hz` are live verbs like the others: with the operator's keys
+/// they reach a secured team (its modules listen only on tls/ endpoints).
+#[test]
+fn slate_stats_with_the_operators_keys_lists_every_module_of_a_secured_team() {
+    let (team, keys) = secured_team("secure-stats", &["t/r2/loco"]);
+    let alice = as_alice(&keys);
+    let mut args = with(&["stats", "--interval", "1", "--format", "json"], &alice);
+    let connect = team.connect_args();
+    args.extend(connect.iter().map(String::as_str));
+    let out = slate(&args);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let modules: Vec<&str> = stats["modules"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|m| m["address"].as_str())
+        .collect();
+    assert_eq!(modules, ["t/r1/nav", "t/r2/loco"], "{stats}");
+    let mut bw = with(&["bw", "--interval", "1", "--format", "json"], &alice);
+    bw.extend(connect.iter().map(String::as_str));
+    let out = slate(&bw);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    team.stop();
+}
