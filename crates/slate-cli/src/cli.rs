@@ -70,6 +70,11 @@ pub enum Command {
     /// Example: slate demo --seed 3 --dashboard 127.0.0.1:8080
     Demo(crate::command::demo::DemoArgs),
 
+    /// One module of `slate demo --network processes`, started by it (docs/demo.md, "As
+    /// processes"): not meant to be typed.
+    #[command(hide = true)]
+    DemoModule(crate::command::demo::DemoModuleArgs),
+
     /// Make a team's keys: a certificate authority, then a key and certificate for each
     /// module and operator, for a secured team (TLS with mutual authentication, and
     /// each identity allowed to speak only in its own name; docs/security.md).

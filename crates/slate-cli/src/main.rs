@@ -35,6 +35,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => command::bench::run(&args, format),
         Command::Check(args) => command::check::run(&args, format),
         Command::Demo(args) => command::demo::run(&args, format),
+        Command::DemoModule(args) => command::demo::module(&args),
         Command::Keys(KeysCommand::Init(args)) => command::keys::init(&args, format),
         Command::Keys(KeysCommand::Issue(args)) => command::keys::issue(&args, format),
         Command::Launch(args) => command::launch::run(&args, format, cli.log.as_deref()),

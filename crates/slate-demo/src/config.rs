@@ -184,6 +184,21 @@ pub struct DemoConfig {
     /// Who speaks on the team link: every module (today's protocol, the default) or one
     /// gateway per robot (the team protocol being built, docs/team-protocol.md).
     pub speakers: Speakers,
+    /// With [`NetworkKind::Processes`]: where the module processes run (default: all
+    /// on 127.0.0.1, in this network namespace).
+    pub placement: Placement,
+}
+
+/// Where the module processes of `--network processes` run: each robot's modules (the
+/// console's: robot `base`) in a network namespace of its own, listening on its
+/// address there, as on a machine of their own; the world and the referee (this
+/// process) listening on `world`. Robots not named run on 127.0.0.1 here.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Placement {
+    /// The IP address this process's world module listens on (default 127.0.0.1).
+    pub world: Option<String>,
+    /// Robot name → (network namespace, IP address its modules listen on).
+    pub robots: std::collections::BTreeMap<String, (String, String)>,
 }
 
 /// Who speaks on the team link.
@@ -213,6 +228,7 @@ impl Default for DemoConfig {
             team_link: TeamLink::default(),
             deck: None,
             speakers: Speakers::Modules,
+            placement: Placement::default(),
         }
     }
 }
@@ -303,6 +319,11 @@ impl DemoConfig {
             return bad(
                 "--team-link acoustic is a simulated channel: use it with --network sim".into(),
             );
+        }
+        if self.network == NetworkKind::Processes
+            && (self.deck.is_some() || self.speakers != Speakers::Modules)
+        {
+            return bad("--network processes runs the default mission: without --deck, with --speakers modules (each module's process builds its module as that run does)".into());
         }
         if self.deck.is_some_and(|d| d < MIN_DECK) {
             return bad(format!(

@@ -72,6 +72,7 @@ impl Demo {
         let net = match config.network {
             NetworkKind::Sim => Network::sim(config.seed, &first_team_link(&config)),
             NetworkKind::Zenoh => Network::zenoh(),
+            NetworkKind::Processes => Network::processes(&config)?,
         };
         let layout = Layout::generate(config.seed, config.robots);
         let world = World::new(&layout, config.seed);
@@ -85,8 +86,10 @@ impl Demo {
         if config.deck.is_some() {
             team.operator.deck_until(config.launch_seconds());
         }
-        team.operator
-            .plan(&layout, layout.targets.len(), return_after);
+        if team.drives {
+            team.operator
+                .plan(&layout, layout.targets.len(), return_after);
+        }
         Ok(Demo {
             launched: config.deck.is_none(),
             deck_by_kind: Default::default(),
@@ -113,6 +116,7 @@ impl Demo {
     /// network runs for `DT`, the observer looks.
     pub fn step(&mut self) {
         self.world.step(DT);
+        self.net.exchange_world(&mut self.world);
         self.maybe_launch();
         self.team.tick(&mut self.world, self.step, DT);
         self.step += 1;
@@ -142,7 +146,7 @@ impl Demo {
         self.launched = true;
         self.traffic.sample(&self.net, &self.team, self.world.time);
         self.traffic.launch();
-        self.deck_by_kind = by_kind(&self.team, LinkKind::Team);
+        self.deck_by_kind = by_kind(&self.net, &self.team, LinkKind::Team);
         self.net.set_team_link(&self.config.team_link);
     }
 
@@ -229,7 +233,7 @@ impl Demo {
         let found = targets.iter().filter(|t| !t.found_by.is_empty()).count();
         let fault = self.observer.fault.as_ref();
         let (sent, accepted, rejected) = self.plan_counts();
-        let kinds = |link| names(&by_kind(&self.team, link));
+        let kinds = |link| names(&by_kind(&self.net, &self.team, link));
         let team_bytes = self.traffic.bytes(LinkKind::Team);
         Summary {
             seed: self.config.seed,
@@ -326,7 +330,7 @@ impl Demo {
             c.team_link.budget_bps,
             match c.network {
                 NetworkKind::Sim => format!(", {:.0} % loss", c.team_link.loss * 100.0),
-                NetworkKind::Zenoh => " (measured, not enforced)".into(),
+                NetworkKind::Zenoh | NetworkKind::Processes => " (measured, not enforced)".into(),
             }
         )
     }
@@ -356,6 +360,14 @@ fn first_team_link(config: &DemoConfig) -> crate::config::TeamLink {
 pub fn run(config: DemoConfig, progress: &mut dyn FnMut(Progress)) -> Result<Summary, DemoError> {
     let mut demo = Demo::start(config)?;
     progress(Progress::Started(demo.describe()));
+    let pids = demo.net.pids();
+    if !pids.is_empty() {
+        let pids: Vec<String> = pids.iter().map(ToString::to_string).collect();
+        progress(Progress::Status(format!(
+            "module processes: pids {}",
+            pids.join(" ")
+        )));
+    }
     let shared = Arc::new(Mutex::new(Value::Null));
     let dashboard = match demo.config.dashboard {
         Some(addr) => {
