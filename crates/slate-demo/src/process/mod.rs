@@ -51,10 +51,11 @@ pub(crate) struct ProcessNet {
     zenoh: ZenohNet,
     children: Mutex<Vec<ModuleChild>>,
     world: Node,
-    /// The modules' endpoints (not the referee's).
-    modules: Vec<String>,
-    /// Asks the modules for their counters (opened at the first ask).
-    probe: Mutex<Option<StatsProbe>>,
+    /// Each robot's modules' endpoints, by robot (`base`: the console).
+    modules: BTreeMap<String, Vec<String>>,
+    /// Per robot still alive, what asks its modules for their counters, through its own
+    /// modules (so that no query crosses the team link); opened at the first ask.
+    probes: Mutex<BTreeMap<String, Option<StatsProbe>>>,
     /// Each module's latest counters, by address: a dead module's last answer stays.
     latest: Mutex<BTreeMap<String, ModuleStats>>,
 }
@@ -72,8 +73,8 @@ impl ProcessNet {
             zenoh: ZenohNet::new(),
             children: Mutex::new(Vec::new()),
             world,
-            modules: Vec::new(),
-            probe: Mutex::new(None),
+            modules: BTreeMap::new(),
+            probes: Mutex::new(BTreeMap::new()),
             latest: Mutex::new(BTreeMap::new()),
         };
         for address in addresses(&layout)? {
@@ -93,7 +94,9 @@ impl ProcessNet {
                 .map(|p| p.0.as_str());
             net.spawn(&spec, netns, &logs)?;
             net.zenoh.add_endpoint(spec.listen.clone());
-            net.modules.push(spec.listen);
+            let robot = spec.address.robot().to_owned();
+            net.probes.get_mut().insert(robot.clone(), None);
+            net.modules.entry(robot).or_default().push(spec.listen);
         }
         Ok(net)
     }
@@ -149,8 +152,10 @@ impl ProcessNet {
         self.zenoh.join(address)
     }
 
-    /// Every module process of `address`'s robot is killed (SIGKILL): the robot dies.
+    /// Every module process of `address`'s robot is killed (SIGKILL): the robot dies
+    /// (its modules' last counters stay; nobody asks them again).
     pub fn kill(&self, address: &Address) {
+        self.probes.lock().remove(address.robot());
         for c in self.children.lock().iter_mut() {
             if c.address.robot() == address.robot() {
                 let _ = c.child.kill();
@@ -174,13 +179,23 @@ impl ProcessNet {
     /// module process answers as `slate node` does); a dead module's last answer stays,
     /// so that totals never go back.
     pub fn module_stats(&self) -> Vec<ModuleStats> {
-        let mut probe = self.probe.lock();
-        if probe.is_none() {
-            *probe = StatsProbe::open(&self.modules, Some("team"), STATS_WAIT, None).ok();
+        let mut found = Vec::new();
+        for (robot, probe) in self.probes.lock().iter_mut() {
+            if probe.is_none() {
+                let endpoints = self.modules.get(robot).cloned().unwrap_or_default();
+                let filter = format!("team/{robot}");
+                *probe = StatsProbe::open(&endpoints, Some(&filter), STATS_WAIT, None).ok();
+            }
+            found.extend(
+                probe
+                    .as_ref()
+                    .and_then(|p| p.sample().ok())
+                    .into_iter()
+                    .flatten(),
+            );
         }
-        let found = probe.as_ref().and_then(|p| p.sample().ok());
         let mut latest = self.latest.lock();
-        for s in found.into_iter().flatten() {
+        for s in found {
             latest.insert(s.address.clone(), s);
         }
         latest.values().cloned().collect()
