@@ -119,3 +119,11 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
     let sim: serde_json::Value = serde_json::from_slice(&sim.stdout).unwrap();
     assert_eq!(keys(&j), keys(&sim), "the same summary fields");
 }
+
+#[test]
+fn demo_refuses_a_placement_without_module_processes_and_a_malformed_one() {
+    let err = slate_err(&["demo", "--place", "r1=ns1@10.0.0.2", "--quiet"]);
+    assert!(err.contains("use them with --network processes"), "{err}");
+    let err = slate_err(&["demo", "--network", "processes", "--place", "r1@10.0.0.2"]);
+    assert!(err.contains("expected NAME=NETNS@IP"), "{err}");
+}
