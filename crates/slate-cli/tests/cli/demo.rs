@@ -83,6 +83,7 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("run slate");
+    let logs = std::env::temp_dir().join(format!("slate-demo-{}", child.id()));
     let out = crate::support::wait_output(child, std::time::Duration::from_secs(400));
     let stderr = String::from_utf8_lossy(&out.stderr);
     let j: serde_json::Value =
@@ -105,6 +106,10 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
             "module process {pid} outlived the demo"
         );
     }
+    assert!(
+        !logs.exists(),
+        "the module logs of a clean run are left in {logs:?}"
+    );
     let sim = slate(&[
         "demo",
         "--robots",

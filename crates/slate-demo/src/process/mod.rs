@@ -44,6 +44,8 @@ const STOP_LIMIT: Duration = Duration::from_secs(5);
 struct ModuleChild {
     address: Address,
     child: Child,
+    /// Killed on purpose (its robot died): how it ended says nothing of the run.
+    killed: bool,
 }
 
 /// The module processes, the world module and the referee's sessions.
@@ -51,6 +53,8 @@ pub(crate) struct ProcessNet {
     zenoh: ZenohNet,
     children: Mutex<Vec<ModuleChild>>,
     world: Node,
+    /// The module processes' logs: removed at the end when every one stopped cleanly.
+    logs: PathBuf,
     /// Each robot's modules' endpoints, by robot (`base`: the console).
     modules: BTreeMap<String, Vec<String>>,
     /// Per robot still alive, what asks its modules for their counters, through its own
@@ -69,10 +73,12 @@ impl ProcessNet {
         let world = world_node(&world_endpoint)?;
         let layout = Layout::generate(config.seed, config.robots);
         let logs = log_dir()?;
+        let kept = logs.clone();
         let mut net = ProcessNet {
             zenoh: ZenohNet::new(),
             children: Mutex::new(Vec::new()),
             world,
+            logs: kept,
             modules: BTreeMap::new(),
             probes: Mutex::new(BTreeMap::new()),
             latest: Mutex::new(BTreeMap::new()),
@@ -137,6 +143,7 @@ impl ProcessNet {
         self.children.lock().push(ModuleChild {
             address: spec.address.clone(),
             child,
+            killed: false,
         });
         if !ready(stdout) {
             return Err(failed(format!(
@@ -158,6 +165,7 @@ impl ProcessNet {
         self.probes.lock().remove(address.robot());
         for c in self.children.lock().iter_mut() {
             if c.address.robot() == address.robot() {
+                c.killed = true;
                 let _ = c.child.kill();
                 let _ = c.child.wait();
             }
@@ -209,20 +217,30 @@ impl ProcessNet {
 
 impl Drop for ProcessNet {
     /// Closes every child's input (it leaves), waits a little, then kills what is left.
+    /// The logs are removed when every module not killed on purpose stopped cleanly,
+    /// and kept (and their folder named) otherwise.
     fn drop(&mut self) {
         let mut children = self.children.lock();
         for c in children.iter_mut() {
             drop(c.child.stdin.take());
         }
         let deadline = std::time::Instant::now() + STOP_LIMIT;
+        let mut clean = true;
         for c in children.iter_mut() {
             while matches!(c.child.try_wait(), Ok(None)) && std::time::Instant::now() < deadline {
                 std::thread::sleep(Duration::from_millis(20));
             }
+            let stopped = matches!(c.child.try_wait(), Ok(Some(s)) if s.success());
+            clean &= c.killed || stopped;
             let _ = c.child.kill();
             let _ = c.child.wait();
         }
         self.world.close();
+        if clean {
+            let _ = std::fs::remove_dir_all(&self.logs);
+        } else {
+            tracing::warn!("module processes' logs kept in {}", self.logs.display());
+        }
     }
 }
 
