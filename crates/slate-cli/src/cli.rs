@@ -70,6 +70,11 @@ pub enum Command {
     /// Example: slate demo --seed 3 --dashboard 127.0.0.1:8080
     Demo(crate::command::demo::DemoArgs),
 
+    /// One module of `slate demo --network processes`, started by it (docs/demo.md, "As
+    /// processes"): not meant to be typed.
+    #[command(hide = true)]
+    DemoModule(crate::command::demo::DemoModuleArgs),
+
     /// Make a team's keys: a certificate authority, then a key and certificate for each
     /// module and operator, for a secured team (TLS with mutual authentication, and
     /// each identity allowed to speak only in its own name; docs/security.md).
@@ -258,22 +263,20 @@ pub struct BenchArgs {
     pub sample_ms: u64,
 }
 
-/// Where the live verbs join the team.
+/// How every live verb reaches the team: the endpoints, how long to wait, and on a
+/// secured team the operator's keys. One struct, flattened into each verb's arguments,
+/// so that no verb lacks a way in that another has.
 ///
 /// Numeric options take negative numbers as values (`--wait -1`), so that the value's
 /// own check says what is wrong instead of a usage error.
 #[derive(Debug, clap::Args)]
-pub struct LiveArgs {
+pub struct ConnectArgs {
     /// Zenoh endpoint of a node to connect to (repeatable).
     #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
     pub connect: Vec<String>,
 
-    /// The observer's own address (default: TEAM/ROBOT/cli-PID on the robot of the first
-    /// module found, by address; an observer on another robot sees only what is exported).
-    #[arg(long = "as", value_name = "ADDRESS")]
-    pub address: Option<String>,
-
-    /// Seconds to wait for the team to answer and catch up (it goes on as soon as it has).
+    /// Seconds to wait for the team to answer (and an observer to catch up); it goes on
+    /// as soon as every module has.
     #[arg(
         long,
         value_name = "SECONDS",
@@ -282,15 +285,27 @@ pub struct LiveArgs {
     )]
     pub wait: f64,
 
-    /// The team's keys folder, to join a secured team over tls/ endpoints as an operator
+    /// The team's keys folder, to reach a secured team over tls/ endpoints as an operator
     /// (with --operator; docs/security.md).
     #[arg(long, value_name = "DIR", requires = "operator")]
     pub keys: Option<std::path::PathBuf>,
 
     /// The operator whose key and certificate in --keys to use, TEAM/NAME (made by `slate
-    /// keys issue DIR TEAM/NAME`); the observer joins as TEAM/ROBOT/cli-NAME-PID.
+    /// keys issue DIR TEAM/NAME`); an observer joins as TEAM/ROBOT/cli-NAME-PID.
     #[arg(long, value_name = "TEAM/NAME", requires = "keys")]
     pub operator: Option<String>,
+}
+
+/// Where the live verbs that join the team as an observer join it.
+#[derive(Debug, clap::Args)]
+pub struct LiveArgs {
+    #[command(flatten)]
+    pub connection: ConnectArgs,
+
+    /// The observer's own address (default: TEAM/ROBOT/cli-PID on the robot of the first
+    /// module found, by address; an observer on another robot sees only what is exported).
+    #[arg(long = "as", value_name = "ADDRESS")]
+    pub address: Option<String>,
 }
 
 /// Arguments of `slate stats` and `slate bw`.
@@ -313,18 +328,8 @@ pub struct StatsArgs {
     )]
     pub interval: f64,
 
-    /// Zenoh endpoint of a node to connect to (repeatable).
-    #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
-    pub connect: Vec<String>,
-
-    /// Seconds to wait for the modules to answer (it goes on as soon as all have).
-    #[arg(
-        long,
-        value_name = "SECONDS",
-        default_value_t = 5.0,
-        allow_negative_numbers = true
-    )]
-    pub wait: f64,
+    #[command(flatten)]
+    pub connection: ConnectArgs,
 }
 
 /// Arguments of `slate hz`.

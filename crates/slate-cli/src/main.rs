@@ -35,9 +35,16 @@ fn main() -> ExitCode {
         Command::Bench(args) => command::bench::run(&args, format),
         Command::Check(args) => command::check::run(&args, format),
         Command::Demo(args) => command::demo::run(&args, format),
+        Command::DemoModule(args) => command::demo::module(&args),
         Command::Keys(KeysCommand::Init(args)) => command::keys::init(&args, format),
         Command::Keys(KeysCommand::Issue(args)) => command::keys::issue(&args, format),
-        Command::Launch(args) => command::launch::run(&args, format, cli.log.as_deref()),
+        Command::Launch(args) => {
+            let logs = command::launch::ModuleLogs {
+                filter: cli.log.clone(),
+                format: cli.log_format,
+            };
+            command::launch::run(&args, format, logs)
+        }
         Command::Node(args) => command::node::run(&args, format, &logs),
         Command::Tree(args) => command::tree::run(&args, format),
         Command::Ls(args) => command::ls::run(&args, format),

@@ -187,6 +187,21 @@ pub struct DemoConfig {
     /// On Zenoh: a secured team (docs/security.md), with keys made for the run in a
     /// temporary folder, TLS with mutual authentication and the generated access control.
     pub secure: bool,
+    /// With [`NetworkKind::Processes`]: where the module processes run (default: all
+    /// on 127.0.0.1, in this network namespace).
+    pub placement: Placement,
+}
+
+/// Where the module processes of `--network processes` run: each robot's modules (the
+/// console's: robot `base`) in a network namespace of its own, listening on its
+/// address there, as on a machine of their own; the world and the referee (this
+/// process) listening on `world`. Robots not named run on 127.0.0.1 here.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Placement {
+    /// The IP address this process's world module listens on (default 127.0.0.1).
+    pub world: Option<String>,
+    /// Robot name → (network namespace, IP address its modules listen on).
+    pub robots: std::collections::BTreeMap<String, (String, String)>,
 }
 
 /// Who speaks on the team link.
@@ -217,6 +232,7 @@ impl Default for DemoConfig {
             deck: None,
             speakers: Speakers::Modules,
             secure: false,
+            placement: Placement::default(),
         }
     }
 }
@@ -316,6 +332,11 @@ impl DemoConfig {
         }
         if self.secure && self.network != NetworkKind::Zenoh {
             return bad("--secure secures Zenoh's links: use it with --network zenoh".into());
+        }
+        if self.network == NetworkKind::Processes
+            && (self.deck.is_some() || self.speakers != Speakers::Modules)
+        {
+            return bad("--network processes runs the default mission: without --deck, with --speakers modules (each module's process builds its module as that run does)".into());
         }
         if self.deck.is_some_and(|d| d < MIN_DECK) {
             return bad(format!(

@@ -11,7 +11,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use slate_model::{Address, Board, Value};
 
-use crate::module::Role;
+use crate::module::{Module, Role};
 use crate::team::Team;
 
 /// The classes every board of the team view models.
@@ -26,7 +26,7 @@ fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
         .modules
         .iter()
         .filter(|m| !team.alive_modules().any(|a| a.address() == m.address()))
-        .map(|m| m.address().clone())
+        .map(Module::stands_for)
         .collect();
     let mut boards = vec![team.console()];
     for i in (0..team.robots.len()).filter(|i| !team.dead[*i]) {

@@ -31,6 +31,7 @@ pub mod files;
 mod module;
 mod net;
 mod observe;
+pub mod process;
 mod run;
 mod snapshot;
 mod summary;
@@ -40,7 +41,7 @@ pub mod world;
 
 pub use config::{
     ACOUSTIC_FRAME_BYTES, ACOUSTIC_FRAME_OVERHEAD, ACOUSTIC_MAX_QUEUE, DECK_BPS, DemoConfig,
-    MAX_ROBOTS, MIN_DECK, Speakers, TeamLink, TeamMedium,
+    MAX_ROBOTS, MIN_DECK, Placement, Speakers, TeamLink, TeamMedium,
 };
 pub use consistency::{TEAM_CLASSES, disagreement};
 pub use error::DemoError;

@@ -3,6 +3,7 @@
 //! each kind of module models (its interest) and which files it loads (among them its
 //! export policy, a `link team` block) is decided here.
 
+use std::sync::Arc;
 use std::time::Duration;
 
 use slate_ici::{ClassSet, IciConfig, TeamProtocol};
@@ -10,6 +11,7 @@ use slate_model::{Address, Context};
 use slate_node::Node;
 use slate_node::PlanSender;
 use slate_node::authority::default_plans_from;
+use slate_zenoh::ZenohConfig;
 
 use crate::config::{Speakers, TeamLink, TeamMedium};
 use crate::error::DemoError;
@@ -182,8 +184,9 @@ pub struct Module {
     /// Its robot's name (`base` for the console).
     pub robot: String,
     /// The node: its board (the paper's blackboard; drivers use it through the SBIPs), ICI,
-    /// plan engine and plan circuits.
-    pub node: Node,
+    /// plan engine and plan circuits. (Shared: with module processes, the referee's
+    /// observer on a robot stands in for each of its modules.)
+    pub node: Arc<Node>,
 }
 
 impl Module {
@@ -216,12 +219,41 @@ impl Module {
         let module = Module {
             role,
             robot: robot.to_owned(),
-            node: builder.start()?,
+            node: Arc::new(builder.start()?),
         };
         if net.is_virtual() {
             module.load_files(team, link.medium)?;
         }
         Ok(module)
+    }
+
+    /// Starts a module on its own Zenoh session (`zenoh`) with its files loaded before
+    /// its ICI starts, as `slate node` does: the same files as [`Module::start`] (the
+    /// console's missions terse), for a module process that joins a team already
+    /// running, whose catch-up answers would otherwise create the objects its files then
+    /// create again. Like `slate node`, it answers `slate stats`.
+    pub(crate) fn start_loaded(
+        zenoh: ZenohConfig,
+        robot: &str,
+        role: Role,
+        team: &[String],
+        link: &TeamLink,
+    ) -> Result<Module, DemoError> {
+        let address = Address::new(&format!("team/{robot}/{}", role.name()))
+            .map_err(|e| DemoError::Config(e.to_string()))?;
+        let mut builder = Node::builder(address)
+            .zenoh(zenoh)
+            .clock(slate_model::Clock::system())
+            .ici(role.ici_config(Speakers::Modules, link, team.len() + 1))
+            .plans_from(plans_from());
+        for (label, text) in sources(role, robot, team, link.medium)? {
+            builder = builder.source(&label, &text);
+        }
+        Ok(Module {
+            role,
+            robot: robot.to_owned(),
+            node: Arc::new(builder.start()?),
+        })
     }
 
     /// Loads the classes, the role's files, the console's missions and the medium's files.
@@ -264,6 +296,37 @@ impl Module {
             Ok(_) => Ok(()),
             Err(_) => self.load(file, robot),
         }
+    }
+
+    /// The referee's observer on `robot` (`team/ROBOT/cli-referee`), standing in for its
+    /// module in `role`: it models everything, exports nothing, and has the team's
+    /// classes.
+    pub(crate) fn referee(net: &Network, robot: &str, role: Role) -> Result<Module, DemoError> {
+        let address = Address::new(&format!("team/{robot}/cli-referee"))
+            .map_err(|e| DemoError::Config(e.to_string()))?;
+        let ici = IciConfig::default()
+            .interest(ClassSet::all())
+            .export(ClassSet::none())
+            .observer(true);
+        let node = Node::builder(address.clone())
+            .transport(net.join(&address)?)
+            .clock(net.clock())
+            .ici(ici)
+            .source(files::CLASSES.name, files::CLASSES.source)
+            .start()?;
+        Ok(Module {
+            role,
+            robot: robot.to_owned(),
+            node: Arc::new(node),
+        })
+    }
+
+    /// The address of the module this stands for, `team/ROBOT/ROLE`: its node's, or
+    /// with module processes the module's whose place the referee's observer takes
+    /// (what the module wrote carries this address as its source).
+    pub fn stands_for(&self) -> Address {
+        let text = format!("team/{}/{}", self.robot, self.role.name());
+        Address::new(&text).unwrap_or_else(|_| self.address().clone())
     }
 
     /// The name of this module's object on other boards (`team_r1_exec`).

@@ -19,6 +19,8 @@ pub enum NetworkKind {
     Sim,
     /// Zenoh sessions on 127.0.0.1, one per module, in this process.
     Zenoh,
+    /// Zenoh on 127.0.0.1, every module its own OS process (`slate demo-module`).
+    Processes,
 }
 
 impl NetworkKind {
@@ -27,6 +29,7 @@ impl NetworkKind {
         match self {
             NetworkKind::Sim => "sim",
             NetworkKind::Zenoh => "zenoh",
+            NetworkKind::Processes => "processes",
         }
     }
 }
@@ -35,7 +38,10 @@ impl NetworkKind {
 pub(crate) enum Network {
     Sim(SimNet),
     Zenoh(zenoh_net::ZenohNet),
+    Processes(Box<crate::process::ProcessNet>),
 }
+
+pub(crate) use zenoh_net::{ZenohNet, free_endpoint_on};
 
 impl Network {
     /// The simulator with the team link shaped as `team` (the robot link is clean, 100 µs).
@@ -65,7 +71,7 @@ impl Network {
                 let utilisation = net.channel_utilisation(LinkKind::Team);
                 Some((channel.unwrap_or_default(), stats, utilisation))
             }
-            Network::Zenoh(_) => None,
+            Network::Zenoh(_) | Network::Processes(_) => None,
         }
     }
 
@@ -82,11 +88,48 @@ impl Network {
         Ok(Network::Zenoh(zenoh_net::ZenohNet::new(Some(keys))))
     }
 
+    /// Every module its own process, and the world served as a module.
+    pub fn processes(config: &crate::config::DemoConfig) -> Result<Network, DemoError> {
+        Ok(Network::Processes(Box::new(
+            crate::process::ProcessNet::start(config)?,
+        )))
+    }
+
+    /// With module processes: the world takes locomotion's commands and is written for
+    /// the drivers (in-process, the drivers hold the world itself).
+    pub fn exchange_world(&self, world: &mut crate::world::World) {
+        if let Network::Processes(p) = self {
+            p.exchange_world(world);
+        }
+    }
+
+    /// With module processes, every module's counters as it last answered (`None`
+    /// in-process: the modules' ICIs are at hand).
+    pub fn module_stats(&self) -> Option<Vec<slate_node::ModuleStats>> {
+        match self {
+            Network::Processes(p) => Some(p.module_stats()),
+            _ => None,
+        }
+    }
+
+    /// The module processes' ids (none in-process).
+    pub fn pids(&self) -> Vec<u32> {
+        match self {
+            Network::Processes(p) => p.pids(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Do the drivers and the operator run in this process?
+    pub fn drives_here(&self) -> bool {
+        !matches!(self, Network::Processes(_))
+    }
+
     /// The clock every board on this network uses.
     pub fn clock(&self) -> Clock {
         match self {
             Network::Sim(net) => net.clock(),
-            Network::Zenoh(_) => Clock::system(),
+            Network::Zenoh(_) | Network::Processes(_) => Clock::system(),
         }
     }
 
@@ -100,6 +143,7 @@ impl Network {
         match self {
             Network::Sim(net) => Ok(net.join(address)),
             Network::Zenoh(z) => z.join(address),
+            Network::Processes(p) => p.join(address),
         }
     }
 
@@ -108,6 +152,7 @@ impl Network {
         match self {
             Network::Sim(net) => net.kill(address),
             Network::Zenoh(z) => z.kill(address),
+            Network::Processes(p) => p.kill(address),
         }
     }
 
@@ -117,6 +162,7 @@ impl Network {
         match self {
             Network::Sim(net) => net.run_for(d),
             Network::Zenoh(z) => z.advance(d),
+            Network::Processes(p) => p.advance(d),
         }
     }
 
@@ -124,7 +170,7 @@ impl Network {
     pub fn sim_stats(&self) -> Option<SimStats> {
         match self {
             Network::Sim(net) => Some(net.stats()),
-            Network::Zenoh(_) => None,
+            Network::Zenoh(_) | Network::Processes(_) => None,
         }
     }
 }
@@ -144,8 +190,23 @@ mod zenoh_net {
 
     use crate::error::DemoError;
 
+    /// A free TCP endpoint on `host` (the port is free on 127.0.0.1 here when asked;
+    /// another host, a fresh network namespace, has it free too).
+    pub fn free_endpoint_on(host: &str) -> Result<String, DemoError> {
+        let port = TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .map(|a| a.port())
+            .map_err(|e| DemoError::Network(format!("no free port on 127.0.0.1: {e}")))?;
+        Ok(format!("tcp/{host}:{port}"))
+    }
+
+    /// A free TCP endpoint on 127.0.0.1.
+    pub fn free_endpoint() -> Result<String, DemoError> {
+        free_endpoint_on("127.0.0.1")
+    }
+
     /// Zenoh sessions on loopback: each listens on its own port and connects to the ones
-    /// opened before it.
+    /// opened before it (and to those [added](Self::add_endpoint) from elsewhere).
     pub struct ZenohNet {
         endpoints: Mutex<Vec<String>>,
         transports: Mutex<Vec<Arc<ZenohTransport>>>,
@@ -204,13 +265,22 @@ mod zenoh_net {
             }
         }
 
+        /// The endpoints a new session connects to.
+        pub fn endpoints(&self) -> Vec<String> {
+            self.endpoints.lock().clone()
+        }
+
+        /// A session opened elsewhere (another process) that new ones connect to.
+        pub fn add_endpoint(&self, endpoint: String) {
+            self.endpoints.lock().push(endpoint);
+        }
+
         pub fn join(&self, address: &Address) -> Result<Arc<dyn Transport>, DemoError> {
-            let port = TcpListener::bind("127.0.0.1:0")
-                .and_then(|l| l.local_addr())
-                .map(|a| a.port())
-                .map_err(|e| DemoError::Network(format!("no free port on 127.0.0.1: {e}")))?;
-            let protocol = if self.keys.is_some() { "tls" } else { "tcp" };
-            let endpoint = format!("{protocol}/127.0.0.1:{port}");
+            let endpoint = free_endpoint()?;
+            let endpoint = match self.keys {
+                Some(_) => endpoint.replacen("tcp/", "tls/", 1),
+                None => endpoint,
+            };
             let security = self
                 .keys
                 .as_ref()

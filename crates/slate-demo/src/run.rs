@@ -77,6 +77,7 @@ impl Demo {
                 Network::secured_zenoh(&team_addresses(&layout))?
             }
             NetworkKind::Zenoh => Network::zenoh(),
+            NetworkKind::Processes => Network::processes(&config)?,
         };
         let world = World::new(&layout, config.seed);
         let mut team = Team::start(
@@ -89,8 +90,10 @@ impl Demo {
         if config.deck.is_some() {
             team.operator.deck_until(config.launch_seconds());
         }
-        team.operator
-            .plan(&layout, layout.targets.len(), return_after);
+        if team.drives {
+            team.operator
+                .plan(&layout, layout.targets.len(), return_after);
+        }
         Ok(Demo {
             launched: config.deck.is_none(),
             deck_by_kind: Default::default(),
@@ -117,6 +120,7 @@ impl Demo {
     /// network runs for `DT`, the observer looks.
     pub fn step(&mut self) {
         self.world.step(DT);
+        self.net.exchange_world(&mut self.world);
         self.maybe_launch();
         self.team.tick(&mut self.world, self.step, DT);
         self.step += 1;
@@ -146,7 +150,7 @@ impl Demo {
         self.launched = true;
         self.traffic.sample(&self.net, &self.team, self.world.time);
         self.traffic.launch();
-        self.deck_by_kind = by_kind(&self.team, LinkKind::Team);
+        self.deck_by_kind = by_kind(&self.net, &self.team, LinkKind::Team);
         self.net.set_team_link(&self.config.team_link);
     }
 
@@ -233,7 +237,7 @@ impl Demo {
         let found = targets.iter().filter(|t| !t.found_by.is_empty()).count();
         let fault = self.observer.fault.as_ref();
         let (sent, accepted, rejected) = self.plan_counts();
-        let kinds = |link| names(&by_kind(&self.team, link));
+        let kinds = |link| names(&by_kind(&self.net, &self.team, link));
         let team_bytes = self.traffic.bytes(LinkKind::Team);
         Summary {
             seed: self.config.seed,
@@ -330,7 +334,7 @@ impl Demo {
             c.team_link.budget_bps,
             match c.network {
                 NetworkKind::Sim => format!(", {:.0} % loss", c.team_link.loss * 100.0),
-                NetworkKind::Zenoh => " (measured, not enforced)".into(),
+                NetworkKind::Zenoh | NetworkKind::Processes => " (measured, not enforced)".into(),
             }
         )
     }
@@ -371,6 +375,14 @@ fn first_team_link(config: &DemoConfig) -> crate::config::TeamLink {
 pub fn run(config: DemoConfig, progress: &mut dyn FnMut(Progress)) -> Result<Summary, DemoError> {
     let mut demo = Demo::start(config)?;
     progress(Progress::Started(demo.describe()));
+    let pids = demo.net.pids();
+    if !pids.is_empty() {
+        let pids: Vec<String> = pids.iter().map(ToString::to_string).collect();
+        progress(Progress::Status(format!(
+            "module processes: pids {}",
+            pids.join(" ")
+        )));
+    }
     let shared = Arc::new(Mutex::new(Value::Null));
     let dashboard = match demo.config.dashboard {
         Some(addr) => {

@@ -23,6 +23,9 @@ pub struct Team {
     pub operator: Operator,
     /// Robots that died.
     pub dead: Vec<bool>,
+    /// Do the drivers and the operator run in this process (not with module processes,
+    /// where each module's process runs its own)?
+    pub drives: bool,
 }
 
 impl Team {
@@ -36,6 +39,9 @@ impl Team {
         link: (&TeamLink, Speakers),
     ) -> Result<Team, DemoError> {
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
+        if !net.drives_here() {
+            return Team::referee(net, robots);
+        }
         let console = Module::start(net, BASE, Role::Console, &robots, link)?;
         let mut modules = vec![console];
         for robot in &robots {
@@ -50,11 +56,38 @@ impl Team {
             modules,
             drivers: Vec::new(),
             operator,
+            drives: true,
         };
         team.drivers = (0..team.robots.len())
             .map(|i| team.robot_drivers(i, seed))
             .collect();
         Ok(team)
+    }
+
+    /// With module processes: the referee, an observer on each robot and the base that
+    /// stands in for each of its modules (it hears the robot's LAN and the team link as
+    /// they do); no driver and no operator run here.
+    fn referee(net: &Network, robots: Vec<String>) -> Result<Team, DemoError> {
+        let mut modules = vec![Module::referee(net, BASE, Role::Console)?];
+        for robot in &robots {
+            let observer = Module::referee(net, robot, Role::Exec)?;
+            for role in Role::ROBOT {
+                modules.push(Module {
+                    role,
+                    robot: robot.clone(),
+                    node: observer.node.clone(),
+                });
+            }
+        }
+        let operator = Operator::new(modules[0].node.board().clone());
+        Ok(Team {
+            dead: vec![false; robots.len()],
+            robots,
+            modules,
+            drivers: Vec::new(),
+            operator,
+            drives: false,
+        })
     }
 
     fn robot_drivers(&self, i: usize, seed: u64) -> RobotDrivers {
@@ -97,7 +130,9 @@ impl Team {
 
     /// Runs the drivers of the robots still alive.
     pub(crate) fn tick(&mut self, world: &mut World, step: u64, dt: f64) {
-        self.operator.tick(world.time);
+        if self.drives {
+            self.operator.tick(world.time);
+        }
         for (i, d) in self.drivers.iter_mut().enumerate() {
             if !self.dead[i] {
                 d.tick(world, step, dt);

@@ -153,6 +153,14 @@ fn counts(net: &Network, team: &Team) -> Counts {
         for ((addr, link), radio) in &stats.radios {
             *out.entry((addr.robot().to_owned(), *link)).or_default() += radio.bytes;
         }
+    } else if let Some(modules) = net.module_stats() {
+        for s in &modules {
+            let robot = s.address.split('/').nth(1).unwrap_or_default();
+            for link in LinkKind::ALL {
+                let sent = s.link(link.name()).sent_bytes;
+                *out.entry((robot.to_owned(), link)).or_default() += sent;
+            }
+        }
     } else {
         for m in &team.modules {
             for link in LinkKind::ALL {
@@ -164,9 +172,19 @@ fn counts(net: &Network, team: &Team) -> Counts {
     out
 }
 
-/// Bytes sent per message kind on one kind of link, by every module's ICI.
-pub(crate) fn by_kind(team: &Team, link: LinkKind) -> BTreeMap<MsgKind, u64> {
+/// Bytes sent per message kind on one kind of link, by every module's ICI (with module
+/// processes, as each last answered `slate stats`' query).
+pub(crate) fn by_kind(net: &Network, team: &Team, link: LinkKind) -> BTreeMap<MsgKind, u64> {
     let mut out = BTreeMap::new();
+    if let Some(modules) = net.module_stats() {
+        let rows = modules.iter().flat_map(|s| s.traffic.iter());
+        for row in rows.filter(|r| r.link == link.name() && r.sent_bytes > 0) {
+            if let Some(kind) = MsgKind::ALL.into_iter().find(|k| k.name() == row.kind) {
+                *out.entry(kind).or_default() += row.sent_bytes;
+            }
+        }
+        return out;
+    }
     for m in &team.modules {
         for ((l, kind), t) in m.node.ici().stats().traffic {
             if l == link && t.sent_bytes > 0 {

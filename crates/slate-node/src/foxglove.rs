@@ -8,6 +8,11 @@
 //! it). Channels are advertised for every class the board has when the server starts, and
 //! for a class defined later at its first packet.
 //!
+//! A client that subscribes to a channel is first sent, to it alone, the latest value of
+//! every attribute the channel carries (the class's objects' packets, or every object's
+//! position on the scene), so that it shows the board at once rather than from the next
+//! write on.
+//!
 //! A thread drains a bounded watch of the board (as the recorder does): a writer never
 //! waits for Foxglove; when the thread falls a whole queue behind, changes are dropped,
 //! counted and logged as a warning. The foxglove crate sends a message only to the
@@ -23,8 +28,9 @@ use std::time::Duration;
 use foxglove::messages::{
     Color, CubePrimitive, Pose, Quaternion, SceneEntity, SceneUpdate, Timestamp, Vector3,
 };
+use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{
-    Channel, ChannelBuilder, Context, PartialMetadata, RawChannel, Schema, WebSocketServer,
+    Channel, ChannelBuilder, Context, Encode, PartialMetadata, RawChannel, Schema, WebSocketServer,
     WebSocketServerHandle,
 };
 use slate_model::{Board, ChangeItem, Filter, Packet, Watch};
@@ -78,8 +84,13 @@ impl Foxglove {
         let watch = board.watch_bounded(Filter::all(), QUEUE)?;
         let mut feed = Feed::new(&ctx, board.clone(), watch);
         feed.advertise_classes();
+        let latest = Arc::new(Latest {
+            board: board.clone(),
+            ctx: ctx.clone(),
+        });
         let server = WebSocketServer::new()
             .name(format!("slate node {}", board.address()))
+            .listener(latest)
             .bind(addr.ip().to_string(), addr.port())
             .context(&ctx)
             .start_blocking()
@@ -245,52 +256,125 @@ impl Feed {
 
     /// An object's cube on the scene, at its position (2 or 3 numbers).
     fn scene(&self, object: &str, packet: &Packet) {
-        let Some(p) = packet.value.as_vector() else {
+        if let Some(update) = scene_update(object, packet) {
+            self.scene.log(&update);
+        }
+    }
+}
+
+/// Sends a subscribing client the latest values of its channel (see the module's doc).
+struct Latest {
+    board: Arc<Board>,
+    ctx: Arc<Context>,
+}
+
+impl ServerListener for Latest {
+    fn on_subscribe(&self, client: Client, channel: ChannelView) {
+        let Some(raw) = self.ctx.get_channel_by_topic(channel.topic()) else {
             return;
         };
-        let (x, y, z) = match p {
-            [x, y] => (*x, *y, 0.0),
-            [x, y, z] => (*x, *y, *z),
-            _ => return,
-        };
-        let stamp = packet.timestamp.physical();
-        let cube = CubePrimitive {
-            pose: Some(Pose {
-                position: Some(Vector3 { x, y, z }),
-                orientation: Some(Quaternion {
-                    x: 0.0,
-                    y: 0.0,
-                    z: 0.0,
-                    w: 1.0,
-                }),
-            }),
-            size: Some(Vector3 {
-                x: 1.0,
-                y: 1.0,
-                z: 1.0,
-            }),
-            color: Some(Color {
-                r: 0.2,
-                g: 0.6,
-                b: 1.0,
-                a: 0.8,
-            }),
-        };
-        let entity = SceneEntity {
-            timestamp: Some(Timestamp::new(
-                u32::try_from(stamp.as_secs()).unwrap_or(u32::MAX),
-                stamp.subsec_nanos(),
-            )),
-            frame_id: "slate".to_owned(),
-            id: object.to_owned(),
-            cubes: vec![cube],
-            ..SceneEntity::default()
-        };
-        self.scene.log(&SceneUpdate {
-            deletions: Vec::new(),
-            entities: vec![entity],
-        });
+        let sink = client.sink_id();
+        if channel.topic() == SCENE_TOPIC {
+            let mut buf = Vec::new();
+            for (object, packet) in self.positions() {
+                buf.clear();
+                let Some(update) = scene_update(&object, &packet) else {
+                    continue;
+                };
+                if update.encode(&mut buf).is_ok() {
+                    raw.log_with_meta_to_sink(&buf, meta(&packet), sink);
+                }
+            }
+        } else if let Some(class) = channel.topic().strip_prefix(topic::CLASS_PREFIX) {
+            let mut buf = Vec::new();
+            for (object, attr, packet, revision) in self.values_of(class) {
+                buf.clear();
+                let message = PacketMessage::new(&object, &attr, &packet, revision);
+                if serde_json::to_writer(&mut buf, &message).is_ok() {
+                    raw.log_with_meta_to_sink(&buf, meta(&packet), sink);
+                }
+            }
+        }
     }
+}
+
+impl Latest {
+    /// Every packet the class `class` itself and its own objects (not its subclasses')
+    /// hold, as the feed sends them on the class's channel. One short snapshot.
+    fn values_of(&self, class: &str) -> Vec<(Arc<str>, Arc<str>, Packet, u64)> {
+        let snap = self.board.snapshot();
+        let mut ids: Vec<_> = snap.instances(class).unwrap_or_default();
+        ids.extend(snap.id_of(class));
+        let mut out = Vec::new();
+        for id in ids {
+            let Some(info) = snap.info(id) else { continue };
+            let own = info.is_class || *info.class == *class;
+            if own {
+                let values = snap.own_values(id).into_iter();
+                out.extend(values.map(|(attr, p, rev)| (info.name.clone(), attr, p, rev)));
+            }
+        }
+        out
+    }
+
+    /// Every object's `position` packet. One short snapshot.
+    fn positions(&self) -> Vec<(Arc<str>, Packet)> {
+        let snap = self.board.snapshot();
+        let ids = snap.instances("Thing").unwrap_or_default();
+        ids.into_iter()
+            .filter_map(|id| {
+                let name = snap.name_of(id)?;
+                let p = snap.read(&name, "position").ok()?;
+                Some((name, p))
+            })
+            .collect()
+    }
+}
+
+/// An object's cube on the scene at its `position` packet (2 or 3 numbers), or `None`.
+fn scene_update(object: &str, packet: &Packet) -> Option<SceneUpdate> {
+    let (x, y, z) = match packet.value.as_vector()? {
+        [x, y] => (*x, *y, 0.0),
+        [x, y, z] => (*x, *y, *z),
+        _ => return None,
+    };
+    let stamp = packet.timestamp.physical();
+    let cube = CubePrimitive {
+        pose: Some(Pose {
+            position: Some(Vector3 { x, y, z }),
+            orientation: Some(Quaternion {
+                x: 0.0,
+                y: 0.0,
+                z: 0.0,
+                w: 1.0,
+            }),
+        }),
+        size: Some(Vector3 {
+            x: 1.0,
+            y: 1.0,
+            z: 1.0,
+        }),
+        color: Some(Color {
+            r: 0.2,
+            g: 0.6,
+            b: 1.0,
+            a: 0.8,
+        }),
+    };
+    let entity = SceneEntity {
+        timestamp: Some(Timestamp::new(
+            u32::try_from(stamp.as_secs()).unwrap_or(u32::MAX),
+            stamp.subsec_nanos(),
+        )),
+        frame_id: "slate".to_owned(),
+        id: object.to_owned(),
+        cubes: vec![cube],
+        ..SceneEntity::default()
+    };
+    Some(SceneUpdate {
+        deletions: Vec::new(),
+        entities: vec![entity],
+    })
 }
 
 /// A message's log time: the packet's stamp (when its source wrote it), so Foxglove

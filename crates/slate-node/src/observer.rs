@@ -78,8 +78,10 @@ fn zenoh_config(connect: &[String], security: Option<Security>) -> ZenohConfig {
 }
 
 /// The operator's checked keys (as a node checks its own), if it has any.
-fn operator_security(options: &ObserverOptions) -> Result<Option<Security>, ObserveError> {
-    let Some(keys) = &options.operator else {
+pub(crate) fn operator_security(
+    operator: Option<&OperatorKeys>,
+) -> Result<Option<Security>, ObserveError> {
+    let Some(keys) = operator else {
         return Ok(None);
     };
     let mut security = team_keys::security(&keys.dir, &keys.identity).map_err(StartError::Keys)?;
@@ -93,7 +95,7 @@ fn operator_security(options: &ObserverOptions) -> Result<Option<Security>, Obse
 /// it has caught up with every module it found (or `options.wait` has passed).
 pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
     let deadline = Instant::now() + options.wait;
-    let security = operator_security(options)?;
+    let security = operator_security(options.operator.as_ref())?;
     let identity = options.operator.as_ref().map(|k| &k.identity);
     let (address, modules) = match &options.address {
         Some(a) => (a.clone(), BTreeSet::new()),

@@ -19,7 +19,7 @@ use zenoh::Wait;
 use zenoh::query::{Query, QueryTarget, Queryable};
 
 use crate::error::ObserveError;
-use crate::observer::{alive_within, is_observer, open_probe};
+use crate::observer::{OperatorKeys, alive_within, is_observer, open_probe, operator_security};
 use crate::view::View;
 
 /// One module's counters, as it answers a stats query. Every count is cumulative since
@@ -271,13 +271,14 @@ pub fn stats_key(filter: Option<&str>) -> Result<String, ObserveError> {
 }
 
 /// Asks the modules reachable through `connect` that match `filter` once for their
-/// counters (see [`StatsProbe::sample`]).
+/// counters (see [`StatsProbe::sample`]); with an `operator`'s keys on a secured team.
 pub fn query_stats(
     connect: &[String],
     filter: Option<&str>,
     wait: Duration,
+    operator: Option<&OperatorKeys>,
 ) -> Result<Vec<ModuleStats>, ObserveError> {
-    let probe = StatsProbe::open(connect, filter, wait)?;
+    let probe = StatsProbe::open(connect, filter, wait, operator)?;
     let found = probe.sample();
     probe.close();
     found
@@ -294,14 +295,19 @@ pub struct StatsProbe {
 
 impl StatsProbe {
     /// Opens the client; `filter` (see [`stats_key`]) says which modules to ask, `wait`
-    /// how long each [`sample`](Self::sample) may wait for them.
+    /// how long each [`sample`](Self::sample) may wait for them. A secured team's
+    /// modules listen only on tls/ endpoints and answer only members: the client then
+    /// needs an `operator`'s keys, as every live verb does.
     pub fn open(
         connect: &[String],
         filter: Option<&str>,
         wait: Duration,
+        operator: Option<&OperatorKeys>,
     ) -> Result<StatsProbe, ObserveError> {
         let key = stats_key(filter)?;
-        let probe = open_probe(connect, wait, None)?;
+        let security = operator_security(operator)?;
+        let keys = security.zip(operator.map(|k| &k.identity));
+        let probe = open_probe(connect, wait, keys)?;
         Ok(StatsProbe {
             probe,
             key,

@@ -86,6 +86,18 @@ pub struct DemoArgs {
     #[arg(long, default_value_t = 30.0, value_name = "S")]
     pub linger: f64,
 
+    /// With --network processes: run robot NAME's modules (the console's: `base`) in
+    /// network namespace NETNS, listening on IP there, as on a machine of their own
+    /// (repeatable; the real-link harness's `mission.py` places every robot so). Robots
+    /// not placed run on 127.0.0.1 here.
+    #[arg(long, value_name = "NAME=NETNS@IP", value_parser = parse_place)]
+    pub place: Vec<(String, (String, String))>,
+
+    /// With --network processes: the IP address this process's world module listens on
+    /// (where the placed robots' drivers reach it; default 127.0.0.1).
+    #[arg(long, value_name = "IP")]
+    pub world_address: Option<String>,
+
     /// Print no progress, only the summary.
     #[arg(long)]
     pub quiet: bool,
@@ -96,8 +108,11 @@ pub struct DemoArgs {
 pub enum Network {
     /// The deterministic in-process simulator.
     Sim,
-    /// Zenoh on 127.0.0.1.
+    /// Zenoh on 127.0.0.1, every module in this process.
     Zenoh,
+    /// Zenoh on 127.0.0.1, every module its own OS process; this one runs the world
+    /// (served as a module) and referees.
+    Processes,
 }
 
 /// What carries the team link.
@@ -158,6 +173,7 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         .network(match args.network {
             Network::Sim => NetworkKind::Sim,
             Network::Zenoh => NetworkKind::Zenoh,
+            Network::Processes => NetworkKind::Processes,
         })
         .secure(args.secure)
         .duration(Duration::from_secs_f64(args.duration))
@@ -174,6 +190,15 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
             },
             args.team_rate,
         ));
+    config.placement = slate_demo::Placement {
+        world: args.world_address.clone(),
+        robots: args.place.iter().cloned().collect(),
+    };
+    anyhow::ensure!(
+        args.network == Network::Processes
+            || (args.place.is_empty() && args.world_address.is_none()),
+        "--place and --world-address place module processes: use them with --network processes"
+    );
     if let Some(addr) = args.dashboard {
         config = config.dashboard(addr);
         config.linger = Duration::from_secs_f64(args.linger);
@@ -182,6 +207,46 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         config = config.pace(args.speed);
     }
     Ok(config)
+}
+
+/// Arguments of `slate demo-module` (as `slate demo --network processes` passes them).
+#[derive(Debug, clap::Args)]
+pub struct DemoModuleArgs {
+    /// ADDRESS SEED ROBOTS RETURN_AFTER LISTEN WORLD [CONNECT...]
+    #[arg(num_args = 6.., allow_hyphen_values = true)]
+    pub spec: Vec<String>,
+}
+
+/// `slate demo-module`: one module of the demo as its own process. It says `ready` on
+/// stdout once started, and leaves when its input closes (its parent stopped or died)
+/// or at SIGTERM.
+pub fn module(args: &DemoModuleArgs) -> anyhow::Result<ExitCode> {
+    let spec = slate_demo::process::ModuleSpec::from_args(&args.spec)?;
+    let process = slate_demo::process::ModuleProcess::start(&spec)?;
+    let (tx, stop) = crossbeam_channel::bounded(1);
+    let on_eof = tx.clone();
+    std::thread::spawn(move || {
+        let _ = std::io::copy(&mut std::io::stdin().lock(), &mut std::io::sink());
+        let _ = on_eof.try_send(());
+    });
+    ctrlc::set_handler(move || {
+        let _ = tx.try_send(());
+    })?;
+    println!("ready");
+    std::io::stdout().flush()?;
+    process.run(&stop);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `NAME=NETNS@IP`, as `--place` takes it.
+fn parse_place(text: &str) -> Result<(String, (String, String)), String> {
+    let bad = || format!("{text:?}: expected NAME=NETNS@IP, like r1=robot1@10.77.0.2");
+    let (name, rest) = text.split_once('=').ok_or_else(bad)?;
+    let (netns, ip) = rest.split_once('@').ok_or_else(bad)?;
+    if [name, netns, ip].iter().any(|s| s.is_empty()) {
+        return Err(bad());
+    }
+    Ok((name.to_owned(), (netns.to_owned(), ip.to_owned())))
 }
 
 fn show(p: &Progress) {

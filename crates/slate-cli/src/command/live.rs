@@ -14,27 +14,19 @@ use slate_node::{
 };
 use slate_zenoh::OpenError;
 
-use crate::cli::LiveArgs;
+use crate::cli::{ConnectArgs, LiveArgs};
 use crate::command::failed;
 
 /// Joins the team as an observer and waits for its catch-up. A malformed endpoint is
 /// named as the `--connect` it came from, not reported as unreachable.
 pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
     let address = optional_address(live.address.as_deref(), "--as")?;
-    let wait = Duration::try_from_secs_f64(live.wait)
-        .ok()
-        .filter(|w| !w.is_zero())
-        .with_context(|| {
-            format!(
-                "--wait {}: expected a positive number of seconds",
-                live.wait
-            )
-        })?;
+    let connection = &live.connection;
     let options = ObserverOptions {
-        connect: live.connect.clone(),
+        connect: connection.connect.clone(),
         address,
-        wait,
-        operator: operator_keys(live)?,
+        wait: wait(connection)?,
+        operator: operator_keys(connection)?,
     };
     observe(&options).map_err(|e| match e {
         ObserveError::Open(OpenError::Endpoint(bad)) => {
@@ -44,9 +36,18 @@ pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
     })
 }
 
+/// `--wait`, checked: a positive number of seconds.
+pub fn wait(connection: &ConnectArgs) -> anyhow::Result<Duration> {
+    let value = connection.wait;
+    Duration::try_from_secs_f64(value)
+        .ok()
+        .filter(|w| !w.is_zero())
+        .with_context(|| format!("--wait {value}: expected a positive number of seconds"))
+}
+
 /// `--keys DIR --operator TEAM/NAME`, if given (clap requires both or neither).
-fn operator_keys(live: &LiveArgs) -> anyhow::Result<Option<OperatorKeys>> {
-    let (Some(dir), Some(operator)) = (&live.keys, &live.operator) else {
+pub fn operator_keys(connection: &ConnectArgs) -> anyhow::Result<Option<OperatorKeys>> {
+    let (Some(dir), Some(operator)) = (&connection.keys, &connection.operator) else {
         return Ok(None);
     };
     let identity = Identity::parse(operator)

@@ -13,7 +13,7 @@ use serde_json::{Value as Json, json};
 use slate_node::stats::{ModuleStats, StatsProbe, TrafficRow};
 
 use crate::cli::{Format, StatsArgs};
-use crate::command::live::{interrupted, print_json, print_line};
+use crate::command::live::{interrupted, operator_keys, print_json, print_line, wait};
 
 /// What a verb prints of one round of answers (JSON on one line per round when the
 /// last argument says it streams).
@@ -89,9 +89,15 @@ fn kind_row(s: &ModuleStats, link: &str, kind: &str) -> TrafficRow {
 /// Asks, waits `--interval`, asks again and prints; with `--watch`, on until Ctrl-C.
 fn repeat(args: &StatsArgs, format: Format, render: Render) -> anyhow::Result<ExitCode> {
     let interval = seconds(args.interval, "--interval")?;
-    let wait = seconds(args.wait, "--wait")?;
+    let connection = &args.connection;
+    let operator = operator_keys(connection)?;
     let signals = interrupted()?;
-    let probe = StatsProbe::open(&args.connect, args.address.as_deref(), wait)?;
+    let probe = StatsProbe::open(
+        &connection.connect,
+        args.address.as_deref(),
+        wait(connection)?,
+        operator.as_ref(),
+    )?;
     let mut before = probe.sample()?;
     loop {
         if signals.recv_timeout(interval).is_ok() {

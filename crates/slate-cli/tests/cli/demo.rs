@@ -90,3 +90,88 @@ fn demo_refuses_secure_without_zenoh() {
         "{err}"
     );
 }
+
+/// The top-level keys of a summary.
+fn keys(summary: &serde_json::Value) -> Vec<String> {
+    let mut keys: Vec<String> = summary
+        .as_object()
+        .expect("a JSON object")
+        .keys()
+        .cloned()
+        .collect();
+    keys.sort();
+    keys
+}
+
+/// The module processes' pids, from the progress line that names them.
+fn module_pids(stderr: &str) -> Vec<u32> {
+    let line = stderr
+        .lines()
+        .find_map(|l| l.split_once("module processes: pids "))
+        .map(|(_, pids)| pids)
+        .unwrap_or_else(|| panic!("no pids line in:\n{stderr}"));
+    line.split_whitespace()
+        .map(|p| p.parse().unwrap())
+        .collect()
+}
+
+/// `--network processes`: sixteen module processes over Zenoh on 127.0.0.1, the world
+/// served to their drivers as a module; the mission completes as in-process, with the
+/// same summary, and no module process outlives the run.
+#[test]
+fn the_demo_mission_completes_with_every_module_its_own_process() {
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
+        .args(["demo", "--network", "processes", "--format", "json"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run slate");
+    let logs = std::env::temp_dir().join(format!("slate-demo-{}", child.id()));
+    let out = crate::support::wait_output(child, std::time::Duration::from_secs(400));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let j: serde_json::Value =
+        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {stderr}"));
+    assert_eq!(j["network"], "processes", "{j}");
+    assert_eq!(j["mission_complete"], true, "{j}\n{stderr}");
+    assert_eq!(j["targets_found"], j["targets_total"], "{j}");
+    assert_eq!(j["duplicate_investigations"], 0, "{j}");
+    assert_eq!(j["robot_failures"], 1, "{j}");
+    assert!(
+        j["detection_seconds"].is_number(),
+        "fault not detected: {j}"
+    );
+    assert!(j["team_link_bytes"].as_u64().unwrap() > 0, "{j}");
+    let pids = module_pids(&stderr);
+    assert_eq!(pids.len(), 16, "{stderr}");
+    for pid in pids {
+        assert!(
+            !std::path::Path::new(&format!("/proc/{pid}")).exists(),
+            "module process {pid} outlived the demo"
+        );
+    }
+    assert!(
+        !logs.exists(),
+        "the module logs of a clean run are left in {logs:?}"
+    );
+    let sim = slate(&[
+        "demo",
+        "--robots",
+        "1",
+        "--duration",
+        "10",
+        "--no-fault",
+        "--quiet",
+        "--format",
+        "json",
+    ]);
+    let sim: serde_json::Value = serde_json::from_slice(&sim.stdout).unwrap();
+    assert_eq!(keys(&j), keys(&sim), "the same summary fields");
+}
+
+#[test]
+fn demo_refuses_a_placement_without_module_processes_and_a_malformed_one() {
+    let err = slate_err(&["demo", "--place", "r1=ns1@10.0.0.2", "--quiet"]);
+    assert!(err.contains("use them with --network processes"), "{err}");
+    let err = slate_err(&["demo", "--network", "processes", "--place", "r1@10.0.0.2"]);
+    assert!(err.contains("expected NAME=NETNS@IP"), "{err}");
+}

@@ -171,3 +171,40 @@ fn a_foxglove_client_gets_a_channel_per_class_with_its_schema_and_the_packets_wr
     });
     assert!(scene_update.is_some(), "no scene update naming gsr");
 }
+
+/// A client that subscribes after values were written gets them at once, to it alone:
+/// the class's latest packets and the positions on the scene, before any new write.
+#[test]
+fn a_foxglove_client_gets_the_latest_values_when_it_subscribes() {
+    let mut team = Team::new("foxglove-latest");
+    let fox = format!("127.0.0.1:{}", free_port());
+    let top = format!("foxglove = \"{fox}\"");
+    let node = NodeProc::start_config(
+        &team.dir,
+        "t/r1/nav",
+        "object gsr : Vehicle context self { mode = \"survey\"; position = [3.0, 4.0]; }",
+        &[],
+        &["\"Thing\"", "", &top],
+    );
+    team.nodes.push(node);
+
+    let mut client = Client::connect(&fox);
+    let mut channels = Vec::new();
+    client.until_op("advertise", &mut channels);
+    let vehicle = channel(&channels, "/slate/class/Vehicle")["id"]
+        .as_u64()
+        .unwrap();
+    let scene = channel(&channels, "/slate/scene")["id"].as_u64().unwrap();
+    client.subscribe(1, vehicle);
+    let payload = client.data(1, Duration::from_secs(10), |p| {
+        serde_json::from_slice::<Json>(p).is_ok_and(|j| j["attr"] == "mode")
+    });
+    let packet: Json = serde_json::from_slice(&payload.expect("gsr.mode on subscribe")).unwrap();
+    assert_eq!(packet["object"], "gsr", "{packet}");
+    assert_eq!(packet["values"]["mode"], "survey", "{packet}");
+    client.subscribe(2, scene);
+    let update = client.data(2, Duration::from_secs(10), |p| {
+        p.windows(3).any(|w| w == b"gsr")
+    });
+    assert!(update.is_some(), "no scene update for gsr on subscribe");
+}

@@ -490,3 +490,50 @@ fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
         launched.output()
     );
 }
+
+/// `--log-format json` given to launch is given to every module: every line a module
+/// writes (launch's `log` events) is a JSON object, its log lines as `slate node
+/// --log-format json` writes them.
+#[test]
+fn launch_passes_its_log_format_to_every_module() {
+    let turn = Team::new("launch-log-format");
+    let file = teams().join("small.toml");
+    let base = free_ports(5);
+    let logs = turn.dir.join("logs");
+    let mut launched = Launched::start_with(&file, base, &logs, &["--log-format", "json"]);
+    launched.wait_up();
+    let lines: Vec<(String, String)> = launched
+        .events
+        .iter()
+        .filter(|j| j["event"] == "log")
+        .map(|j| {
+            let address = j["address"].as_str().unwrap_or_default().to_owned();
+            (address, j["line"].as_str().unwrap_or_default().to_owned())
+        })
+        .collect();
+    assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
+    for (address, _) in launched.started() {
+        let own: Vec<&String> = lines
+            .iter()
+            .filter(|l| l.0 == address)
+            .map(|l| &l.1)
+            .collect();
+        assert!(
+            !own.is_empty(),
+            "{address} logged nothing\n{}",
+            launched.output()
+        );
+        // Its stdout (`slate node --format json` events) was JSON already; its log too now.
+        let parsed: Vec<Json> = own
+            .iter()
+            .map(|line| {
+                serde_json::from_str(line)
+                    .unwrap_or_else(|_| panic!("{address}: not a JSON line: {line}"))
+            })
+            .collect();
+        assert!(
+            parsed.iter().any(|j| j.get("level").is_some()),
+            "{address}: no JSON log line among {parsed:?}"
+        );
+    }
+}

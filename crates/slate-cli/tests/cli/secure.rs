@@ -482,5 +482,30 @@ fn a_plan_from_a_module_without_authority_is_rejected_with_a_reason() {
     assert_eq!(loco.value("rock", "range").as_deref(), Some("7.5"));
     let pwn = entry(&snap["plans"], "name", "pwn").map(|p| p["state"].clone());
     assert!(pwn.is_none() || pwn == Some("rejected".into()), "{snap}");
+}
+
+/// `slate stats`, `bw` and `hz` are live verbs like the others: with the operator's keys
+/// they reach a secured team (its modules listen only on tls/ endpoints).
+#[test]
+fn slate_stats_with_the_operators_keys_lists_every_module_of_a_secured_team() {
+    let (team, keys) = secured_team("secure-stats", &["t/r2/loco"]);
+    let alice = as_alice(&keys);
+    let mut args = with(&["stats", "--interval", "1", "--format", "json"], &alice);
+    let connect = team.connect_args();
+    args.extend(connect.iter().map(String::as_str));
+    let out = slate(&args);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    let stats: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let modules: Vec<&str> = stats["modules"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|m| m["address"].as_str())
+        .collect();
+    assert_eq!(modules, ["t/r1/nav", "t/r2/loco"], "{stats}");
+    let mut bw = with(&["bw", "--interval", "1", "--format", "json"], &alice);
+    bw.extend(connect.iter().map(String::as_str));
+    let out = slate(&bw);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
     team.stop();
 }

@@ -13,6 +13,7 @@ use serde_json::json;
 
 use crate::cli::Format;
 use crate::command::live::interrupted;
+pub use supervise::ModuleLogs;
 use team::{ModulePlan, Team};
 
 /// Arguments of `slate launch`.
@@ -50,11 +51,7 @@ pub struct LaunchArgs {
 }
 
 /// Reads the team, then checks it or runs the modules chosen for this host.
-pub fn run(
-    args: &LaunchArgs,
-    format: Format,
-    log_filter: Option<&str>,
-) -> anyhow::Result<ExitCode> {
+pub fn run(args: &LaunchArgs, format: Format, logs: ModuleLogs) -> anyhow::Result<ExitCode> {
     let team = Team::read(&args.team, args.base_port)?;
     if args.check {
         return Ok(report_check(&team, format));
@@ -74,12 +71,7 @@ pub fn run(
         .unwrap_or_else(|| PathBuf::from("slate-logs").join(&team.name));
     let console = supervise::Console { format };
     let signals = interrupted()?;
-    let mut modules = supervise::Supervisor::new(
-        chosen,
-        &dir,
-        team.restart,
-        (console, log_filter.map(str::to_owned)),
-    )?;
+    let mut modules = supervise::Supervisor::new(chosen, &dir, team.restart, (console, logs))?;
     let started = modules.start_all(signals);
     let outcome = match started {
         Ok(true) => {

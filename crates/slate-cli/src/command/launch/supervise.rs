@@ -17,7 +17,7 @@ use parking_lot::Mutex;
 use serde_json::json;
 
 use super::team::{MAX_BACKOFF, ModulePlan, Restart};
-use crate::cli::Format;
+use crate::cli::{Format, LogFormat};
 
 /// Longest wait for a module's first start to say it is ready.
 const READY_LIMIT: Duration = Duration::from_secs(30);
@@ -82,7 +82,16 @@ pub struct Supervisor {
     modules: Vec<Supervised>,
     restart: Restart,
     console: Console,
-    log_filter: Option<String>,
+    logs: ModuleLogs,
+}
+
+/// How every module logs: launch's own `--log` and `--log-format`, passed on.
+#[derive(Clone, Debug)]
+pub struct ModuleLogs {
+    /// `--log FILTER`, if given.
+    pub filter: Option<String>,
+    /// `--log-format`.
+    pub format: LogFormat,
 }
 
 impl Supervisor {
@@ -92,7 +101,7 @@ impl Supervisor {
         plans: Vec<ModulePlan>,
         dir: &Path,
         restart: Restart,
-        (console, log_filter): (Console, Option<String>),
+        (console, logs): (Console, ModuleLogs),
     ) -> anyhow::Result<Supervisor> {
         std::fs::create_dir_all(dir).map_err(|e| {
             anyhow::anyhow!(
@@ -108,7 +117,7 @@ impl Supervisor {
             modules,
             restart,
             console,
-            log_filter,
+            logs,
         })
     }
 
@@ -279,8 +288,11 @@ impl Supervisor {
         let mut command = Command::new(exe);
         command.arg("node").arg("--config").arg(config);
         command.args(["--format", "json"]);
-        if let Some(filter) = &self.log_filter {
+        if let Some(filter) = &self.logs.filter {
             command.args(["--log", filter]);
+        }
+        if self.logs.format == LogFormat::Json {
+            command.args(["--log-format", "json"]);
         }
         command
             .stdin(Stdio::null())

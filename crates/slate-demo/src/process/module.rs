@@ -1,0 +1,231 @@
+//! One module of `slate demo --network processes` in its own OS process (`slate
+//! demo-module`): the module as the in-process demo builds it, on its own Zenoh session,
+//! and the role's driver beside its board, measuring a replica of the world that it
+//! keeps from the world module's board (docs/demo.md, "As processes").
+
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use crossbeam_channel::Receiver;
+use slate_ici::{ClassSet, IciConfig};
+use slate_model::{Address, Board, Clock};
+use slate_node::Node;
+use slate_zenoh::ZenohConfig;
+
+use super::world_link::{WORLD_CLASSES, mirror, publish_command, reader_address};
+use crate::config::TeamLink;
+use crate::drivers::{Loco, Nav, Operator, Prox, Sbip, Vision};
+use crate::error::DemoError;
+use crate::module::{Module, Role};
+use crate::run::DT;
+use crate::world::{Layout, World};
+
+/// What a module process is told by `slate demo` (one argument each, in this order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModuleSpec {
+    /// Its address, `team/ROBOT/ROLE`.
+    pub address: Address,
+    /// The world's seed (the layout, the drivers' noise).
+    pub seed: u64,
+    /// Robots in the team.
+    pub robots: u8,
+    /// When the console calls the robots home, seconds of world time.
+    pub return_after: f64,
+    /// The Zenoh endpoint it listens on.
+    pub listen: String,
+    /// The world module's endpoint.
+    pub world: String,
+    /// The endpoints of the modules started before it.
+    pub connect: Vec<String>,
+}
+
+impl ModuleSpec {
+    /// As arguments of `slate demo-module`.
+    pub fn to_args(&self) -> Vec<String> {
+        let mut args = vec![
+            self.address.to_string(),
+            self.seed.to_string(),
+            self.robots.to_string(),
+            self.return_after.to_string(),
+            self.listen.clone(),
+            self.world.clone(),
+        ];
+        args.extend(self.connect.iter().cloned());
+        args
+    }
+
+    /// From the arguments of `slate demo-module`; what is wrong, if anything.
+    pub fn from_args(args: &[String]) -> Result<ModuleSpec, DemoError> {
+        let bad = |what: &str| DemoError::Config(format!("demo-module: {what}"));
+        let [
+            address,
+            seed,
+            robots,
+            return_after,
+            listen,
+            world,
+            connect @ ..,
+        ] = args
+        else {
+            return Err(bad(
+                "expected ADDRESS SEED ROBOTS RETURN_AFTER LISTEN WORLD [CONNECT...]",
+            ));
+        };
+        Ok(ModuleSpec {
+            address: Address::new(address).map_err(|e| bad(&e.to_string()))?,
+            seed: seed.parse().map_err(|_| bad("SEED: expected a number"))?,
+            robots: robots
+                .parse()
+                .map_err(|_| bad("ROBOTS: expected 1 to 32"))?,
+            return_after: return_after
+                .parse()
+                .map_err(|_| bad("RETURN_AFTER: expected seconds"))?,
+            listen: listen.clone(),
+            world: world.clone(),
+            connect: connect.to_vec(),
+        })
+    }
+
+    fn role(&self) -> Result<Role, DemoError> {
+        let all = [Role::Console].into_iter().chain(Role::ROBOT);
+        all.into_iter()
+            .find(|r| r.name() == self.address.module())
+            .ok_or_else(|| DemoError::Config(format!("{}: no such module", self.address)))
+    }
+}
+
+/// The role's driver, on the module's board.
+enum Driver {
+    Nav(Nav),
+    Prox(Prox),
+    Vision(Vision),
+    Loco(Loco),
+    Operator(Operator),
+    None,
+}
+
+/// A running module process: the module, its world reader and its driver.
+pub struct ModuleProcess {
+    module: Module,
+    world_reader: Option<Node>,
+    replica: World,
+    robot: usize,
+    driver: Driver,
+}
+
+impl ModuleProcess {
+    /// Starts the module and, for a role with a driver, its world reader.
+    pub fn start(spec: &ModuleSpec) -> Result<ModuleProcess, DemoError> {
+        let role = spec.role()?;
+        let layout = Layout::generate(spec.seed, usize::from(spec.robots));
+        let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
+        let robot_name = spec.address.robot().to_owned();
+        let zenoh = ZenohConfig {
+            listen: vec![spec.listen.clone()],
+            connect: spec.connect.clone(),
+            ..ZenohConfig::default()
+        };
+        let link = TeamLink::default();
+        let module = Module::start_loaded(zenoh, &robot_name, role, &robots, &link)?;
+        let robot = robots.iter().position(|r| *r == robot_name).unwrap_or(0);
+        // The console's operator needs the world's time, as the drivers need the world.
+        let world_reader = match role {
+            Role::Exec => None,
+            _ => Some(world_reader(&robot_name, role, &spec.world)?),
+        };
+        let board = module.node.board().clone();
+        let driver = driver(role, robot, &robot_name, board, spec, &layout);
+        Ok(ModuleProcess {
+            module,
+            world_reader,
+            replica: World::new(&layout, spec.seed),
+            robot,
+            driver,
+        })
+    }
+
+    /// Runs the driver every [`DT`] of real time until `stop` fires.
+    pub fn run(mut self, stop: &Receiver<()>) {
+        let start = Instant::now();
+        let mut step: u64 = 0;
+        loop {
+            let due = start + Duration::from_secs_f64(DT * (step + 1) as f64);
+            if stop.recv_deadline(due).is_ok() {
+                break;
+            }
+            if self.tick(step) {
+                step += 1;
+            }
+        }
+        self.module.node.close();
+        if let Some(r) = &self.world_reader {
+            r.close();
+        }
+    }
+
+    /// One step of the driver, once the world has been heard; false before.
+    fn tick(&mut self, step: u64) -> bool {
+        let world_time = match &self.world_reader {
+            Some(r) => mirror(&mut self.replica, r.board()).then_some(self.replica.time),
+            None => Some(self.replica.time),
+        };
+        let Some(now) = world_time else {
+            return false;
+        };
+        let sensing = (step + self.robot as u64).is_multiple_of(2);
+        match &mut self.driver {
+            Driver::Nav(d) if sensing => d.tick(&self.replica, 2.0 * DT),
+            Driver::Prox(d) if sensing => d.tick(&self.replica),
+            Driver::Vision(d) if sensing => d.tick(&self.replica, 2.0 * DT),
+            Driver::Loco(d) => {
+                d.tick(&mut self.replica);
+                if let Some(r) = &self.world_reader {
+                    publish_command(&self.replica, self.robot, &mut Sbip::new(r.board().clone()));
+                }
+            }
+            Driver::Operator(o) => o.tick(now),
+            _ => {}
+        }
+        true
+    }
+}
+
+/// The driver of `role` for robot `robot` (named `name`) on `board`.
+fn driver(
+    role: Role,
+    robot: usize,
+    name: &str,
+    board: Arc<Board>,
+    spec: &ModuleSpec,
+    layout: &Layout,
+) -> Driver {
+    match role {
+        Role::Nav => Driver::Nav(Nav::new(robot, name, board, spec.seed)),
+        Role::Prox => Driver::Prox(Prox::new(robot, name, board, spec.seed)),
+        Role::Vision => Driver::Vision(Vision::new(robot, name, board, spec.seed)),
+        Role::Loco => Driver::Loco(Loco::new(robot, name, board)),
+        Role::Console => {
+            let mut operator = Operator::new(board);
+            operator.plan(layout, layout.targets.len(), spec.return_after);
+            Driver::Operator(operator)
+        }
+        Role::Exec => Driver::None,
+    }
+}
+
+/// A driver's node on the world team: it models the world (and exports its commands).
+fn world_reader(robot: &str, role: Role, world: &str) -> Result<Node, DemoError> {
+    let config = ZenohConfig {
+        connect: vec![world.to_owned()],
+        ..ZenohConfig::default()
+    };
+    let ici = IciConfig::default()
+        .interest(ClassSet::all())
+        .export(ClassSet::none().class("Command"));
+    Ok(Node::builder(reader_address(robot, role.name()))
+        .zenoh(config)
+        .clock(Clock::system())
+        .ici(ici)
+        .source("world.slate", WORLD_CLASSES)
+        .start()?)
+}
