@@ -184,6 +184,11 @@ pub struct DemoConfig {
     /// Who speaks on the team link: every module (today's protocol, the default) or one
     /// gateway per robot (the team protocol being built, docs/team-protocol.md).
     pub speakers: Speakers,
+    /// Record the console's board in MCAP to this file (docs/recording.md).
+    pub record: Option<std::path::PathBuf>,
+    /// Write the console's board as the run ends to this JSON file (the shape of `slate
+    /// play --format json`'s `objects`).
+    pub final_board: Option<std::path::PathBuf>,
 }
 
 /// Who speaks on the team link.
@@ -213,6 +218,8 @@ impl Default for DemoConfig {
             team_link: TeamLink::default(),
             deck: None,
             speakers: Speakers::Modules,
+            record: None,
+            final_board: None,
         }
     }
 }

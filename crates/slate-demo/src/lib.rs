@@ -31,6 +31,7 @@ pub mod files;
 mod module;
 mod net;
 mod observe;
+mod record;
 mod run;
 mod snapshot;
 mod summary;

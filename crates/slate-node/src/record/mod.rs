@@ -141,6 +141,8 @@ pub struct RecordStats {
     pub dropped: u64,
     /// Files begun.
     pub files: u32,
+    /// Messages written per topic, in every file (their sum is [`Self::messages`]).
+    pub by_topic: std::collections::BTreeMap<String, u64>,
     /// Why the recording stopped before it was told to, if it did.
     pub failed: Option<String>,
 }

@@ -469,3 +469,49 @@ fn a_class_redefined_while_recording_gets_a_channel_with_its_new_schema() {
         [json!(["integer", "null"]), json!(["number", "null"])]
     );
 }
+
+#[test]
+fn a_replayed_real_keeps_every_bit_of_its_recorded_value() {
+    // Reals whose shortest decimal form a reader without exact parsing rounds to the
+    // neighbouring double: seen in the demo's replay (a heading, confidences, accuracies).
+    let reals = [2.9215999999999998, 1.9027313840043538, 0.9882352941176471];
+    let path = temp_dir("record-reals").join("nav.mcap");
+    let net = SimNet::new(19);
+    let nav = on_net(&net, "t/r1/nav", "object rock : Obstacle;")
+        .record(RecordConfig::new(&path))
+        .start()
+        .unwrap();
+    let update = slate_model::Update::new(reals[0])
+        .accuracy(reals[1])
+        .confidence(reals[2]);
+    nav.board().write("rock", "range", update).unwrap();
+    nav.board()
+        .write("rock", "position", [83.29999999999995, 21.300000000000068])
+        .unwrap();
+    net.run_for(Duration::from_millis(100));
+    let recorded = slate_node::record::board_state(nav.board());
+    nav.close();
+
+    let recording = slate_node::record::Recording::read(&path).unwrap();
+    let board = slate_model::Board::builder()
+        .address(addr("t/r1/nav"))
+        .clock(slate_model::Clock::manual())
+        .build();
+    for t in &recording.steps {
+        slate_node::record::Recording::apply(&board, &t.step);
+    }
+    let replayed = slate_node::record::board_state(&board);
+    let (live, again) = (
+        &recorded["rock"]["attrs"]["range"],
+        &replayed["rock"]["attrs"]["range"],
+    );
+    let bits = |j: &Json| j.as_f64().map(f64::to_bits);
+    assert_eq!(bits(&again["value"]), Some(reals[0].to_bits()), "{again}");
+    assert_eq!(
+        bits(&again["confidence"]),
+        Some(reals[2].to_bits()),
+        "{again}"
+    );
+    assert_eq!(bits(&again["accuracy"]), bits(&live["accuracy"]), "{again}");
+    assert_eq!(replayed, recorded);
+}
