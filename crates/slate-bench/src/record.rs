@@ -65,7 +65,7 @@ fn handed_off(board: &slate_model::Board, op: impl FnOnce() -> f64) -> anyhow::R
     std::thread::scope(|s| {
         s.spawn(|| {
             while !stop.load(std::sync::atomic::Ordering::Acquire) {
-                drop(watch.recv_polling(Duration::from_millis(10)));
+                drop(watch.recv_timeout(Duration::from_millis(10)));
             }
         });
         let ns = op();

@@ -219,19 +219,6 @@ impl Watch {
         }
     }
 
-    /// The next change if one is waiting, else the first that came while this thread
-    /// slept `period`. Unlike [`Watch::recv_timeout`], the reader never waits on the
-    /// channel, so no writer ever has to wake it: a wake is a system call in the
-    /// writer's thread, per change, whenever the reader keeps up. A background reader
-    /// (a recorder, a store) takes changes this way, in bursts, at the cost of up to
-    /// `period` of latency.
-    pub fn recv_polling(&self, period: Duration) -> Option<Change> {
-        self.try_recv().or_else(|| {
-            std::thread::sleep(period);
-            self.try_recv()
-        })
-    }
-
     /// The next change if one is waiting.
     pub fn try_recv(&self) -> Option<Change> {
         match self.rx.try_recv() {

@@ -132,7 +132,7 @@ impl Tap {
         let first = if max == usize::MAX {
             self.watch.try_recv()
         } else {
-            self.watch.recv_polling(POLL)
+            self.watch.recv_timeout(POLL)
         };
         let Some(first) = first else {
             return Ok(());

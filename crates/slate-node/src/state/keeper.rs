@@ -155,7 +155,7 @@ impl Work {
         let first = if max == usize::MAX {
             self.watch.try_recv()
         } else {
-            self.watch.recv_polling(POLL)
+            self.watch.recv_timeout(POLL)
         };
         let mut next = first;
         let mut n = 0;
