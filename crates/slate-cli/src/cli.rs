@@ -558,6 +558,35 @@ pub enum PlanCommand {
     ///
     /// Example: slate plan cancel patrol --on team/r2/loco
     Cancel(PlanCancelArgs),
+
+    /// Test plans against a recording, sending nothing: replays FILE.mcap into a board of
+    /// its own (on the recording's clock, no network) with the plans installed once the
+    /// recording's initial state is on it, and prints when each would have been
+    /// initiated, triggered (with what its action wrote and would have sent) and
+    /// terminated, beside what the plans of the same names did in the recorded run
+    /// (docs/recording.md).
+    ///
+    /// Example: slate plan test call_return.slate --against field-day.mcap
+    Test(PlanTestArgs),
+}
+
+/// Arguments of `slate plan test`.
+#[derive(Debug, clap::Args)]
+pub struct PlanTestArgs {
+    /// The .slate file with the plans to test (it may declare what they need, too).
+    pub file: std::path::PathBuf,
+
+    /// The recording to replay (`slate record`, `record = ...` in a node's config, `slate
+    /// demo --record`).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub against: std::path::PathBuf,
+
+    /// Load this .slate file first, on the empty board (repeatable): a recording holds
+    /// packets and class definitions, not the functions behind derived attributes and
+    /// rules, so plans that read a derived attribute need the file that declares it
+    /// (for the demo's console: examples/demo/classes.slate).
+    #[arg(long, value_name = "FILE")]
+    pub with: Vec<std::path::PathBuf>,
 }
 
 /// Arguments of `slate plan send`.

@@ -59,6 +59,7 @@ fn main() -> ExitCode {
         Command::Plan(PlanCommand::Send(args)) => command::plan::send(&args, format),
         Command::Plan(PlanCommand::Ls(args)) => command::plan::ls(&args, format),
         Command::Plan(PlanCommand::Cancel(args)) => command::plan::cancel(&args, format),
+        Command::Plan(PlanCommand::Test(args)) => command::plan_test::run(&args, format),
     };
     match result {
         Ok(code) => code,

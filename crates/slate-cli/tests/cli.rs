@@ -6,6 +6,9 @@
 // `slate demo`: the team's size range and the acoustic team link.
 #[path = "cli/demo.rs"]
 mod demo;
+// `slate demo --record`: its recording replayed by `slate play`, a plan tested against it.
+#[path = "cli/demo_record.rs"]
+mod demo_record;
 // Bad input: a one-line error on stderr, nothing on stdout, a non-zero exit.
 #[path = "cli/errors.rs"]
 mod errors;

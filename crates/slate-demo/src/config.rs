@@ -190,6 +190,11 @@ pub struct DemoConfig {
     /// With [`NetworkKind::Processes`]: where the module processes run (default: all
     /// on 127.0.0.1, in this network namespace).
     pub placement: Placement,
+    /// Record the console's board in MCAP to this file (docs/recording.md).
+    pub record: Option<std::path::PathBuf>,
+    /// Write the console's board as the run ends to this JSON file (the shape of `slate
+    /// play --format json`'s `objects`).
+    pub final_board: Option<std::path::PathBuf>,
 }
 
 /// Where the module processes of `--network processes` run: each robot's modules (the
@@ -233,6 +238,8 @@ impl Default for DemoConfig {
             speakers: Speakers::Modules,
             secure: false,
             placement: Placement::default(),
+            record: None,
+            final_board: None,
         }
     }
 }

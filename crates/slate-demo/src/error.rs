@@ -21,6 +21,9 @@ pub enum DemoError {
     /// A module's node did not start.
     #[error("cannot start a module: {0}")]
     Start(#[from] slate_node::StartError),
+    /// The recording could not start (`--record`).
+    #[error("recording: {0}")]
+    Record(String),
     /// The dashboard could not be served.
     #[error("dashboard: {0}")]
     Dashboard(#[from] slate_dashboard::ServeError),

@@ -32,6 +32,7 @@ mod module;
 mod net;
 mod observe;
 pub mod process;
+mod record;
 mod run;
 mod snapshot;
 mod summary;

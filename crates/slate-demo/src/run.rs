@@ -86,6 +86,7 @@ impl Demo {
             config.seed,
             (&config.team_link, config.speakers),
         )?;
+        crate::record::start(&team, &config)?;
         let return_after = config.duration.as_secs_f64() * 0.8;
         if config.deck.is_some() {
             team.operator.deck_until(config.launch_seconds());
@@ -195,7 +196,11 @@ impl Demo {
         let mission_seconds = self.mission_time();
         self.traffic.sample(&self.net, &self.team, self.world.time);
         let (lag, left) = self.settle();
-        self.summary(mission_seconds, lag, left)
+        let recording = crate::record::finish(&self.team, &self.config);
+        Summary {
+            recording,
+            ..self.summary(mission_seconds, lag, left)
+        }
     }
 
     /// Runs the network alone until the boards agree: seconds it took, or the
@@ -284,6 +289,7 @@ impl Demo {
             deck_bytes_by_kind: names(&self.deck_by_kind),
             team_repair_bytes: crate::traffic::team_repair_bytes(&self.team),
             team_queue_max_seconds: crate::traffic::team_queue_max_seconds(&self.team),
+            recording: None,
         }
     }
 

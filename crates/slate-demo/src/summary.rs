@@ -143,6 +143,9 @@ pub struct Summary {
     /// team protocol paces itself, so a backlog waits there rather than in the radio:
     /// it has not vanished). 0 without the team protocol.
     pub team_queue_max_seconds: f64,
+    /// With `--record` or `--final-board`: the recorder's counters (`messages`, `bytes`,
+    /// `dropped`, `files`, `by_topic`), `final_board`, and `failed` if either failed.
+    pub recording: Option<Value>,
 }
 
 impl Summary {
@@ -248,6 +251,9 @@ impl Summary {
             map.extend(self.channel_json());
             map.extend(self.deck_json());
             map.extend(self.team_protocol_json());
+            if let Some(recording) = &self.recording {
+                map.insert("recording".into(), recording.clone());
+            }
         }
         summary
     }

@@ -97,6 +97,18 @@ pub struct DemoArgs {
     /// (where the placed robots' drivers reach it; default 127.0.0.1).
     #[arg(long, value_name = "IP")]
     pub world_address: Option<String>,
+    /// Record the operator console's board in MCAP to this file while the mission runs
+    /// (its classes, objects, packets, plan events, circuits, liveliness, counters;
+    /// docs/recording.md); the summary's `recording` gives the messages per channel.
+    /// Replay it with `slate play FILE.mcap`.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<std::path::PathBuf>,
+
+    /// Write the console's board as the run ends to this JSON file (objects with their
+    /// class, context, owner and own packets: the shape of `slate play --format json`'s
+    /// `objects`), to compare with a replay of --record's file.
+    #[arg(long, value_name = "FILE.json")]
+    pub final_board: Option<std::path::PathBuf>,
 
     /// Print no progress, only the summary.
     #[arg(long)]
@@ -147,6 +159,13 @@ pub fn run(args: &DemoArgs, format: Format) -> anyhow::Result<ExitCode> {
         Format::Json => println!("{}", serde_json::to_string_pretty(&summary.to_json())?),
     }
     std::io::stdout().flush()?;
+    if let Some(failed) = summary
+        .recording
+        .as_ref()
+        .and_then(|r| r["failed"].as_str())
+    {
+        anyhow::bail!("the recording failed: {failed}");
+    }
     Ok(if summary.mission_complete {
         ExitCode::SUCCESS
     } else {
@@ -199,6 +218,8 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
             || (args.place.is_empty() && args.world_address.is_none()),
         "--place and --world-address place module processes: use them with --network processes"
     );
+    config.record.clone_from(&args.record);
+    config.final_board.clone_from(&args.final_board);
     if let Some(addr) = args.dashboard {
         config = config.dashboard(addr);
         config.linger = Duration::from_secs_f64(args.linger);

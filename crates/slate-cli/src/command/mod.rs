@@ -12,6 +12,7 @@ mod live;
 pub mod ls;
 pub mod node;
 pub mod plan;
+pub mod plan_test;
 pub mod play;
 pub mod put;
 pub mod record;

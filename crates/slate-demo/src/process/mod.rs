@@ -75,7 +75,7 @@ impl ProcessNet {
         let logs = log_dir()?;
         let kept = logs.clone();
         let mut net = ProcessNet {
-            zenoh: ZenohNet::new(),
+            zenoh: ZenohNet::new(None),
             children: Mutex::new(Vec::new()),
             world,
             logs: kept,

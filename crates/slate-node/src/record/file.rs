@@ -96,6 +96,8 @@ pub struct Files {
     finished_bytes: u64,
     sequence: u32,
     messages: u64,
+    /// Messages written so far per topic, in every file.
+    by_topic: BTreeMap<String, u64>,
 }
 
 /// One message to write.
@@ -124,6 +126,7 @@ impl Files {
             finished_bytes: 0,
             sequence: 0,
             messages: 0,
+            by_topic: BTreeMap::new(),
         };
         files.begin()?;
         Ok(files)
@@ -224,7 +227,17 @@ impl Files {
             .write_to_known_channel(&header, entry.data)
             .map_err(|e| open.error(e))?;
         self.messages += 1;
+        self.count(entry.topic);
         Ok(())
+    }
+
+    fn count(&mut self, topic: &str) {
+        match self.by_topic.get_mut(topic) {
+            Some(n) => *n += 1,
+            None => {
+                self.by_topic.insert(topic.to_owned(), 1);
+            }
+        }
     }
 
     /// Forgets the open file's channels whose topic starts with `prefix`: the next
@@ -263,6 +276,11 @@ impl Files {
     /// Messages written so far, in every file.
     pub fn messages(&self) -> u64 {
         self.messages
+    }
+
+    /// Messages written so far per topic, in every file.
+    pub fn by_topic(&self) -> &BTreeMap<String, u64> {
+        &self.by_topic
     }
 
     /// Bytes written so far, in every file.

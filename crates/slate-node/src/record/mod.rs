@@ -8,6 +8,7 @@
 //! for the recorder; when the recorder falls a whole queue behind, changes are dropped
 //! and counted ([`RecordStats::dropped`], and the `/slate/recorder` channel).
 
+mod against;
 mod file;
 pub(crate) mod message;
 mod replay;
@@ -22,6 +23,7 @@ use std::time::Duration;
 
 use parking_lot::Mutex;
 
+pub use against::{AgainstError, Firing, PlanTest, test_plans};
 pub use file::{MESSAGE_ENCODING, METADATA, PROFILE, SCHEMA_ENCODING, rotated_path};
 pub(crate) use message::PacketMessage;
 pub use replay::{Raw, RawMessage, Recording, ReplayError, Step, Timed, board_state, class_def};
@@ -141,6 +143,8 @@ pub struct RecordStats {
     pub dropped: u64,
     /// Files begun.
     pub files: u32,
+    /// Messages written per topic, in every file (their sum is [`Self::messages`]).
+    pub by_topic: std::collections::BTreeMap<String, u64>,
     /// Why the recording stopped before it was told to, if it did.
     pub failed: Option<String>,
 }

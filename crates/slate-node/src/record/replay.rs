@@ -42,8 +42,10 @@ pub enum ReplayError {
 pub enum Step {
     /// A class was defined (or redefined).
     Class(ClassDef),
-    /// An object was created, or was there when the file began.
+    /// An object was created.
     Create(NewObject),
+    /// An object was on the board when the file began.
+    Exists(NewObject),
     /// An object was deleted.
     Delete(String),
     /// A packet was written to `object.attr`; its value is JSON until the class says
@@ -127,7 +129,7 @@ impl Recording {
                 board.class_def(&def.name).as_ref() == Some(def)
                     || board.define(def.clone()).is_ok()
             }
-            Step::Create(spec) => {
+            Step::Create(spec) | Step::Exists(spec) => {
                 board.info(&spec.name).is_some() || board.create_with(spec.clone()).is_ok()
             }
             Step::Delete(name) => board.delete(name).is_ok(),
@@ -266,7 +268,11 @@ fn object(j: &Json) -> Option<Step> {
     if let Some(owner) = j["owner"].as_str() {
         spec = spec.owner(Address::new(owner).ok()?);
     }
-    Some(Step::Create(spec))
+    Some(if j["op"] == "exists" {
+        Step::Exists(spec)
+    } else {
+        Step::Create(spec)
+    })
 }
 
 /// A class definition from its `/slate/classes` message.

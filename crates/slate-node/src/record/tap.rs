@@ -471,6 +471,7 @@ impl Tap {
         stats.bytes = self.files.bytes();
         stats.dropped = self.watch.dropped();
         stats.files = self.files.files();
+        stats.by_topic.clone_from(self.files.by_topic());
     }
 
     /// A message on a fixed channel.

@@ -87,6 +87,28 @@ fn a_store_gives_back_the_classes_objects_and_packets_with_their_stamps_and_sour
 }
 
 #[test]
+fn a_restored_real_keeps_every_bit_of_its_stored_value() {
+    // A real whose shortest decimal form a reader without exact parsing rounds to the
+    // neighbouring double (the store keeps packets as JSON).
+    let (speed, confidence) = (2.9215999999999998, 0.9882352941176471);
+    let dir = temp_dir("state-reals");
+    let b = board();
+    b.create("Vehicle", "v1").unwrap();
+    b.write("v1", "speed", Update::new(speed).confidence(confidence))
+        .unwrap();
+    b.write("v1", "pos", vec![83.29999999999995, 21.300000000000068])
+        .unwrap();
+    let store = save(&b, &dir);
+    let again = fresh_board();
+    restore(&again, store.load().unwrap());
+    let restored = again.read("v1", "speed").unwrap();
+    assert_eq!(restored.value, slate_model::Value::Real(speed));
+    assert_eq!(restored.confidence.to_bits(), confidence.to_bits());
+    assert_eq!(board_state(&again), board_state(&b));
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
+#[test]
 fn a_stored_packet_replaces_an_initial_value_and_loses_to_a_newer_write() {
     let dir = temp_dir("state-merge");
     let b = board();

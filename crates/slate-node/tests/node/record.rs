@@ -473,3 +473,123 @@ fn a_class_redefined_while_recording_gets_a_channel_with_its_new_schema() {
         [json!(["integer", "null"]), json!(["number", "null"])]
     );
 }
+
+#[test]
+fn a_replayed_real_keeps_every_bit_of_its_recorded_value() {
+    // Reals whose shortest decimal form a reader without exact parsing rounds to the
+    // neighbouring double: seen in the demo's replay (a heading, confidences, accuracies).
+    let reals = [2.9215999999999998, 1.9027313840043538, 0.9882352941176471];
+    let path = temp_dir("record-reals").join("nav.mcap");
+    let net = SimNet::new(19);
+    let nav = on_net(&net, "t/r1/nav", "object rock : Obstacle;")
+        .record(RecordConfig::new(&path))
+        .start()
+        .unwrap();
+    let update = slate_model::Update::new(reals[0])
+        .accuracy(reals[1])
+        .confidence(reals[2]);
+    nav.board().write("rock", "range", update).unwrap();
+    nav.board()
+        .write("rock", "position", [83.29999999999995, 21.300000000000068])
+        .unwrap();
+    net.run_for(Duration::from_millis(100));
+    let recorded = slate_node::record::board_state(nav.board());
+    nav.close();
+
+    let recording = slate_node::record::Recording::read(&path).unwrap();
+    let board = slate_model::Board::builder()
+        .address(addr("t/r1/nav"))
+        .clock(slate_model::Clock::manual())
+        .build();
+    for t in &recording.steps {
+        slate_node::record::Recording::apply(&board, &t.step);
+    }
+    let replayed = slate_node::record::board_state(&board);
+    let (live, again) = (
+        &recorded["rock"]["attrs"]["range"],
+        &replayed["rock"]["attrs"]["range"],
+    );
+    let bits = |j: &Json| j.as_f64().map(f64::to_bits);
+    assert_eq!(bits(&again["value"]), Some(reals[0].to_bits()), "{again}");
+    assert_eq!(
+        bits(&again["confidence"]),
+        Some(reals[2].to_bits()),
+        "{again}"
+    );
+    assert_eq!(bits(&again["accuracy"]), bits(&live["accuracy"]), "{again}");
+    assert_eq!(replayed, recorded);
+}
+
+/// `(plan, event, fired)` of each firing but the installation.
+fn firings(list: &[slate_node::record::Firing]) -> Vec<(String, String, Option<u64>)> {
+    list.iter()
+        .filter(|f| f.name() != "installed")
+        .map(|f| {
+            let plan = f.event["plan"].as_str().unwrap().to_owned();
+            (plan, f.name().to_owned(), f.event["fired"].as_u64())
+        })
+        .collect()
+}
+
+#[test]
+fn a_plan_tested_against_a_recording_fires_as_the_same_plan_did_live() {
+    let plan = "plan slow { initiation: gsr.mode == \"auto\"; trigger: gsr.speed > 5.0; termination: gsr.mode == \"manual\"; action { set gsr.mode = \"slow\"; } }";
+    let path = temp_dir("record-against").join("nav.mcap");
+    let net = SimNet::new(20);
+    let nav = on_net(&net, "t/r1/nav", "object gsr : Vehicle context self;")
+        .source("slow.slate", plan)
+        .record(RecordConfig::new(&path))
+        .start()
+        .unwrap();
+    for (speed, mode) in [
+        (2.0, "auto"),
+        (6.0, "auto"),
+        (3.0, "auto"),
+        (7.0, "auto"),
+        (0.5, "manual"),
+    ] {
+        nav.board().write("gsr", "mode", mode).unwrap();
+        nav.board().write("gsr", "speed", speed).unwrap();
+        net.run_for(Duration::from_millis(200));
+    }
+    nav.close();
+
+    let recording = slate_node::record::Recording::read(&path).unwrap();
+    let test = slate_node::record::test_plans(&recording, &[], "slow.slate", plan).unwrap();
+    assert_eq!(test.plans, ["slow"]);
+    assert_eq!(test.refused, 0);
+    let live = firings(&test.recorded);
+    assert_eq!(
+        live.iter().filter(|f| f.1 == "triggered").count(),
+        2,
+        "{live:?}"
+    );
+    assert!(live.iter().any(|f| f.1 == "terminated"), "{live:?}");
+    assert_eq!(firings(&test.predicted), live);
+    let triggered = test
+        .predicted
+        .iter()
+        .find(|f| f.name() == "triggered")
+        .unwrap();
+    assert_eq!(
+        triggered.wrote,
+        [json!({"object": "gsr", "attr": "mode", "value": "slow"})]
+    );
+}
+
+#[test]
+fn a_plan_naming_what_a_recording_lacks_is_a_load_error_with_the_diagnostics() {
+    let path = temp_dir("record-against-unknown").join("nav.mcap");
+    let net = SimNet::new(21);
+    let nav = start(&net, "t/r1/nav", "object gsr : Vehicle context self;");
+    nav.start_recording(RecordConfig::new(&path)).unwrap();
+    nav.board().write("gsr", "speed", 1.0).unwrap();
+    nav.close();
+    let recording = slate_node::record::Recording::read(&path).unwrap();
+    let plan = "plan p { trigger: rover.speed > 1.0; action { set gsr.speed = 0.0; } }";
+    let err = slate_node::record::test_plans(&recording, &[], "p.slate", plan).unwrap_err();
+    assert!(
+        matches!(&err, slate_node::record::AgainstError::Load(d) if d.contains("rover")),
+        "{err}"
+    );
+}
