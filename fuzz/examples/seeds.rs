@@ -101,13 +101,21 @@ fn write_step(boards: &[Arc<Board>], i: u32) -> Result<()> {
     boards[0].write("gsr1", "x", 10.0 + f)?;
     boards[0].write("gsr1", "speed", f % 20.0)?;
     boards[0].write("gsr1", "goal", vec![f, -f])?;
-    boards[0].write("gsr1", "mode", if i % 2 == 0 { "auto" } else { "manual" })?;
+    boards[0].write(
+        "gsr1",
+        "mode",
+        if i.is_multiple_of(2) {
+            "auto"
+        } else {
+            "manual"
+        },
+    )?;
     boards[1].write("rock1", "size", f % 50.0)?;
     boards[1].write("rock1", "hits", i64::from(i))?;
     boards[1].write("rock1", "shape", vec![f, 1.0, 2.0])?;
     boards[1].write("rock1", "observer", Value::Ref("gsr1".into()))?;
     boards[2].write("gsr2", "battery", i64::from(100 - i))?;
-    boards[2].write("gsr2", "alive", i % 3 != 0)?;
+    boards[2].write("gsr2", "alive", !i.is_multiple_of(3))?;
     boards[3].write("rock2", "note", -f)?;
     Ok(())
 }
