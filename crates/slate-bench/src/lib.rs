@@ -20,6 +20,7 @@
 pub mod cli;
 pub mod core;
 pub mod net;
+pub mod net_secure;
 pub mod plans;
 mod proxy;
 pub mod record;

@@ -34,7 +34,7 @@ use crate::{Config, Figures, Target, Unit, free_port, wait};
 
 /// Throughput rounds of each kind (with three, one slow round of the machine's decided
 /// the median often enough to swing the ratio from 0.77 to 1.18 between runs).
-const ROUNDS: usize = 5;
+pub(crate) const ROUNDS: usize = 5;
 
 /// What a probe or a throughput round measures: slate, or one of the raw baselines.
 #[derive(Clone, Copy)]
@@ -51,7 +51,7 @@ const KINDS: [Kind; 3] = [
 ];
 
 /// Time between two latency probes (both sides idle, as a robot's occasional update).
-const PROBE_GAP: Duration = Duration::from_micros(200);
+pub(crate) const PROBE_GAP: Duration = Duration::from_micros(200);
 
 /// Runs the suite; `progress` is told each step.
 pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
@@ -178,13 +178,13 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
 }
 
 /// The `p`th percentile of durations, in microseconds.
-fn percentile(samples: &[Duration], p: f64) -> f64 {
+pub(crate) fn percentile(samples: &[Duration], p: f64) -> f64 {
     crate::percentile_secs(samples, p) * 1e6
 }
 
 /// How long each throughput round runs: a third of a second by default (21 samples of
 /// 5 ms).
-fn round_budget(cfg: &Config) -> Duration {
+pub(crate) fn round_budget(cfg: &Config) -> Duration {
     Duration::from_millis(cfg.sample_ms * cfg.samples as u64 * 10 / 3)
 }
 
@@ -292,14 +292,21 @@ const RAW_LATENCY_KEY: &str = "bench/raw/netbench/r1/a/latency";
 /// session (either way) until B's subscriber callback runs.
 struct Latency<'p> {
     pair: &'p Pair,
-    key: Key,
-    arrived: Receiver<Instant>,
+    slate: SlateProbe<'p>,
     raw_arrived: Receiver<Instant>,
     raw_key: RawKey,
 }
 
-impl<'p> Latency<'p> {
-    fn new(pair: &'p Pair) -> anyhow::Result<Self> {
+/// Slate's latency probe on a pair: a write on A until B's board holds it.
+pub(crate) struct SlateProbe<'p> {
+    pair: &'p Pair,
+    key: Key,
+    arrived: Receiver<Instant>,
+}
+
+impl<'p> SlateProbe<'p> {
+    /// Hooks B's board to see writes to `t0` arrive.
+    pub(crate) fn new(pair: &'p Pair) -> anyhow::Result<Self> {
         let info = pair
             .b
             .board
@@ -313,6 +320,37 @@ impl<'p> Latency<'p> {
                 let _ = tx.send(Instant::now());
             },
         }));
+        Ok(SlateProbe {
+            pair,
+            key: pair.a.board.key("t0", "range")?,
+            arrived,
+        })
+    }
+
+    /// The `k`th write on A, until B's board holds it.
+    pub(crate) fn probe(&self, k: usize) -> anyhow::Result<Duration> {
+        self.arrived.try_iter().for_each(drop);
+        let value = (k % 90_000) as f64 / 100.0 + 1.0;
+        let start = Instant::now();
+        self.pair.a.board.write_key(self.key, value)?;
+        arrival(&self.arrived, start, "a write on node A (latency probe)").map_err(|e| {
+            let (a, b) = (self.pair.a.ici.stats(), self.pair.b.ici.stats());
+            anyhow!(
+                "{e}: A holds {:?}, B holds {:?}; A's reports {:?}, B's merges {:?}, rejects {:?}, catch-up {:?}",
+                self.pair.a.board.read("t0", "range").ok(),
+                self.pair.b.board.read("t0", "range").ok(),
+                a.reports,
+                b.merges,
+                b.rejects,
+                b.catch_up
+            )
+        })
+    }
+}
+
+impl<'p> Latency<'p> {
+    fn new(pair: &'p Pair) -> anyhow::Result<Self> {
+        let slate = SlateProbe::new(pair)?;
         let (raw_tx, raw_arrived) = crossbeam_channel::unbounded();
         let on_sample = move || {
             let _ = raw_tx.send(Instant::now());
@@ -327,8 +365,7 @@ impl<'p> Latency<'p> {
         )?;
         Ok(Latency {
             pair,
-            key: pair.a.board.key("t0", "range")?,
-            arrived,
+            slate,
             raw_arrived,
             raw_key,
         })
@@ -372,22 +409,7 @@ impl<'p> Latency<'p> {
 
     /// The `k`th write on A, until B's board holds it.
     fn slate(&self, k: usize) -> anyhow::Result<Duration> {
-        self.arrived.try_iter().for_each(drop);
-        let value = (k % 90_000) as f64 / 100.0 + 1.0;
-        let start = Instant::now();
-        self.pair.a.board.write_key(self.key, value)?;
-        arrival(&self.arrived, start, "a write on node A (latency probe)").map_err(|e| {
-            let (a, b) = (self.pair.a.ici.stats(), self.pair.b.ici.stats());
-            anyhow!(
-                "{e}: A holds {:?}, B holds {:?}; A's reports {:?}, B's merges {:?}, rejects {:?}, catch-up {:?}",
-                self.pair.a.board.read("t0", "range").ok(),
-                self.pair.b.board.read("t0", "range").ok(),
-                a.reports,
-                b.merges,
-                b.rejects,
-                b.catch_up
-            )
-        })
+        self.slate.probe(k)
     }
 
     /// A put of `payload` bytes on A's session (`how`), until B's callback runs.
@@ -466,13 +488,9 @@ const RAW_THROUGHPUT_KEY: &str = "bench/raw/netbench/r1/a/throughput";
 
 /// Throughput rounds, raw and slate, over the same pair.
 struct Throughput<'p> {
-    pair: &'p Pair,
     raw: Arc<Counter>,
     raw_key: RawKey,
-    applied: Arc<Counter>,
-    keys: Vec<Vec<Key>>,
-    updates: Vec<slate_model::Update>,
-    sent: u64,
+    flow: SlateFlow<'p>,
 }
 
 impl<'p> Throughput<'p> {
@@ -486,38 +504,10 @@ impl<'p> Throughput<'p> {
             move || c.hit(1),
             || heard.count.load(Ordering::SeqCst) > 0,
         )?;
-        let applied = Counter::new();
-        let class = pair
-            .b
-            .board
-            .info("Tracked")
-            .ok_or_else(|| anyhow!("the receiver lacks Tracked"))?
-            .id;
-        // The packets of class Tracked B's board takes.
-        let counter = applied.clone();
-        pair.b.board.add_hook(Arc::new(OnWrites {
-            picks: move |t: &Touched| t.class == class,
-            seen: move |n| counter.hit(n),
-        }));
-        let keys = (0..OBJECTS)
-            .map(|i| {
-                let name = format!("t{i}");
-                ATTRS
-                    .iter()
-                    .map(|a| pair.a.board.key(&name, a))
-                    .collect::<Result<Vec<_>, _>>()
-            })
-            .collect::<Result<Vec<_>, _>>()?;
-        let mut rng = Rng::new(5);
-        let updates = (0..4096).map(|_| update(&mut rng)).collect();
         Ok(Throughput {
-            pair,
             raw,
             raw_key,
-            applied,
-            keys,
-            updates,
-            sent: 0,
+            flow: SlateFlow::new(pair)?,
         })
     }
 
@@ -540,11 +530,62 @@ impl<'p> Throughput<'p> {
         Ok((self.raw.rate(sent, start_ns), sent))
     }
 
+    /// A round of slate's updates ([`SlateFlow::round`]).
+    fn slate(&mut self, budget: Duration) -> anyhow::Result<(f64, u64, u64)> {
+        self.flow.round(budget)
+    }
+}
+
+/// Slate's throughput rounds on a pair: batches of updates on A, counted as B applies
+/// them.
+pub(crate) struct SlateFlow<'p> {
+    pair: &'p Pair,
+    applied: Arc<Counter>,
+    keys: Vec<Vec<Key>>,
+    updates: Vec<slate_model::Update>,
+    sent: u64,
+}
+
+impl<'p> SlateFlow<'p> {
+    /// Hooks B's board to count the packets of class `Tracked` it takes.
+    pub(crate) fn new(pair: &'p Pair) -> anyhow::Result<Self> {
+        let applied = Counter::new();
+        let class = pair
+            .b
+            .board
+            .info("Tracked")
+            .ok_or_else(|| anyhow!("the receiver lacks Tracked"))?
+            .id;
+        let counter = applied.clone();
+        pair.b.board.add_hook(Arc::new(OnWrites {
+            picks: move |t: &Touched| t.class == class,
+            seen: move |n| counter.hit(n),
+        }));
+        let keys = (0..OBJECTS)
+            .map(|i| {
+                let name = format!("t{i}");
+                ATTRS
+                    .iter()
+                    .map(|a| pair.a.board.key(&name, a))
+                    .collect::<Result<Vec<_>, _>>()
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut rng = Rng::new(5);
+        let updates = (0..4096).map(|_| update(&mut rng)).collect();
+        Ok(SlateFlow {
+            pair,
+            applied,
+            keys,
+            updates,
+            sent: 0,
+        })
+    }
+
     /// Batches of 100 updates as fast as A takes them for `budget` (at most [`WINDOW`]
     /// ahead of B), until B holds A's final state. Returns updates per second, how
     /// many, and how many B applied (fewer if Zenoh dropped reports and B caught up
     /// with the current state instead).
-    fn slate(&mut self, budget: Duration) -> anyhow::Result<(f64, u64, u64)> {
+    pub(crate) fn round(&mut self, budget: Duration) -> anyhow::Result<(f64, u64, u64)> {
         std::thread::sleep(Duration::from_millis(50));
         let (base, start_ns) = self.applied.mark()?;
         let end = Instant::now() + budget;

@@ -1,6 +1,7 @@
 //! Two slate nodes (board + ICI) over Zenoh on 127.0.0.1, in one process: what the
 //! `wire` and `net` suites measure. Everything is closed on drop.
 
+use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
@@ -8,7 +9,8 @@ use std::time::Duration;
 
 use slate_ici::{Ici, IciConfig, Rng};
 use slate_model::{Address, AttrDecl, Board, ClassDef, Update, ValueType};
-use slate_zenoh::{ZenohConfig, ZenohTransport};
+use slate_node::team_keys::Identity;
+use slate_zenoh::{Security, ZenohConfig, ZenohTransport};
 
 use crate::wait;
 
@@ -70,8 +72,14 @@ pub struct Node {
 }
 
 impl Node {
-    /// A node at `address` listening on / connecting to the given endpoints.
-    pub fn open(address: &str, listen: Vec<String>, connect: Vec<String>) -> anyhow::Result<Node> {
+    /// A node at `address` listening on / connecting to the given endpoints, secured
+    /// with `security` (TLS endpoints then) or not.
+    pub fn open(
+        address: &str,
+        listen: Vec<String>,
+        connect: Vec<String>,
+        security: Option<Security>,
+    ) -> anyhow::Result<Node> {
         let address = Address::new(address)?;
         let board = Arc::new(Board::builder().address(address.clone()).build());
         for def in classes() {
@@ -80,6 +88,7 @@ impl Node {
         let config = ZenohConfig {
             listen,
             connect,
+            security,
             ..ZenohConfig::default()
         };
         let transport = ZenohTransport::open(address, &config)?;
@@ -106,10 +115,28 @@ impl Pair {
     /// `b` listens on `b_port`; `a` connects to `a_connects` (b's port, or a proxy in
     /// front of it) and listens nowhere, so every byte between them takes that path.
     pub fn open(team: &str, b_port: u16, a_connects: u16) -> anyhow::Result<Pair> {
-        let listen = vec![format!("tcp/127.0.0.1:{b_port}")];
-        let b = Node::open(&format!("{team}/r1/b"), listen, vec![])?;
-        let connect = vec![format!("tcp/127.0.0.1:{a_connects}")];
-        let a = Node::open(&format!("{team}/r1/a"), vec![], connect)?;
+        Pair::open_with(team, b_port, a_connects, None)
+    }
+
+    /// As [`open`](Self::open), over TLS with mutual authentication and the team's
+    /// access control: each node's key and certificate, for its address, from the keys
+    /// folder `keys` (made by `slate keys init` and `issue`).
+    pub fn open_secured(team: &str, port: u16, keys: &Path) -> anyhow::Result<Pair> {
+        Pair::open_with(team, port, port, Some(keys))
+    }
+
+    fn open_with(
+        team: &str,
+        b_port: u16,
+        a_connects: u16,
+        keys: Option<&Path>,
+    ) -> anyhow::Result<Pair> {
+        let scheme = if keys.is_some() { "tls" } else { "tcp" };
+        let (a_name, b_name) = (format!("{team}/r1/a"), format!("{team}/r1/b"));
+        let listen = vec![format!("{scheme}/127.0.0.1:{b_port}")];
+        let b = Node::open(&b_name, listen, vec![], security(keys, &b_name)?)?;
+        let connect = vec![format!("{scheme}/127.0.0.1:{a_connects}")];
+        let a = Node::open(&a_name, vec![], connect, security(keys, &a_name)?)?;
         let stop = Arc::new(AtomicBool::new(false));
         let (ia, ib, flag) = (a.ici.clone(), b.ici.clone(), stop.clone());
         let ticker = std::thread::Builder::new()
@@ -159,6 +186,15 @@ impl Pair {
             })
         })
     }
+}
+
+/// What module `address` needs to run secured from the keys folder `keys`, if any.
+fn security(keys: Option<&Path>, address: &str) -> anyhow::Result<Option<Security>> {
+    let Some(dir) = keys else {
+        return Ok(None);
+    };
+    let identity = Identity::parse(address)?;
+    Ok(Some(slate_node::team_keys::security(dir, &identity)?))
 }
 
 impl Drop for Pair {

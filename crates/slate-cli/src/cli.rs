@@ -53,6 +53,7 @@ pub enum Command {
     /// `--release`; debug builds are 10-50x slower and say so.
     ///
     /// Example: slate bench core --format json
+    /// Example: slate bench net --secure
     Bench(BenchArgs),
 
     /// Check .slate files: syntax, names, types. Prints every error with its line and
@@ -261,6 +262,12 @@ pub struct BenchArgs {
     /// Target duration of one sample, in milliseconds.
     #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = clap::value_parser!(u64).range(1..=1000))]
     pub sample_ms: u64,
+
+    /// With `net` only: slate over TLS with mutual authentication and a secured team's
+    /// access control (keys made in a temporary directory) against the same two nodes
+    /// over plain TCP, in the same run.
+    #[arg(long)]
+    pub secure: bool,
 }
 
 /// How every live verb reaches the team: the endpoints, how long to wait, and on a

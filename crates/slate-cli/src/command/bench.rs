@@ -7,6 +7,9 @@ use crate::cli::{BenchArgs, Format};
 
 /// Runs the suite and prints the report as text or JSON.
 pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
+    if args.secure && args.suite != slate_bench::Suite::Net {
+        anyhow::bail!("--secure measures the net suite only: run `slate bench net --secure`");
+    }
     let cfg = slate_bench::Config {
         samples: args.samples as usize,
         sample_ms: args.sample_ms,
@@ -16,9 +19,12 @@ pub fn run(args: &BenchArgs, format: Format) -> anyhow::Result<ExitCode> {
             "slate: warning: this is a debug build; run `cargo run --release -p slate-cli -- bench ...` for real figures"
         );
     }
-    let report = slate_bench::run(args.suite, &cfg, &mut |step| {
-        eprintln!("  measuring {step} ...")
-    })?;
+    let mut progress = |step: &str| eprintln!("  measuring {step} ...");
+    let report = if args.secure {
+        slate_bench::net_secure::run(&cfg, &mut progress)?
+    } else {
+        slate_bench::run(args.suite, &cfg, &mut progress)?
+    };
     match format {
         Format::Json => println!("{}", serde_json::to_string_pretty(&report.json())?),
         Format::Text => print!("{}", report.text()),

@@ -45,6 +45,7 @@ fn bad_input_gives_a_short_error_and_a_nonzero_exit() {
     for args in [
         &["bench", "warp"][..],
         &["bench", "core", "--samples", "1"],
+        &["bench", "core", "--secure"],
         &["teleport"],
     ] {
         let out = slate(args);
