@@ -313,16 +313,16 @@ class Team:
         self.nets.close()
 
 
-def stop_process(proc: subprocess.Popen[bytes] | None) -> None:
-    """SIGTERM, then SIGKILL after 3 s, to this process (by its pid) only."""
+def stop_process(proc: subprocess.Popen[bytes] | None, grace: float = 3.0) -> None:
+    """SIGTERM, then SIGKILL after `grace` seconds, to this process (by its pid) only."""
     if proc is None or proc.poll() is not None:
         return
     proc.send_signal(signal.SIGTERM)
     try:
-        proc.wait(timeout=3)
+        proc.wait(timeout=grace)
     except subprocess.TimeoutExpired:
         proc.kill()
-        proc.wait(timeout=3)
+        proc.wait(timeout=grace)
 
 
 def wait_converged(team: Team, target: int, deadline: float) -> float | None:

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import subprocess
 import sys
 import tempfile
@@ -37,7 +36,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from harness import find_slate  # noqa: E402
+from harness import find_slate, stop_process  # noqa: E402
 from netns import Namespaces, sweep_leftovers, unavailable  # noqa: E402
 from radio import Impairment, Radio  # noqa: E402
 
@@ -72,18 +71,6 @@ def radio_totals(radio: Radio, pairs: list[tuple[int, int]]) -> dict[str, int]:
     return totals
 
 
-def stop(proc: subprocess.Popen[bytes]) -> None:
-    """SIGTERM, then SIGKILL after 10 s, to the demo (by its pid) only."""
-    if proc.poll() is not None:
-        return
-    proc.send_signal(signal.SIGTERM)
-    try:
-        proc.wait(timeout=10)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(timeout=10)
-
-
 def run(args: argparse.Namespace, slate: str, workdir: Path) -> dict[str, Any]:
     """One mission: namespaces, the shaped radio, the demo; its summary and counters."""
     nets = Namespaces(FIRST_ROBOT + args.robots)
@@ -109,7 +96,8 @@ def run(args: argparse.Namespace, slate: str, workdir: Path) -> dict[str, Any]:
         summary = None
     finally:
         if proc is not None:
-            stop(proc)
+            # The demo stops its module processes on SIGTERM: give it time.
+            stop_process(proc, grace=10)
         radio.stop()
         nets.close()
     return {
