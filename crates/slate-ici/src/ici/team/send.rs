@@ -332,13 +332,15 @@ impl State {
         else {
             return;
         };
+        let due = self.team.gateway.as_ref();
+        if !due.is_some_and(|gw| gw.hello_is_due(now, min)) {
+            return;
+        }
+        // The members' union walks every peer: taken only when a hello goes.
         let interest = self.robot_interest();
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
-        if !gw.hello_is_due(now, min) {
-            return;
-        }
         (gw.hello_due, gw.hello_sent, gw.last_sent) = (false, Some(now), now);
         let hello = RobotHello {
             version: gw.version,
