@@ -10,11 +10,10 @@
 //! updates, the pairs alternating, the medians reported. Raw Zenoh puts are not measured
 //! here: the access control of a secured team allows puts on slate's keys only.
 
-use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use serde_json::json;
-use slate_node::team_keys::{self, Identity};
+use slate_node::team_keys::{Identity, TemporaryKeys};
 
 use crate::net::{PROBE_GAP, ROUNDS, SlateFlow, SlateProbe, percentile, round_budget};
 use crate::zenoh_pair::Pair;
@@ -23,43 +22,18 @@ use crate::{Config, Figures, Unit, free_port};
 /// The secured pair's team (its modules are `TEAM/r1/a` and `TEAM/r1/b`).
 const TEAM: &str = "netsecure";
 
-/// A team's keys folder in the system's temporary directory, removed on drop.
-struct TempKeys(PathBuf);
-
-impl TempKeys {
-    /// A certificate authority and a key and certificate for each of `modules`.
-    fn make(modules: &[String]) -> anyhow::Result<TempKeys> {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)?
-            .subsec_nanos();
-        let dir =
-            std::env::temp_dir().join(format!("slate-bench-keys-{}-{nanos}", std::process::id()));
-        let keys = TempKeys(dir);
-        team_keys::init(&keys.0, false)?;
-        for module in modules {
-            team_keys::issue(&keys.0, &Identity::parse(module)?, false)?;
-        }
-        Ok(keys)
-    }
-
-    fn dir(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempKeys {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
 /// Runs the comparison; `progress` is told each step.
 pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figures> {
     let mut r = Figures::new(
         "slate bench net --secure: two nodes over Zenoh on 127.0.0.1, TLS with mutual authentication and access control vs plain TCP (same run)",
     );
     progress("making a team's keys in a temporary directory");
-    let keys = TempKeys::make(&[format!("{TEAM}/r1/a"), format!("{TEAM}/r1/b")])?;
+    let members = [format!("{TEAM}/r1/a"), format!("{TEAM}/r1/b")];
+    let identities = members
+        .iter()
+        .map(|m| Identity::parse(m))
+        .collect::<Result<Vec<_>, _>>()?;
+    let keys = TemporaryKeys::make("bench", &identities)?;
     progress("opening two pairs of Zenoh sessions: TCP, and TLS");
     let port = free_port()?;
     let tcp = Pair::open("netplain", port, port)?;

@@ -180,12 +180,10 @@ mod zenoh_net {
     use std::sync::Arc;
     use std::time::{Duration, Instant};
 
-    use std::path::PathBuf;
-
     use parking_lot::Mutex;
     use slate_ici::Transport;
     use slate_model::Address;
-    use slate_node::team_keys::{self, Identity};
+    use slate_node::team_keys::{Identity, TemporaryKeys};
     use slate_zenoh::{Security, ZenohConfig, ZenohTransport};
 
     use crate::error::DemoError;
@@ -215,43 +213,24 @@ mod zenoh_net {
         keys: Option<Keys>,
     }
 
-    /// A secured team's keys folder, made by `slate keys`' code for this run and removed
-    /// when dropped.
-    pub struct Keys {
-        dir: PathBuf,
-    }
+    /// A secured team's keys, made by `slate keys`' code for this run and removed when
+    /// dropped.
+    pub struct Keys(TemporaryKeys);
 
     impl Keys {
         /// A team authority and a key and certificate for each of `members`.
         pub fn make(members: &[Address]) -> Result<Keys, DemoError> {
-            let stamp = std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .unwrap_or_default()
-                .as_nanos();
-            let dir = std::env::temp_dir()
-                .join(format!("slate-demo-keys-{}-{stamp}", std::process::id()));
-            let keys = Keys { dir };
-            let failed = |e: team_keys::KeysError| {
-                DemoError::Network(format!("cannot make the team's keys: {e}"))
-            };
-            team_keys::init(&keys.dir, false).map_err(failed)?;
-            for member in members {
-                team_keys::issue(&keys.dir, &Identity::Module(member.clone()), false)
-                    .map_err(failed)?;
-            }
-            Ok(keys)
+            let identities: Vec<Identity> = members.iter().cloned().map(Identity::Module).collect();
+            TemporaryKeys::make("demo", &identities)
+                .map(Keys)
+                .map_err(|e| DemoError::Network(format!("cannot make the team's keys: {e}")))
         }
 
         /// What `address`'s session needs to run secured.
         fn security(&self, address: &Address) -> Result<Security, DemoError> {
-            team_keys::security(&self.dir, &Identity::Module(address.clone()))
+            self.0
+                .security(&Identity::Module(address.clone()))
                 .map_err(|e| DemoError::Network(format!("{address}: {e}")))
-        }
-    }
-
-    impl Drop for Keys {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.dir);
         }
     }
 
@@ -327,7 +306,7 @@ mod zenoh_net {
         fn a_secured_networks_keys_are_its_members_own_and_go_with_it() {
             let members = ["team/r1/nav", "team/base/console"].map(|a| Address::new(a).unwrap());
             let keys = Keys::make(&members).unwrap();
-            let dir = keys.dir.clone();
+            let dir = keys.0.dir().to_path_buf();
             for m in &members {
                 let security = keys.security(m).unwrap();
                 let team = security.team.unwrap();

@@ -21,8 +21,9 @@ use crate::error::{ObserveError, StartError};
 use crate::node::Node;
 use crate::team_keys::{self, Identity};
 
-/// The module segment of observers' addresses starts with this.
-pub const OBSERVER_PREFIX: &str = "cli-";
+/// The module segment of observers' addresses starts with this: the prefix a secured
+/// team's access control lets an operator speak under (one constant for both).
+pub const OBSERVER_PREFIX: &str = slate_zenoh::OPERATOR_PREFIX;
 
 /// How an observer joins.
 #[derive(Clone, Debug)]

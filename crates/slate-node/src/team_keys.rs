@@ -229,6 +229,47 @@ pub fn issue(dir: &Path, identity: &Identity, force: bool) -> Result<Vec<PathBuf
     Ok(vec![cert, key])
 }
 
+/// A team's keys made for one run (a demo, a benchmark) in a fresh folder of the system's
+/// temporary directory, removed when dropped.
+pub struct TemporaryKeys {
+    dir: PathBuf,
+}
+
+impl TemporaryKeys {
+    /// An authority and a key and certificate for each of `identities`, in a folder
+    /// named after `label`, this process and the moment.
+    pub fn make(label: &str, identities: &[Identity]) -> Result<TemporaryKeys, KeysError> {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos());
+        let name = format!("slate-{label}-keys-{}-{nanos}", std::process::id());
+        let keys = TemporaryKeys {
+            dir: std::env::temp_dir().join(name),
+        };
+        init(&keys.dir, false)?;
+        for identity in identities {
+            issue(&keys.dir, identity, false)?;
+        }
+        Ok(keys)
+    }
+
+    /// The keys folder.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// What a session of `identity` needs to run secured ([`security`]).
+    pub fn security(&self, identity: &Identity) -> Result<Security, KeysError> {
+        security(&self.dir, identity)
+    }
+}
+
+impl Drop for TemporaryKeys {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
 /// The authority of `dir`, to sign with.
 fn authority(dir: &Path) -> Result<Issuer<'static, KeyPair>, KeysError> {
     let cert_path = dir.join(CA_CERTIFICATE);

@@ -292,7 +292,7 @@ impl State {
             ops: Vec::new(),
             plans: Vec::new(),
             spare_items: Vec::new(),
-            team: super::team::TeamState::default(),
+            team: super::team::TeamState::new(),
         }
     }
 

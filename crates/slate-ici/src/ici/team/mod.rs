@@ -44,9 +44,7 @@ pub(crate) struct TeamState {
     pub elected: Option<Address>,
     /// Team messages waiting for a gateway (at most `MAX_PENDING_BYTES` in all,
     /// unless one alone is larger).
-    pub pending: VecDeque<Vec<u8>>,
-    /// The bytes of `pending`.
-    pub pending_bytes: usize,
+    pub pending: pace::ByteQueue<Vec<u8>>,
     /// The remote robots' union interest, from the gateway (`None`: not known yet, so
     /// everything exported goes).
     pub remote: Option<frame::TeamInterest>,
@@ -64,4 +62,14 @@ pub(crate) struct TeamState {
     /// Members' messages that named what a lost frame announced, kept until their
     /// robot's stream has no gap left (at most `receive::MAX_UNDECODED`).
     pub undecoded: VecDeque<Undecoded>,
+}
+
+impl TeamState {
+    /// A module's team state before it hears anything: no gateway, nothing held.
+    pub fn new() -> TeamState {
+        TeamState {
+            pending: pace::ByteQueue::new(MAX_PENDING_BYTES),
+            ..TeamState::default()
+        }
+    }
 }

@@ -72,32 +72,65 @@ pub(crate) struct Queued {
     pub answer: bool,
 }
 
-/// The gateway's queue of members' messages, in the order they came (a member's
-/// messages must keep their order: a later one may use a name an earlier one
-/// announced).
+/// What a [`ByteQueue`] bounds: the bytes each entry holds.
+pub(crate) trait ByteLen {
+    fn byte_len(&self) -> usize;
+}
+
+impl ByteLen for Vec<u8> {
+    fn byte_len(&self) -> usize {
+        self.len()
+    }
+}
+
+impl ByteLen for Queued {
+    fn byte_len(&self) -> usize {
+        self.message.len()
+    }
+}
+
+/// Messages in the order they came, at most `max` bytes of them: past it the oldest are
+/// dropped, and counted by the caller. The gateway's queue for the radio ([`TxQueue`])
+/// and a member's messages held until a gateway is known are both one.
 ///
-/// Invariant: `bytes` is the sum of the queued messages' lengths and at most `max`
-/// (past it the oldest are dropped), unless one message alone is larger.
-#[derive(Debug, Default)]
-pub(crate) struct TxQueue {
-    queue: VecDeque<Queued>,
+/// Invariant: `bytes` is the sum of the entries' lengths and at most `max`, unless one
+/// entry alone is larger.
+#[derive(Debug)]
+pub(crate) struct ByteQueue<T> {
+    queue: VecDeque<T>,
     bytes: usize,
     max: usize,
 }
 
-impl TxQueue {
+/// The gateway's queue of members' messages, in the order they came (a member's
+/// messages must keep their order: a later one may use a name an earlier one
+/// announced).
+pub(crate) type TxQueue = ByteQueue<Queued>;
+
+impl<T> Default for ByteQueue<T> {
+    /// An empty queue with no bound.
+    fn default() -> Self {
+        ByteQueue {
+            queue: VecDeque::new(),
+            bytes: 0,
+            max: usize::MAX,
+        }
+    }
+}
+
+impl<T: ByteLen> ByteQueue<T> {
     /// An empty queue of at most `max` bytes.
-    pub fn new(max: usize) -> TxQueue {
-        TxQueue {
+    pub fn new(max: usize) -> ByteQueue<T> {
+        ByteQueue {
             max,
-            ..TxQueue::default()
+            ..ByteQueue::default()
         }
     }
 
-    /// Queues a message; returns how many of the oldest were dropped to make room.
-    pub fn push(&mut self, q: Queued) -> u64 {
-        self.bytes += q.message.len();
-        self.queue.push_back(q);
+    /// Queues an entry; returns how many of the oldest were dropped to make room.
+    pub fn push(&mut self, entry: T) -> u64 {
+        self.bytes += entry.byte_len();
+        self.queue.push_back(entry);
         let mut dropped = 0;
         while self.bytes > self.max && self.queue.len() > 1 {
             self.pop();
@@ -106,31 +139,42 @@ impl TxQueue {
         dropped
     }
 
-    /// The oldest message.
-    pub fn pop(&mut self) -> Option<Queued> {
-        let q = self.queue.pop_front()?;
-        self.bytes -= q.message.len();
-        Some(q)
+    /// The oldest entry.
+    pub fn pop(&mut self) -> Option<T> {
+        let entry = self.queue.pop_front()?;
+        self.bytes -= entry.byte_len();
+        Some(entry)
     }
 
-    /// Does a part of member `member`'s state answer wait here?
-    pub fn holds_answer_of(&self, member: u8) -> bool {
-        self.queue.iter().any(|q| q.answer && q.member == member)
-    }
-
-    /// The bytes of the messages queued.
+    /// The bytes of the entries queued.
     pub fn bytes(&self) -> usize {
         self.bytes
+    }
+
+    pub fn len(&self) -> usize {
+        self.queue.len()
     }
 
     pub fn is_empty(&self) -> bool {
         self.queue.is_empty()
     }
 
-    /// Everything queued, oldest first (a gateway resigning).
-    pub fn drain(&mut self) -> Vec<Queued> {
+    /// The entries, oldest first.
+    pub fn iter(&self) -> impl Iterator<Item = &T> {
+        self.queue.iter()
+    }
+
+    /// Everything queued, oldest first.
+    pub fn drain(&mut self) -> Vec<T> {
         self.bytes = 0;
         self.queue.drain(..).collect()
+    }
+}
+
+impl TxQueue {
+    /// Does a part of member `member`'s state answer wait here?
+    pub fn holds_answer_of(&self, member: u8) -> bool {
+        self.queue.iter().any(|q| q.answer && q.member == member)
     }
 }
 

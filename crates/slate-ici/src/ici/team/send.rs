@@ -14,7 +14,6 @@ use std::sync::Arc;
 
 use slate_model::{Address, Context};
 
-use super::MAX_PENDING_BYTES;
 use super::frame::{
     RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamInterest, TeamMsg, Uplink,
 };
@@ -52,14 +51,7 @@ impl State {
     /// Keeps a message for the gateway to come, the oldest dropped past
     /// `MAX_PENDING_BYTES`.
     fn hold(&mut self, message: Vec<u8>) {
-        let team = &mut self.team;
-        team.pending_bytes += message.len();
-        team.pending.push_back(message);
-        while team.pending_bytes > MAX_PENDING_BYTES && team.pending.len() > 1 {
-            let dropped = team.pending.pop_front().map_or(0, |m| m.len());
-            team.pending_bytes -= dropped;
-            self.stats.team.pending_dropped += 1;
-        }
+        self.stats.team.pending_dropped += self.team.pending.push(message);
     }
 
     /// Hands a message to the gateway with this module's inner team position as its
@@ -203,8 +195,7 @@ impl State {
             self.take_gateway_role();
         }
         if self.team.elected.is_some() {
-            self.team.pending_bytes = 0;
-            let held: Vec<Vec<u8>> = self.team.pending.drain(..).collect();
+            let held = self.team.pending.drain();
             held.into_iter().for_each(|m| self.route(m, false));
         }
     }
@@ -496,6 +487,7 @@ mod tests {
 
     use super::*;
     use crate::SimNet;
+    use crate::ici::team::MAX_PENDING_BYTES;
     use crate::ici::{IciConfig, TeamProtocol};
 
     /// `t/r0/m0` alone on its robot, with this election priority.
@@ -521,7 +513,7 @@ mod tests {
             st.publish(LinkKind::Team, MsgKind::Report, &report);
         }
         assert_eq!(st.stats.team.pending_dropped, 201, "the oldest went");
-        assert_eq!(st.team.pending.front().map(|m| m[1]), Some(1));
+        assert_eq!(st.team.pending.iter().next().map(|m| m[1]), Some(1));
         let held: usize = st.team.pending.iter().map(Vec::len).sum();
         assert!(held <= MAX_PENDING_BYTES);
     }
