@@ -25,6 +25,9 @@ if ! cargo fuzz --version 2>/dev/null | grep -qF "$CARGO_FUZZ_VERSION"; then
   cargo install --locked cargo-fuzz --version "$CARGO_FUZZ_VERSION"
 fi
 
+# node_config alone needs slate-node (and Zenoh): fuzz/Cargo.toml's `node` feature.
+features() { if [ "$1" = node_config ]; then echo "--features node"; fi; }
+
 CARGO_TARGET_DIR="$(realpath -m "${CARGO_TARGET_DIR:-target}")/fuzz"
 export CARGO_TARGET_DIR
 cd fuzz
@@ -34,7 +37,7 @@ if [ "${#targets[@]}" -eq 0 ]; then
 fi
 for target in "${targets[@]}"; do
   step "cargo fuzz build $target (stable, --sanitizer none, debug assertions on)"
-  cargo fuzz build --sanitizer none "$target"
+  cargo fuzz build --sanitizer none $(features "$target") "$target"
 done
 work="$(mktemp -d)"
 trap 'rm -rf "$work"' EXIT
@@ -43,7 +46,7 @@ for target in "${targets[@]}"; do
   mkdir -p "$work/$target" "artifacts/$target" "corpus/$target"
   # New inputs go to the scratch directory first, so the committed corpus stays as it is.
   log="$work/$target.log"
-  if ! cargo fuzz run --sanitizer none "$target" "$work/$target" "corpus/$target" -- \
+  if ! cargo fuzz run --sanitizer none $(features "$target") "$target" "$work/$target" "corpus/$target" -- \
     -max_total_time="$SECONDS_EACH" -runs="${FUZZ_RUNS:--1}" -timeout=10 -rss_limit_mb=2048 \
     -print_final_stats=1 >"$log" 2>&1; then
     tail -n 40 "$log" >&2

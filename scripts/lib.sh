@@ -17,7 +17,11 @@ need_cargo() {
   done
 }
 
-step() { printf '\n==> %s\n' "$*" >&2; }
+# In CI a step also says how much disk is left, so a full disk is plain in the log.
+step() {
+  printf '\n==> %s\n' "$*" >&2
+  if [ -n "${CI:-}" ]; then df -h . 2>/dev/null | awk 'NR == 2 { print "    (disk: " $4 " free)" }' >&2 || true; fi
+}
 
 # The dashboard's browser test needs Debian's chromium; install it when we can (root),
 # and make its absence a failure only when it is installed.

@@ -218,7 +218,8 @@ pub fn slate_check(source: &str) {
 }
 
 /// The `node_config` target: a node's TOML config read as `slate node` reads it. A
-/// refusal must say something.
+/// refusal must say something. Built with the `node` feature only.
+#[cfg(feature = "node")]
 pub fn node_config(text: &str) {
     let base = std::path::Path::new("/nonexistent-slate-fuzz");
     if let Err(e) = slate_node::NodeConfig::parse("fuzz.toml", text, base) {
