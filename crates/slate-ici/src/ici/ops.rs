@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use parking_lot::Mutex;
 use slate_model::{
-    Address, Board, Context, CreateError, Merged, NewObject, Packet, Update, WriteError,
+    Address, Board, Context, CreateError, Merged, NewObject, Packet, Update, Value, WriteError,
 };
 
 use super::filter::Key;
@@ -199,7 +199,10 @@ fn forget_module(board: &Board, peer: &Address) {
     }
 }
 
-/// Creates (if need be) and writes a peer's `Module` object in one batch.
+/// Creates (if need be) and writes a peer's `Module` object in one batch. `alive` is
+/// written only when it changes: plans that read it (a robot's liveliness is derived from
+/// its modules') are evaluated again on every write of it, and a refresh while the peer
+/// lives changes only `last_seen`.
 fn module(board: &Board, peer: &Address, alive: bool, last_seen: Duration) {
     let name = module_object_name(peer);
     let context = match LinkKind::between(board.address(), peer) {
@@ -211,7 +214,12 @@ fn module(board: &Board, peer: &Address, alive: bool, last_seen: Duration) {
         batch.create_with(NewObject::new(MODULE_CLASS, &name).context(context));
         batch.write(&name, "address", peer.as_str());
     }
-    batch.write(&name, "alive", alive);
+    let unchanged = board
+        .read(&name, "alive")
+        .is_ok_and(|p| p.value == Value::Bool(alive));
+    if !unchanged {
+        batch.write(&name, "alive", alive);
+    }
     batch.write(&name, "last_seen", last_seen.as_secs_f64());
     if let Err(e) = batch.commit() {
         tracing::warn!(module = %peer, error = %e, "module object not written");

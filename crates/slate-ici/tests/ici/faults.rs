@@ -243,6 +243,27 @@ fn a_silent_module_is_declared_dead_by_the_heartbeat_timeout() {
     assert!(now - seen >= 5.0, "last seen {seen}, now {now}");
 }
 
+#[test]
+fn a_live_modules_heartbeats_refresh_last_seen_without_rewriting_alive() {
+    // Plans that read `alive` (a robot's liveliness is derived from its modules') are
+    // evaluated again on every write of it: a refresh that changes nothing must not write it.
+    let team = Team::grid(31, SimConfig::default(), 2, 1);
+    team.run(1.0);
+    let board = team.board("t/r0/m0");
+    let name = module_object_name(&addr("t/r1/m0"));
+    let found = board.read(&name, "alive").unwrap();
+    assert_eq!(found.value, Value::Bool(true));
+    team.run(20.0);
+    let alive = board.read(&name, "alive").unwrap();
+    assert_eq!(alive.value, Value::Bool(true));
+    assert_eq!(
+        alive.timestamp, found.timestamp,
+        "alive rewritten though unchanged"
+    );
+    let seen = board.read(&name, "last_seen").unwrap();
+    assert!(seen.timestamp > found.timestamp, "last_seen not refreshed");
+}
+
 /// A transport that loses the first hellos it is asked to send, as Zenoh loses a
 /// message sent before the peer's subscriptions have reached this module.
 struct LosesHellos {
