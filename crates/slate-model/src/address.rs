@@ -25,6 +25,14 @@ impl std::hash::Hash for Address {
     }
 }
 
+/// An address orders, hashes and compares as its text, so a map keyed by addresses can be
+/// searched by text (a robot's modules are one range of it).
+impl std::borrow::Borrow<str> for Address {
+    fn borrow(&self) -> &str {
+        &self.0
+    }
+}
+
 impl Ord for Address {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
         if Arc::ptr_eq(&self.0, &other.0) {

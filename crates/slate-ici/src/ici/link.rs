@@ -154,6 +154,8 @@ impl Links {
             st.config.export = self.started_export.clone();
         }
         policy.apply_to(link, &mut st.config);
+        // A new timeout may bring a live peer's deadline earlier: walk at the next tick.
+        st.timeouts_from = Duration::ZERO;
         st.filters.set_link(link, policy.overrides());
         self.policies.insert(link, policy);
         if st.config.export != before {

@@ -66,6 +66,10 @@ impl State {
         p.alive = Some(alive);
         p.seen_written = now;
         let last_seen = p.last_heard;
+        if alive {
+            let deadline = self.deadline(&self.peers[peer]);
+            self.timeouts_from = self.timeouts_from.min(deadline);
+        }
         self.ops.push(BoardOp::Module {
             peer: peer.clone(),
             alive,

@@ -3,6 +3,7 @@
 //! applied after the lock is released (board hooks may call back into the ICI).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::ops::Bound;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -231,6 +232,9 @@ pub(crate) struct State {
     /// Classes another module defines differently, with that module: (class, peer).
     pub conflicts: BTreeSet<(Arc<str>, Address)>,
     pub next_heartbeat: BTreeMap<LinkKind, Duration>,
+    /// No live peer times out before this instant (`State::timeouts`); never later than
+    /// the earliest deadline of a live peer.
+    pub timeouts_from: Duration,
     pub watch: Watch,
     pub stats: IciStats,
     /// Physical time of the operation in progress.
@@ -286,6 +290,7 @@ impl State {
             origins: BTreeMap::new(),
             conflicts: BTreeSet::new(),
             next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
+            timeouts_from: Duration::ZERO,
             watch,
             stats: IciStats::default(),
             now,
@@ -313,6 +318,16 @@ impl State {
     /// Does `peer` define `class` differently from this board (as found so far)?
     pub fn conflicts_with(&self, peer: &Address, class: &str) -> bool {
         self.conflicts.contains(&(Arc::from(class), peer.clone()))
+    }
+
+    /// The other modules of this module's robot: one range of the peers (addresses order
+    /// as their text, and a robot's are those that start with `team/robot/`), not a walk
+    /// over the whole team.
+    pub fn mates(&self) -> impl Iterator<Item = (&Address, &Peer)> {
+        let prefix = format!("{}/", self.me.robot_path());
+        self.peers
+            .range::<str, _>((Bound::Included(prefix.as_str()), Bound::Unbounded))
+            .take_while(move |(a, _)| a.as_str().starts_with(&prefix))
     }
 
     /// The peer entry of `address`, made on first mention.
@@ -373,9 +388,8 @@ impl State {
         let protocol = self.config.team_protocol.as_ref()?;
         let me = protocol.priority.map(|p| (p, &self.me));
         let mates = self
-            .peers
-            .iter()
-            .filter(|(_, p)| p.link == LinkKind::Robot && p.alive == Some(true))
+            .mates()
+            .filter(|(_, p)| p.alive == Some(true))
             .filter_map(|(a, p)| Some((p.priority?, a)));
         me.into_iter().chain(mates).min().map(|(_, a)| a.clone())
     }

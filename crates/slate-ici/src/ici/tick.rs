@@ -2,6 +2,8 @@
 //! attribute heartbeats, module heartbeats, liveliness timeouts, catch-up retries and
 //! gaps that stayed open.
 
+use std::time::Duration;
+
 use slate_model::Address;
 use slate_wire::{Heartbeat, Message};
 
@@ -128,14 +130,29 @@ impl State {
         self.now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout
     }
 
-    /// Peers silent past their link's timeout are dead.
+    /// When `p` times out if it stays silent: after this instant, [`Self::silent`] holds.
+    pub(super) fn deadline(&self, p: &Peer) -> Duration {
+        p.last_heard
+            .saturating_add(self.config.link(p.link).timeout)
+    }
+
+    /// Peers silent past their link's timeout are dead. The peers are walked only once
+    /// the earliest deadline of a live peer has passed (`timeouts_from`): hearing a peer
+    /// only moves its deadline later, and a peer found alive lowers it.
     fn timeouts(&mut self) {
-        let dead: Vec<Address> = self
-            .peers
-            .iter()
-            .filter(|(_, p)| p.alive == Some(true) && self.silent(p))
-            .map(|(a, _)| a.clone())
-            .collect();
+        if self.now <= self.timeouts_from {
+            return;
+        }
+        let mut dead = Vec::new();
+        let mut next = Duration::MAX;
+        for (a, p) in self.peers.iter().filter(|(_, p)| p.alive == Some(true)) {
+            if self.silent(p) {
+                dead.push(a.clone());
+            } else {
+                next = next.min(self.deadline(p));
+            }
+        }
+        self.timeouts_from = next;
         for peer in dead {
             self.lost(&peer);
         }

@@ -248,10 +248,7 @@ impl State {
     /// The gateway's view of its members: itself and the mates whose hello it heard.
     fn team_review(&mut self) {
         let mut seen = vec![self.seen_self()];
-        let mates = self
-            .peers
-            .iter()
-            .filter(|(_, p)| p.link == LinkKind::Robot && !p.observer);
+        let mates = self.mates().filter(|(_, p)| !p.observer);
         seen.extend(mates.filter_map(|(a, p)| {
             Some(Seen {
                 name: a.module().into(),
@@ -349,9 +346,9 @@ impl State {
     /// never arrives in SELF. Classes left with no context are dropped.
     fn robot_interest(&self) -> ClassSet {
         let mates = self
-            .peers
-            .values()
-            .filter(|p| p.link == LinkKind::Robot && p.alive == Some(true));
+            .mates()
+            .map(|(_, p)| p)
+            .filter(|p| p.alive == Some(true));
         let sets =
             std::iter::once(&self.config.interest).chain(mates.filter_map(|p| p.interest.as_ref()));
         union_without(sets, context_bit(Context::Self_))
