@@ -69,6 +69,9 @@ impl State {
         if alive {
             let deadline = self.deadline(&self.peers[peer]);
             self.timeouts_from = self.timeouts_from.min(deadline);
+            self.dead.remove(peer);
+        } else {
+            self.dead.insert(peer.clone());
         }
         self.ops.push(BoardOp::Module {
             peer: peer.clone(),

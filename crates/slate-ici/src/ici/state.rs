@@ -235,6 +235,8 @@ pub(crate) struct State {
     /// No live peer times out before this instant (`State::timeouts`); never later than
     /// the earliest deadline of a live peer.
     pub timeouts_from: Duration,
+    /// The peers whose `alive` was last written false: those `forget_dead` looks at.
+    pub dead: BTreeSet<Address>,
     pub watch: Watch,
     pub stats: IciStats,
     /// Physical time of the operation in progress.
@@ -291,6 +293,7 @@ impl State {
             conflicts: BTreeSet::new(),
             next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
             timeouts_from: Duration::ZERO,
+            dead: BTreeSet::new(),
             watch,
             stats: IciStats::default(),
             now,

@@ -164,17 +164,20 @@ impl State {
     /// modules however many came and went, and none that only looked. Gone: the
     /// transport says it is down, or it has been silent past its link's timeout (a
     /// message still in flight when it left shows it up again, and no down follows).
+    /// Walks only the dead (`State::dead`), in the peers' order.
     fn forget_dead(&mut self) {
         let (now, after) = (self.now, self.config.forget_dead);
         let gone: Vec<Address> = self
-            .peers
+            .dead
             .iter()
-            .filter(|(_, p)| p.alive == Some(false) && (!p.up || self.silent(p)))
+            .filter_map(|a| Some((a, self.peers.get(a)?)))
+            .filter(|(_, p)| !p.up || self.silent(p))
             .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
             .map(|(a, _)| a.clone())
             .collect();
         // Its names left the decoder when it was lost.
         for peer in gone {
+            self.dead.remove(&peer);
             self.peers.remove(&peer);
             self.stats.liveliness.forgotten += 1;
             self.ops.push(BoardOp::ForgetModule(peer));
