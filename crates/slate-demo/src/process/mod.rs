@@ -89,6 +89,7 @@ impl ProcessNet {
                 address,
                 seed: config.seed,
                 robots: u8::try_from(config.robots).unwrap_or(u8::MAX),
+                speakers: config.speakers,
                 return_after: config.duration.as_secs_f64() * 0.8,
                 listen,
                 world: world_endpoint.clone(),
