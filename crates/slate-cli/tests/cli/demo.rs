@@ -142,6 +142,11 @@ fn processes_mission(extra: &[&str]) -> (serde_json::Value, String) {
         "fault not detected: {j}"
     );
     assert!(j["team_link_bytes"].as_u64().unwrap() > 0, "{j}");
+    // The plans the module processes sent and accepted: the console's mission plans,
+    // and the sub-plans each execution controller sends its robot's modules.
+    assert!(j["plans_sent"].as_u64() > Some(0), "no plan counted: {j}");
+    assert!(j["plans_accepted"].as_u64() > Some(0), "{j}");
+    assert_eq!(j["plans_rejected"], 0, "{j}");
     let pids = module_pids(&stderr);
     assert_eq!(pids.len(), 16, "{stderr}");
     for pid in pids {
