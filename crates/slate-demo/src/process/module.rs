@@ -100,6 +100,34 @@ impl ModuleSpec {
     }
 }
 
+/// A Zenoh config file that turns gossip off, for the module's session to open with, when
+/// robots speak: each module is then linked only to the peers it was told
+/// (`ModuleSpec::connect`), instead of to every module its peers tell it of (Zenoh's
+/// default), which would link every module to every other across the radio again.
+/// Removed when dropped (Zenoh reads it as the session opens).
+struct NoGossipFile(std::path::PathBuf);
+
+impl NoGossipFile {
+    const TEXT: &str = "{ scouting: { gossip: { enabled: false } } }";
+
+    fn for_speakers(speakers: Speakers) -> Result<Option<NoGossipFile>, DemoError> {
+        if speakers == Speakers::Modules {
+            return Ok(None);
+        }
+        let name = format!("slate-demo-module-{}.json5", std::process::id());
+        let path = std::env::temp_dir().join(name);
+        std::fs::write(&path, Self::TEXT)
+            .map_err(|e| DemoError::Network(format!("{}: {e}", path.display())))?;
+        Ok(Some(NoGossipFile(path)))
+    }
+}
+
+impl Drop for NoGossipFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
 /// `speakers` as [`ModuleSpec::to_args`] writes it.
 fn speakers_arg(speakers: Speakers) -> &'static str {
     match speakers {
@@ -141,14 +169,17 @@ impl ModuleProcess {
         let layout = Layout::generate(spec.seed, usize::from(spec.robots));
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
         let robot_name = spec.address.robot().to_owned();
+        let no_gossip = NoGossipFile::for_speakers(spec.speakers)?;
         let zenoh = ZenohConfig {
             listen: vec![spec.listen.clone()],
             connect: spec.connect.clone(),
+            file: no_gossip.as_ref().map(|f| f.0.clone()),
             ..ZenohConfig::default()
         };
         let link = TeamLink::default();
         let link = (&link, spec.speakers);
         let module = Module::start_loaded(zenoh, &robot_name, role, &robots, link)?;
+        drop(no_gossip);
         let robot = robots.iter().position(|r| *r == robot_name).unwrap_or(0);
         // The console's operator needs the world's time, as the drivers need the world.
         let world_reader = match role {
