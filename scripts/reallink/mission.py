@@ -7,6 +7,12 @@ shapes it: 60 ms +- 40 ms, 5 % loss, 9600 bit/s per directed link.
     sudo python3 scripts/reallink/mission.py                 # seed 7, one run
     sudo python3 scripts/reallink/mission.py --seed 3 --runs 3
     sudo python3 scripts/reallink/mission.py --loss 0 --rate 0   # the radio unshaped
+    sudo python3 scripts/reallink/mission.py --speakers modules  # every module speaks
+
+Robots speak by default (`slate demo --speakers robots`: one gateway per robot on the
+team link, docs/team-protocol.md): with every module speaking, each module's Zenoh
+session has a TCP connection to every module of every other robot, and 9600 bit/s
+cannot carry them (docs/deploy.md).
 
 Namespace 0 holds the `slate demo` process itself (the world, served as a module, and the
 referee's observers; docs/demo.md "As processes"): its links to every robot are clean, so
@@ -81,7 +87,7 @@ def run(args: argparse.Namespace, slate: str, workdir: Path) -> dict[str, Any]:
     )
     radio.set_impairment(shaped, pairs)
     demo = [slate, "demo", "--network", "processes", "--format", "json"]
-    demo += ["--seed", str(args.seed), "--robots", str(args.robots)]
+    demo += ["--seed", str(args.seed), "--robots", str(args.robots), "--speakers", args.speakers]
     cmd = ["ip", "netns", "exec", nets.names[WORLD], *demo, *placement(nets, args.robots)]
     log = workdir / f"demo-seed{args.seed}.log"
     started = time.monotonic()
@@ -102,6 +108,7 @@ def run(args: argparse.Namespace, slate: str, workdir: Path) -> dict[str, Any]:
         nets.close()
     return {
         "seed": args.seed,
+        "speakers": args.speakers,
         "impairment": shaped.__dict__,
         "wall_s": round(time.monotonic() - started, 1),
         "summary": summary,
@@ -126,6 +133,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=7, help="the demo's seed (default 7); runs use seed, seed+1, ...")
     p.add_argument("--runs", type=int, default=1, help="runs, one seed each (default 1)")
     p.add_argument("--robots", type=int, default=3, help="robots (default 3)")
+    p.add_argument(
+        "--speakers",
+        choices=["robots", "modules"],
+        default="robots",
+        help="who speaks on the team link: one gateway per robot (default) or every module",
+    )
     p.add_argument("--loss", type=float, default=0.05, help="loss per frame on the team's links (default 0.05)")
     p.add_argument("--rate", type=float, default=9600, help="bit/s per directed team link (default 9600; 0: unlimited)")
     p.add_argument("--queue", type=float, default=5.0, help="longest wait in a link's queue, s (default 5)")

@@ -340,10 +340,8 @@ impl DemoConfig {
         if self.secure && self.network != NetworkKind::Zenoh {
             return bad("--secure secures Zenoh's links: use it with --network zenoh".into());
         }
-        if self.network == NetworkKind::Processes
-            && (self.deck.is_some() || self.speakers != Speakers::Modules)
-        {
-            return bad("--network processes runs the default mission: without --deck, with --speakers modules (each module's process builds its module as that run does)".into());
+        if self.network == NetworkKind::Processes && self.deck.is_some() {
+            return bad("--network processes runs the mission without --deck (each module's process builds its module as that run does)".into());
         }
         if self.deck.is_some_and(|d| d < MIN_DECK) {
             return bad(format!(

@@ -237,14 +237,14 @@ impl Module {
         robot: &str,
         role: Role,
         team: &[String],
-        link: &TeamLink,
+        (link, speakers): (&TeamLink, Speakers),
     ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/{}", role.name()))
             .map_err(|e| DemoError::Config(e.to_string()))?;
         let mut builder = Node::builder(address)
             .zenoh(zenoh)
             .clock(slate_model::Clock::system())
-            .ici(role.ici_config(Speakers::Modules, link, team.len() + 1))
+            .ici(role.ici_config(speakers, link, team.len() + 1))
             .plans_from(plans_from());
         for (label, text) in sources(role, robot, team, link.medium)? {
             builder = builder.source(&label, &text);
@@ -300,14 +300,26 @@ impl Module {
 
     /// The referee's observer on `robot` (`team/ROBOT/cli-referee`), standing in for its
     /// module in `role`: it models everything, exports nothing, and has the team's
-    /// classes.
-    pub(crate) fn referee(net: &Network, robot: &str, role: Role) -> Result<Module, DemoError> {
+    /// classes. With robots speaking it is a member of its robot that is never gateway
+    /// and listens to the team link itself, so that it hears the team link as the robot's
+    /// modules do without its robot's gateway relaying everything to it.
+    pub(crate) fn referee(
+        net: &Network,
+        robot: &str,
+        role: Role,
+        speakers: Speakers,
+    ) -> Result<Module, DemoError> {
         let address = Address::new(&format!("team/{robot}/cli-referee"))
             .map_err(|e| DemoError::Config(e.to_string()))?;
-        let ici = IciConfig::default()
+        let mut ici = IciConfig::default()
             .interest(ClassSet::all())
             .export(ClassSet::none())
             .observer(true);
+        if speakers == Speakers::Robots {
+            let mut protocol = TeamProtocol::radio().priority(None);
+            protocol.listen = slate_ici::Listen::Always;
+            ici = ici.team_protocol(Some(protocol));
+        }
         let node = Node::builder(address.clone())
             .transport(net.join(&address)?)
             .clock(net.clock())

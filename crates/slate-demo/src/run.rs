@@ -293,7 +293,17 @@ impl Demo {
         }
     }
 
+    /// Plans sent, accepted and rejected: from the senders' circuits, or with module
+    /// processes from the counters each module answered (circuits it opened; plans it
+    /// accepted or rejected as their destination).
     fn plan_counts(&self) -> (usize, usize, usize) {
+        if let Some(modules) = self.net.module_stats() {
+            let sum = |f: fn(&slate_node::stats::Plans) -> u64| {
+                let total: u64 = modules.iter().map(|m| f(&m.plans)).sum();
+                usize::try_from(total).unwrap_or(usize::MAX)
+            };
+            return (sum(|p| p.sent), sum(|p| p.accepted), sum(|p| p.rejected));
+        }
         let circuits: Vec<_> = self
             .team
             .modules

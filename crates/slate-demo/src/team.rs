@@ -40,7 +40,7 @@ impl Team {
     ) -> Result<Team, DemoError> {
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
         if !net.drives_here() {
-            return Team::referee(net, robots);
+            return Team::referee(net, robots, link.1);
         }
         let console = Module::start(net, BASE, Role::Console, &robots, link)?;
         let mut modules = vec![console];
@@ -67,10 +67,10 @@ impl Team {
     /// With module processes: the referee, an observer on each robot and the base that
     /// stands in for each of its modules (it hears the robot's LAN and the team link as
     /// they do); no driver and no operator run here.
-    fn referee(net: &Network, robots: Vec<String>) -> Result<Team, DemoError> {
-        let mut modules = vec![Module::referee(net, BASE, Role::Console)?];
+    fn referee(net: &Network, robots: Vec<String>, speakers: Speakers) -> Result<Team, DemoError> {
+        let mut modules = vec![Module::referee(net, BASE, Role::Console, speakers)?];
         for robot in &robots {
-            let observer = Module::referee(net, robot, Role::Exec)?;
+            let observer = Module::referee(net, robot, Role::Exec, speakers)?;
             for role in Role::ROBOT {
                 modules.push(Module {
                     role,

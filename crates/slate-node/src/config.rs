@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::str::FromStr;
 use std::time::Duration;
 
-use slate_ici::{ClassSet, IciConfig, LinkKind};
+use slate_ici::{ClassSet, IciConfig, LinkKind, TeamProtocol};
 use slate_model::{Address, Context};
 use slate_plans::Substitution;
 use slate_zenoh::{Mode, ZenohConfig};
@@ -135,6 +135,11 @@ const ICI: &[&str] = &[
     "max_tombstones",
     "max_sources",
     "forget_dead",
+    "speakers",
+    "team_preset",
+    "gateway_priority",
+    "gateway",
+    "team_rate",
 ];
 
 /// A node's team link sends one attribute at most every 200 ms (`[ici]
@@ -516,7 +521,61 @@ fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     if let Some(d) = t.duration("forget_dead")? {
         ici.forget_dead = d;
     }
+    ici.team_protocol = team_protocol(&mut t)?;
     t.finish()
+}
+
+/// `speakers = "robots"` and its settings (`team_preset`, `gateway_priority`, `gateway`,
+/// `team_rate`): one gateway per robot speaks on the team link (docs/team-protocol.md);
+/// `None` with `"modules"`, the default, where every module speaks (docs/ici.md). The
+/// settings alone are refused: without robots speaking they would do nothing.
+fn team_protocol(t: &mut Fields) -> Result<Option<TeamProtocol>, ConfigError> {
+    const SPEAKERS: &str = "\"modules\" or \"robots\"";
+    let robots = match t.str("speakers", SPEAKERS)?.as_deref() {
+        None | Some("modules") => false,
+        Some("robots") => true,
+        Some(other) => return Err(t.invalid("speakers", SPEAKERS, &format!("{other:?}"))),
+    };
+    let protocol = team_preset(t)?;
+    let priority = t.integer_in("gateway_priority", 0, 255)?;
+    let gateway = t.bool("gateway")?;
+    let rate = t.count("team_rate")?;
+    if !robots {
+        let given = ["team_preset", "gateway_priority", "gateway", "team_rate"];
+        let set = [
+            protocol.is_some(),
+            priority.is_some(),
+            gateway.is_some(),
+            rate.is_some(),
+        ];
+        return match given.iter().zip(set).find(|(_, s)| *s) {
+            Some((key, _)) => Err(t.invalid(key, "speakers = \"robots\" beside it", "nothing")),
+            None => Ok(None),
+        };
+    }
+    let mut protocol = protocol.unwrap_or_else(TeamProtocol::radio);
+    protocol.priority = priority
+        .and_then(|p| u8::try_from(p).ok())
+        .or(protocol.priority);
+    if gateway == Some(false) {
+        protocol.priority = None;
+    }
+    if let Some(bps) = rate {
+        protocol.rate_bps = u32::try_from(bps).unwrap_or(u32::MAX);
+    }
+    Ok(Some(protocol))
+}
+
+/// `team_preset = "radio"` or `"acoustic"`: the team protocol's timings and frame size
+/// for that medium ([`TeamProtocol::radio`], [`TeamProtocol::acoustic`]).
+fn team_preset(t: &mut Fields) -> Result<Option<TeamProtocol>, ConfigError> {
+    const PRESETS: &str = "\"radio\" or \"acoustic\"";
+    match t.str("team_preset", PRESETS)?.as_deref() {
+        None => Ok(None),
+        Some("radio") => Ok(Some(TeamProtocol::radio())),
+        Some("acoustic") => Ok(Some(TeamProtocol::acoustic())),
+        Some(other) => Err(t.invalid("team_preset", PRESETS, &format!("{other:?}"))),
+    }
 }
 
 /// A class set from `["Vehicle", "Obstacle:surroundings,system"]`.
@@ -661,6 +720,62 @@ mod tests {
         assert_eq!(c.ici.catch_up_retry, Duration::from_secs(1));
         assert_eq!(c.ici.team_report_every, None, "0s: every value at once");
         assert_eq!((c.ici.max_report_items, c.ici.max_tombstones), (64, 100));
+    }
+
+    #[test]
+    fn robots_speak_on_the_team_link_when_ici_speakers_is_robots() {
+        let plain = parse("address = \"t/r1/nav\"").unwrap();
+        assert_eq!(
+            plain.ici.team_protocol, None,
+            "every module speaks by default"
+        );
+        let c = parse("address = \"t/r1/nav\"\n[ici]\nspeakers = \"robots\"").unwrap();
+        assert_eq!(c.ici.team_protocol, Some(TeamProtocol::radio()));
+        let c = parse(
+            r#"
+            address = "t/r1/nav"
+            [ici]
+            speakers = "robots"
+            team_preset = "acoustic"
+            gateway_priority = 3
+            team_rate = 200
+            "#,
+        )
+        .unwrap();
+        let mut expected = TeamProtocol::acoustic().priority(Some(3));
+        expected.rate_bps = 200;
+        assert_eq!(c.ici.team_protocol, Some(expected));
+        let c =
+            parse("address = \"t/r1/nav\"\n[ici]\nspeakers = \"robots\"\ngateway = false").unwrap();
+        assert_eq!(c.ici.team_protocol.and_then(|p| p.priority), None);
+    }
+
+    #[test]
+    fn team_protocol_keys_without_robots_speaking_or_out_of_range_are_refused() {
+        let cases = [
+            (
+                "speakers = \"gateways\"",
+                "key `ici.speakers`: expected \"modules\" or \"robots\", found \"gateways\"",
+            ),
+            (
+                "team_preset = \"acoustic\"",
+                "key `ici.team_preset`: expected speakers = \"robots\" beside it",
+            ),
+            (
+                "speakers = \"robots\"\ngateway_priority = 256",
+                "key `ici.gateway_priority`: expected an integer from 0 to 255, found integer 256",
+            ),
+            (
+                "speakers = \"robots\"\nteam_rate = 0",
+                "key `ici.team_rate`: expected a positive integer",
+            ),
+        ];
+        for (ici, expected) in cases {
+            let err = parse(&format!("address = \"t/r1/nav\"\n[ici]\n{ici}"))
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(expected), "{ici}: {err}");
+        }
     }
 
     #[test]

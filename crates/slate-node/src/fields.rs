@@ -117,6 +117,23 @@ impl Fields {
         }
     }
 
+    /// An optional integer from `min` to `max`.
+    pub fn integer_in(
+        &mut self,
+        key: &str,
+        min: i64,
+        max: i64,
+    ) -> Result<Option<i64>, ConfigError> {
+        match self.take(key) {
+            Some(Value::Integer(n)) if (min..=max).contains(&n) => Ok(Some(n)),
+            Some(v) => {
+                let expected = format!("an integer from {min} to {max}");
+                Err(self.invalid(key, &expected, &describe(&v)))
+            }
+            None => Ok(None),
+        }
+    }
+
     /// An optional duration written `"250ms"`, `"1.5s"` or `"2min"`.
     pub fn duration(&mut self, key: &str) -> Result<Option<Duration>, ConfigError> {
         const EXPECTED: &str = "a duration like \"250ms\", \"1.5s\" or \"2min\"";

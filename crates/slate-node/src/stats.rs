@@ -47,9 +47,13 @@ pub struct ModuleStats {
     pub plans: Plans,
 }
 
-/// Plans received on circuits (docs/ici.md, "Plan circuits").
+/// Plans sent and received on circuits (docs/ici.md, "Plan circuits").
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Plans {
+    /// Circuits this module opened: plans it sent (its plan engine's sub-plans, or an
+    /// operator's through it). Absent from the answers of nodes that predate it: zero.
+    #[serde(default)]
+    pub sent: u64,
     /// Plans that opened a circuit here.
     pub received: u64,
     /// Loaded and acknowledged `Accepted`.
@@ -64,9 +68,10 @@ pub struct Plans {
 }
 
 impl Plans {
-    /// The counters of a module's plan circuits.
-    pub fn of(s: &CircuitStats) -> Self {
+    /// The counters of a module's plan circuits, `sent` of them opened by it.
+    pub fn of(s: &CircuitStats, sent: usize) -> Self {
         Plans {
+            sent: u64::try_from(sent).unwrap_or(u64::MAX),
             received: s.received,
             accepted: s.accepted,
             rejected: s.rejected,
@@ -240,7 +245,7 @@ pub(crate) fn serve(session: &zenoh::Session, view: &Arc<View>) -> zenoh::Result
                 &view.ici.alive_peers(),
                 started.elapsed(),
             );
-            stats.plans = Plans::of(&view.circuits.stats());
+            stats.plans = Plans::of(&view.circuits.stats(), view.circuits.sent().len());
             let body = serde_json::to_vec(&stats).unwrap_or_default();
             if let Err(e) = q.reply(reply_key.as_str(), body).wait() {
                 tracing::debug!(error = %e, "stats query not answered");

@@ -233,8 +233,8 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
 /// Arguments of `slate demo-module` (as `slate demo --network processes` passes them).
 #[derive(Debug, clap::Args)]
 pub struct DemoModuleArgs {
-    /// ADDRESS SEED ROBOTS RETURN_AFTER LISTEN WORLD [CONNECT...]
-    #[arg(num_args = 6.., allow_hyphen_values = true)]
+    /// ADDRESS SEED ROBOTS SPEAKERS RETURN_AFTER LISTEN WORLD [CONNECT...]
+    #[arg(num_args = 7.., allow_hyphen_values = true)]
     pub spec: Vec<String>,
 }
 

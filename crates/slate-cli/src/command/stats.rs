@@ -215,8 +215,8 @@ fn print_stats_text(m: &Measured) {
     );
     let p = &s.plans;
     println!(
-        "  plans received: {}, accepted {}, rejected {} (no authority {}, busy {})",
-        p.received, p.accepted, p.rejected, p.unauthorised, p.busy
+        "  plans sent: {}; received: {}, accepted {}, rejected {} (no authority {}, busy {})",
+        p.sent, p.received, p.accepted, p.rejected, p.unauthorised, p.busy
     );
 }
 

@@ -115,20 +115,21 @@ fn module_pids(stderr: &str) -> Vec<u32> {
         .collect()
 }
 
-/// `--network processes`: sixteen module processes over Zenoh on 127.0.0.1, the world
-/// served to their drivers as a module; the mission completes as in-process, with the
-/// same summary, and no module process outlives the run.
-#[test]
-fn the_demo_mission_completes_with_every_module_its_own_process() {
+/// `slate demo --network processes` with `extra` arguments, bounded: its JSON summary
+/// and its progress (stderr), once checked that the mission completed with every target
+/// found once, the fault detected, and that no module process outlived the run nor left
+/// its logs behind.
+fn processes_mission(extra: &[&str]) -> (serde_json::Value, String) {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_slate"))
         .args(["demo", "--network", "processes", "--format", "json"])
+        .args(extra)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .expect("run slate");
     let logs = std::env::temp_dir().join(format!("slate-demo-{}", child.id()));
     let out = crate::support::wait_output(child, std::time::Duration::from_secs(400));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
     let j: serde_json::Value =
         serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}: {stderr}"));
     assert_eq!(j["network"], "processes", "{j}");
@@ -141,6 +142,11 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
         "fault not detected: {j}"
     );
     assert!(j["team_link_bytes"].as_u64().unwrap() > 0, "{j}");
+    // The plans the module processes sent and accepted: the console's mission plans,
+    // and the sub-plans each execution controller sends its robot's modules.
+    assert!(j["plans_sent"].as_u64() > Some(0), "no plan counted: {j}");
+    assert!(j["plans_accepted"].as_u64() > Some(0), "{j}");
+    assert_eq!(j["plans_rejected"], 0, "{j}");
     let pids = module_pids(&stderr);
     assert_eq!(pids.len(), 16, "{stderr}");
     for pid in pids {
@@ -153,6 +159,15 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
         !logs.exists(),
         "the module logs of a clean run are left in {logs:?}"
     );
+    (j, stderr)
+}
+
+/// `--network processes`: sixteen module processes over Zenoh on 127.0.0.1, the world
+/// served to their drivers as a module; the mission completes as in-process, with the
+/// same summary, and no module process outlives the run.
+#[test]
+fn the_demo_mission_completes_with_every_module_its_own_process() {
+    let (j, _) = processes_mission(&[]);
     let sim = slate(&[
         "demo",
         "--robots",
@@ -166,6 +181,22 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
     ]);
     let sim: serde_json::Value = serde_json::from_slice(&sim.stdout).unwrap();
     assert_eq!(keys(&j), keys(&sim), "the same summary fields");
+}
+
+/// `--network processes --speakers robots`: the module processes run the team protocol
+/// (one gateway per robot speaks on the team link) and the mission completes as with
+/// every module speaking.
+#[test]
+fn the_processes_mission_completes_with_robots_speaking() {
+    let (j, stderr) = processes_mission(&["--speakers", "robots"]);
+    let kinds = &j["team_bytes_by_kind"];
+    assert!(kinds["team_frame"].as_u64() > Some(0), "{kinds}\n{stderr}");
+    assert!(kinds["robot_heartbeat"].as_u64() > Some(0), "{kinds}");
+    assert_eq!(
+        kinds.get("heartbeat"),
+        None,
+        "modules said their own heartbeats on the team link: {kinds}"
+    );
 }
 
 #[test]

@@ -197,7 +197,12 @@ fn objects(class: &str, endpoint: &str) -> Vec<String> {
 /// Does `slate stats` through `endpoint` show exactly the modules `addresses`, each
 /// hearing every other?
 fn all_up(endpoint: &str, addresses: &[&str]) -> bool {
-    let args = [
+    all_up_as(endpoint, addresses, &[])
+}
+
+/// [`all_up`] with more arguments for `slate stats` (an operator's keys).
+fn all_up_as(endpoint: &str, addresses: &[&str], more: &[&str]) -> bool {
+    let mut args = vec![
         "stats",
         "--interval",
         "0.2",
@@ -206,6 +211,7 @@ fn all_up(endpoint: &str, addresses: &[&str]) -> bool {
         "--format",
         "json",
     ];
+    args.extend(more);
     let out = slate(&args);
     let j: Json = serde_json::from_slice(&out.stdout).unwrap_or(Json::Null);
     let modules = j["modules"].as_array().cloned().unwrap_or_default();
@@ -536,4 +542,51 @@ fn launch_passes_its_log_format_to_every_module() {
             "{address}: no JSON log line among {parsed:?}"
         );
     }
+}
+
+/// `slate launch --keys DIR`: a two-robot team secured with keys from `slate keys`. Every
+/// module listens and connects over TLS, the operator's `slate stats` (with the keys) sees
+/// both modules hearing each other, a CLI without the keys finds none, and SIGTERM stops
+/// both processes.
+#[test]
+fn a_team_launched_with_keys_runs_over_tls_and_sigterm_stops_it() {
+    let turn = Team::new("launch-keys");
+    let small = teams().join("small");
+    for file in ["world.slate", "robot.slate"] {
+        std::fs::copy(small.join(file), turn.dir.join(file)).unwrap();
+    }
+    let team = "team = \"sec\"\nbase_port = 1\n[kinds.nav]\nfiles = [\"world.slate\", \"robot.slate\"]\nexport = [\"Vehicle\"]\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\"]\n[[robots]]\nname = \"r2\"\nmodules = [\"nav\"]\n";
+    let file = turn.dir.join("sec.toml");
+    std::fs::write(&file, team).unwrap();
+    let keys = turn.dir.join("keys");
+    let k = keys.to_str().unwrap();
+    crate::support::slate_ok(&["keys", "init", k]);
+    crate::support::slate_ok(&["keys", "issue", k, "sec/r1/nav", "sec/r2/nav", "sec/alice"]);
+    let base = free_ports(2);
+    let logs = turn.dir.join("logs");
+    let mut launched = Launched::start_with(&file, base, &logs, &["--keys", k]);
+    launched.wait_up();
+    let config = std::fs::read_to_string(logs.join("r1-nav.toml")).unwrap();
+    assert!(
+        config.contains(&format!("tls/127.0.0.1:{base}")),
+        "{config}"
+    );
+    let endpoint = format!("tls/127.0.0.1:{}", base + 1);
+    let alice = ["--keys", k, "--operator", "sec/alice"];
+    let up = eventually(Duration::from_secs(30), || {
+        all_up_as(&endpoint, &["sec/r1/nav", "sec/r2/nav"], &alice)
+    });
+    assert!(
+        up,
+        "the secured team is not up for its operator\n{}",
+        launched.output()
+    );
+    let plain = format!("tcp/127.0.0.1:{}", base + 1);
+    assert!(
+        objects("Vehicle", &plain).is_empty(),
+        "a CLI without keys read the team"
+    );
+    let pids = launched.started();
+    assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
+    launched.assert_all_gone(&pids);
 }

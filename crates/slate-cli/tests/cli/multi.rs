@@ -3,7 +3,7 @@
 
 use std::time::Duration;
 
-use crate::support::{Team, entry, eventually, show, steps};
+use crate::support::{NodeProc, Team, entry, eventually, show, steps};
 
 #[test]
 fn two_nodes_exchange_reports_both_ways_and_stop_cleanly() {
@@ -129,4 +129,32 @@ fn a_node_with_format_json_streams_its_events_on_stdout() {
             .iter()
             .all(|j| j["event"] != "news" || j["level"].is_string())
     );
+}
+
+/// `[ici] speakers = "robots"` in both nodes' configs: each is its robot's gateway, the
+/// value crosses the team link in the team protocol's frames, and no module heartbeat
+/// goes on the team link.
+#[test]
+fn two_robots_speaking_through_their_gateways_exchange_a_value() {
+    let mut team = Team::new("robots-speak");
+    let robots = "speakers = \"robots\"";
+    for (address, file) in [
+        ("t/r1/nav", "object gsr : Vehicle context self;"),
+        ("t/r2/loco", "object rock : Obstacle { range = 7.5; }"),
+    ] {
+        let connect: Vec<String> = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+        let export = "\"Vehicle\", \"Obstacle\"";
+        let node = NodeProc::start_with(&team.dir, address, file, &connect, export, robots);
+        team.nodes.push(node);
+    }
+    let nav = team.node("t/r1/nav");
+    assert!(nav.wait_value("rock", "range", "7.5"), "{}", team.logs());
+    let stats = team.json(&["stats", "t/r2/loco", "--interval", "1"]);
+    let text = stats.to_string();
+    assert!(text.contains("\"team_frame\""), "no team frames: {stats}");
+    assert!(
+        !text.contains("\"heartbeat\""),
+        "module heartbeats: {stats}"
+    );
+    team.stop();
 }

@@ -24,7 +24,7 @@ use slate_model::{Address, Clock};
 use slate_node::{ModuleStats, Node, StatsProbe};
 use slate_zenoh::ZenohConfig;
 
-use crate::config::DemoConfig;
+use crate::config::{DemoConfig, Speakers};
 use crate::drivers::Sbip;
 use crate::error::DemoError;
 use crate::module::Role;
@@ -83,16 +83,22 @@ impl ProcessNet {
             probes: Mutex::new(BTreeMap::new()),
             latest: Mutex::new(BTreeMap::new()),
         };
+        let mut started: Vec<(Address, String)> = Vec::new();
         for address in addresses(&layout)? {
             let listen = free_endpoint_on(host(placement, &address))?;
+            let connect = match config.speakers {
+                Speakers::Modules => net.zenoh.endpoints(),
+                Speakers::Robots => robots_speaking_peers(&address, &started),
+            };
             let spec = ModuleSpec {
                 address,
                 seed: config.seed,
                 robots: u8::try_from(config.robots).unwrap_or(u8::MAX),
+                speakers: config.speakers,
                 return_after: config.duration.as_secs_f64() * 0.8,
                 listen,
                 world: world_endpoint.clone(),
-                connect: net.zenoh.endpoints(),
+                connect,
             };
             let netns = placement
                 .robots
@@ -100,6 +106,7 @@ impl ProcessNet {
                 .map(|p| p.0.as_str());
             net.spawn(&spec, netns, &logs)?;
             net.zenoh.add_endpoint(spec.listen.clone());
+            started.push((spec.address.clone(), spec.listen.clone()));
             let robot = spec.address.robot().to_owned();
             net.probes.get_mut().insert(robot.clone(), None);
             net.modules.entry(robot).or_default().push(spec.listen);
@@ -253,6 +260,26 @@ fn host<'p>(placement: &'p crate::config::Placement, address: &Address) -> &'p s
         .robots
         .get(address.robot())
         .map_or(LOCAL, |(_, ip)| ip.as_str())
+}
+
+/// Whom a module connects to when robots speak, among the modules `started` before it:
+/// its own robot's modules (its LAN), and for a robot's execution controller (its
+/// gateway) or the console, the other robots' execution controllers and the console. The
+/// team protocol puts only gateways on the team link and the console's plans go to the
+/// execution controllers, so no other module needs a link across the radio; with every
+/// module connected to every other (as when modules speak), the radio carried a Zenoh
+/// session's keep-alives and declarations for each of the 90 pairs across robots.
+fn robots_speaking_peers(address: &Address, started: &[(Address, String)]) -> Vec<String> {
+    let speaks_for_robot =
+        |a: &Address| a.module() == Role::Exec.name() || a.module() == Role::Console.name();
+    started
+        .iter()
+        .filter(|(other, _)| {
+            other.robot() == address.robot()
+                || (speaks_for_robot(address) && speaks_for_robot(other))
+        })
+        .map(|(_, endpoint)| endpoint.clone())
+        .collect()
 }
 
 /// The modules' addresses in start order: the console, then each robot's modules.

@@ -13,7 +13,7 @@ use slate_node::Node;
 use slate_zenoh::ZenohConfig;
 
 use super::world_link::{WORLD_CLASSES, mirror, publish_command, reader_address};
-use crate::config::TeamLink;
+use crate::config::{Speakers, TeamLink};
 use crate::drivers::{Loco, Nav, Operator, Prox, Sbip, Vision};
 use crate::error::DemoError;
 use crate::module::{Module, Role};
@@ -29,6 +29,8 @@ pub struct ModuleSpec {
     pub seed: u64,
     /// Robots in the team.
     pub robots: u8,
+    /// Who speaks on the team link: every module, or one gateway per robot.
+    pub speakers: Speakers,
     /// When the console calls the robots home, seconds of world time.
     pub return_after: f64,
     /// The Zenoh endpoint it listens on.
@@ -46,6 +48,7 @@ impl ModuleSpec {
             self.address.to_string(),
             self.seed.to_string(),
             self.robots.to_string(),
+            speakers_arg(self.speakers).to_owned(),
             self.return_after.to_string(),
             self.listen.clone(),
             self.world.clone(),
@@ -61,6 +64,7 @@ impl ModuleSpec {
             address,
             seed,
             robots,
+            speakers,
             return_after,
             listen,
             world,
@@ -68,7 +72,7 @@ impl ModuleSpec {
         ] = args
         else {
             return Err(bad(
-                "expected ADDRESS SEED ROBOTS RETURN_AFTER LISTEN WORLD [CONNECT...]",
+                "expected ADDRESS SEED ROBOTS SPEAKERS RETURN_AFTER LISTEN WORLD [CONNECT...]",
             ));
         };
         Ok(ModuleSpec {
@@ -77,6 +81,8 @@ impl ModuleSpec {
             robots: robots
                 .parse()
                 .map_err(|_| bad("ROBOTS: expected 1 to 32"))?,
+            speakers: parse_speakers(speakers)
+                .ok_or_else(|| bad("SPEAKERS: expected \"modules\" or \"robots\""))?,
             return_after: return_after
                 .parse()
                 .map_err(|_| bad("RETURN_AFTER: expected seconds"))?,
@@ -92,6 +98,49 @@ impl ModuleSpec {
             .find(|r| r.name() == self.address.module())
             .ok_or_else(|| DemoError::Config(format!("{}: no such module", self.address)))
     }
+}
+
+/// A Zenoh config file that turns gossip off, for the module's session to open with, when
+/// robots speak: each module is then linked only to the peers it was told
+/// (`ModuleSpec::connect`), instead of to every module its peers tell it of (Zenoh's
+/// default), which would link every module to every other across the radio again.
+/// Removed when dropped (Zenoh reads it as the session opens).
+struct NoGossipFile(std::path::PathBuf);
+
+impl NoGossipFile {
+    const TEXT: &str = "{ scouting: { gossip: { enabled: false } } }";
+
+    fn for_speakers(speakers: Speakers) -> Result<Option<NoGossipFile>, DemoError> {
+        if speakers == Speakers::Modules {
+            return Ok(None);
+        }
+        let name = format!("slate-demo-module-{}.json5", std::process::id());
+        let path = std::env::temp_dir().join(name);
+        std::fs::write(&path, Self::TEXT)
+            .map_err(|e| DemoError::Network(format!("{}: {e}", path.display())))?;
+        Ok(Some(NoGossipFile(path)))
+    }
+}
+
+impl Drop for NoGossipFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// `speakers` as [`ModuleSpec::to_args`] writes it.
+fn speakers_arg(speakers: Speakers) -> &'static str {
+    match speakers {
+        Speakers::Modules => "modules",
+        Speakers::Robots => "robots",
+    }
+}
+
+/// The speakers [`speakers_arg`] wrote, if `text` is one.
+fn parse_speakers(text: &str) -> Option<Speakers> {
+    [Speakers::Modules, Speakers::Robots]
+        .into_iter()
+        .find(|s| speakers_arg(*s) == text)
 }
 
 /// The role's driver, on the module's board.
@@ -120,13 +169,17 @@ impl ModuleProcess {
         let layout = Layout::generate(spec.seed, usize::from(spec.robots));
         let robots: Vec<String> = layout.regions.iter().map(|r| r.robot.clone()).collect();
         let robot_name = spec.address.robot().to_owned();
+        let no_gossip = NoGossipFile::for_speakers(spec.speakers)?;
         let zenoh = ZenohConfig {
             listen: vec![spec.listen.clone()],
             connect: spec.connect.clone(),
+            file: no_gossip.as_ref().map(|f| f.0.clone()),
             ..ZenohConfig::default()
         };
         let link = TeamLink::default();
-        let module = Module::start_loaded(zenoh, &robot_name, role, &robots, &link)?;
+        let link = (&link, spec.speakers);
+        let module = Module::start_loaded(zenoh, &robot_name, role, &robots, link)?;
+        drop(no_gossip);
         let robot = robots.iter().position(|r| *r == robot_name).unwrap_or(0);
         // The console's operator needs the world's time, as the drivers need the world.
         let world_reader = match role {

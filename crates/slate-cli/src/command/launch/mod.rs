@@ -44,6 +44,12 @@ pub struct LaunchArgs {
     #[arg(long, value_name = "PORT", value_parser = clap::value_parser!(u16).range(1..))]
     pub base_port: Option<u16>,
 
+    /// Secure the team with this keys folder (made by `slate keys`; instead of the team
+    /// file's `keys`): every module listens and connects over TLS with mutual
+    /// authentication and the access control generated from the keys (docs/security.md).
+    #[arg(long, value_name = "DIR")]
+    pub keys: Option<PathBuf>,
+
     /// Folder for each module's config and log (ROBOT-KIND.toml, ROBOT-KIND.log); default
     /// `slate-logs/TEAM` in the current folder.
     #[arg(long, value_name = "DIR")]
@@ -52,7 +58,7 @@ pub struct LaunchArgs {
 
 /// Reads the team, then checks it or runs the modules chosen for this host.
 pub fn run(args: &LaunchArgs, format: Format, logs: ModuleLogs) -> anyhow::Result<ExitCode> {
-    let team = Team::read(&args.team, args.base_port)?;
+    let team = Team::read(&args.team, args.base_port, args.keys.as_deref())?;
     if args.check {
         return Ok(report_check(&team, format));
     }

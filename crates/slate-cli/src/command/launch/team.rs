@@ -18,7 +18,10 @@ const TOP: &[&str] = &[
     "restart",
     "kinds",
     "robots",
+    "keys",
 ];
+/// What the team file's `keys` holds.
+const KEYS_EXPECTED: &str = "`keys` must be the team's keys folder made by `slate keys`, relative to the team file, like \"team-keys\"";
 /// Keys of a `[[robots]]` entry.
 const ROBOT: &[&str] = &["name", "host", "modules"];
 /// Keys a kind may hold beside `slate node`'s own.
@@ -129,8 +132,13 @@ impl Source<'_> {
 }
 
 impl Team {
-    /// Reads and expands a team file; `base_port`, if given, replaces the file's.
-    pub fn read(path: &Path, base_port: Option<u16>) -> Result<Team, TeamError> {
+    /// Reads and expands a team file; `base_port` and `keys`, if given, replace the
+    /// file's.
+    pub fn read(
+        path: &Path,
+        base_port: Option<u16>,
+        keys: Option<&Path>,
+    ) -> Result<Team, TeamError> {
         let (file, text) = slate_node::read_text(path)?;
         let base = path.parent().unwrap_or_else(|| Path::new("."));
         let base = std::path::absolute(base).unwrap_or_else(|_| base.to_path_buf());
@@ -138,12 +146,19 @@ impl Team {
             file: &file,
             text: &text,
         };
-        let mut team = Team::parse(&source, &base, path, base_port)?;
+        let keys = keys.map(|k| std::path::absolute(k).unwrap_or_else(|_| k.to_path_buf()));
+        let mut team = Team::parse(&source, &base, path, (base_port, keys))?;
         team.file = path.to_path_buf();
         Ok(team)
     }
 
-    fn parse(src: &Source, base: &Path, path: &Path, port: Option<u16>) -> Result<Team, TeamError> {
+    /// Parses the file; `port` and `keys`, if given, replace the file's.
+    fn parse(
+        src: &Source,
+        base: &Path,
+        path: &Path,
+        (port, keys): (Option<u16>, Option<PathBuf>),
+    ) -> Result<Team, TeamError> {
         let mut top: Table = slate_node::parse_toml(src.file, src.text)?;
         if let Some(key) = top.keys().find(|k| !TOP.contains(&k.as_str())) {
             let known = TOP.join(", ");
@@ -163,6 +178,9 @@ impl Team {
             }
             None => base_port(src, &mut top)?,
         };
+        let file_keys = string_or(src, &mut top, "keys", "")
+            .map_err(|_| src.invalid(&["keys="], KEYS_EXPECTED))?;
+        let keys = keys.or_else(|| (!file_keys.is_empty()).then(|| base.join(file_keys)));
         let restart = restart(src, top.remove("restart"))?;
         let kinds = match top.remove("kinds") {
             Some(Value::Table(k)) if !k.is_empty() => k,
@@ -175,6 +193,7 @@ impl Team {
             base,
             base_port,
             robots: &robots,
+            keys: keys.as_deref(),
         };
         let modules = layout.modules(src, &kinds)?;
         Ok(Team {
@@ -378,6 +397,8 @@ struct Layout<'a> {
     base: &'a Path,
     base_port: u16,
     robots: &'a [Robot],
+    /// The team's keys folder (`keys`, `--keys`): every module runs secured with it.
+    keys: Option<&'a Path>,
 }
 
 impl Layout<'_> {
@@ -448,9 +469,10 @@ impl Layout<'_> {
                         ),
                     )
                 })?;
+                let protocol = if self.keys.is_some() { "tls" } else { "tcp" };
                 Ok(match robot.host.contains(':') {
-                    true => format!("tcp/[{}]:{port}", robot.host),
-                    false => format!("tcp/{}:{port}", robot.host),
+                    true => format!("{protocol}/[{}]:{port}", robot.host),
+                    false => format!("{protocol}/{}:{port}", robot.host),
                 })
             })
             .collect()
@@ -478,6 +500,11 @@ impl Layout<'_> {
                 )));
             }
         }
+        if table.contains_key("security") {
+            return Err(invalid(format!(
+                "kind {kind:?}: remove `[security]`: a team is secured as a whole, with `keys = \"DIR\"` at the top of the team file or `slate launch --keys DIR` (every module then listens and connects over tls/)"
+            )));
+        }
         let own = self.files(kind, table.remove("files"), &[robot.name.as_str()], at)?;
         let others: Vec<&str> = self
             .robots
@@ -498,6 +525,11 @@ impl Layout<'_> {
         );
         config.extend(table);
         config.insert("zenoh".into(), Value::Table(zenoh));
+        if let Some(keys) = self.keys {
+            let mut security = Table::new();
+            security.insert("keys".into(), Value::String(keys.display().to_string()));
+            config.insert("security".into(), Value::Table(security));
+        }
         self.absolute(&mut config, "zenoh_config");
         Ok(config)
     }
@@ -622,7 +654,7 @@ mod tests {
     #[test]
     fn each_module_gets_its_address_port_files_and_the_others_endpoints() {
         let path = team_file("layout", TWO_ROBOTS);
-        let team = Team::read(&path, None).unwrap();
+        let team = Team::read(&path, None, None).unwrap();
         let dir = path.parent().unwrap();
         let [nav, console] = &team.modules[..] else {
             panic!("{:?}", team.modules)
@@ -638,7 +670,7 @@ mod tests {
         assert_eq!(robots(nav), ["r1"]);
         assert_eq!(robots(console), ["r1"]);
         assert_eq!(nav.config.files[0].path, dir.join("robot.slate"));
-        let moved = Team::read(&path, Some(8000)).unwrap();
+        let moved = Team::read(&path, Some(8000), None).unwrap();
         assert_eq!(moved.modules[1].config.zenoh.listen, ["tcp/10.0.0.9:8001"]);
         std::fs::remove_dir_all(dir).unwrap();
     }
@@ -646,7 +678,7 @@ mod tests {
     #[test]
     fn a_kinds_zenoh_config_is_found_from_the_team_files_folder() {
         let path = team_file("zenoh", TWO_ROBOTS);
-        let team = Team::read(&path, None).unwrap();
+        let team = Team::read(&path, None, None).unwrap();
         let dir = path.parent().unwrap();
         // The written config is read from the log folder, elsewhere.
         let written = NodeConfig::parse("x", &team.modules[0].config_text, Path::new("/logs"));
@@ -656,5 +688,38 @@ mod tests {
             Some(expected.as_path())
         );
         std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_team_with_keys_runs_every_module_over_tls_with_them() {
+        let path = team_file("keys", &format!("keys = \"team-keys\"\n{TWO_ROBOTS}"));
+        let dir = path.parent().unwrap();
+        let team = Team::read(&path, None, None).unwrap();
+        let [nav, console] = &team.modules[..] else {
+            panic!("{:?}", team.modules)
+        };
+        assert_eq!(nav.config.zenoh.listen, ["tls/127.0.0.1:7000"]);
+        assert_eq!(nav.config.zenoh.connect, ["tls/10.0.0.9:7001"]);
+        assert_eq!(console.config.security, Some(dir.join("team-keys")));
+        let given = Team::read(&path, None, Some(Path::new("/srv/keys"))).unwrap();
+        assert_eq!(
+            given.modules[0].config.security,
+            Some(PathBuf::from("/srv/keys")),
+            "--keys wins over the file's"
+        );
+        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_kind_with_its_own_security_is_refused_and_told_to_use_the_teams_keys() {
+        let text = TWO_ROBOTS.replace(
+            "[kinds.console]",
+            "[kinds.nav.security]\nkeys = \"k\"\n[kinds.console]",
+        );
+        let path = team_file("kind-keys", &text);
+        let err = Team::read(&path, None, None).unwrap_err().to_string();
+        assert!(err.contains("remove `[security]`"), "{err}");
+        assert!(err.contains("`keys = \"DIR\"`"), "{err}");
+        std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
     }
 }
