@@ -9,7 +9,7 @@ use std::time::Duration;
 use mcap::read::Options;
 use serde_json::{Value as Json, json};
 
-use crate::support::{Team, eventually, show, wait_output};
+use crate::support::{Team, eventually, show, temp_dir, wait_output};
 
 /// The JSON of every message on `topic` in `bytes` (a finished file, or one cut off: read
 /// to the last complete record).
@@ -263,9 +263,9 @@ fn record_explains_itself_and_refuses_a_bad_duration_before_joining() {
             "{args:?}: {err}"
         );
     }
-    let not_mcap = std::env::temp_dir().join(format!("slate-not-mcap-{}.mcap", std::process::id()));
+    let dir = temp_dir("not-mcap");
+    let not_mcap = dir.join("hello.mcap");
     std::fs::write(&not_mcap, "hello").unwrap();
     let err = crate::support::slate_err(&["play", not_mcap.to_str().unwrap()]);
     assert!(err.contains("is not an MCAP recording"), "{err}");
-    std::fs::remove_file(&not_mcap).unwrap();
 }

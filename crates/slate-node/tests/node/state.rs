@@ -67,7 +67,6 @@ fn a_restarted_node_with_state_keeps_its_objects_and_its_peers_keep_them_too() {
         .unwrap();
     nav.close();
     console.close();
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -105,7 +104,6 @@ fn a_node_whose_state_is_damaged_does_not_start_and_says_how_to_recover() {
     let node = nav(&net, Some(&dir)).expect("after a reset the node starts empty");
     assert_eq!(node.restored().map(|r| r.objects), Some(0));
     node.close();
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -114,11 +112,10 @@ fn a_state_directory_of_another_module_is_refused() {
     let net = SimNet::new(20);
     nav(&net, Some(&dir)).unwrap().close();
     let other = on_net(&net, "t/r2/loco", "")
-        .state(StateConfig::new(&dir))
+        .state(StateConfig::new(dir.path()))
         .start();
     let Err(e) = other else {
         panic!("another module's state was taken");
     };
     assert!(e.to_string().contains(NAV), "{e}");
-    std::fs::remove_dir_all(dir).unwrap();
 }

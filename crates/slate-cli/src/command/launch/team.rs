@@ -608,20 +608,19 @@ fn strip_label(message: &str, label: &str) -> String {
 mod tests {
     use super::*;
 
-    /// A team file in a fresh folder; its path.
-    fn team_file(name: &str, text: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("slate-team-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+    /// A team file in a fresh folder (removed when the guard is dropped); its path.
+    fn team_file(name: &str, text: &str) -> (slate_testing::TempDir, PathBuf) {
+        let dir = slate_testing::temp_dir(&format!("team-{name}"));
         let path = dir.join("team.toml");
         std::fs::write(&path, text).unwrap();
-        path
+        (dir, path)
     }
 
     const TWO_ROBOTS: &str = "base_port = 7000\n[kinds.nav]\nfiles = [\"robot.slate\"]\nzenoh_config = \"zenoh.json5\"\n[kinds.console]\nper_robot = [\"robot.slate\"]\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\"]\n[[robots]]\nname = \"base\"\nhost = \"10.0.0.9\"\nmodules = [\"console\"]\n";
 
     #[test]
     fn each_module_gets_its_address_port_files_and_the_others_endpoints() {
-        let path = team_file("layout", TWO_ROBOTS);
+        let (_dir, path) = team_file("layout", TWO_ROBOTS);
         let team = Team::read(&path, None).unwrap();
         let dir = path.parent().unwrap();
         let [nav, console] = &team.modules[..] else {
@@ -640,12 +639,11 @@ mod tests {
         assert_eq!(nav.config.files[0].path, dir.join("robot.slate"));
         let moved = Team::read(&path, Some(8000)).unwrap();
         assert_eq!(moved.modules[1].config.zenoh.listen, ["tcp/10.0.0.9:8001"]);
-        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_kinds_zenoh_config_is_found_from_the_team_files_folder() {
-        let path = team_file("zenoh", TWO_ROBOTS);
+        let (_dir, path) = team_file("zenoh", TWO_ROBOTS);
         let team = Team::read(&path, None).unwrap();
         let dir = path.parent().unwrap();
         // The written config is read from the log folder, elsewhere.
@@ -655,6 +653,5 @@ mod tests {
             written.unwrap().zenoh.file.as_deref(),
             Some(expected.as_path())
         );
-        std::fs::remove_dir_all(dir).unwrap();
     }
 }
