@@ -499,7 +499,18 @@ impl Layout<'_> {
         config.extend(table);
         config.insert("zenoh".into(), Value::Table(zenoh));
         self.absolute(&mut config, "zenoh_config");
+        self.own_state(&mut config, &robot.name, kind);
         Ok(config)
+    }
+
+    /// Makes a kind's `state = "DIR"` the module's own folder in it, `DIR/ROBOT/KIND`
+    /// (DIR relative to the team file): a store holds one module's board and refuses
+    /// another's, so the modules of a kind must not share one.
+    fn own_state(&self, config: &mut Table, robot: &str, kind: &str) {
+        if let Some(Value::String(dir)) = config.get_mut("state") {
+            let own = self.base.join(&*dir).join(robot).join(kind);
+            *dir = own.display().to_string();
+        }
     }
 
     /// Makes a path-valued key absolute (relative to the team file): the config is
@@ -653,5 +664,20 @@ mod tests {
             written.unwrap().zenoh.file.as_deref(),
             Some(expected.as_path())
         );
+    }
+
+    #[test]
+    fn a_kinds_state_folder_gives_each_module_a_folder_of_its_own() {
+        let text = "base_port = 7000\n[kinds.nav]\nstate = \"kept\"\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\"]\n[[robots]]\nname = \"r2\"\nmodules = [\"nav\"]\n";
+        let (_dir, path) = team_file("state", text);
+        let team = Team::read(&path, None).unwrap();
+        let dir = path.parent().unwrap();
+        let state = |m: &ModulePlan| m.config.state.as_ref().map(|s| s.dir.clone());
+        assert_eq!(state(&team.modules[0]), Some(dir.join("kept/r1/nav")));
+        assert_eq!(state(&team.modules[1]), Some(dir.join("kept/r2/nav")));
+        // The written config names the same folder, from wherever it is read.
+        let written = NodeConfig::parse("x", &team.modules[1].config_text, Path::new("/logs"));
+        let written = written.unwrap().state.map(|s| s.dir);
+        assert_eq!(written, Some(dir.join("kept/r2/nav")));
     }
 }
