@@ -276,7 +276,7 @@ pub struct BenchArgs {
 ///
 /// Numeric options take negative numbers as values (`--wait -1`), so that the value's
 /// own check says what is wrong instead of a usage error.
-#[derive(Debug, clap::Args)]
+#[derive(Clone, Debug, clap::Args)]
 pub struct ConnectArgs {
     /// Zenoh endpoint of a node to connect to (repeatable).
     #[arg(long, value_name = "ENDPOINT", default_value = "tcp/127.0.0.1:7447")]
@@ -487,8 +487,18 @@ pub struct PlayArgs {
     pub until: Option<f64>,
 
     /// Serve the dashboard of the replayed board there (like "127.0.0.1:8080").
-    #[arg(long, value_name = "ADDR")]
+    #[arg(long, value_name = "ADDR", conflicts_with = "onto")]
     pub dashboard: Option<std::net::SocketAddr>,
+
+    /// Publish the replay onto the live team TEAM (reached with --connect) as a module of
+    /// its own, TEAM/replay/MODULE (MODULE: the recorded board's): it creates the recorded
+    /// objects and writes the recorded values again, stamped as it writes them, itself
+    /// their source. For software-in-the-loop tests.
+    #[arg(long, value_name = "TEAM")]
+    pub onto: Option<String>,
+
+    #[command(flatten)]
+    pub connection: ConnectArgs,
 }
 
 /// `slate keys` verbs.

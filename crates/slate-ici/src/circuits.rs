@@ -352,6 +352,40 @@ impl PlanCircuits {
     }
 }
 
+impl PlanCircuits {
+    /// The plans other modules sent that this one accepted and still runs (neither
+    /// ended nor cancelled): what a node keeps to install them again after a restart.
+    pub fn held(&self) -> Vec<HeldPlan> {
+        self.inner.held()
+    }
+
+    /// Installs again a plan [`held`](PlanCircuits::held) before a restart, on its
+    /// circuit: the steps it takes from now on go to the module that sent it, numbered
+    /// from [`HeldPlan::next_step`]. The plan starts afresh (pending, then initiated when
+    /// its initiation holds). Refused, with the reason, if the module that sent it or its
+    /// origin may no longer send plans here, or the plan no longer loads.
+    pub fn reinstate(&self, plan: HeldPlan) -> Result<(), String> {
+        self.inner.reinstate(plan)
+    }
+}
+
+/// A plan another module sent and this one accepted and still runs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HeldPlan {
+    /// The module that sent it: the circuit's other end, to which its steps go.
+    pub from: Address,
+    /// The circuit's number, chosen by `from`.
+    pub circuit: u64,
+    /// The module whose plan it is (named as the origin of the plans it sends on).
+    pub origin: Address,
+    /// The plan's name.
+    pub name: String,
+    /// Its source text.
+    pub text: String,
+    /// The number the circuit's next step takes.
+    pub next_step: u64,
+}
+
 /// Refusals a receiver of [`PlanCircuits::refusals`] may have waiting.
 pub const MAX_QUEUED_REFUSALS: usize = 256;
 

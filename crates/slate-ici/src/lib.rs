@@ -55,6 +55,7 @@ mod circuits;
 mod error;
 mod ici;
 
+pub use circuits::HeldPlan;
 pub use circuits::{
     ACK_GAP_GRACE, AddressPattern, CircuitStats, CircuitStatus, LOST_WAIT, MAX_PLAN_TEXT_BYTES,
     MAX_QUEUED_PLANS, MAX_QUEUED_REFUSALS, PatternError, PlanAuthority, PlanCircuits, PlanHandle,

@@ -224,12 +224,9 @@ impl NodeBuilder {
         for source in &self.sources {
             load(&engine, source)?;
         }
-        let (keeper, restored) = match &self.state {
-            Some(config) => {
-                let (keeper, restored) = keep_state(&board, config)?;
-                (Some(keeper), Some(restored))
-            }
-            None => (None, None),
+        let kept = match &self.state {
+            Some(config) => Some(restore_state(&board, config)?),
+            None => None,
         };
         let mut ici_config = self.ici;
         for (name, policy) in engine.link_policies() {
@@ -260,6 +257,16 @@ impl NodeBuilder {
         apply_link_policies(&ici, &engine, &links);
         let circuits = Arc::new(PlanCircuits::attach(&ici, &engine));
         circuits.set_authority(authority);
+        let (keeper, restored) = match (kept, &self.state) {
+            (Some(kept), Some(config)) => match keep_state(&board, config, kept, &circuits) {
+                Ok((keeper, restored)) => (Some(keeper), Some(restored)),
+                Err(e) => {
+                    transport.close();
+                    return Err(e.into());
+                }
+            },
+            _ => (None, None),
+        };
         let log = Arc::new(EventLog::default());
         let refusals = circuits.refusals();
         let monitor = Monitor::start(&board, &engine, (&ici, interest, refusals), log.clone());
@@ -340,11 +347,41 @@ fn apply_link_policies(ici: &Ici, engine: &Engine, links: &[LinkName]) {
 
 /// Opens the state directory, restores what it holds onto `board` and starts keeping
 /// the board there.
-fn keep_state(board: &Arc<Board>, config: &StateConfig) -> Result<(Keeper, Restored), StateError> {
+/// A state directory's store, opened and put back on the board (before the node joins
+/// its team), with the plans received it held, to install once the circuits exist.
+struct Kept {
+    store: Store,
+    restored: Restored,
+    plans: Vec<slate_ici::HeldPlan>,
+}
+
+fn restore_state(board: &Board, config: &StateConfig) -> Result<Kept, StateError> {
     let store = Store::open(&config.dir, board.address(), config.durability)?;
-    let restored = crate::state::restore(board, store.load()?);
+    let mut saved = store.load()?;
+    let plans = std::mem::take(&mut saved.plans);
+    let restored = crate::state::restore(board, saved);
+    Ok(Kept {
+        store,
+        restored,
+        plans,
+    })
+}
+
+/// Installs the plans received again and starts keeping the board (and those plans).
+fn keep_state(
+    board: &Arc<Board>,
+    config: &StateConfig,
+    kept: Kept,
+    circuits: &Arc<PlanCircuits>,
+) -> Result<(Keeper, Restored), StateError> {
+    let Kept {
+        store,
+        mut restored,
+        plans,
+    } = kept;
+    crate::state::reinstate(circuits, plans, &mut restored);
     tracing::info!(dir = %config.dir.display(), ?restored, "state restored");
-    let keeper = Keeper::start(board.clone(), store, config)?;
+    let keeper = Keeper::start(board.clone(), store, config, Some((**circuits).clone()))?;
     Ok((keeper, restored))
 }
 

@@ -470,10 +470,9 @@ fn generate(e: rcgen::Error) -> KeysError {
 mod tests {
     use super::*;
 
-    fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("slate-keys-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        d
+    /// A fresh, empty keys folder, removed when the test ends.
+    fn dir(name: &str) -> slate_testing::TempDir {
+        slate_testing::temp_dir(&format!("keys-{name}"))
     }
 
     fn module(text: &str) -> Identity {
@@ -516,7 +515,6 @@ mod tests {
             err.contains("cam.pem: this certificate is for t/r1/nav, not t/r1/cam"),
             "{err}"
         );
-        std::fs::remove_dir_all(&d).unwrap();
     }
 
     #[test]
@@ -531,6 +529,5 @@ mod tests {
         std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o644)).unwrap();
         let err = security(&d, &nav).unwrap_err().to_string();
         assert!(err.contains("chmod 600"), "{err}");
-        std::fs::remove_dir_all(&d).unwrap();
     }
 }

@@ -10,7 +10,7 @@
 use std::fmt::Display;
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream, ToSocketAddrs};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -114,15 +114,54 @@ pub fn target_dir() -> PathBuf {
 }
 
 /// A fresh, empty folder under the system's temporary folder, unique to this process,
-/// `name` and the moment; the test removes it when it is done with it.
-pub fn temp_dir(name: &str) -> PathBuf {
+/// `name` and the moment. The folder lives as long as the returned guard: dropping it
+/// removes the folder and all it holds, so keep the guard bound for the test's length
+/// (`let dir = temp_dir("x"); let f = dir.join("f")`, never `temp_dir("x").join("f")`,
+/// whose guard is dropped at the end of the statement).
+pub fn temp_dir(name: &str) -> TempDir {
     let nanos = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.subsec_nanos());
     let unique = format!("slate-{name}-{}-{nanos}", std::process::id());
-    let dir = std::env::temp_dir().join(unique);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    let path = std::env::temp_dir().join(unique);
+    std::fs::create_dir_all(&path).unwrap();
+    TempDir { path }
+}
+
+/// A folder made by [`temp_dir`], removed with all it holds when this is dropped (also
+/// when the test fails and unwinds), so test runs leave nothing in the temporary folder.
+#[derive(Debug)]
+#[must_use = "the folder is removed when this guard is dropped"]
+pub struct TempDir {
+    /// The folder's path; it exists until the guard is dropped.
+    path: PathBuf,
+}
+
+impl TempDir {
+    /// The folder's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+
+    fn deref(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl AsRef<Path> for TempDir {
+    fn as_ref(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+    }
 }
 
 /// Saves a screenshot of `page` as `file` in [`target_dir`] and fails the test if the

@@ -919,8 +919,7 @@ mod tests {
 
     #[test]
     fn a_zenoh_file_keeps_what_slate_leaves_at_its_defaults() {
-        let dir = std::env::temp_dir().join(format!("slate-zenoh-file-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = slate_testing::temp_dir("zenoh-file");
         let file = dir.join("client.json5");
         let text = r#"{ mode: "client", connect: { endpoints: ["tcp/10.0.0.1:7447"] },
             scouting: { multicast: { enabled: true } } }"#;

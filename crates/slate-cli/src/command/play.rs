@@ -10,13 +10,17 @@ use serde_json::json;
 use slate_ici::SimNet;
 use slate_model::{Address, Board, Clock};
 use slate_node::Node;
-use slate_node::record::{Recording, Timed, board_state};
+use slate_node::record::{Recording, Step, Timed, board_state};
 
-use crate::cli::{Format, PlayArgs};
-use crate::command::live::{interrupted, print_line};
+use crate::cli::{Format, LiveArgs, PlayArgs};
+use crate::command::live::{interrupted, join, print_line};
 
 /// The board's address when the file does not say whose it was.
 const UNKNOWN: &str = "replay/play/board";
+
+/// The robot segment of a replay's address on a live team (`--onto`): it marks the
+/// replay as the source of what it writes.
+const REPLAY_ROBOT: &str = "replay";
 
 /// What a replay did.
 #[derive(Default)]
@@ -37,11 +41,22 @@ pub fn run(args: &PlayArgs, format: Format) -> anyhow::Result<ExitCode> {
         .as_deref()
         .and_then(|a| Address::new(a).ok())
         .unwrap_or_else(|| Address::new(UNKNOWN).expect("a valid address"));
+    if let Some(team) = &args.onto {
+        return onto(args, team, &address, &recording, (speed, until), format);
+    }
     let (node, clock) = replay_node(&address, &recording, args.dashboard)?;
     if let Some(url) = node.dashboard_url() {
         eprintln!("replaying {} on {url}", args.file.display());
     }
-    let played = play(&node, &clock, &recording, speed, until, signals);
+    let pace = Pace {
+        speed,
+        until,
+        signals,
+    };
+    let played = play(&recording, &pace, |time, step| {
+        let _ = clock.set(time.max(clock.physical()));
+        Recording::apply(node.board(), step)
+    });
     report(&node, &recording, &played, format)?;
     if node.dashboard_url().is_some() && signals.try_recv().is_err() {
         eprintln!("replayed; the dashboard stays up until Ctrl-C");
@@ -100,15 +115,20 @@ fn replay_node(
     Ok((builder.start()?, clock))
 }
 
-/// Applies each message at its time (scaled by `speed`) until the end, `until`, or a
-/// signal.
-fn play(
-    node: &Node,
-    clock: &Clock,
-    recording: &Recording,
+/// How a replay goes: its speed (`None`: as fast as it goes), where it stops, and the
+/// signals that stop it early.
+struct Pace {
     speed: Option<f64>,
     until: Option<Duration>,
-    signals: &crossbeam_channel::Receiver<()>,
+    signals: &'static crossbeam_channel::Receiver<()>,
+}
+
+/// Hands each message to `apply` (with its recorded time) at its time, scaled by the
+/// speed, until the end, `until`, or a signal; `apply` says whether it was taken.
+fn play(
+    recording: &Recording,
+    pace: &Pace,
+    mut apply: impl FnMut(Duration, &Step) -> bool,
 ) -> Played {
     let mut played = Played::default();
     let Some((start, _)) = recording.span() else {
@@ -117,17 +137,50 @@ fn play(
     let began = Instant::now();
     for Timed { time, step } in &recording.steps {
         let offset = time.saturating_sub(start);
-        if until.is_some_and(|u| offset > u) || waited_for_signal(began, offset, speed, signals) {
+        let stop = pace.until.is_some_and(|u| offset > u)
+            || waited_for_signal(began, offset, pace.speed, pace.signals);
+        if stop {
             break;
         }
-        let _ = clock.set((*time).max(clock.physical()));
         played.messages += 1;
         played.until = offset;
-        if !Recording::apply(node.board(), step) {
+        if !apply(*time, step) {
             played.refused += 1;
         }
     }
     played
+}
+
+/// `--onto TEAM`: joins the team through `--connect` as `TEAM/replay/MODULE` and writes
+/// the recording there as that module's own writes, at the recorded pace or faster.
+fn onto(
+    args: &PlayArgs,
+    team: &str,
+    recorded: &Address,
+    recording: &Recording,
+    (speed, until): (Option<f64>, Option<Duration>),
+    format: Format,
+) -> anyhow::Result<ExitCode> {
+    let text = format!("{team}/{REPLAY_ROBOT}/{}", recorded.module());
+    let address = Address::new(&text)
+        .with_context(|| format!("--onto {team}: {text} is not a module address"))?;
+    let live = LiveArgs {
+        connection: args.connection.clone(),
+        address: Some(address.to_string()),
+    };
+    let node = join(&live)?;
+    let pace = Pace {
+        speed,
+        until,
+        signals: interrupted()?,
+    };
+    let played = play(recording, &pace, |_, step| {
+        Recording::apply_as_writer(node.board(), step)
+    });
+    crate::command::put::linger(&node);
+    report(&node, recording, &played, format)?;
+    node.close();
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Waits until `offset` (scaled) after `began`; true if a signal came first.

@@ -101,7 +101,7 @@ fn put(
 /// published best effort, and a receiver that missed one learns it from the writer's
 /// next heartbeat (robot link 250 ms, team link 1 s) and asks the writer to catch it up
 /// after its gap grace (300 ms). The writer must still be there to answer.
-fn linger(node: &Node) {
+pub(crate) fn linger(node: &Node) {
     let me = node.address();
     let config = slate_ici::IciConfig::default();
     let longest = node

@@ -24,7 +24,11 @@ struct Recorded {
 fn recorded() -> &'static Recorded {
     static RECORDED: OnceLock<Recorded> = OnceLock::new();
     RECORDED.get_or_init(|| {
-        let dir = temp_dir("demo-record");
+        // A static is never dropped, so a temp_dir guard here would leave its folder
+        // behind: the recording goes to a fixed folder of the target dir, replaced each run.
+        let dir = slate_testing::target_dir().join("demo-record");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
         let (mcap, board) = (dir.join("demo.mcap"), dir.join("final.json"));
         let child = Command::new(env!("CARGO_BIN_EXE_slate"))
             .args(["demo", "--quiet", "--format", "json", "--record"])

@@ -29,7 +29,6 @@ fn a_bad_config_key_names_the_file_and_the_key() {
     std::fs::write(&path, "address = \"nav\"\n").unwrap();
     let out = slate(&["node", "--config", path.to_str().unwrap()]);
     one_line_error(&out, 2, "m.toml: key `address`: expected a module address");
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]

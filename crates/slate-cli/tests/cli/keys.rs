@@ -19,7 +19,6 @@ fn keys_init_makes_an_authority_whose_private_key_only_its_owner_reads() {
     assert_eq!(mode(&dir.join("ca.key")), 0o600);
     let cert = std::fs::read_to_string(dir.join("ca.pem")).unwrap();
     assert!(cert.starts_with("-----BEGIN CERTIFICATE-----"), "{cert}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -37,7 +36,6 @@ fn keys_init_refuses_to_replace_an_authority_without_force() {
     slate_ok(&["keys", "init", d, "--force"]);
     assert_ne!(std::fs::read(dir.join("ca.key")).unwrap(), before);
     assert_eq!(mode(&dir.join("ca.key")), 0o600);
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -60,7 +58,6 @@ fn keys_issue_writes_certificates_named_by_identity_and_signed_by_the_authority(
     assert_eq!(team.operators, [("t".to_owned(), "alice".to_owned())]);
     let err = slate_err(&["keys", "issue", d, "t/r1/nav"]);
     assert!(err.contains("nav.pem: already exists"), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -73,7 +70,6 @@ fn keys_issue_without_an_authority_says_to_run_init() {
         "{err}"
     );
     assert!(!dir.join("t").exists());
-    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -87,5 +83,4 @@ fn keys_issue_refuses_a_malformed_identity_and_issues_nothing() {
         "{err}"
     );
     assert!(!dir.join("t/r1/nav.pem").exists());
-    std::fs::remove_dir_all(&dir).unwrap();
 }

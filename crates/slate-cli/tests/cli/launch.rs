@@ -590,3 +590,25 @@ fn a_team_launched_with_keys_runs_over_tls_and_sigterm_stops_it() {
     assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
     launched.assert_all_gone(&pids);
 }
+
+#[test]
+fn a_kinds_state_gives_each_launched_module_a_store_of_its_own() {
+    let turn = Team::new("launch-state");
+    let text = std::fs::read_to_string(teams().join("small.toml")).unwrap();
+    let small = teams().join("small");
+    let text = text
+        .replace("\"small/", &format!("\"{}/", small.display()))
+        .replace("[kinds.nav]\n", "[kinds.nav]\nstate = \"state\"\n");
+    let file = turn.dir.join("small.toml");
+    std::fs::write(&file, text).unwrap();
+    launch_and_stop(&turn, &file, 5, "Vehicle", &["r1", "r2"]);
+    for robot in ["r1", "r2"] {
+        let store = turn
+            .dir
+            .join("state")
+            .join(robot)
+            .join("nav")
+            .join("board.redb");
+        assert!(store.exists(), "{} kept", store.display());
+    }
+}

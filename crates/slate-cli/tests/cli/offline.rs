@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use crate::support::{show, slate, slate_ok, temp_dir};
+use crate::support::{TempDir, show, slate, slate_ok, temp_dir};
 
 #[test]
 fn bench_core_prints_one_json_object_with_every_field() {
@@ -146,7 +146,6 @@ fn check_reports_every_error_with_a_caret_and_exits_one() {
     let out = slate(&["check", dir.join("missing.slate").to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("slate: error: cannot read"));
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -166,13 +165,12 @@ fn check_accepts_the_demo_files_that_together_form_a_module() {
 
 #[test]
 fn check_accepts_a_plan_over_the_builtin_module_class() {
-    let (dir, _, out) = check(
+    let (_dir, _, out) = check(
         "check-builtin",
         "watch.slate",
         "plan watch { trigger: any m: Module where not m.alive; action { } }\n",
     );
     assert!(out.status.success(), "{}", show(&out));
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -191,19 +189,17 @@ fn a_load_error_says_error_once_and_keeps_its_caret() {
     assert_eq!(first.matches("error").count(), 1, "{err}");
     assert!(first.contains("bad.slate:1:23: error: "), "{err}");
     assert!(err.contains('^'), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn check_says_a_builtin_class_cannot_be_redefined() {
-    let (dir, _, out) = check("check-thing", "thing.slate", "class Thing { x: real; }\n");
+    let (_dir, _, out) = check("check-thing", "thing.slate", "class Thing { x: real; }\n");
     assert_eq!(out.status.code(), Some(1));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
         err.contains("thing.slate:1:7: error: Thing is a built-in class"),
         "{err}"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -213,7 +209,7 @@ fn check_refuses_a_deep_operator_chain_with_the_limit_not_a_crash() {
     let source = format!(
         "class C {{ v: real; }}\nobject x : C;\nplan p {{\n  trigger: {chain} > 0.0;\n  action {{ }}\n}}\n"
     );
-    let (dir, _, out) = check("check-deep", "deep.slate", &source);
+    let (_dir, _, out) = check("check-deep", "deep.slate", &source);
     assert_eq!(out.status.code(), Some(1), "{}", show(&out));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("deep.slate:4:"), "{err}");
@@ -223,12 +219,11 @@ fn check_refuses_a_deep_operator_chain_with_the_limit_not_a_crash() {
         "the error quotes a window of the line: {} bytes",
         err.len()
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// Writes `source` as `file` in a new temporary folder named after `dir` and runs
 /// `slate check` on it: the folder, the file, and what `slate` did.
-fn check(dir: &str, file: &str, source: &str) -> (PathBuf, PathBuf, Output) {
+fn check(dir: &str, file: &str, source: &str) -> (TempDir, PathBuf, Output) {
     let dir = temp_dir(dir);
     let path = dir.join(file);
     std::fs::write(&path, source).unwrap();

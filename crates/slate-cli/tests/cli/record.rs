@@ -9,7 +9,7 @@ use std::time::Duration;
 use mcap::read::Options;
 use serde_json::{Value as Json, json};
 
-use crate::support::{Team, eventually, show, wait_output};
+use crate::support::{Team, eventually, show, temp_dir, wait_output};
 
 /// The JSON of every message on `topic` in `bytes` (a finished file, or one cut off: read
 /// to the last complete record).
@@ -263,9 +263,45 @@ fn record_explains_itself_and_refuses_a_bad_duration_before_joining() {
             "{args:?}: {err}"
         );
     }
-    let not_mcap = std::env::temp_dir().join(format!("slate-not-mcap-{}.mcap", std::process::id()));
+    let dir = temp_dir("not-mcap");
+    let not_mcap = dir.join("hello.mcap");
     std::fs::write(&not_mcap, "hello").unwrap();
     let err = crate::support::slate_err(&["play", not_mcap.to_str().unwrap()]);
     assert!(err.contains("is not an MCAP recording"), "{err}");
-    std::fs::remove_file(&not_mcap).unwrap();
+}
+
+#[test]
+fn play_onto_publishes_a_recording_on_a_live_team_as_a_replay_module_of_its_own() {
+    let mut team = Team::new("play-onto");
+    let own = team.dir.join("nav.mcap");
+    team.add_recording("t/r1/nav", "object gsr : Vehicle context self;", &own);
+    team.wait_connected();
+    team.ok(&["put", "gsr.speed", "1.5"]);
+    team.ok(&["put", "gsr.mode", "manual"]);
+    let recorded = wait_recorded(&own, "Vehicle", "gsr", "mode", &json!("manual"));
+    assert!(recorded, "{}", team.logs());
+    let (clean, rest) = team.nodes.remove(0).stop();
+    assert!(clean, "nav stopped cleanly: {rest}");
+    // A team that never had gsr hears it from the replay.
+    team.add("t/base/console", "");
+    team.wait_connected();
+    let file = own.to_str().unwrap();
+    let args = [
+        "play", file, "--onto", "t", "--speed", "max", "--format", "json",
+    ];
+    let replay = team.spawn(&args);
+    let console = &team.nodes[0];
+    let heard = console.wait_value("gsr", "mode", "manual");
+    assert!(heard, "the console hears the replay\n{}", team.logs());
+    let gsr = &console.snapshot()["objects"];
+    let gsr = crate::support::entry(gsr, "name", "gsr")
+        .cloned()
+        .unwrap_or_default();
+    assert_eq!(gsr["owner"], "t/replay/nav", "{gsr}");
+    let out = wait_output(replay.take(), Duration::from_secs(30));
+    assert!(out.status.success(), "{}", show(&out));
+    let played: Json = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(played["address"], "t/replay/nav", "{played}");
+    assert_eq!(played["refused"], 0, "{played}");
+    team.stop();
 }

@@ -229,3 +229,47 @@ fn a_damaged_state_directory_stops_the_node_with_the_way_out_and_reset_state_tak
     assert!(aside, "the damaged store is kept aside, not deleted");
     drop(team);
 }
+
+/// loco as a `slate node` keeping its board in `state`.
+fn start_loco(team: &Team, state: &Path) -> NodeProc {
+    let top = format!("state = {:?}", state.display().to_string());
+    let settings = ["\"Thing\"", "", top.as_str()];
+    let extra = "object gsr : Vehicle context self;";
+    NodeProc::start_config(&team.dir, LOCO, extra, &[], &settings)
+}
+
+/// The state of plan `name` on the team, as `slate plan ls` shows it.
+fn plan_state(team: &Team, name: &str) -> Option<String> {
+    let j = team.json(&["plan", "ls"]);
+    let plan = crate::support::entry(&j["plans"], "name", name)?;
+    plan["state"].as_str().map(str::to_owned)
+}
+
+#[test]
+fn a_plan_sent_with_slate_plan_send_runs_again_after_the_node_restarts_on_its_state() {
+    let mut team = Team::new("state-plan");
+    let state = team.dir.join("loco-state");
+    team.nodes.push(start_loco(&team, &state));
+    team.wait_connected();
+    let slow = team.dir.join("slow.slate");
+    let text = "plan slow { trigger: gsr.speed > 5.0; action { set gsr.mode = \"slow\"; } }";
+    std::fs::write(&slow, text).unwrap();
+    let out = team.send_plan(&slow, LOCO, "2");
+    assert!(out.status.success(), "{}", show(&out));
+    assert_eq!(plan_state(&team, "slow").as_deref(), Some("active"));
+    // The sender (this `slate plan send`) is gone: only loco's state can bring it back.
+    let (clean, rest) = team.nodes.remove(0).stop();
+    assert!(clean, "loco stopped cleanly: {rest}");
+    team.nodes.push(start_loco(&team, &state));
+    team.wait_connected();
+    assert_eq!(
+        plan_state(&team, "slow").as_deref(),
+        Some("active"),
+        "{}",
+        team.logs()
+    );
+    team.ok(&["put", "gsr.speed", "6"]);
+    let acted = team.nodes[0].wait_value("gsr", "mode", "slow");
+    assert!(acted, "the plan acts after the restart\n{}", team.logs());
+    team.stop();
+}

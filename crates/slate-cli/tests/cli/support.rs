@@ -1,7 +1,7 @@
 //! A team of `slate node` processes on loopback, and running `slate` with a time limit.
 
 pub use slate_testing::{
-    WORLD, entry, eventually, free_port, free_ports, http_get, keys, temp_dir,
+    TempDir, WORLD, entry, eventually, free_port, free_ports, http_get, keys, temp_dir,
 };
 
 use std::io::{BufRead, BufReader, Read};
@@ -319,7 +319,7 @@ fn first_line(child: &mut Child, limit: Duration) -> String {
 /// A team of node processes; each connects to the ones started before it. One team
 /// runs at a time (on two cores, several teams at once starve each other's timers).
 pub struct Team {
-    pub dir: PathBuf,
+    pub dir: TempDir,
     pub nodes: Vec<NodeProc>,
     _turn: std::sync::MutexGuard<'static, ()>,
 }
@@ -515,10 +515,9 @@ impl Team {
 }
 
 impl Drop for Team {
-    /// Stops what is left (a failed test) and removes the folder.
+    /// Stops what is left (a failed test); the folder goes with `dir`, after.
     fn drop(&mut self) {
         self.nodes.clear();
-        let _ = std::fs::remove_dir_all(&self.dir);
     }
 }
 

@@ -12,7 +12,7 @@ use slate_wire::{Message, Plan, PlanAck, PlanStep};
 
 use crossbeam_channel::TrySendError;
 
-use super::{CircuitStatus, Inner, MAX_PLAN_TEXT_BYTES, RefusedPlan, closes, one_plan};
+use super::{CircuitStatus, HeldPlan, Inner, MAX_PLAN_TEXT_BYTES, RefusedPlan, closes, one_plan};
 
 /// Closed circuits remembered (to answer an origin that missed their last steps).
 const MAX_CLOSED: usize = 1024;
@@ -222,6 +222,42 @@ impl Destination {
         }
     }
 
+    /// The open circuits whose plan still runs: key, name, text, next step's number.
+    fn running(&self) -> Vec<(Key, String, String, u64)> {
+        let open = |(key, c): (&Key, &Circuit)| {
+            let running = c.phase == Phase::Open && self.by_name.get(&c.name) == Some(key);
+            let next = c.first + c.steps.len() as u64;
+            running.then(|| (key.clone(), c.name.clone(), c.text.clone(), next))
+        };
+        self.circuits.iter().filter_map(open).collect()
+    }
+
+    /// Opens a circuit for a plan reinstated after a restart: open, its name claimed,
+    /// its next step numbered `next_step`.
+    fn reopen(&mut self, key: &Key, plan: &HeldPlan) -> Result<(), String> {
+        self.claim(key, &plan.name)?;
+        let c = Circuit {
+            name: plan.name.clone(),
+            text: plan.text.clone(),
+            steps: VecDeque::new(),
+            first: plan.next_step.max(1),
+            phase: Phase::Open,
+            pending: Vec::new(),
+            cancel: false,
+        };
+        self.circuits.insert(key.clone(), c);
+        Ok(())
+    }
+
+    /// Forgets a circuit whose plan did not load again.
+    fn forget(&mut self, key: &Key) {
+        if let Some(c) = self.circuits.remove(key)
+            && self.by_name.get(&c.name) == Some(key)
+        {
+            self.by_name.remove(&c.name);
+        }
+    }
+
     /// Every circuit, by origin and number.
     pub fn status(&self) -> Vec<CircuitStatus> {
         self.circuits
@@ -427,6 +463,54 @@ impl Inner {
                 self.me
             ));
         }
+        Ok(())
+    }
+
+    /// The plans received that still run, each with the origin it runs for.
+    pub(super) fn held(&self) -> Vec<HeldPlan> {
+        let running = self.destination.lock().running();
+        let runs_for = self.runs_for.lock();
+        let held = |((from, circuit), name, text, next_step): (Key, String, String, u64)| {
+            let origin = runs_for.get(&name).cloned().unwrap_or_else(|| from.clone());
+            HeldPlan {
+                from,
+                circuit,
+                origin,
+                name,
+                text,
+                next_step,
+            }
+        };
+        running.into_iter().map(held).collect()
+    }
+
+    /// Installs a plan held before a restart (see [`PlanCircuits::reinstate`](super::PlanCircuits::reinstate)).
+    pub(super) fn reinstate(self: &Arc<Self>, plan: HeldPlan) -> Result<(), String> {
+        let wire = Plan {
+            circuit: plan.circuit,
+            name: plan.name.clone(),
+            source_text: plan.text.clone(),
+            to: self.me.clone(),
+            origin: plan.origin.clone(),
+        };
+        let authority = self
+            .authority
+            .lock()
+            .refusal(&self.me, &plan.from, &plan.origin);
+        authority.map_or(Ok(()), Err)?;
+        self.check(&wire)?;
+        let key = (plan.from.clone(), plan.circuit);
+        self.destination.lock().reopen(&key, &plan)?;
+        let file = format!("{}/{}.slate", plan.from, plan.name);
+        if let Err(e) = self.engine.load(&file, &plan.text) {
+            self.destination.lock().forget(&key);
+            return Err(e.rendered);
+        }
+        self.runs_for.lock().insert(plan.name.clone(), plan.origin);
+        if let Err(e) = self.engine.set_origin(&plan.name, plan.from.as_str()) {
+            tracing::debug!(plan = %plan.name, error = %e, "plan origin not written");
+        }
+        self.drain();
         Ok(())
     }
 

@@ -10,7 +10,7 @@ use mcap::read::Options;
 use serde_json::Value as Json;
 use slate_model::{
     Address, AttrDecl, Board, ClassDef, Context, DefaultPacket, MergePolicy, NewObject, Packet,
-    ReportPolicy, Timestamp, Value, ValueType,
+    ReportPolicy, Timestamp, Update, Value, ValueType,
 };
 
 use super::topic;
@@ -152,6 +152,38 @@ impl Recording {
                 board.merge(object, attr, packet).is_ok()
             }
             Step::Other { .. } => true,
+        }
+    }
+
+    /// Applies one step as the writes of the module whose board this is, to publish a
+    /// recording onto a live team (`slate play --onto`): an object is created owned by
+    /// that module, and a packet is written again as its own write (stamped now, that
+    /// module its source, the recorded accuracy and confidence kept). Classes and
+    /// deletions are applied as [`apply`](Recording::apply) does. False if the board
+    /// refused it (an object another module already holds under that name is written to,
+    /// not created).
+    pub fn apply_as_writer(board: &Board, step: &Step) -> bool {
+        match step {
+            Step::Create(spec) | Step::Exists(spec) => {
+                let own = spec.clone().owner(board.address().clone());
+                board.info(&spec.name).is_some() || board.create_with(own).is_ok()
+            }
+            Step::Packet {
+                object,
+                attr,
+                value,
+                packet,
+            } => {
+                let typed = declared_type(board, object, attr).and_then(|ty| value_of(value, ty));
+                let Some(value) = typed else {
+                    return false;
+                };
+                let update = Update::new(value)
+                    .accuracy(packet.accuracy)
+                    .confidence(packet.confidence);
+                board.write(object, attr, update).is_ok()
+            }
+            other => Recording::apply(board, other),
         }
     }
 }

@@ -8,6 +8,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use parking_lot::Mutex;
+use slate_ici::{HeldPlan, PlanCircuits};
 use slate_model::{Board, ClassDef, Filter, Watch};
 
 use super::pending::Pending;
@@ -29,14 +30,17 @@ pub(crate) struct Keeper {
 impl Keeper {
     /// Subscribes to the board (in the caller's thread, so no change is missed), saves it
     /// whole as the first commit, and starts the thread that keeps the store up to date.
+    /// With `circuits`, it also keeps the plans received that the node runs.
     pub fn start(
         board: Arc<Board>,
         store: Store,
         config: &StateConfig,
+        circuits: Option<PlanCircuits>,
     ) -> Result<Keeper, StateError> {
         let watch = board.watch_bounded(Filter::all(), config.queue)?;
         let stats = Arc::new(Mutex::new(StateStats::default()));
         let mut work = Work::new(board, store, watch, config, stats.clone());
+        work.circuits = circuits;
         work.resync();
         work.commit()?;
         let stop = Arc::new(AtomicBool::new(false));
@@ -90,6 +94,10 @@ struct Work {
     skipped: HashSet<Arc<str>>,
     /// The class definitions the store holds.
     classes: Vec<ClassDef>,
+    /// Where the plans received are found (none: they are not kept).
+    circuits: Option<PlanCircuits>,
+    /// The plans received the store holds (`None`: not written yet in this run).
+    held: Option<Vec<HeldPlan>>,
     /// Changes up to this revision are in the pending full save.
     snapshot_revision: u64,
     /// Changes the watch had dropped at the last full save.
@@ -115,6 +123,8 @@ impl Work {
             pending: Pending::default(),
             skipped: HashSet::new(),
             classes: Vec::new(),
+            circuits: None,
+            held: None,
             snapshot_revision: 0,
             dropped: 0,
             committed: Instant::now(),
@@ -185,19 +195,29 @@ impl Work {
         self.snapshot_revision = revision;
     }
 
-    /// Commits what is pending, with the classes if they changed.
+    /// The plans received that the node runs, if they differ from those stored.
+    fn plans_changed(&self) -> Option<Vec<HeldPlan>> {
+        let now = self.circuits.as_ref()?.held();
+        (self.held.as_ref() != Some(&now)).then_some(now)
+    }
+
+    /// Commits what is pending, with the classes and the plans received if they changed.
     fn commit(&mut self) -> Result<(), StateError> {
         self.committed = Instant::now();
         let defs = self.board.class_defs();
         if defs != self.classes {
             self.pending.classes = Some(defs.clone());
         }
+        self.pending.plans = self.plans_changed();
         if self.pending.is_empty() {
             return Ok(());
         }
         let pending = std::mem::take(&mut self.pending);
         self.store.commit(&pending)?;
         self.classes = defs;
+        if pending.plans.is_some() {
+            self.held = pending.plans.clone();
+        }
         let mut stats = self.stats.lock();
         stats.revision = stats.revision.max(pending.revision);
         stats.commits += 1;

@@ -14,7 +14,10 @@
 //! What a kill -9 loses: the changes committed to the board since the store's last
 //! commit (at most `commit_every` of them, plus what waited in the queue). Objects of
 //! the built-in `Module` and `Plan` classes are not kept: liveliness is the ICI's to
-//! find out again, and plans come back from the node's files.
+//! find out again, and plans come back from the node's files. Plans other modules sent
+//! and the node accepted are kept (their text, sender, circuit and origin) while they
+//! run; after a restart they are installed again on their circuits and start afresh
+//! (a plan that ended or was cancelled before the restart does not come back).
 
 mod keeper;
 mod pending;
@@ -28,7 +31,7 @@ use std::time::Duration;
 
 pub(crate) use keeper::Keeper;
 pub use restore::Restored;
-pub(crate) use restore::restore;
+pub(crate) use restore::{reinstate, restore};
 pub use store::{FILE, Saved, SavedPacket, Store};
 
 /// How much a commit waits for the disk ([`redb::Durability`]).

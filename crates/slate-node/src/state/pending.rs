@@ -29,6 +29,9 @@ pub(crate) struct Pending {
     pub deleted: BTreeSet<Arc<str>>,
     /// The latest packet of each `(object, attribute)`.
     pub packets: HashMap<(Arc<str>, Arc<str>), Packet>,
+    /// The plans received that the node runs, when they changed since the last commit
+    /// (they replace those the store holds).
+    pub plans: Option<Vec<slate_ici::HeldPlan>>,
     /// Changes folded in (a full save counts as one).
     pub changes: usize,
     /// The board's revision up to which every change is folded in.
@@ -36,7 +39,8 @@ pub(crate) struct Pending {
 }
 
 /// Is an object of `class` left out of the store? Liveliness (`Module`) is the ICI's to
-/// find out again; `Plan` objects belong to plans, which come back from the files.
+/// find out again; `Plan` objects belong to plans, which come back from the files or,
+/// for plans received, from the store's plans table (and start afresh).
 pub(crate) fn transient(class: &str) -> bool {
     class == MODULE_CLASS || class == PLAN_CLASS
 }
@@ -44,7 +48,7 @@ pub(crate) fn transient(class: &str) -> bool {
 impl Pending {
     /// Is there nothing to commit?
     pub fn is_empty(&self) -> bool {
-        self.changes == 0 && self.classes.is_none()
+        self.changes == 0 && self.classes.is_none() && self.plans.is_none()
     }
 
     /// The whole board from one snapshot, to replace what the store holds; the

@@ -1,11 +1,15 @@
 //! Putting a stored board back: classes defined (parents first), objects created where
 //! the board lacks them, packets merged with their original stamps and sources.
 //!
+//! Plans other modules had sent are installed again once the node's plan circuits
+//! exist ([`reinstate`]), after the board is back.
+//!
 //! The packets go through [`Board::merge_all`], so the board's merge rules hold: a
 //! stored packet replaces an initial value from the node's files (stamped zero), and
 //! loses to nothing the board wrote since it started. The merge also brings the board's
 //! clock past every stored stamp, so the ICI's new incarnation begins after them.
 
+use slate_ici::{HeldPlan, PlanCircuits};
 use slate_model::{Board, ClassDef, THING};
 
 use super::store::{Saved, SavedPacket};
@@ -20,9 +24,12 @@ pub struct Restored {
     pub objects: usize,
     /// Packets the board took.
     pub packets: usize,
+    /// Plans other modules had sent, installed again (they start afresh).
+    pub plans: usize,
     /// Entries the board refused: a class the files now define differently, a packet
     /// of an attribute no longer declared, stamped beyond the clock's tolerance, or
-    /// older than what the board holds.
+    /// older than what the board holds; a plan received that no longer loads or whose
+    /// sender may no longer send plans here.
     pub refused: usize,
 }
 
@@ -51,6 +58,21 @@ pub(crate) fn restore(board: &Board, saved: Saved) -> Restored {
         }
     }
     r
+}
+
+/// Installs again the plans other modules had sent (once the node's circuits exist);
+/// each refused is logged with its reason and counted in `r.refused`.
+pub(crate) fn reinstate(circuits: &PlanCircuits, plans: Vec<HeldPlan>, r: &mut Restored) {
+    for plan in plans {
+        let (name, from) = (plan.name.clone(), plan.from.clone());
+        match circuits.reinstate(plan) {
+            Ok(()) => r.plans += 1,
+            Err(why) => {
+                tracing::warn!(plan = %name, %from, %why, "a plan kept in the state is not installed again");
+                r.refused += 1;
+            }
+        }
+    }
 }
 
 /// Defines each class once its parent is defined; the number refused.

@@ -6,6 +6,7 @@ use std::str::FromStr;
 
 use redb::{Database, ReadableTable, TableDefinition};
 use serde_json::{Value as Json, json};
+use slate_ici::HeldPlan;
 use slate_model::{Address, ClassDef, Context, NewObject, Packet};
 
 use super::pending::{ObjectRecord, Pending};
@@ -23,6 +24,9 @@ const CLASSES: TableDefinition<&str, &[u8]> = TableDefinition::new("classes");
 const OBJECTS: TableDefinition<&str, &[u8]> = TableDefinition::new("objects");
 /// `(object or class, attribute)` → `{"value", "accuracy", "confidence", "hlc", "source"}`.
 const PACKETS: TableDefinition<(&str, &str), &[u8]> = TableDefinition::new("packets");
+/// Plan name → `{"from", "circuit", "origin", "text", "next_step"}`: the plans other
+/// modules sent that the node runs ([`HeldPlan`]).
+const PLANS: TableDefinition<&str, &[u8]> = TableDefinition::new("plans");
 /// The layout of the tables above; a store of another format is refused.
 const FORMAT: &str = "1";
 
@@ -48,6 +52,8 @@ pub struct Saved {
     pub objects: Vec<NewObject>,
     /// Packets, by object then attribute.
     pub packets: Vec<SavedPacket>,
+    /// Plans other modules sent that the node ran, by name.
+    pub plans: Vec<HeldPlan>,
 }
 
 /// A node's state directory, open.
@@ -163,6 +169,16 @@ impl Store {
                 .packets
                 .push(packet.ok_or_else(|| self.bad_entry("packet", &what))?);
         }
+        // A store of an earlier build has no plans table: it held no plans.
+        if let Ok(plans) = txn.open_table(PLANS) {
+            for row in plans.iter().map_err(|e| self.corrupt(e))? {
+                let (name, bytes) = row.map_err(|e| self.corrupt(e))?;
+                let plan = parse(bytes.value()).and_then(|j| held_plan(name.value(), &j));
+                saved
+                    .plans
+                    .push(plan.ok_or_else(|| self.bad_entry("plan", name.value()))?);
+            }
+        }
         Ok(saved)
     }
 
@@ -212,6 +228,27 @@ impl Store {
             let bytes = to_bytes(&packet_json(packet));
             packets
                 .insert((&**object, &**attr), &*bytes)
+                .map_err(|e| w(e.into()))?;
+        }
+        match &p.plans {
+            Some(held) => self.write_plans(txn, held),
+            None => Ok(()),
+        }
+    }
+
+    /// Replaces the plans the store holds by `held`.
+    fn write_plans(
+        &self,
+        txn: &redb::WriteTransaction,
+        held: &[HeldPlan],
+    ) -> Result<(), StateError> {
+        let w = |e: redb::Error| self.write_error(e);
+        let mut plans = txn.open_table(PLANS).map_err(|e| w(e.into()))?;
+        plans.retain(|_, _| false).map_err(|e| w(e.into()))?;
+        for plan in held {
+            let bytes = to_bytes(&plan_json(plan));
+            plans
+                .insert(plan.name.as_str(), &*bytes)
                 .map_err(|e| w(e.into()))?;
         }
         Ok(())
@@ -329,5 +366,23 @@ fn saved_packet(object: &str, attr: &str, j: &Json) -> Option<SavedPacket> {
         attr: attr.to_owned(),
         value: j["value"].clone(),
         packet: crate::record::packet_meta(j)?,
+    })
+}
+
+fn plan_json(p: &HeldPlan) -> Json {
+    json!({
+        "from": p.from.as_str(), "circuit": p.circuit, "origin": p.origin.as_str(),
+        "text": p.text, "next_step": p.next_step,
+    })
+}
+
+fn held_plan(name: &str, j: &Json) -> Option<HeldPlan> {
+    Some(HeldPlan {
+        from: Address::new(j["from"].as_str()?).ok()?,
+        circuit: j["circuit"].as_u64()?,
+        origin: Address::new(j["origin"].as_str()?).ok()?,
+        name: name.to_owned(),
+        text: j["text"].as_str()?.to_owned(),
+        next_step: j["next_step"].as_u64()?,
     })
 }

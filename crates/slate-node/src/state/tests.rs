@@ -83,7 +83,6 @@ fn a_store_gives_back_the_classes_objects_and_packets_with_their_stamps_and_sour
         again.clock().now() > stamp,
         "the clock moves past every stamp restored"
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -105,7 +104,6 @@ fn a_restored_real_keeps_every_bit_of_its_stored_value() {
     assert_eq!(restored.value, slate_model::Value::Real(speed));
     assert_eq!(restored.confidence.to_bits(), confidence.to_bits());
     assert_eq!(board_state(&again), board_state(&b));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -130,7 +128,6 @@ fn a_stored_packet_replaces_an_initial_value_and_loses_to_a_newer_write() {
         again.read("gsr", "mode").unwrap().value,
         slate_model::Value::Str("new".into())
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -150,7 +147,6 @@ fn a_deleted_object_leaves_the_store_with_its_packets() {
     let names: Vec<&str> = saved.objects.iter().map(|o| o.name.as_str()).collect();
     assert_eq!(names, ["kept"]);
     assert!(saved.packets.iter().all(|p| p.object != "gone"));
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -162,7 +158,6 @@ fn liveliness_objects_are_not_kept() {
     let saved = save(&b, &dir).load().unwrap();
     assert!(saved.objects.is_empty(), "{:?}", saved.objects);
     assert!(saved.packets.is_empty(), "{:?}", saved.packets);
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -176,7 +171,6 @@ fn a_store_of_another_module_is_refused_with_both_names() {
     assert!(matches!(e, StateError::OtherModule { .. }), "{e:?}");
     let text = e.to_string();
     assert!(text.contains(ME) && text.contains("t/r9/cam"), "{text}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -189,7 +183,6 @@ fn a_damaged_store_is_an_error_naming_the_directory_and_the_way_out() {
     let text = e.to_string();
     assert!(text.contains(&dir.display().to_string()), "{text}");
     assert!(text.contains("--reset-state"), "{text}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -202,7 +195,6 @@ fn a_state_path_that_is_a_file_is_an_error_naming_it() {
     };
     assert!(matches!(e, StateError::Open { .. }), "{e:?}");
     assert!(e.to_string().contains(&path.display().to_string()), "{e}");
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -219,7 +211,6 @@ fn reset_moves_the_store_aside_and_the_next_open_is_empty() {
         reset(&std::env::temp_dir().join("slate-no-such-state")).unwrap(),
         None
     );
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -246,5 +237,4 @@ fn a_store_damaged_inside_is_an_error_or_a_consistent_board_never_a_panic() {
             Err(e) => assert!(e.to_string().contains(&dir.display().to_string()), "{e}"),
         }
     }
-    std::fs::remove_dir_all(dir).unwrap();
 }

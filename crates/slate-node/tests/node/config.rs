@@ -25,7 +25,6 @@ fn files_named_by_the_config_are_loaded_relative_to_it() {
     assert!(node.board().info("gsr").is_some());
     assert_eq!(node.listening(), ["tcp/127.0.0.1:0"]);
     node.close();
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -40,7 +39,6 @@ fn a_slate_file_with_errors_stops_the_start_with_its_diagnostics() {
     config.files = vec![d.join("missing.slate").into()];
     let err = Node::start(&config).err().unwrap();
     assert!(err.to_string().starts_with("cannot read "), "{err}");
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -55,7 +53,6 @@ fn a_node_whose_file_names_the_builtin_module_class_starts() {
     let node = Node::start(&config).unwrap();
     assert!(node.board().info("watch_modules").is_some());
     node.close();
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -73,7 +70,6 @@ fn a_file_entry_with_placeholders_is_loaded_with_them_replaced() {
     assert!(node.board().info("r2_car").is_some());
     assert!(node.board().info("ROBOT_car").is_none());
     node.close();
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -105,7 +101,6 @@ fn a_bad_file_entry_is_refused_naming_the_key() {
             "{files}: {err}"
         );
     }
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 /// A plain Zenoh config file, as Zenoh documents it.
@@ -141,7 +136,6 @@ fn a_zenoh_config_file_is_loaded_by_zenoh_and_slates_keys_win() {
     let node = Node::start(&config).unwrap();
     assert_eq!(node.listening(), [format!("tcp/127.0.0.1:{port}")]);
     node.close();
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -164,5 +158,4 @@ fn a_zenoh_config_file_zenoh_refuses_stops_the_start_naming_it() {
         "{err}"
     );
     assert!(!err.contains(".cargo"), "{err}");
-    std::fs::remove_dir_all(&d).unwrap();
 }

@@ -90,7 +90,8 @@ fn speeds(messages: &[Read]) -> Vec<f64> {
 
 #[test]
 fn a_boards_writes_become_packets_on_their_class_channel() {
-    let path = temp_dir("record-writes").join("nav.mcap");
+    let dir = temp_dir("record-writes");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(11);
     let nav = on_net(&net, "t/r1/nav", "object gsr : Vehicle context self;")
         .record(RecordConfig::new(&path))
@@ -178,7 +179,8 @@ fn a_boards_writes_become_packets_on_their_class_channel() {
 
 #[test]
 fn plan_progress_circuit_steps_and_liveliness_are_recorded() {
-    let path = temp_dir("record-plans").join("planner.mcap");
+    let dir = temp_dir("record-plans");
+    let path = dir.join("planner.mcap");
     let net = SimNet::new(12);
     let planner = on_net(&net, "t/r1/planner", "")
         .ici(IciConfig::default().export(ClassSet::all()))
@@ -238,7 +240,8 @@ fn plan_progress_circuit_steps_and_liveliness_are_recorded() {
 
 #[test]
 fn the_plan_engines_events_are_recorded() {
-    let path = temp_dir("record-engine").join("loco.mcap");
+    let dir = temp_dir("record-engine");
+    let path = dir.join("loco.mcap");
     let net = SimNet::new(13);
     let rule = "object gsr : Vehicle context self;\nplan slow { trigger: gsr.speed > 5.0; action { set gsr.mode = \"slow\"; } }";
     let loco = on_net(&net, "t/r1/loco", rule)
@@ -304,7 +307,8 @@ fn a_recording_rotates_by_size_and_each_file_starts_with_the_boards_state() {
 
 #[test]
 fn a_recording_cut_off_mid_write_reads_up_to_its_last_chunk() {
-    let path = temp_dir("record-cut").join("nav.mcap");
+    let dir = temp_dir("record-cut");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(15);
     let mut config = RecordConfig::new(&path);
     config.flush_every = Duration::ZERO;
@@ -348,7 +352,8 @@ fn a_recording_that_cannot_be_created_is_a_clear_start_error() {
 
 #[test]
 fn only_the_named_objects_and_classes_are_recorded() {
-    let path = temp_dir("record-only").join("nav.mcap");
+    let dir = temp_dir("record-only");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(17);
     let mut config = RecordConfig::new(&path);
     config.only = vec!["Obstacle".into()];
@@ -373,7 +378,8 @@ fn only_the_named_objects_and_classes_are_recorded() {
 
 #[test]
 fn a_recording_replayed_into_a_new_board_rebuilds_the_recorded_board() {
-    let path = temp_dir("record-replay").join("planner.mcap");
+    let dir = temp_dir("record-replay");
+    let path = dir.join("planner.mcap");
     let net = SimNet::new(18);
     let ugv = "class Ugv : Vehicle { wheels: int = 4; }";
     let planner = on_net(
@@ -435,7 +441,8 @@ fn a_recording_replayed_into_a_new_board_rebuilds_the_recorded_board() {
 #[test]
 fn a_class_redefined_while_recording_gets_a_channel_with_its_new_schema() {
     use slate_model::{AttrDecl, ClassDef, ValueType};
-    let path = temp_dir("record-redefine").join("nav.mcap");
+    let dir = temp_dir("record-redefine");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(19);
     let mut config = RecordConfig::new(&path);
     config.flush_every = Duration::ZERO;
@@ -479,7 +486,8 @@ fn a_replayed_real_keeps_every_bit_of_its_recorded_value() {
     // Reals whose shortest decimal form a reader without exact parsing rounds to the
     // neighbouring double: seen in the demo's replay (a heading, confidences, accuracies).
     let reals = [2.9215999999999998, 1.9027313840043538, 0.9882352941176471];
-    let path = temp_dir("record-reals").join("nav.mcap");
+    let dir = temp_dir("record-reals");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(19);
     let nav = on_net(&net, "t/r1/nav", "object rock : Obstacle;")
         .record(RecordConfig::new(&path))
@@ -534,7 +542,8 @@ fn firings(list: &[slate_node::record::Firing]) -> Vec<(String, String, Option<u
 #[test]
 fn a_plan_tested_against_a_recording_fires_as_the_same_plan_did_live() {
     let plan = "plan slow { initiation: gsr.mode == \"auto\"; trigger: gsr.speed > 5.0; termination: gsr.mode == \"manual\"; action { set gsr.mode = \"slow\"; } }";
-    let path = temp_dir("record-against").join("nav.mcap");
+    let dir = temp_dir("record-against");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(20);
     let nav = on_net(&net, "t/r1/nav", "object gsr : Vehicle context self;")
         .source("slow.slate", plan)
@@ -579,7 +588,8 @@ fn a_plan_tested_against_a_recording_fires_as_the_same_plan_did_live() {
 
 #[test]
 fn a_plan_naming_what_a_recording_lacks_is_a_load_error_with_the_diagnostics() {
-    let path = temp_dir("record-against-unknown").join("nav.mcap");
+    let dir = temp_dir("record-against-unknown");
+    let path = dir.join("nav.mcap");
     let net = SimNet::new(21);
     let nav = start(&net, "t/r1/nav", "object gsr : Vehicle context self;");
     nav.start_recording(RecordConfig::new(&path)).unwrap();

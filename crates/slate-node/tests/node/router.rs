@@ -83,5 +83,4 @@ fn a_value_written_on_one_robots_lan_reaches_another_lan_through_a_zenoh_router(
     for n in [nav, loco, base, vision] {
         n.close();
     }
-    std::fs::remove_dir_all(&d).unwrap();
 }

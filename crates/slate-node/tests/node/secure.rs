@@ -22,7 +22,7 @@ struct Listener {
     heard: Arc<Mutex<Vec<String>>>,
 }
 
-fn team_keys(name: &str) -> std::path::PathBuf {
+fn team_keys(name: &str) -> slate_testing::TempDir {
     let dir = temp_dir(name);
     team_keys::init(&dir, false).unwrap();
     for id in ["t/r1/nav", "t/r2/loco", "t/r3/gps"] {
@@ -145,7 +145,6 @@ fn a_secured_member_speaking_in_another_modules_name_is_refused_at_the_link() {
     let heard = speak_own(&sender, &listener);
     assert_eq!(in_navs_name(&heard), Vec::<&String>::new(), "{heard:?}");
     sender.close().wait().unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -176,6 +175,4 @@ fn a_session_without_a_team_certificate_gets_no_link_to_a_secured_module() {
         outsider.close().wait().unwrap();
     }
     member.close().wait().unwrap();
-    std::fs::remove_dir_all(&dir).unwrap();
-    std::fs::remove_dir_all(&other).unwrap();
 }

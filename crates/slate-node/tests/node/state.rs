@@ -3,7 +3,7 @@
 //! simulator, with the node closed and started again on the same address.
 
 use slate_ici::{ClassSet, IciConfig, SimNet};
-use slate_model::Update;
+use slate_model::{Update, Value};
 use slate_node::state::{FILE, StateError};
 use slate_node::{Node, StartError, StateConfig};
 use slate_testing::temp_dir;
@@ -67,7 +67,6 @@ fn a_restarted_node_with_state_keeps_its_objects_and_its_peers_keep_them_too() {
         .unwrap();
     nav.close();
     console.close();
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -105,7 +104,6 @@ fn a_node_whose_state_is_damaged_does_not_start_and_says_how_to_recover() {
     let node = nav(&net, Some(&dir)).expect("after a reset the node starts empty");
     assert_eq!(node.restored().map(|r| r.objects), Some(0));
     node.close();
-    std::fs::remove_dir_all(dir).unwrap();
 }
 
 #[test]
@@ -114,11 +112,83 @@ fn a_state_directory_of_another_module_is_refused() {
     let net = SimNet::new(20);
     nav(&net, Some(&dir)).unwrap().close();
     let other = on_net(&net, "t/r2/loco", "")
-        .state(StateConfig::new(&dir))
+        .state(StateConfig::new(dir.path()))
         .start();
     let Err(e) = other else {
         panic!("another module's state was taken");
     };
     assert!(e.to_string().contains(NAV), "{e}");
-    std::fs::remove_dir_all(dir).unwrap();
+}
+
+const PLANNER: &str = "t/r1/planner";
+const LOCO: &str = "t/r1/loco";
+/// A plan with no termination: it runs until cancelled.
+const SLOW: &str = "plan slow { trigger: gsr.speed > 5.0; action { set gsr.mode = \"slow\"; } }";
+
+/// The loco module (it runs plans from the planner), keeping its board in `dir`.
+fn loco(net: &SimNet, dir: &std::path::Path) -> Node {
+    on_net(net, LOCO, "object gsr : Vehicle context self;")
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .plans_from(vec!["t/r1/planner".parse().unwrap()])
+        .state(StateConfig::new(dir))
+        .start()
+        .unwrap()
+}
+
+/// loco accepts `plan` from the planner, runs a while, and restarts on its state while
+/// the planner is gone (a planner still up would send its plan again by itself).
+fn restart_after_plan(dir: &std::path::Path, plan: &str, speed: f64) -> Node {
+    let net = SimNet::new(21);
+    let planner = start(&net, PLANNER, "");
+    let first = loco(&net, dir);
+    net.run_for(std::time::Duration::from_millis(500));
+    let handle = planner.send_plan(&slate_testing::addr(LOCO), plan).unwrap();
+    let accepted = |h: &slate_ici::PlanHandle| {
+        h.acks()
+            .try_iter()
+            .any(|s| s == slate_wire::PlanStep::Accepted)
+    };
+    assert!(run_until(&net, 3.0, || accepted(&handle)));
+    first.board().write("gsr", "speed", speed).unwrap();
+    net.run_for(std::time::Duration::from_millis(500));
+    planner.close();
+    first.close();
+    drop(first);
+    net.run_for(std::time::Duration::from_millis(300));
+    let second = loco(&net, dir);
+    net.run_for(std::time::Duration::from_secs(2));
+    second
+}
+
+#[test]
+fn a_plan_received_and_accepted_comes_back_after_a_restart_with_state() {
+    let dir = temp_dir("node-state-plan");
+    let loco = restart_after_plan(&dir, SLOW, 1.0);
+    let status = loco.engine().status("slow").expect("the plan came back");
+    assert_eq!(status.state.name(), "active", "{status:?}");
+    assert_eq!(loco.restored().map(|r| r.plans), Some(1));
+    let origin = loco.board().read("slow", "origin").unwrap().value;
+    assert_eq!(
+        origin,
+        Value::Str(PLANNER.into()),
+        "it runs for the planner"
+    );
+    // It still acts.
+    loco.board().write("gsr", "speed", 6.0).unwrap();
+    let mode = loco.board().read("gsr", "mode").unwrap().value;
+    assert_eq!(mode, Value::Str("slow".into()));
+    loco.close();
+}
+
+#[test]
+fn a_received_plan_that_ended_before_the_restart_does_not_come_back() {
+    let dir = temp_dir("node-state-plan-ended");
+    let once = "plan once { trigger: gsr.speed > 5.0; termination: gsr.mode == \"slow\"; action { set gsr.mode = \"slow\"; } }";
+    let loco = restart_after_plan(&dir, once, 6.0);
+    assert!(
+        loco.engine().status("once").is_none(),
+        "an ended plan stays ended"
+    );
+    assert_eq!(loco.restored().map(|r| r.plans), Some(0));
+    loco.close();
 }

@@ -163,7 +163,6 @@ fn a_plain_zenoh_config_files_lease_decides_how_soon_a_silent_peer_is_dropped() 
     base.close();
     nav.close();
     drop(radio);
-    std::fs::remove_dir_all(&d).unwrap();
 }
 
 #[test]
@@ -195,5 +194,4 @@ fn two_nodes_share_a_value_over_udp_links() {
     assert!(arrived, "r2/base holds {:?}", speed());
     base.close();
     nav.close();
-    std::fs::remove_dir_all(&d).unwrap();
 }

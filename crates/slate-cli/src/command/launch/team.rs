@@ -531,7 +531,18 @@ impl Layout<'_> {
             config.insert("security".into(), Value::Table(security));
         }
         self.absolute(&mut config, "zenoh_config");
+        self.own_state(&mut config, &robot.name, kind);
         Ok(config)
+    }
+
+    /// Makes a kind's `state = "DIR"` the module's own folder in it, `DIR/ROBOT/KIND`
+    /// (DIR relative to the team file): a store holds one module's board and refuses
+    /// another's, so the modules of a kind must not share one.
+    fn own_state(&self, config: &mut Table, robot: &str, kind: &str) {
+        if let Some(Value::String(dir)) = config.get_mut("state") {
+            let own = self.base.join(&*dir).join(robot).join(kind);
+            *dir = own.display().to_string();
+        }
     }
 
     /// Makes a path-valued key absolute (relative to the team file): the config is
@@ -640,20 +651,19 @@ fn strip_label(message: &str, label: &str) -> String {
 mod tests {
     use super::*;
 
-    /// A team file in a fresh folder; its path.
-    fn team_file(name: &str, text: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("slate-team-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+    /// A team file in a fresh folder (removed when the guard is dropped); its path.
+    fn team_file(name: &str, text: &str) -> (slate_testing::TempDir, PathBuf) {
+        let dir = slate_testing::temp_dir(&format!("team-{name}"));
         let path = dir.join("team.toml");
         std::fs::write(&path, text).unwrap();
-        path
+        (dir, path)
     }
 
     const TWO_ROBOTS: &str = "base_port = 7000\n[kinds.nav]\nfiles = [\"robot.slate\"]\nzenoh_config = \"zenoh.json5\"\n[kinds.console]\nper_robot = [\"robot.slate\"]\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\"]\n[[robots]]\nname = \"base\"\nhost = \"10.0.0.9\"\nmodules = [\"console\"]\n";
 
     #[test]
     fn each_module_gets_its_address_port_files_and_the_others_endpoints() {
-        let path = team_file("layout", TWO_ROBOTS);
+        let (_dir, path) = team_file("layout", TWO_ROBOTS);
         let team = Team::read(&path, None, None).unwrap();
         let dir = path.parent().unwrap();
         let [nav, console] = &team.modules[..] else {
@@ -672,12 +682,11 @@ mod tests {
         assert_eq!(nav.config.files[0].path, dir.join("robot.slate"));
         let moved = Team::read(&path, Some(8000), None).unwrap();
         assert_eq!(moved.modules[1].config.zenoh.listen, ["tcp/10.0.0.9:8001"]);
-        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
     fn a_kinds_zenoh_config_is_found_from_the_team_files_folder() {
-        let path = team_file("zenoh", TWO_ROBOTS);
+        let (_dir, path) = team_file("zenoh", TWO_ROBOTS);
         let team = Team::read(&path, None, None).unwrap();
         let dir = path.parent().unwrap();
         // The written config is read from the log folder, elsewhere.
@@ -687,12 +696,26 @@ mod tests {
             written.unwrap().zenoh.file.as_deref(),
             Some(expected.as_path())
         );
-        std::fs::remove_dir_all(dir).unwrap();
+    }
+
+    #[test]
+    fn a_kinds_state_folder_gives_each_module_a_folder_of_its_own() {
+        let text = "base_port = 7000\n[kinds.nav]\nstate = \"kept\"\n[[robots]]\nname = \"r1\"\nmodules = [\"nav\"]\n[[robots]]\nname = \"r2\"\nmodules = [\"nav\"]\n";
+        let (_dir, path) = team_file("state", text);
+        let team = Team::read(&path, None, None).unwrap();
+        let dir = path.parent().unwrap();
+        let state = |m: &ModulePlan| m.config.state.as_ref().map(|s| s.dir.clone());
+        assert_eq!(state(&team.modules[0]), Some(dir.join("kept/r1/nav")));
+        assert_eq!(state(&team.modules[1]), Some(dir.join("kept/r2/nav")));
+        // The written config names the same folder, from wherever it is read.
+        let written = NodeConfig::parse("x", &team.modules[1].config_text, Path::new("/logs"));
+        let written = written.unwrap().state.map(|s| s.dir);
+        assert_eq!(written, Some(dir.join("kept/r2/nav")));
     }
 
     #[test]
     fn a_team_with_keys_runs_every_module_over_tls_with_them() {
-        let path = team_file("keys", &format!("keys = \"team-keys\"\n{TWO_ROBOTS}"));
+        let (_dir, path) = team_file("keys", &format!("keys = \"team-keys\"\n{TWO_ROBOTS}"));
         let dir = path.parent().unwrap();
         let team = Team::read(&path, None, None).unwrap();
         let [nav, console] = &team.modules[..] else {
@@ -707,7 +730,6 @@ mod tests {
             Some(PathBuf::from("/srv/keys")),
             "--keys wins over the file's"
         );
-        std::fs::remove_dir_all(dir).unwrap();
     }
 
     #[test]
@@ -716,10 +738,9 @@ mod tests {
             "[kinds.console]",
             "[kinds.nav.security]\nkeys = \"k\"\n[kinds.console]",
         );
-        let path = team_file("kind-keys", &text);
+        let (_dir, path) = team_file("kind-keys", &text);
         let err = Team::read(&path, None, None).unwrap_err().to_string();
         assert!(err.contains("remove `[security]`"), "{err}");
         assert!(err.contains("`keys = \"DIR\"`"), "{err}");
-        std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
     }
 }
