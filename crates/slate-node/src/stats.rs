@@ -47,7 +47,7 @@ pub struct ModuleStats {
     pub plans: Plans,
 }
 
-/// Plans received on circuits (docs/ici.md, "Plan circuits").
+/// Plans received on circuits, and copies sent again (docs/ici.md, "Plan circuits").
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Plans {
     /// Plans that opened a circuit here.
@@ -61,6 +61,15 @@ pub struct Plans {
     pub unauthorised: u64,
     /// Of those, refused because the module was busy loading others.
     pub busy: u64,
+    /// Copies of a plan already had, answered with its steps again (never loaded twice).
+    #[serde(default)]
+    pub answered_again: u64,
+    /// Last steps sent again unasked (a link that loses messages may have lost them).
+    #[serde(default)]
+    pub repeated: u64,
+    /// Plans and cancellations this module sent again on its circuits.
+    #[serde(default)]
+    pub resent: u64,
 }
 
 impl Plans {
@@ -72,6 +81,9 @@ impl Plans {
             rejected: s.rejected,
             unauthorised: s.unauthorised,
             busy: s.busy,
+            answered_again: s.answered_again,
+            repeated: s.repeated,
+            resent: s.resent,
         }
     }
 }

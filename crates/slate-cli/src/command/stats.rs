@@ -215,8 +215,15 @@ fn print_stats_text(m: &Measured) {
     );
     let p = &s.plans;
     println!(
-        "  plans received: {}, accepted {}, rejected {} (no authority {}, busy {})",
-        p.received, p.accepted, p.rejected, p.unauthorised, p.busy
+        "  plans received: {}, accepted {}, rejected {} (no authority {}, busy {}), answered again {}; sent again {}, last steps repeated {}",
+        p.received,
+        p.accepted,
+        p.rejected,
+        p.unauthorised,
+        p.busy,
+        p.answered_again,
+        p.resent,
+        p.repeated
     );
 }
 
