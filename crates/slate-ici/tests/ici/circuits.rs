@@ -468,6 +468,34 @@ fn a_lost_last_step_of_a_plan_still_reaches_its_origin() {
 }
 
 #[test]
+fn a_lost_step_is_asked_for_until_it_comes_even_when_the_asks_are_lost_three_times() {
+    let net = SimNet::new(74);
+    let mut copies = 0;
+    let lose_three_asks: Judge = Box::new(move |m| match m {
+        Message::Plan(_) => {
+            copies += 1;
+            match copies {
+                2..=4 => Fate::Lose,
+                _ => Fate::Send,
+            }
+        }
+        _ => Fate::Send,
+    });
+    let origin = lossy_module(&net, "t/r1/planner", "", lose_three_asks);
+    let is_received =
+        |m: &Message| matches!(m, Message::PlanAck(a) if a.step == PlanStep::Received);
+    let cell = lossy_module(&net, "t/r2/cell", CELL, lose_first(is_received));
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let got = steps_of(&net, &h, 3, 20.0);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    assert_eq!(cell.circuits.stats().received, 1);
+}
+
+#[test]
 fn a_rejected_plan_says_why_with_line_and_column() {
     let (net, origin, cell) = planner_and_cell(61);
     let to = addr("t/r2/cell");
