@@ -120,6 +120,10 @@ pub struct Drops {
     /// Messages the team protocol dropped (pending without a gateway, parked, kept
     /// without names past their limits).
     pub team_dropped: u64,
+    /// Publications the transport dropped because this module was too far behind to
+    /// take them (its receive queue full): the ICI catches up on what they carried.
+    #[serde(default)]
+    pub behind_dropped: u64,
 }
 
 /// Catch-ups (docs/ici.md).
@@ -172,6 +176,16 @@ impl ModuleStats {
         }
     }
 
+    /// Every counter of a node's parts: its ICI, its transport's drops, its plan circuits.
+    pub(crate) fn of_view(view: &View, uptime: Duration) -> Self {
+        let address = view.board.address();
+        let mut stats =
+            ModuleStats::of(address, &view.ici.stats(), &view.ici.alive_peers(), uptime);
+        stats.drops.behind_dropped = view.transport.stats().behind_dropped;
+        stats.plans = Plans::of(&view.circuits.stats());
+        stats
+    }
+
     /// Messages and bytes of one link kind (`robot` or `team`), every kind together.
     pub fn link(&self, link: &str) -> TrafficRow {
         let mut total = TrafficRow {
@@ -218,6 +232,7 @@ impl Drops {
             refused: r.invalid + r.future + r.stale + r.object_conflicts + r.class_conflicts,
             duplicates: r.duplicates,
             team_dropped: t.pending_dropped + t.parked_dropped + t.undecoded_dropped,
+            behind_dropped: 0,
         }
     }
 }
@@ -246,13 +261,7 @@ pub(crate) fn serve(session: &zenoh::Session, view: &Arc<View>) -> zenoh::Result
         .declare_queryable(key)
         .callback(move |q: Query| {
             let Some(view) = weak.upgrade() else { return };
-            let mut stats = ModuleStats::of(
-                view.board.address(),
-                &view.ici.stats(),
-                &view.ici.alive_peers(),
-                started.elapsed(),
-            );
-            stats.plans = Plans::of(&view.circuits.stats());
+            let stats = ModuleStats::of_view(&view, started.elapsed());
             let body = serde_json::to_vec(&stats).unwrap_or_default();
             if let Err(e) = q.reply(reply_key.as_str(), body).wait() {
                 tracing::debug!(error = %e, "stats query not answered");

@@ -257,6 +257,10 @@ pub struct LinkStats {
     pub traffic: BTreeMap<(LinkKind, MsgKind), Traffic>,
     /// Sends refused (closed endpoint, unknown peer, too large).
     pub refused: u64,
+    /// Publications received and dropped because the module's handler was too far behind
+    /// to take them (the transport's receive queue was full); the ICI catches up on what
+    /// they carried. Zero for a transport without such a queue.
+    pub behind_dropped: u64,
 }
 
 impl LinkStats {

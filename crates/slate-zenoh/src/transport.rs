@@ -812,7 +812,9 @@ impl Transport for ZenohTransport {
     }
 
     fn stats(&self) -> LinkStats {
-        self.inner.stats.lock().clone()
+        let mut stats = self.inner.stats.lock().clone();
+        stats.behind_dropped = self.inner.behind_dropped.load(Ordering::Relaxed);
+        stats
     }
 
     fn listen(&self, link: LinkKind, on: bool) -> bool {

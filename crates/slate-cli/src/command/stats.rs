@@ -205,8 +205,8 @@ fn print_stats_text(m: &Measured) {
     }
     let d = &s.drops;
     println!(
-        "  drops: send failed {}, undecodable {}, refused {}, duplicates {}, team protocol {}",
-        d.send_failed, d.undecodable, d.refused, d.duplicates, d.team_dropped
+        "  drops: send failed {}, undecodable {}, refused {}, duplicates {}, team protocol {}, behind {}",
+        d.send_failed, d.undecodable, d.refused, d.duplicates, d.team_dropped, d.behind_dropped
     );
     let c = &s.catch_up;
     println!(
