@@ -269,6 +269,11 @@ pub(crate) struct Inner {
     /// Those told of each plan refused for want of authority (see
     /// [`PlanCircuits::refusals`]).
     refusals: Mutex<Vec<Sender<RefusedPlan>>>,
+    /// The transport loses sends without retransmitting them ([`Transport::retransmits`]):
+    /// unanswered plans go again and last steps are repeated.
+    ///
+    /// [`Transport::retransmits`]: crate::Transport::retransmits
+    lossy: bool,
     /// On the system clock, where `Plan` and `PlanCancel` messages go to be handled on the
     /// circuits' thread, not on the transport's; `None` on a manual clock.
     queue: Option<Sender<(Address, Message)>>,
@@ -302,6 +307,7 @@ impl PlanCircuits {
             authority: Mutex::new(PlanAuthority::own_robot(ici.address())),
             runs_for: Mutex::new(HashMap::new()),
             refusals: Mutex::new(Vec::new()),
+            lossy: !ici.transport_retransmits(),
             queue: (!manual).then_some(queue),
         });
         let weak = Arc::downgrade(&inner);
@@ -405,10 +411,13 @@ impl Inner {
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
         let now = self.now();
-        let (acks, msg) = self
-            .origin
-            .lock()
-            .open(circuit, (&name, text), to, origin, now);
+        let (acks, msg) = self.origin.lock().open(
+            circuit,
+            (&name, text),
+            to,
+            origin,
+            self.lossy.then_some(now),
+        );
         if let Err(e) = self.transmit(to, msg) {
             self.origin.lock().forget(circuit);
             return Err(e.into());
@@ -423,7 +432,10 @@ impl Inner {
 
     fn cancel(self: &Arc<Self>, circuit: u64) -> Result<(), SendPlanError> {
         let now = self.now();
-        let to = self.origin.lock().request_cancel(circuit, now)?;
+        let to = self
+            .origin
+            .lock()
+            .request_cancel(circuit, self.lossy.then_some(now))?;
         self.transmit(&to, Message::PlanCancel { circuit })?;
         Ok(())
     }

@@ -385,6 +385,15 @@ pub trait Transport: Send + Sync {
         let _ = (link, on);
         false
     }
+
+    /// Whether a send reaches a peer that stays reachable, the transport retransmitting
+    /// what the network lost (TCP; the simulator's sends). `false` for a transport over
+    /// datagrams that lose what the network loses (Zenoh's `udp/` links): plan circuits
+    /// then send an unanswered plan again and repeat a circuit's last step themselves,
+    /// which on a retransmitting transport would only add load to a slow link.
+    fn retransmits(&self) -> bool {
+        true
+    }
 }
 
 #[cfg(test)]

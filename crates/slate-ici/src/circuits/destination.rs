@@ -511,7 +511,7 @@ impl Inner {
 
     /// Sends a step of a circuit to its origin; a last step is sent again later.
     fn send_ack(self: &Arc<Self>, to: &Address, ack: PlanAck) {
-        if *to != self.me {
+        if *to != self.me && self.lossy {
             let now = self.now();
             self.destination.lock().repeat_if_last(to, &ack, now);
         }

@@ -172,15 +172,16 @@ impl Sent {
 
 impl Origin {
     /// Opens a circuit for a plan of `origin` (this module's own, or the origin of the
-    /// plan that sends it on) at `now`; returns its acks' receiver and the plan message to
-    /// send. The plan is sent again until the destination answers.
+    /// plan that sends it on); returns its acks' receiver and the plan message to send.
+    /// Over a link that loses sends, the plan is sent again until the destination answers,
+    /// from `lossy_since` (the time it is sent).
     pub fn open(
         &mut self,
         circuit: u64,
         (name, text): (&str, &str),
         to: &Address,
         origin: &Address,
-        now: Duration,
+        lossy_since: Option<Duration>,
     ) -> (Receiver<PlanStep>, Message) {
         let (tx, rx) = crossbeam_channel::unbounded();
         let sent = Sent {
@@ -193,7 +194,7 @@ impl Origin {
             early: BTreeMap::new(),
             gap_since: None,
             asks: 0,
-            waiting_since: Some(now),
+            waiting_since: lossy_since,
             wait: ACK_GAP_GRACE,
             unanswered: 0,
             tx,
@@ -211,12 +212,13 @@ impl Origin {
         self.circuits.remove(&circuit);
     }
 
-    /// Marks an open circuit to be cancelled at `now`; returns its destination. The
-    /// cancellation is sent again until the circuit closes.
+    /// Marks an open circuit to be cancelled; returns its destination. Over a link that
+    /// loses sends, the cancellation is sent again until the circuit closes, from
+    /// `lossy_since` (the time it is sent).
     pub fn request_cancel(
         &mut self,
         circuit: u64,
-        now: Duration,
+        lossy_since: Option<Duration>,
     ) -> Result<Address, SendPlanError> {
         let c = self
             .circuits
@@ -226,7 +228,9 @@ impl Origin {
             return Err(SendPlanError::Closed(circuit));
         }
         c.cancel = true;
-        c.await_answer(now);
+        if let Some(now) = lossy_since {
+            c.await_answer(now);
+        }
         Ok(c.to.clone())
     }
 
@@ -349,7 +353,7 @@ mod tests {
             ("p", "plan p { action { } }"),
             &dest,
             &addr("t/r1/o"),
-            Duration::ZERO,
+            Some(Duration::ZERO),
         );
         assert!(matches!(msg, Message::Plan(Plan { circuit: 1, .. })));
         (o, rx, dest)
@@ -432,11 +436,11 @@ mod tests {
             Duration::ZERO,
         );
         assert!(matches!(
-            o.request_cancel(1, Duration::ZERO),
+            o.request_cancel(1, Some(Duration::ZERO)),
             Err(SendPlanError::Closed(1))
         ));
         assert!(matches!(
-            o.request_cancel(9, Duration::ZERO),
+            o.request_cancel(9, Some(Duration::ZERO)),
             Err(SendPlanError::UnknownCircuit(9))
         ));
         o.lost(&d);
@@ -479,7 +483,7 @@ mod tests {
         let (mut o, _rx, d) = opened();
         o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
         assert!(o.due(Duration::from_secs(5)).is_empty(), "answered");
-        o.request_cancel(1, Duration::from_secs(5)).unwrap();
+        o.request_cancel(1, Some(Duration::from_secs(5))).unwrap();
         o.ack(&d, ack(2, PlanStep::Accepted), Duration::from_secs(5));
         let again = o.due(Duration::from_secs(6));
         assert!(
@@ -494,5 +498,19 @@ mod tests {
         );
         o.ack(&d, ack(3, PlanStep::Cancelled), Duration::from_secs(6));
         assert!(o.due(Duration::from_secs(60)).is_empty(), "closed");
+    }
+
+    #[test]
+    fn over_a_link_that_retransmits_an_unanswered_plan_waits_for_its_answer() {
+        let mut o = Origin::default();
+        let dest = addr("t/r2/d");
+        o.open(
+            1,
+            ("p", "plan p { action { } }"),
+            &dest,
+            &addr("t/r1/o"),
+            None,
+        );
+        assert!(o.due(Duration::from_secs(60)).is_empty());
     }
 }

@@ -373,6 +373,10 @@ impl Transport for Lossy {
     fn close(&self) {
         self.inner.close();
     }
+
+    fn retransmits(&self) -> bool {
+        false
+    }
 }
 
 /// A module whose plan messages meet `judge`.
