@@ -559,7 +559,8 @@ _StepName = Literal[
 @final
 class Node:
     """One module on the network: a board, its plan engine, its ICI over Zenoh and its
-    plan circuits. A `with` block closes it."""
+    plan circuits. A `with` block closes it. It starts from `slate node`'s settings:
+    on the team link an attribute goes at most every 200 ms, with its last value."""
 
     def __new__(
         cls,
@@ -601,8 +602,10 @@ class Node:
     def send_plan(self, source: str, *, to: str) -> PlanHandle: ...
     def snapshot(self) -> dict[str, Any]: ...
     def stats(self) -> dict[str, Any]:
-        """The ICI's counters as `slate stats --format json` prints them: `traffic`,
-        `drops`, `catch_up` (`gaps`: what the network lost or dropped), `merges`, `peers`."""
+        """The node's counters as `slate stats --format json` prints them: `traffic`,
+        `drops` (`behind_dropped`: publications its transport dropped while this module
+        was too far behind to take them), `catch_up` (`gaps`: what the network lost or
+        dropped), `merges`, `plans` (received, ..., `resent`), `peers`."""
     def close(self) -> None: ...
     def __enter__(self) -> Node: ...
     def __exit__(

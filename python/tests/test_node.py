@@ -69,6 +69,31 @@ def test_a_write_on_one_node_is_visible_on_the_other(pair: tuple[slate.Node, sla
     run_with_timeout(check)
 
 
+def team_reports_sent(node: slate.Node) -> int:
+    """Reports the node sent on the team link, from its counters."""
+    rows = node.stats()["traffic"]
+    return sum(r["sent_msgs"] for r in rows if r["link"] == "team" and r["kind"] == "report")
+
+
+def test_a_burst_of_writes_costs_the_team_link_a_few_reports_and_the_last_value_arrives(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    # A Python node starts from the same settings as `slate node`: an attribute goes on
+    # the team link at most every 200 ms, with its last value at the trailing edge.
+    nav, loco = pair
+
+    def check() -> None:
+        assert eventually(lambda: "gsr" in loco.board)
+        before = team_reports_sent(nav)
+        for i in range(1, 101):
+            nav.board.write("gsr", "speed", i / 10.0)
+        assert eventually(lambda: loco.board.read("gsr", "speed").value == 10.0)
+        sent = team_reports_sent(nav) - before
+        assert 0 < sent < 20, f"{sent} reports for 100 writes"
+
+    run_with_timeout(check)
+
+
 def test_send_plan_yields_every_acknowledgement_as_it_arrives(
     pair: tuple[slate.Node, slate.Node],
 ) -> None:
@@ -204,9 +229,9 @@ def test_a_lost_destination_is_not_the_last_acknowledgement(
 
 
 @pytest.mark.skip(
-    reason="flaky (about 1 run in 2): the restarted destination catches up the origin's "
-    "objects but the resent plan does not reach it within 20 s; cause not found yet "
-    "(issue 16, finding 3)"
+    reason="flaky (3 failures in 13 runs): the restarted destination catches up the origin's "
+    "objects but the plan, sent again with back-off, does not reach it within 20 s; cause "
+    "not found yet (issue 16, finding 3)"
 )
 def test_acknowledgements_go_on_after_the_destination_restarts(
     pair: tuple[slate.Node, slate.Node],
@@ -219,7 +244,9 @@ def test_acknowledgements_go_on_after_the_destination_restarts(
         handle = lose_the_destination(nav, loco)
         board = slate.Board(address="t/r2/loco")
         board.load(WORLD)
-        again = slate.Node("t/r2/loco", board, connect=nav.listening, export=["Thing"])
+        again = slate.Node(
+            "t/r2/loco", board, connect=nav.listening, export=["Thing"], plans_from=["robot", "t/r1/nav"]
+        )
         try:
             nav.board.write("gsr", "mode", "go")
             assert eventually(lambda: nav.board.read("gsr", "mode").value == "going", 20)

@@ -50,7 +50,8 @@ pub const MAX_PLAN_TEXT_BYTES: usize = 32 * 1024;
 /// `Plan` is rejected at once (the module is busy), without being parsed.
 pub const MAX_QUEUED_PLANS: usize = 64;
 
-/// What the destination side of a module's circuits did with the plans it received.
+/// What a module's circuits did: with the plans it received (destination) and those it
+/// sent (origin).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CircuitStats {
     /// `Plan` messages that opened a circuit (a plan sent again on its circuit is not
@@ -66,6 +67,15 @@ pub struct CircuitStats {
     /// Of those, plans rejected because their sender or their origin has no authority
     /// to send this module plans ([`PlanAuthority`]).
     pub unauthorised: u64,
+    /// Copies of a plan this module already had (same origin, circuit and text), answered
+    /// with the circuit's steps again, never loaded twice.
+    pub answered_again: u64,
+    /// Last steps (`Terminated`, `Cancelled`, `Rejected`) sent again, unasked, in case the
+    /// first copy was lost: nothing follows them to reveal the loss.
+    pub repeated: u64,
+    /// Plans (and cancellations) this module sent again on its circuits: unanswered, to
+    /// ask for missing steps, or to a destination that came back.
+    pub resent: u64,
 }
 
 /// The counters behind [`CircuitStats`].
@@ -76,6 +86,9 @@ struct Counters {
     rejected: AtomicU64,
     busy: AtomicU64,
     unauthorised: AtomicU64,
+    answered_again: AtomicU64,
+    repeated: AtomicU64,
+    resent: AtomicU64,
 }
 
 impl Counters {
@@ -86,6 +99,9 @@ impl Counters {
             rejected: self.rejected.load(Ordering::Relaxed),
             busy: self.busy.load(Ordering::Relaxed),
             unauthorised: self.unauthorised.load(Ordering::Relaxed),
+            answered_again: self.answered_again.load(Ordering::Relaxed),
+            repeated: self.repeated.load(Ordering::Relaxed),
+            resent: self.resent.load(Ordering::Relaxed),
         }
     }
 }
@@ -253,6 +269,11 @@ pub(crate) struct Inner {
     /// Those told of each plan refused for want of authority (see
     /// [`PlanCircuits::refusals`]).
     refusals: Mutex<Vec<Sender<RefusedPlan>>>,
+    /// The transport loses sends without retransmitting them ([`Transport::retransmits`]):
+    /// unanswered plans go again and last steps are repeated.
+    ///
+    /// [`Transport::retransmits`]: crate::Transport::retransmits
+    lossy: bool,
     /// On the system clock, where `Plan` and `PlanCancel` messages go to be handled on the
     /// circuits' thread, not on the transport's; `None` on a manual clock.
     queue: Option<Sender<(Address, Message)>>,
@@ -286,6 +307,7 @@ impl PlanCircuits {
             authority: Mutex::new(PlanAuthority::own_robot(ici.address())),
             runs_for: Mutex::new(HashMap::new()),
             refusals: Mutex::new(Vec::new()),
+            lossy: !ici.transport_retransmits(),
             queue: (!manual).then_some(queue),
         });
         let weak = Arc::downgrade(&inner);
@@ -422,7 +444,14 @@ impl Inner {
         let name = one_plan("plan.slate", text)
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
-        let (acks, msg) = self.origin.lock().open(circuit, &name, text, to, origin);
+        let now = self.now();
+        let (acks, msg) = self.origin.lock().open(
+            circuit,
+            (&name, text),
+            to,
+            origin,
+            self.lossy.then_some(now),
+        );
         if let Err(e) = self.transmit(to, msg) {
             self.origin.lock().forget(circuit);
             return Err(e.into());
@@ -436,7 +465,11 @@ impl Inner {
     }
 
     fn cancel(self: &Arc<Self>, circuit: u64) -> Result<(), SendPlanError> {
-        let to = self.origin.lock().request_cancel(circuit)?;
+        let now = self.now();
+        let to = self
+            .origin
+            .lock()
+            .request_cancel(circuit, self.lossy.then_some(now))?;
         self.transmit(&to, Message::PlanCancel { circuit })?;
         Ok(())
     }
@@ -513,18 +546,26 @@ impl Inner {
         }
         let now = self.now();
         let resend = self.origin.lock().resume(peer, now);
+        self.count_resent(resend.len());
         for msg in resend {
             self.transmit_logged(peer, msg);
         }
     }
 
-    /// Timers: circuits whose acks have a gap ask for them again.
+    /// Timers: unanswered plans go again, circuits whose acks have a gap ask for them
+    /// again, and last steps are repeated.
     fn tick(self: &Arc<Self>) {
         let now = self.now();
-        let due = self.origin.lock().gaps_due(now);
+        let due = self.origin.lock().due(now);
+        self.count_resent(due.len());
         for (to, msg) in due {
             self.transmit_logged(&to, msg);
         }
+        self.repeat_last_steps(now);
+    }
+
+    fn count_resent(&self, n: usize) {
+        self.counters.resent.fetch_add(n as u64, Ordering::Relaxed);
     }
 
     /// Takes what the engine produced (progress events, reports and plans to send),

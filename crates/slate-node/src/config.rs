@@ -148,6 +148,14 @@ const ICI: &[&str] = &[
 /// the radio*), and the last value still arrives, at most this much later.
 pub const TEAM_REPORT_EVERY: Duration = Duration::from_millis(200);
 
+/// The ICI settings a node starts from, whether configured by a file or by a Python
+/// `slate.Node`'s arguments: the library's defaults, and the team link's report interval
+/// ([`TEAM_REPORT_EVERY`]). (The library's own default sends every value at once, so the
+/// simulator's runs stay as they were.)
+pub fn default_ici() -> IciConfig {
+    IciConfig::default().team_report_every(Some(TEAM_REPORT_EVERY))
+}
+
 const CLASSES: &str =
     "a list of class names, each optionally with contexts (\"Obstacle:surroundings,system\")";
 
@@ -159,7 +167,7 @@ impl NodeConfig {
             address,
             zenoh: ZenohConfig::default(),
             files: Vec::new(),
-            ici: IciConfig::default().team_report_every(Some(TEAM_REPORT_EVERY)),
+            ici: default_ici(),
             dashboard: None,
             dashboard_token: None,
             foxglove: None,

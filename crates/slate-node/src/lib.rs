@@ -59,7 +59,7 @@ mod timers;
 mod view;
 
 pub use authority::PlanSender;
-pub use config::{NodeConfig, SourceFile, class_set, parse_toml, read_text};
+pub use config::{NodeConfig, SourceFile, class_set, default_ici, parse_toml, read_text};
 pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;
 pub use foxglove::{FoxgloveError, SCENE_TOPIC};

@@ -526,6 +526,12 @@ impl Node {
         &self.view.ici
     }
 
+    /// Its counters, as `slate stats` shows them (`uptime_s` is zero: the node does not
+    /// keep its start time; the stats query answers with it).
+    pub fn stats(&self) -> crate::ModuleStats {
+        crate::ModuleStats::of_view(&self.view, std::time::Duration::ZERO)
+    }
+
     /// The plan circuits.
     pub fn circuits(&self) -> &PlanCircuits {
         &self.view.circuits

@@ -47,7 +47,8 @@ pub struct ModuleStats {
     pub plans: Plans,
 }
 
-/// Plans sent and received on circuits (docs/ici.md, "Plan circuits").
+/// Plans sent and received on circuits, and copies sent again (docs/ici.md, "Plan
+/// circuits").
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Plans {
     /// Circuits this module opened: plans it sent (its plan engine's sub-plans, or an
@@ -65,6 +66,15 @@ pub struct Plans {
     pub unauthorised: u64,
     /// Of those, refused because the module was busy loading others.
     pub busy: u64,
+    /// Copies of a plan already had, answered with its steps again (never loaded twice).
+    #[serde(default)]
+    pub answered_again: u64,
+    /// Last steps sent again unasked (a link that loses messages may have lost them).
+    #[serde(default)]
+    pub repeated: u64,
+    /// Plans and cancellations this module sent again on its circuits.
+    #[serde(default)]
+    pub resent: u64,
 }
 
 impl Plans {
@@ -77,6 +87,9 @@ impl Plans {
             rejected: s.rejected,
             unauthorised: s.unauthorised,
             busy: s.busy,
+            answered_again: s.answered_again,
+            repeated: s.repeated,
+            resent: s.resent,
         }
     }
 }
@@ -113,6 +126,10 @@ pub struct Drops {
     /// Messages the team protocol dropped (pending without a gateway, parked, kept
     /// without names past their limits).
     pub team_dropped: u64,
+    /// Publications the transport dropped because this module was too far behind to
+    /// take them (its receive queue full): the ICI catches up on what they carried.
+    #[serde(default)]
+    pub behind_dropped: u64,
 }
 
 /// Catch-ups (docs/ici.md).
@@ -165,6 +182,16 @@ impl ModuleStats {
         }
     }
 
+    /// Every counter of a node's parts: its ICI, its transport's drops, its plan circuits.
+    pub(crate) fn of_view(view: &View, uptime: Duration) -> Self {
+        let address = view.board.address();
+        let mut stats =
+            ModuleStats::of(address, &view.ici.stats(), &view.ici.alive_peers(), uptime);
+        stats.drops.behind_dropped = view.transport.stats().behind_dropped;
+        stats.plans = Plans::of(&view.circuits.stats(), view.circuits.sent().len());
+        stats
+    }
+
     /// Messages and bytes of one link kind (`robot` or `team`), every kind together.
     pub fn link(&self, link: &str) -> TrafficRow {
         let mut total = TrafficRow {
@@ -211,6 +238,7 @@ impl Drops {
             refused: r.invalid + r.future + r.stale + r.object_conflicts + r.class_conflicts,
             duplicates: r.duplicates,
             team_dropped: t.pending_dropped + t.parked_dropped + t.undecoded_dropped,
+            behind_dropped: 0,
         }
     }
 }
@@ -239,13 +267,7 @@ pub(crate) fn serve(session: &zenoh::Session, view: &Arc<View>) -> zenoh::Result
         .declare_queryable(key)
         .callback(move |q: Query| {
             let Some(view) = weak.upgrade() else { return };
-            let mut stats = ModuleStats::of(
-                view.board.address(),
-                &view.ici.stats(),
-                &view.ici.alive_peers(),
-                started.elapsed(),
-            );
-            stats.plans = Plans::of(&view.circuits.stats(), view.circuits.sent().len());
+            let stats = ModuleStats::of_view(&view, started.elapsed());
             let body = serde_json::to_vec(&stats).unwrap_or_default();
             if let Err(e) = q.reply(reply_key.as_str(), body).wait() {
                 tracing::debug!(error = %e, "stats query not answered");

@@ -11,9 +11,9 @@ use crossbeam_channel::Receiver;
 use parking_lot::Mutex;
 use pyo3::prelude::*;
 use pyo3::types::PyString;
-use slate_ici::{IciConfig, LOST_WAIT};
+use slate_ici::LOST_WAIT;
 use slate_model::{Address, Board};
-use slate_node::{ModuleStats, Node, RecordConfig, StateConfig};
+use slate_node::{Node, RecordConfig, StateConfig};
 use slate_wire::PlanStep;
 use slate_zenoh::{Mode, ZenohConfig};
 
@@ -147,7 +147,7 @@ impl PyNode {
             listen.unwrap_or_default(),
             connect.unwrap_or_default(),
         )?;
-        let ici = IciConfig::default()
+        let ici = slate_node::default_ici()
             .interest(classes("interest", interest, slate_ici::ClassSet::all())?)
             .export(classes("export", export, slate_ici::ClassSet::none())?);
         let dashboard: Option<SocketAddr> = dashboard
@@ -279,16 +279,7 @@ impl PyNode {
     /// `traffic` per link and message kind, `drops`, `catch_up` (`gaps` found in a
     /// source's stream: what the network lost or dropped), `merges`, `peers`.
     fn stats(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-        let text = py.detach(|| {
-            let ici = self.node.ici().stats();
-            let stats = ModuleStats::of(
-                self.node.address(),
-                &ici,
-                &self.node.peers(),
-                Duration::ZERO,
-            );
-            serde_json::to_string(&stats).unwrap_or_default()
-        });
+        let text = py.detach(|| serde_json::to_string(&self.node.stats()).unwrap_or_default());
         let json = py.import("json")?;
         Ok(json
             .call_method1("loads", (PyString::new(py, &text),))?

@@ -257,6 +257,10 @@ pub struct LinkStats {
     pub traffic: BTreeMap<(LinkKind, MsgKind), Traffic>,
     /// Sends refused (closed endpoint, unknown peer, too large).
     pub refused: u64,
+    /// Publications received and dropped because the module's handler was too far behind
+    /// to take them (the transport's receive queue was full); the ICI catches up on what
+    /// they carried. Zero for a transport without such a queue.
+    pub behind_dropped: u64,
 }
 
 impl LinkStats {
@@ -380,6 +384,15 @@ pub trait Transport: Send + Sync {
     fn listen(&self, link: LinkKind, on: bool) -> bool {
         let _ = (link, on);
         false
+    }
+
+    /// Whether a send reaches a peer that stays reachable, the transport retransmitting
+    /// what the network lost (TCP; the simulator's sends). `false` for a transport over
+    /// datagrams that lose what the network loses (Zenoh's `udp/` links): plan circuits
+    /// then send an unanswered plan again and repeat a circuit's last step themselves,
+    /// which on a retransmitting transport would only add load to a slow link.
+    fn retransmits(&self) -> bool {
+        true
     }
 }
 

@@ -259,6 +259,8 @@ pub(crate) struct Inner {
     inbox: Mutex<Option<InboxThread>>,
     /// Publications dropped because the delivery thread was [`INBOX_CAPACITY`] behind.
     behind_dropped: AtomicU64,
+    /// Some of its endpoints are `udp/`: sends may be lost without retransmission.
+    datagrams: bool,
     closed: AtomicBool,
 }
 
@@ -289,6 +291,11 @@ impl ZenohTransport {
             token: Mutex::new(None),
             inbox: Mutex::new(None),
             behind_dropped: AtomicU64::new(0),
+            datagrams: config
+                .listen
+                .iter()
+                .chain(&config.connect)
+                .any(|e| e.starts_with("udp/")),
             closed: AtomicBool::new(false),
         });
         let declarer = spawn_declarer(Arc::downgrade(&inner))
@@ -811,8 +818,14 @@ impl Transport for ZenohTransport {
         self.inner.peers_up()
     }
 
+    fn retransmits(&self) -> bool {
+        !self.inner.datagrams
+    }
+
     fn stats(&self) -> LinkStats {
-        self.inner.stats.lock().clone()
+        let mut stats = self.inner.stats.lock().clone();
+        stats.behind_dropped = self.inner.behind_dropped.load(Ordering::Relaxed);
+        stats
     }
 
     fn listen(&self, link: LinkKind, on: bool) -> bool {

@@ -205,8 +205,8 @@ fn print_stats_text(m: &Measured) {
     }
     let d = &s.drops;
     println!(
-        "  drops: send failed {}, undecodable {}, refused {}, duplicates {}, team protocol {}",
-        d.send_failed, d.undecodable, d.refused, d.duplicates, d.team_dropped
+        "  drops: send failed {}, undecodable {}, refused {}, duplicates {}, team protocol {}, behind {}",
+        d.send_failed, d.undecodable, d.refused, d.duplicates, d.team_dropped, d.behind_dropped
     );
     let c = &s.catch_up;
     println!(
@@ -215,8 +215,16 @@ fn print_stats_text(m: &Measured) {
     );
     let p = &s.plans;
     println!(
-        "  plans sent: {}; received: {}, accepted {}, rejected {} (no authority {}, busy {})",
-        p.sent, p.received, p.accepted, p.rejected, p.unauthorised, p.busy
+        "  plans sent: {}; received: {}, accepted {}, rejected {} (no authority {}, busy {}), answered again {}; sent again {}, last steps repeated {}",
+        p.sent,
+        p.received,
+        p.accepted,
+        p.rejected,
+        p.unauthorised,
+        p.busy,
+        p.answered_again,
+        p.resent,
+        p.repeated
     );
 }
 

@@ -168,6 +168,9 @@ fn hz_stats_and_bw_report_the_rate_a_paced_writer_writes_at() {
         serde_json::json!(["t/r1/nav"]),
         "{stats}"
     );
+    // Publications dropped for being behind, and plans sent again, are counted (none here).
+    assert_eq!(loco_stats["drops"]["behind_dropped"], 0, "{stats}");
+    assert_eq!(loco_stats["plans"]["resent"], 0, "{stats}");
 
     let bw = last_json(&["bw", "t/r2/loco", "--interval", "3"], &connect);
     assert_eq!(bw["modules"].as_array().unwrap().len(), 1, "{bw}");

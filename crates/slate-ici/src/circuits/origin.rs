@@ -15,14 +15,20 @@ use super::{ACK_GAP_GRACE, CircuitStatus, SendPlanError, closes};
 const MAX_EARLY: u64 = 4096;
 
 /// Times a gap is asked for without progress before the origin gives up on it and
-/// delivers what follows (the destination no longer holds the missing steps).
-const MAX_GAP_ASKS: u32 = 3;
+/// delivers what follows (the destination no longer holds the missing steps). On a link
+/// that loses 30 % of its messages an ask and its answer both arrive half the time, so
+/// eight asks fill a gap but once in about 200 gaps (three left one in eight skipped).
+const MAX_GAP_ASKS: u32 = 8;
 
-/// Times the plan is sent again to a destination that came back and does not answer,
-/// one [`ACK_GAP_GRACE`] apart: a module that restarts can be up for its peers' Zenoh
-/// liveliness a few seconds before messages reach it, so this outlasts Zenoh's 10 s
-/// lease. A plan is a few hundred bytes: at most one a second per silent circuit.
-const MAX_RESENDS: u32 = 12;
+/// Times a plan (or its cancellation) is sent again without an answer before the origin
+/// stops sending it: the first copy goes after [`ACK_GAP_GRACE`], each next one after
+/// twice the wait (at most [`MAX_RESEND_WAIT`]), so the copies span about 40 s, longer
+/// than Zenoh's 10 s lease and a module's restart. On a link that loses datagrams (a UDP
+/// team link) this is what makes a plan arrive; a plan is a few hundred bytes.
+const MAX_RESENDS: u32 = 8;
+
+/// The longest wait between two copies of an unanswered plan.
+const MAX_RESEND_WAIT: Duration = Duration::from_secs(8);
 
 /// The circuits this module opened.
 #[derive(Default)]
@@ -43,13 +49,20 @@ struct Sent {
     next: u64,
     /// Steps that arrived ahead of a gap.
     early: BTreeMap<u64, PlanStep>,
-    /// Since when a gap has been open (or since it was last asked for), or since the
-    /// plan was sent again to a destination that came back and has not answered: the
-    /// plan goes again after [`ACK_GAP_GRACE`] (that message can be lost too, e.g. sent
-    /// before a restarted module reads its inbox).
+    /// Since when a gap has been open (or since it was last asked for): the plan goes
+    /// again after [`ACK_GAP_GRACE`] to ask for the missing steps.
     gap_since: Option<Duration>,
     /// Times the open gap was asked for.
     asks: u32,
+    /// Since when the origin has waited for an answer (the plan, or its cancellation, was
+    /// sent and nothing came back from the destination since); `None` once it answered,
+    /// while it is down, or after [`MAX_RESENDS`] copies in vain.
+    waiting_since: Option<Duration>,
+    /// How long to wait for that answer before sending again: [`ACK_GAP_GRACE`], doubled
+    /// by each copy up to [`MAX_RESEND_WAIT`].
+    wait: Duration,
+    /// Copies sent since the destination last answered.
+    unanswered: u32,
     tx: Sender<PlanStep>,
     closed: bool,
     /// The origin asked for the plan to be cancelled.
@@ -88,18 +101,87 @@ impl Sent {
     fn is_open(&self) -> bool {
         !self.closed
     }
+
+    /// Waits for an answer from `now`, the first copy after [`ACK_GAP_GRACE`].
+    fn await_answer(&mut self, now: Duration) {
+        self.waiting_since = Some(now);
+        self.wait = ACK_GAP_GRACE;
+        self.unanswered = 0;
+    }
+
+    /// The destination answered: nothing is waited for, but a cancellation's own answer
+    /// (the circuit closing).
+    fn answered(&mut self) {
+        self.unanswered = 0;
+        if !self.cancel {
+            self.waiting_since = None;
+        }
+    }
+
+    /// The messages to send again if the answer is overdue: the plan (a destination that
+    /// has it answers with its steps, one that has not loads it), then the cancellation
+    /// asked for. Each copy doubles the wait; after [`MAX_RESENDS`] the origin stops.
+    fn overdue(&mut self, circuit: u64, now: Duration) -> Vec<Message> {
+        let Some(since) = self.waiting_since.filter(|_| self.is_open()) else {
+            return Vec::new();
+        };
+        if now.saturating_sub(since) < self.wait {
+            return Vec::new();
+        }
+        if self.unanswered >= MAX_RESENDS {
+            tracing::warn!(to = %self.to, plan = %self.name, "no answer to {MAX_RESENDS} copies of the plan; no more are sent until the destination is heard again");
+            self.waiting_since = None;
+            return Vec::new();
+        }
+        self.unanswered += 1;
+        self.waiting_since = Some(now);
+        self.wait = (self.wait * 2).min(MAX_RESEND_WAIT);
+        self.copies(circuit)
+    }
+
+    /// The plan, and its cancellation if one was asked for.
+    fn copies(&self, circuit: u64) -> Vec<Message> {
+        let cancel = self.cancel.then_some(Message::PlanCancel { circuit });
+        std::iter::once(self.plan(circuit)).chain(cancel).collect()
+    }
+
+    /// The plan, to ask for the steps of a gap open past the grace; after
+    /// [`MAX_GAP_ASKS`] in vain, the missing steps are skipped.
+    fn gap_due(&mut self, circuit: u64, now: Duration) -> Option<Message> {
+        let since = self.gap_since?;
+        if now.saturating_sub(since) < ACK_GAP_GRACE {
+            return None;
+        }
+        if self.asks >= MAX_GAP_ASKS {
+            tracing::warn!(
+                circuit,
+                from = self.next,
+                "plan acks lost for good; skipping them"
+            );
+            self.next = self.early.keys().next().copied().unwrap_or(self.next);
+            self.asks = 0;
+            self.advance();
+            self.gap_since = (!self.early.is_empty()).then_some(now);
+            return None;
+        }
+        self.asks += 1;
+        self.gap_since = Some(now);
+        Some(self.plan(circuit))
+    }
 }
 
 impl Origin {
     /// Opens a circuit for a plan of `origin` (this module's own, or the origin of the
     /// plan that sends it on); returns its acks' receiver and the plan message to send.
+    /// Over a link that loses sends, the plan is sent again until the destination answers,
+    /// from `lossy_since` (the time it is sent).
     pub fn open(
         &mut self,
         circuit: u64,
-        name: &str,
-        text: &str,
+        (name, text): (&str, &str),
         to: &Address,
         origin: &Address,
+        lossy_since: Option<Duration>,
     ) -> (Receiver<PlanStep>, Message) {
         let (tx, rx) = crossbeam_channel::unbounded();
         let sent = Sent {
@@ -112,6 +194,9 @@ impl Origin {
             early: BTreeMap::new(),
             gap_since: None,
             asks: 0,
+            waiting_since: lossy_since,
+            wait: ACK_GAP_GRACE,
+            unanswered: 0,
             tx,
             closed: false,
             cancel: false,
@@ -127,8 +212,14 @@ impl Origin {
         self.circuits.remove(&circuit);
     }
 
-    /// Marks an open circuit to be cancelled; returns its destination.
-    pub fn request_cancel(&mut self, circuit: u64) -> Result<Address, SendPlanError> {
+    /// Marks an open circuit to be cancelled; returns its destination. Over a link that
+    /// loses sends, the cancellation is sent again until the circuit closes, from
+    /// `lossy_since` (the time it is sent).
+    pub fn request_cancel(
+        &mut self,
+        circuit: u64,
+        lossy_since: Option<Duration>,
+    ) -> Result<Address, SendPlanError> {
         let c = self
             .circuits
             .get_mut(&circuit)
@@ -137,6 +228,9 @@ impl Origin {
             return Err(SendPlanError::Closed(circuit));
         }
         c.cancel = true;
+        if let Some(now) = lossy_since {
+            c.await_answer(now);
+        }
         Ok(c.to.clone())
     }
 
@@ -148,9 +242,12 @@ impl Origin {
             tracing::debug!(from = %from, circuit = ack.circuit, "ack of an unknown circuit");
             return 0;
         };
+        if c.to == *from {
+            // The destination answers (even with steps delivered already).
+            c.answered();
+        }
         if c.to == *from && c.early.is_empty() {
-            // The destination answers (even with steps delivered already): nothing is
-            // waited for.
+            // Nor is a gap waited for.
             c.gap_since = None;
             c.asks = 0;
         }
@@ -182,6 +279,7 @@ impl Origin {
         for c in self.circuits.values_mut() {
             if c.to == *peer && c.is_open() && !c.lost {
                 c.lost = true;
+                c.waiting_since = None;
                 c.deliver(PlanStep::DestinationLost);
             }
         }
@@ -189,53 +287,30 @@ impl Origin {
 
     /// `peer` is up: the plans of the open circuits to it, sent again (the destination
     /// loads one it never got, and answers one it knows with all its steps), and the
-    /// cancellations asked for. Until the destination answers, [`gaps_due`](Self::gaps_due)
-    /// sends the plan again (at most [`MAX_GAP_ASKS`] times).
+    /// cancellations asked for. Until the destination answers, [`due`](Self::due) sends
+    /// them again (at most [`MAX_RESENDS`] times).
     pub fn resume(&mut self, peer: &Address, now: Duration) -> Vec<Message> {
         let mut out = Vec::new();
         for (&circuit, c) in &mut self.circuits {
             if c.to != *peer || !c.is_open() {
                 continue;
             }
-            c.gap_since = c.gap_since.or(Some(now));
-            out.push(c.plan(circuit));
-            if c.cancel {
-                out.push(Message::PlanCancel { circuit });
-            }
+            c.await_answer(now);
+            out.extend(c.copies(circuit));
         }
         out
     }
 
-    /// Circuits whose gap stayed open past the grace: the plan to send again, to ask
-    /// for the steps. A gap asked for in vain [`MAX_GAP_ASKS`] times is skipped; a plan
-    /// sent again to a destination back is sent at most [`MAX_RESENDS`] times unanswered.
-    pub fn gaps_due(&mut self, now: Duration) -> Vec<(Address, Message)> {
+    /// What is due at `now`: the plans (and cancellations) unanswered past their wait,
+    /// sent again with back-off; and for a gap open past the grace, the plan, to ask for
+    /// the missing steps.
+    pub fn due(&mut self, now: Duration) -> Vec<(Address, Message)> {
         let mut out = Vec::new();
         for (&circuit, c) in &mut self.circuits {
-            let Some(since) = c.gap_since else { continue };
-            if now.saturating_sub(since) < ACK_GAP_GRACE {
-                continue;
-            }
-            let bound = if c.early.is_empty() {
-                MAX_RESENDS
-            } else {
-                MAX_GAP_ASKS
-            };
-            if c.asks >= bound {
-                tracing::warn!(
-                    circuit,
-                    from = c.next,
-                    "plan acks lost for good; skipping them"
-                );
-                c.next = c.early.keys().next().copied().unwrap_or(c.next);
-                c.asks = 0;
-                c.advance();
-                c.gap_since = (!c.early.is_empty()).then_some(now);
-                continue;
-            }
-            c.asks += 1;
-            c.gap_since = Some(now);
-            out.push((c.to.clone(), c.plan(circuit)));
+            let to = c.to.clone();
+            let asks = c.gap_due(circuit, now).into_iter();
+            let copies = c.overdue(circuit, now).into_iter().chain(asks);
+            out.extend(copies.map(|msg| (to.clone(), msg)));
         }
         out
     }
@@ -273,7 +348,13 @@ mod tests {
     fn opened() -> (Origin, Receiver<PlanStep>, Address) {
         let mut o = Origin::default();
         let dest = addr("t/r2/d");
-        let (rx, msg) = o.open(1, "p", "plan p { action { } }", &dest, &addr("t/r1/o"));
+        let (rx, msg) = o.open(
+            1,
+            ("p", "plan p { action { } }"),
+            &dest,
+            &addr("t/r1/o"),
+            Some(Duration::ZERO),
+        );
         assert!(matches!(msg, Message::Plan(Plan { circuit: 1, .. })));
         (o, rx, dest)
     }
@@ -332,13 +413,13 @@ mod tests {
         let at = Duration::from_secs(10);
         assert_eq!(o.resume(&d, at).len(), 1);
         // That plan message was lost (sent before the restarted module could read it).
-        let again = o.gaps_due(at + ACK_GAP_GRACE);
+        let again = o.due(at + ACK_GAP_GRACE);
         assert_eq!(again.len(), 1, "no answer: the plan goes again");
         assert!(matches!(again[0].1, Message::Plan(_)));
         // A restarted destination answers with its own steps from 1: duplicates here,
         // but an answer.
         o.ack(&d, ack(1, PlanStep::Received), at + ACK_GAP_GRACE);
-        assert!(o.gaps_due(at + 3 * ACK_GAP_GRACE).is_empty(), "answered");
+        assert!(o.due(at + 3 * ACK_GAP_GRACE).is_empty(), "answered");
     }
 
     #[test]
@@ -354,9 +435,12 @@ mod tests {
             ),
             Duration::ZERO,
         );
-        assert!(matches!(o.request_cancel(1), Err(SendPlanError::Closed(1))));
         assert!(matches!(
-            o.request_cancel(9),
+            o.request_cancel(1, Some(Duration::ZERO)),
+            Err(SendPlanError::Closed(1))
+        ));
+        assert!(matches!(
+            o.request_cancel(9, Some(Duration::ZERO)),
             Err(SendPlanError::UnknownCircuit(9))
         ));
         o.lost(&d);
@@ -367,13 +451,66 @@ mod tests {
     fn a_gap_is_asked_for_then_skipped() {
         let (mut o, rx, d) = opened();
         o.ack(&d, ack(3, PlanStep::Initiated), Duration::ZERO);
-        assert!(o.gaps_due(Duration::from_millis(500)).is_empty(), "grace");
+        assert!(o.due(Duration::from_millis(500)).is_empty(), "grace");
         let mut asked = 0;
-        for s in 1..=4 {
-            asked += o.gaps_due(Duration::from_secs(s)).len();
+        for s in 1..=(MAX_GAP_ASKS + 1) {
+            asked += o.due(Duration::from_secs(u64::from(s))).len();
         }
-        assert_eq!(asked, 3);
+        assert_eq!(asked, MAX_GAP_ASKS as usize);
         assert_eq!(rx.try_iter().collect::<Vec<_>>(), [PlanStep::Initiated]);
-        assert!(o.gaps_due(Duration::from_secs(9)).is_empty(), "no gap left");
+        assert!(o.due(Duration::from_secs(60)).is_empty(), "no gap left");
+    }
+
+    #[test]
+    fn an_unanswered_plan_is_sent_again_with_back_off_then_no_more() {
+        let (mut o, _rx, _d) = opened();
+        let mut sent_at = Vec::new();
+        for tenth in 0..1200 {
+            let now = Duration::from_millis(100 * tenth);
+            if !o.due(now).is_empty() {
+                sent_at.push(now.as_secs());
+            }
+        }
+        assert_eq!(
+            sent_at,
+            [1, 3, 7, 15, 23, 31, 39, 47],
+            "1 s, doubling to 8 s, 8 copies"
+        );
+    }
+
+    #[test]
+    fn a_cancellation_is_sent_again_until_the_circuit_closes() {
+        let (mut o, _rx, d) = opened();
+        o.ack(&d, ack(1, PlanStep::Received), Duration::ZERO);
+        assert!(o.due(Duration::from_secs(5)).is_empty(), "answered");
+        o.request_cancel(1, Some(Duration::from_secs(5))).unwrap();
+        o.ack(&d, ack(2, PlanStep::Accepted), Duration::from_secs(5));
+        let again = o.due(Duration::from_secs(6));
+        assert!(
+            matches!(
+                again.as_slice(),
+                [
+                    (_, Message::Plan(_)),
+                    (_, Message::PlanCancel { circuit: 1 })
+                ]
+            ),
+            "{again:?}"
+        );
+        o.ack(&d, ack(3, PlanStep::Cancelled), Duration::from_secs(6));
+        assert!(o.due(Duration::from_secs(60)).is_empty(), "closed");
+    }
+
+    #[test]
+    fn over_a_link_that_retransmits_an_unanswered_plan_waits_for_its_answer() {
+        let mut o = Origin::default();
+        let dest = addr("t/r2/d");
+        o.open(
+            1,
+            ("p", "plan p { action { } }"),
+            &dest,
+            &addr("t/r1/o"),
+            None,
+        );
+        assert!(o.due(Duration::from_secs(60)).is_empty());
     }
 }

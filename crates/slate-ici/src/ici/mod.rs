@@ -299,6 +299,11 @@ impl Ici {
         self.shared.with_state(|st| st.report_explicit(to, packets))
     }
 
+    /// Whether the transport retransmits what the network lost ([`Transport::retransmits`]).
+    pub fn transport_retransmits(&self) -> bool {
+        self.shared.transport.retransmits()
+    }
+
     /// Sends a `Plan`, `PlanAck` or `PlanCancel` to one module, reliably. This is the
     /// plan engine's way out; everything else goes through the board.
     pub fn send_raw(&self, to: &Address, msg: &Message) -> Result<(), SendRawError> {

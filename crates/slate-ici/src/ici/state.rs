@@ -58,6 +58,12 @@ pub(crate) struct Peer {
     pub interest: Option<ClassSet>,
     pub incarnation: Option<u64>,
     pub last_heard: Duration,
+    /// When the transport last said it went down, until it says up: the down is believed
+    /// if nothing is heard from the module after it for [`DOWN_BELIEVED_AFTER`]
+    /// heartbeat periods (see `tick.rs`, `on_peer`).
+    ///
+    /// [`DOWN_BELIEVED_AFTER`]: super::tick::DOWN_BELIEVED_AFTER
+    pub down_at: Option<Duration>,
     /// `alive` as last written to its `Module` object.
     pub alive: Option<bool>,
     pub seen_written: Duration,
@@ -102,6 +108,7 @@ impl Peer {
             interest: None,
             incarnation: None,
             last_heard: Duration::ZERO,
+            down_at: None,
             alive: None,
             seen_written: Duration::ZERO,
             stream: Inbound::default(),

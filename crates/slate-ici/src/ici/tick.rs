@@ -15,6 +15,13 @@ use super::ops::own_packet;
 use super::state::{Peer, State};
 use crate::{LinkKind, MsgKind};
 
+/// Heartbeat periods of silence after which a transport's down is believed: two
+/// heartbeats missed, and a quarter period for their delivery. At 30 % loss one lost
+/// heartbeat is common (a one-period rule marked healthy modules dead when Zenoh withdrew
+/// a token meanwhile); two in a row less than a third as often (9 %). A robot that died is seen
+/// dead after 2.25 s of silence on the team link (1 s heartbeat), or its lease if longer.
+pub(crate) const DOWN_BELIEVED_AFTER: f64 = 2.25;
+
 impl State {
     /// Runs whatever is due at `self.now`.
     pub fn tick(&mut self) {
@@ -130,23 +137,43 @@ impl State {
         self.now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout
     }
 
-    /// When `p` times out if it stays silent: after this instant, [`Self::silent`] holds.
-    pub(super) fn deadline(&self, p: &Peer) -> Duration {
-        p.last_heard
-            .saturating_add(self.config.link(p.link).timeout)
+    /// Has the transport said `p` went down, with nothing heard from it since, and has it
+    /// been silent for [`DOWN_BELIEVED_AFTER`] heartbeat periods of its link?
+    fn down_believed(&self, p: &Peer) -> bool {
+        let period = self.config.link(p.link).heartbeat;
+        let silence = self.now.saturating_sub(p.last_heard);
+        p.down_at.is_some_and(|at| p.last_heard <= at)
+            && silence.as_secs_f64() >= period.as_secs_f64() * DOWN_BELIEVED_AFTER
     }
 
-    /// Peers silent past their link's timeout are dead. The peers are walked only once
-    /// the earliest deadline of a live peer has passed (`timeouts_from`): hearing a peer
-    /// only moves its deadline later, and a peer found alive lowers it.
+    /// No earlier than this instant may `p` be found dead if it stays silent: its link's
+    /// timeout after it was last heard ([`Self::silent`]), or sooner when the transport
+    /// said it went down ([`Self::down_believed`]; a microsecond early, as floats round).
+    pub(super) fn deadline(&self, p: &Peer) -> Duration {
+        let link = self.config.link(p.link);
+        let tick = Duration::from_nanos(1);
+        let silent = p.last_heard.saturating_add(link.timeout).saturating_add(tick);
+        let down = p.down_at.filter(|at| p.last_heard <= *at).map(|_| {
+            let after = link.heartbeat.mul_f64(DOWN_BELIEVED_AFTER);
+            p.last_heard
+                .saturating_add(after)
+                .saturating_sub(Duration::from_micros(1))
+        });
+        down.map_or(silent, |d| d.min(silent))
+    }
+
+    /// Peers silent past their link's timeout, or down and silent for
+    /// [`DOWN_BELIEVED_AFTER`] heartbeat periods, are dead. The peers are walked only once
+    /// the earliest deadline of a live peer has come (`timeouts_from`): hearing a peer
+    /// only moves its deadline later, and a peer found alive or said down lowers it.
     fn timeouts(&mut self) {
-        if self.now <= self.timeouts_from {
+        if self.now < self.timeouts_from {
             return;
         }
         let mut dead = Vec::new();
         let mut next = Duration::MAX;
         for (a, p) in self.peers.iter().filter(|(_, p)| p.alive == Some(true)) {
-            if self.silent(p) {
+            if self.silent(p) || self.down_believed(p) {
                 dead.push(a.clone());
             } else {
                 next = next.min(self.deadline(p));
@@ -236,8 +263,9 @@ impl State {
 
     /// A peer came up or went down, as the transport says. Up is news: greet it and
     /// catch up. Down stops what waits on the peer (its catch-up), and is believed only
-    /// if the ICI has not heard the peer for one heartbeat period of its link: a
-    /// transport's down can be false while the peer's messages still arrive (Zenoh
+    /// once the ICI has heard nothing from the peer for [`DOWN_BELIEVED_AFTER`] heartbeat
+    /// periods of its link (now or at a later tick, if nothing is heard after the down):
+    /// a transport's down can be false while the peer's messages still arrive (Zenoh
     /// withdraws a liveliness token when a session or route elsewhere fails, and slate's
     /// Zenoh transport says down for a peer that falls behind). A peer still heard stays
     /// alive until it has been silent past its link's timeout ([`timeouts`]).
@@ -246,20 +274,22 @@ impl State {
     /// [`timeouts`]: Self::timeouts
     pub fn on_peer(&mut self, peer: &Address, up: bool) {
         let now = self.now;
-        let heartbeat = self
-            .config
-            .link(LinkKind::between(&self.me, peer))
-            .heartbeat;
         let p = self.peer(peer);
         p.up = up;
         p.catch_up = None;
         if !up {
-            let silent = now.saturating_sub(p.last_heard) >= heartbeat;
-            if silent && p.alive == Some(true) {
+            p.down_at = Some(now);
+            let p = &self.peers[peer];
+            if p.alive == Some(true) && self.down_believed(p) {
                 self.lost(peer);
+            } else {
+                // Believed later, if nothing is heard: no later than `timeouts` looks.
+                let deadline = self.deadline(p);
+                self.timeouts_from = self.timeouts_from.min(deadline);
             }
             return;
         }
+        p.down_at = None;
         p.last_heard = now;
         if p.alive != Some(true) {
             self.stats.liveliness.found += 1;

@@ -13,7 +13,7 @@ use slate_ici::{
 };
 use slate_model::{Address, Board};
 use slate_plans::{Engine, PlanState};
-use slate_wire::{Message, Plan, PlanAck, PlanStep};
+use slate_wire::{Decoder, Message, Plan, PlanAck, PlanStep, Schema};
 
 use crate::support::{addr, secs};
 
@@ -300,6 +300,203 @@ fn every_step_arrives_once_in_order_under_loss_duplication_and_reordering() {
             "seed {seed}: the destination kept the same steps"
         );
     }
+}
+
+/// What a [`Lossy`] transport does with a plan message it is asked to send.
+enum Fate {
+    /// Sends it.
+    Send,
+    /// Loses it (a datagram the radio dropped: no transport retransmits it).
+    Lose,
+    /// Sends it twice (the radio duplicated it).
+    Twice,
+}
+
+/// The fate of each plan message a [`Lossy`] transport sends, in order.
+type Judge = Box<dyn FnMut(&Message) -> Fate + Send>;
+
+/// A transport over a link that does not retransmit (a UDP team link): a judge decides
+/// what becomes of each plan message sent; everything else goes through.
+struct Lossy {
+    inner: Arc<dyn Transport>,
+    judge: Mutex<Judge>,
+}
+
+impl Lossy {
+    fn fate(&self, kind: MsgKind, payload: &[u8]) -> Fate {
+        if !matches!(kind, MsgKind::Plan | MsgKind::PlanAck | MsgKind::PlanCancel) {
+            return Fate::Send;
+        }
+        let msg = Decoder::new()
+            .decode(self.inner.address(), payload, &Schema::default())
+            .unwrap();
+        (self.judge.lock())(&msg)
+    }
+}
+
+impl Transport for Lossy {
+    fn address(&self) -> &Address {
+        self.inner.address()
+    }
+
+    fn set_handler(&self, handler: Arc<dyn Handler>) {
+        self.inner.set_handler(handler);
+    }
+
+    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        self.inner.publish(link, kind, payload)
+    }
+
+    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+        match self.fate(kind, payload) {
+            Fate::Lose => Ok(()),
+            Fate::Send => self.inner.send(to, kind, payload),
+            Fate::Twice => {
+                self.inner.send(to, kind, payload)?;
+                self.inner.send(to, kind, payload)
+            }
+        }
+    }
+
+    fn listen(&self, link: LinkKind, on: bool) -> bool {
+        self.inner.listen(link, on)
+    }
+
+    fn peers(&self) -> Vec<Address> {
+        self.inner.peers()
+    }
+
+    fn stats(&self) -> LinkStats {
+        self.inner.stats()
+    }
+
+    fn close(&self) {
+        self.inner.close();
+    }
+
+    fn retransmits(&self) -> bool {
+        false
+    }
+}
+
+/// A module whose plan messages meet `judge`.
+fn lossy_module(net: &SimNet, address: &str, world: &str, judge: Judge) -> Module {
+    let lossy = Lossy {
+        inner: net.join(&addr(address)),
+        judge: Mutex::new(judge),
+    };
+    module_on(net, Arc::new(lossy), world, config())
+}
+
+/// A judge that loses the first message `is` holds for, and sends every other.
+fn lose_first(is: impl Fn(&Message) -> bool + Send + 'static) -> Judge {
+    let mut lost = false;
+    Box::new(move |msg| match is(msg) && !lost {
+        true => {
+            lost = true;
+            Fate::Lose
+        }
+        false => Fate::Send,
+    })
+}
+
+/// The origin's steps of `h` once it has `n` of them (at most `max` seconds).
+fn steps_of(net: &SimNet, h: &PlanHandle, n: usize, max: f64) -> Vec<PlanStep> {
+    let mut got = Vec::new();
+    wait_steps(net, h, &mut got, n, max);
+    got
+}
+
+#[test]
+fn a_plan_whose_first_copy_is_lost_is_still_initiated_once_and_acknowledged() {
+    let net = SimNet::new(71);
+    let is_plan = |m: &Message| matches!(m, Message::Plan(_));
+    let origin = lossy_module(&net, "t/r1/planner", "", lose_first(is_plan));
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let got = steps_of(&net, &h, 3, 10.0);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    assert_eq!(cell.circuits.stats().received, 1);
+    assert!(origin.circuits.stats().resent >= 1, "the plan went again");
+}
+
+#[test]
+fn a_duplicate_copy_of_a_plan_never_initiates_it_twice() {
+    let net = SimNet::new(72);
+    let twice: Judge = Box::new(|m| match m {
+        Message::Plan(_) => Fate::Twice,
+        _ => Fate::Send,
+    });
+    let origin = lossy_module(&net, "t/r1/planner", "", twice);
+    let cell = module(&net, "t/r2/cell", CELL);
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let mut got = steps_of(&net, &h, 3, 10.0);
+    cell.board.write("part", "temp", 150.0).unwrap();
+    net.run_for(secs(3.0));
+    got.extend(h.acks().try_iter());
+    let initiated =
+        |steps: &[PlanStep]| steps.iter().filter(|s| **s == PlanStep::Initiated).count();
+    assert_eq!(initiated(&got), 1, "{got:?}");
+    assert_eq!(initiated(&cell.circuits.received()[0].steps), 1);
+    assert_eq!(cell.engine.status("weld").map(|s| s.fired), Some(1));
+    let stats = cell.circuits.stats();
+    assert_eq!(stats.received, 1, "{stats:?}");
+    assert!(
+        stats.answered_again >= 1,
+        "the copy was answered: {stats:?}"
+    );
+}
+
+#[test]
+fn a_lost_last_step_of_a_plan_still_reaches_its_origin() {
+    let net = SimNet::new(73);
+    let origin = module(&net, "t/r1/planner", "");
+    let is_end = |m: &Message| matches!(m, Message::PlanAck(a) if a.step == PlanStep::Terminated);
+    let cell = lossy_module(&net, "t/r2/cell", CELL, lose_first(is_end));
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    steps_of(&net, &h, 3, 10.0);
+    cell.board.write("part", "done", true).unwrap();
+    let got = steps_of(&net, &h, 1, 10.0);
+    assert_eq!(got, [PlanStep::Terminated]);
+    assert!(
+        cell.circuits.stats().repeated >= 1,
+        "{:?}",
+        cell.circuits.stats()
+    );
+}
+
+#[test]
+fn a_lost_step_is_asked_for_until_it_comes_even_when_the_asks_are_lost_three_times() {
+    let net = SimNet::new(74);
+    let mut copies = 0;
+    let lose_three_asks: Judge = Box::new(move |m| match m {
+        Message::Plan(_) => {
+            copies += 1;
+            match copies {
+                2..=4 => Fate::Lose,
+                _ => Fate::Send,
+            }
+        }
+        _ => Fate::Send,
+    });
+    let origin = lossy_module(&net, "t/r1/planner", "", lose_three_asks);
+    let is_received =
+        |m: &Message| matches!(m, Message::PlanAck(a) if a.step == PlanStep::Received);
+    let cell = lossy_module(&net, "t/r2/cell", CELL, lose_first(is_received));
+    net.run_for(secs(0.5));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let got = steps_of(&net, &h, 3, 20.0);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    assert_eq!(cell.circuits.stats().received, 1);
 }
 
 #[test]
