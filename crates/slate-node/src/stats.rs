@@ -101,7 +101,7 @@ pub struct Drops {
     /// Received messages that did not decode (slate-wire messages and ICI frames).
     pub undecodable: u64,
     /// Received packets refused: invalid, stamped in the future, stale, about objects
-    /// or classes defined differently.
+    /// or classes defined differently, or past a bound (objects, modules).
     pub refused: u64,
     /// Duplicate stream messages received (already had).
     pub duplicates: u64,
@@ -203,7 +203,12 @@ impl Drops {
         Drops {
             send_failed: s.reports.send_errors + s.reports.encode_errors,
             undecodable: r.decode.rejected() + r.frames + t.refused,
-            refused: r.invalid + r.future + r.stale + r.object_conflicts + r.class_conflicts,
+            refused: r.invalid
+                + r.future
+                + r.stale
+                + r.object_conflicts
+                + r.class_conflicts
+                + r.over_limit,
             duplicates: r.duplicates,
             team_dropped: t.pending_dropped + t.parked_dropped + t.undecoded_dropped,
         }

@@ -703,6 +703,40 @@ impl Board {
         });
     }
 
+    /// Reports that an object of `owner` was refused past a bound (the ICI, which
+    /// holds the bounds, reports it at most once a second): an event, and a warning.
+    pub fn report_object_limit(&self, owner: &Address, object: &str, limit: usize, total: bool) {
+        self.report(BoardEvent::ObjectLimit {
+            owner: owner.clone(),
+            object: object.to_owned(),
+            limit,
+            total,
+        });
+    }
+
+    /// Reports that a module not heard of before was refused past the bound on modules
+    /// (the ICI's `max_modules`): an event, and a warning.
+    pub fn report_module_limit(&self, address: &Address, limit: usize) {
+        self.report(BoardEvent::ModuleLimit {
+            address: address.clone(),
+            limit,
+        });
+    }
+
+    /// How many objects `owner` owns on this board (kept as objects are created and
+    /// deleted, not counted on each call).
+    pub fn owned_count(&self, owner: &Address) -> usize {
+        self.inner.read().state.owned_count(owner)
+    }
+
+    /// How many objects (instances) this board holds, and how many of them its own
+    /// module owns.
+    pub fn object_counts(&self) -> (usize, usize) {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        (st.instance_count(), st.owned_count(&self.address))
+    }
+
     pub(crate) fn report(&self, event: BoardEvent) {
         match &event {
             BoardEvent::FunctionFailed {
@@ -731,6 +765,17 @@ impl Board {
             }
             BoardEvent::ClassConflict { class, peer } => {
                 tracing::warn!(%class, %peer, "class defined differently by another module: its objects are not merged");
+            }
+            BoardEvent::ObjectLimit {
+                owner,
+                object,
+                limit,
+                total,
+            } => {
+                tracing::warn!(%owner, %object, limit, total, "objects of another module refused past this board's bound");
+            }
+            BoardEvent::ModuleLimit { address, limit } => {
+                tracing::warn!(%address, limit, "a module not heard of before refused: as many are known as may be");
             }
         }
         self.subscribers
