@@ -381,6 +381,14 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
                 "object {object} of {owner} refused: {whose} may own at most {limit} objects on this board (ici.max_objects_per_source, ici.max_objects)"
             )
         }
+        BoardEvent::NotOwner {
+            object,
+            attr,
+            writer,
+            owner,
+        } => format!(
+            "packet for {object}.{attr} from {writer} refused: the attribute is owned, and only its owner {owner} may write it"
+        ),
         BoardEvent::ModuleLimit { address, limit } => format!(
             "module {address} refused: this node keeps track of at most {limit} modules (ici.max_modules)"
         ),

@@ -524,6 +524,7 @@ impl Board {
     ///   packet wins if its `(timestamp, source)` is greater than the object's own packet's;
     /// - `confident`: the higher confidence wins, ties by `latest`;
     /// - `owned`: only packets from the object's owner are applied (then by `latest`);
+    ///   another's is refused ([`Merged::NotOwner`], reported as [`BoardEvent::NotOwner`]);
     /// - any policy: a packet stamped beyond the clock's tolerance is refused
     ///   ([`Merged::FromTheFuture`], reported as [`BoardEvent::FutureStamp`]).
     ///
@@ -581,6 +582,11 @@ impl Board {
                         return Ok(Merged::FromTheFuture { ahead: drift.ahead });
                     }
                     let verdict = txn.state().merge_verdict(key, &packet)?;
+                    if verdict == Merged::NotOwner {
+                        let owner = txn.state().get(key.object).and_then(|e| e.instance());
+                        let owner = owner.map_or_else(Address::unknown, |i| i.owner.clone());
+                        refused.push(not_owner(object.as_ref(), attr.as_ref(), &packet, owner));
+                    }
                     if verdict == Merged::Applied(0) {
                         txn.merge(key, packet)?;
                     }
@@ -774,6 +780,14 @@ impl Board {
             } => {
                 tracing::warn!(%owner, %object, limit, total, "objects of another module refused past this board's bound");
             }
+            BoardEvent::NotOwner {
+                object,
+                attr,
+                writer,
+                owner,
+            } => {
+                tracing::warn!(%object, %attr, %writer, %owner, "packet for an owned attribute from another module than its owner refused");
+            }
             BoardEvent::ModuleLimit { address, limit } => {
                 tracing::warn!(%address, limit, "a module not heard of before refused: as many are known as may be");
             }
@@ -859,6 +873,16 @@ fn resolve_filter(st: &State, f: &Filter) -> Result<watch::Spec, LookupError> {
         attr,
         own_writes: f.own_writes,
     })
+}
+
+/// The event of a received packet for an `owned` attribute refused for its writer.
+fn not_owner(object: &str, attr: &str, packet: &Packet, owner: Address) -> BoardEvent {
+    BoardEvent::NotOwner {
+        object: object.to_owned(),
+        attr: attr.to_owned(),
+        writer: packet.source.clone(),
+        owner,
+    }
 }
 
 /// The event of a received packet refused for its stamp.

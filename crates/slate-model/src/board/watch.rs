@@ -167,6 +167,18 @@ pub enum BoardEvent {
         /// Whether the bound is the total for all other modules (else per module).
         total: bool,
     },
+    /// A received packet for an `owned` attribute was refused: its writer is not the
+    /// object's owner (on a secured team, a member that writes what it does not own).
+    NotOwner {
+        /// The object.
+        object: String,
+        /// The attribute.
+        attr: String,
+        /// The packet's source.
+        writer: Address,
+        /// The object's owner on this board.
+        owner: Address,
+    },
     /// A module this board's ICI had not heard of was refused: it keeps track of as
     /// many modules as it may. Reported at most once a second while refusals go on.
     ModuleLimit {
