@@ -525,3 +525,50 @@ fn slate_stats_with_the_operators_keys_lists_every_module_of_a_secured_team() {
     assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
     team.stop();
 }
+
+#[test]
+fn an_operators_plan_cannot_write_an_owned_attribute_of_its_destination() {
+    // Issue 17, item 3, through the CLI: the operator may send loco plans, and a plan
+    // runs with the operator's authority, so it may not write loco's owned vault.code
+    // (loco itself may); the action fails with the reason, an event says so, the
+    // board keeps its value.
+    let mut team = Team::new("secure-owned");
+    let keys = keys(&team);
+    add_secured(&mut team, &keys, "t/r1/nav", "");
+    let vault =
+        "class Vault { code: real merge owned = 0.0; }\nobject vault : Vault { code = 1.0; }";
+    add_secured(&mut team, &keys, "t/r2/loco", vault);
+    team.wait_connected();
+    let plan = team.dir.join("steal.slate");
+    std::fs::write(&plan, "plan steal { action { set vault.code = 66.0; } }").unwrap();
+    let plan_path = plan.display().to_string();
+    let alice = as_alice(&keys);
+    let mut args = with(
+        &[
+            "plan",
+            "send",
+            &plan_path,
+            "--to",
+            "t/r2/loco",
+            "--timeout",
+            "5",
+        ],
+        &alice,
+    );
+    args.extend(["--connect", team.node("t/r2/loco").endpoint.as_str()]);
+    let out = slate(&args);
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains("accepted"),
+        "{}",
+        show(&out)
+    );
+    let loco = team.node("t/r2/loco");
+    let said = eventually(Duration::from_secs(20), || {
+        event_texts(loco)
+            .iter()
+            .any(|t| t.contains("may not write vault.code") && t.contains("owned by t/r2/loco"))
+    });
+    assert!(said, "{:?}\n{}", event_texts(loco), team.logs());
+    assert_eq!(loco.value("vault", "code").as_deref(), Some("1.0"));
+    team.stop();
+}
