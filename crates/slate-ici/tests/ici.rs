@@ -22,6 +22,9 @@ mod gateway;
 #[path = "ici/interest.rs"]
 mod interest;
 // Link policies: the team link's own filters, `never`, export and liveliness from `link` blocks.
+// Bounds per source and in total: objects, modules heard of.
+#[path = "ici/limits.rs"]
+mod limits;
 #[path = "ici/links.rs"]
 mod links;
 // Merge policies across boards: owned, confident, fused.

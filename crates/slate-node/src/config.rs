@@ -140,6 +140,9 @@ const ICI: &[&str] = &[
     "gateway_priority",
     "gateway",
     "team_rate",
+    "max_objects_per_source",
+    "max_objects",
+    "max_modules",
 ];
 
 /// A node's team link sends one attribute at most every 200 ms (`[ici]
@@ -491,6 +494,20 @@ fn is_endpoint(text: &str) -> bool {
         .is_some_and(|(proto, rest)| !proto.is_empty() && !rest.is_empty())
 }
 
+/// The bounds per source and in total (docs/security.md, *Limits*).
+fn ici_limits(t: &mut Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
+    if let Some(n) = t.count("max_objects_per_source")? {
+        ici.max_objects_per_source = n;
+    }
+    if let Some(n) = t.count("max_objects")? {
+        ici.max_objects = n;
+    }
+    if let Some(n) = t.count("max_modules")? {
+        ici.max_modules = n;
+    }
+    Ok(())
+}
+
 fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     for (link, beat, timeout) in [
         (LinkKind::Robot, "robot_heartbeat", "robot_timeout"),
@@ -530,6 +547,7 @@ fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
         ici.forget_dead = d;
     }
     ici.team_protocol = team_protocol(&mut t)?;
+    ici_limits(&mut t, ici)?;
     t.finish()
 }
 
@@ -694,6 +712,9 @@ mod tests {
             team_report_every = "0s"
             max_report_items = 64
             max_tombstones = 100
+            max_objects_per_source = 50
+            max_objects = 500
+            max_modules = 20
             "#,
         )
         .unwrap();
@@ -725,6 +746,14 @@ mod tests {
         assert_eq!(c.ici.team.heartbeat, Duration::from_secs(2));
         assert_eq!(c.ici.quiet, Duration::from_millis(250));
         assert_eq!(c.ici.gap_grace, Duration::from_millis(50));
+        assert_eq!(
+            (
+                c.ici.max_objects_per_source,
+                c.ici.max_objects,
+                c.ici.max_modules
+            ),
+            (50, 500, 20)
+        );
         assert_eq!(c.ici.catch_up_retry, Duration::from_secs(1));
         assert_eq!(c.ici.team_report_every, None, "0s: every value at once");
         assert_eq!((c.ici.max_report_items, c.ici.max_tombstones), (64, 100));

@@ -366,6 +366,32 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
             "packet for {object}.{attr} from {source} refused: stamped {:.1} s ahead of this board's clock, beyond its tolerance (its clock or this one's is wrong)",
             ahead.as_secs_f64()
         ),
+        BoardEvent::ObjectLimit {
+            owner,
+            object,
+            limit,
+            total,
+        } => {
+            let whose = if *total {
+                "other modules together"
+            } else {
+                "one module"
+            };
+            format!(
+                "object {object} of {owner} refused: {whose} may own at most {limit} objects on this board (ici.max_objects_per_source, ici.max_objects)"
+            )
+        }
+        BoardEvent::NotOwner {
+            object,
+            attr,
+            writer,
+            owner,
+        } => format!(
+            "packet for {object}.{attr} from {writer} refused: the attribute is owned, and only its owner {owner} may write it"
+        ),
+        BoardEvent::ModuleLimit { address, limit } => format!(
+            "module {address} refused: this node keeps track of at most {limit} modules (ici.max_modules)"
+        ),
         other => format!("{other:?}"),
     }
 }

@@ -135,7 +135,8 @@ pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
             seconds: options.wait.as_secs_f64(),
         });
     }
-    wait_caught_up(&node, deadline);
+    let expected = expected_peers(&node, &modules);
+    wait_caught_up(&node, &expected, deadline);
     Ok(node)
 }
 
@@ -216,20 +217,33 @@ fn discover_with(
     Ok(found)
 }
 
-/// The modules `probe` finds alive (itself left out): the first liveliness query that
-/// finds any within `wait`, asked again every 50 ms until then; empty if none did.
+/// The modules `probe` finds alive (itself left out): once a liveliness query finds
+/// any, asked again until two in a row agree (within `wait`, every 50 ms); empty if
+/// none found any.
 pub(crate) fn alive_within(probe: &ZenohTransport, wait: Duration) -> BTreeSet<Address> {
     let deadline = Instant::now() + wait;
-    let mut found = BTreeSet::new();
-    while found.is_empty() && Instant::now() < deadline {
+    settled(deadline, || {
         let left = deadline.saturating_duration_since(Instant::now());
-        found = query_alive(probe, left.min(Duration::from_millis(500)));
+        let mut found = query_alive(probe, left.min(Duration::from_millis(500)));
         found.remove(probe.address());
-        if found.is_empty() {
-            std::thread::sleep(Duration::from_millis(50));
+        found
+    })
+}
+
+/// Asks `query` every 50 ms until two answers in a row agree and are not empty, or
+/// `deadline` (then the last answer). A client that has just joined receives the team's
+/// liveliness tokens one by one: the first answer may hold only some modules.
+fn settled(deadline: Instant, mut query: impl FnMut() -> BTreeSet<Address>) -> BTreeSet<Address> {
+    let mut last = query();
+    while Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(50));
+        let found = query();
+        if !found.is_empty() && found == last {
+            return found;
         }
+        last = found;
     }
-    found
+    last
 }
 
 /// The probe's address: `slate-probe/cli/pPID` (a team of its own, so that no module
@@ -311,24 +325,123 @@ fn wait_for_peers(node: &Node, expected: &BTreeSet<Address>, deadline: Instant) 
     }
 }
 
-/// Waits until the observer and every peer have met both ways, or the deadline: the
-/// observer holds every peer's current state (a catch-up with each has completed and
-/// none is outstanding: an answer that needed class definitions is asked for again),
-/// and every peer has asked the observer for its own (a peer sends its hello, with its
-/// interest, just before: until then the observer's writes would not be sent to it).
-/// Both must hold at two polls in a row: the ICI applies an answer's objects just after
-/// it marks the catch-up complete.
-fn wait_caught_up(node: &Node, deadline: Instant) {
+/// Waits until the observer and every module it expects have met both ways, or the
+/// deadline: the observer holds every such module's current state (a catch-up with each
+/// has completed and none is outstanding: an answer that needed class definitions is
+/// asked for again), and every peer has asked the observer for its own (a peer sends
+/// its hello, with its interest, just before: until then the observer's writes would not
+/// be sent to it). Both must hold at two polls in a row: the ICI applies an answer's
+/// objects just after it marks the catch-up complete.
+///
+/// `expected` is what discovery found and the transport has reported up so far: a
+/// module that goes down meanwhile is waited for, because Zenoh may withdraw every
+/// token a client holds and declare them again as it joins (seen on secured teams);
+/// an observer that took "no peer up" for "caught up with every peer" left at once and
+/// answered from an empty board.
+fn wait_caught_up(node: &Node, expected: &BTreeSet<Address>, deadline: Instant) {
     let mut polls_met = 0;
     while Instant::now() < deadline {
         std::thread::sleep(Duration::from_millis(10));
         let peers = node.transport().peers();
-        let answered = node.ici().stats().catch_up.answered;
-        let met =
-            answered >= peers.len() as u64 && peers.iter().all(|p| node.ici().is_caught_up_with(p));
+        let view = JoinView {
+            expected,
+            peers: &peers,
+            answered: node.ici().stats().catch_up.answered,
+        };
+        let met = view.met(|p| node.ici().is_caught_up_with(p));
         polls_met = if met { polls_met + 1 } else { 0 };
         if polls_met >= 2 {
             return;
         }
+    }
+}
+
+/// The modules a joining observer waits for: those discovery found and those its
+/// transport reports up, itself left out.
+fn expected_peers(node: &Node, discovered: &BTreeSet<Address>) -> BTreeSet<Address> {
+    let mut expected = discovered.clone();
+    expected.extend(node.transport().peers());
+    expected.remove(node.address());
+    expected
+}
+
+/// What a joining observer sees at one poll: the modules it waits for, the peers its
+/// transport reports up, and how many catch-ups it has answered.
+struct JoinView<'a> {
+    expected: &'a BTreeSet<Address>,
+    peers: &'a [Address],
+    answered: u64,
+}
+
+impl JoinView<'_> {
+    /// Have the observer and its peers met both ways (`caught_up` says whether the
+    /// observer holds a peer's current state)? Never with no peer up: every module
+    /// expected must be up and caught up with.
+    fn met(&self, caught_up: impl Fn(&Address) -> bool) -> bool {
+        let up = |a: &Address| self.peers.contains(a);
+        !self.peers.is_empty()
+            && self.expected.iter().all(|a| up(a) && caught_up(a))
+            && self.answered >= self.peers.len() as u64
+            && self.peers.iter().all(caught_up)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn addr(text: &str) -> Address {
+        Address::new(text).unwrap()
+    }
+
+    #[test]
+    fn an_observer_whose_peers_all_went_down_is_not_caught_up_with_them() {
+        // Zenoh may withdraw every token a client holds and declare them again as it
+        // joins (seen on secured teams): for that moment the transport reports no peer.
+        let expected: BTreeSet<Address> = [addr("t/r1/nav"), addr("t/r1/cam")].into();
+        let view = JoinView {
+            expected: &expected,
+            peers: &[],
+            answered: 2,
+        };
+        assert!(
+            !view.met(|_| true),
+            "caught up with {expected:?} while none is up"
+        );
+    }
+
+    #[test]
+    fn discovery_waits_for_the_tokens_still_arriving_before_it_answers() {
+        // A client that has just joined receives the team's liveliness tokens one by
+        // one: the first query may find loco only, and an observer placed on loco's
+        // robot (the first found) is not where the operator's team starts.
+        let team: BTreeSet<Address> =
+            [addr("t/r1/cam"), addr("t/r1/nav"), addr("t/r2/loco")].into();
+        let mut answers = vec![team.clone(), team.clone(), [addr("t/r2/loco")].into()];
+        let deadline = Instant::now() + Duration::from_secs(5);
+        let found = settled(deadline, || answers.pop().unwrap_or_else(|| team.clone()));
+        assert_eq!(found, team);
+    }
+
+    #[test]
+    fn an_observer_is_not_caught_up_while_an_expected_module_is_down() {
+        let expected: BTreeSet<Address> = [addr("t/r1/nav"), addr("t/r1/cam")].into();
+        let up = [addr("t/r1/cam")];
+        let view = JoinView {
+            expected: &expected,
+            peers: &up,
+            answered: 2,
+        };
+        assert!(!view.met(|_| true), "nav is down");
+        let both = [addr("t/r1/cam"), addr("t/r1/nav")];
+        let view = JoinView {
+            peers: &both,
+            ..view
+        };
+        assert!(view.met(|_| true), "both up and caught up with");
+        assert!(
+            !view.met(|a| a.module() == "cam"),
+            "nav's state is not held"
+        );
     }
 }

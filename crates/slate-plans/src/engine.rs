@@ -152,6 +152,8 @@ pub(crate) struct Shared {
     installed: AtomicUsize,
     /// The `link` blocks of every file loaded, merged per link.
     links: Mutex<BTreeMap<LinkName, LinkPolicy>>,
+    /// The modules received plans run as (`crate::authority`).
+    origins: crate::authority::Origins,
 }
 
 /// Runs plans on one board. Cloning gives another handle to the same engine.
@@ -195,6 +197,7 @@ impl Engine {
             evaluations: AtomicU64::new(0),
             installed: AtomicUsize::new(0),
             links: Mutex::new(BTreeMap::new()),
+            origins: crate::authority::Origins::default(),
         });
         board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
         let listener: Arc<dyn ClockListener> = shared.clone();
@@ -283,6 +286,16 @@ impl Engine {
             plan: name.to_owned(),
         });
         true
+    }
+
+    /// The plan named `plan`, once loaded, runs with the authority of `origin` (a plan
+    /// received from another module): its actions may not write an `owned` attribute of
+    /// an object `origin` does not own. Set before the plan is loaded; `None` clears it.
+    pub fn run_as(&self, plan: &str, origin: Option<&slate_model::Address>) {
+        match origin {
+            Some(origin) => self.shared.origins.set(plan, origin.clone()),
+            None => self.shared.origins.clear(plan),
+        }
     }
 
     /// Records who sent a plan in its object's `origin` (a guarded field: the ICI that
@@ -739,6 +752,11 @@ fn apply(
 ) -> Result<(), String> {
     let outbox = &engine.outbox;
     let plan = progress.name;
+    if let Some(origin) = engine.origins.of(plan)
+        && let Some(refusal) = crate::authority::refusal(board, plan, &origin, &effects)
+    {
+        return Err(refusal);
+    }
     let mut batch = board.batch();
     let mut messages = Vec::new();
     for e in effects {

@@ -76,6 +76,7 @@
 mod action;
 mod active;
 mod ast;
+mod authority;
 mod check;
 mod diagnostic;
 mod display;

@@ -389,8 +389,12 @@ impl Inner {
             .and_then(|()| self.destination.lock().claim(&key, &plan.name));
         let outcome = checked.and_then(|()| {
             let file = format!("{from}/{}.slate", plan.name);
+            self.engine.run_as(&plan.name, Some(&plan.origin));
             let loaded = self.engine.load(&file, &plan.source_text);
-            loaded.map(|_| ()).map_err(|e| e.rendered)
+            loaded.map(|_| ()).map_err(|e| {
+                self.engine.run_as(&plan.name, None);
+                e.rendered
+            })
         });
         match outcome {
             Ok(()) => {

@@ -69,6 +69,9 @@ impl Audience<'_> {
 impl State {
     /// Asks `source` for its current state, unless a request that covers this is out.
     pub fn request_catch_up(&mut self, source: &Address, names: bool, classes: bool) {
+        if self.refuses_new_module(source) {
+            return;
+        }
         let now = self.now;
         let p = self.peer(source);
         let prev = p.catch_up;

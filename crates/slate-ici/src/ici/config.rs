@@ -59,6 +59,16 @@ pub struct IciConfig {
     /// `slate_wire::MAX_SOURCES`); past it, the one heard least recently gives up its
     /// slot (and is asked for its names again if it is still alive).
     pub max_sources: usize,
+    /// The most objects another module may own on this board (default 4096): past it,
+    /// what it creates is refused, counted (`rejects.over_limit`) and an event
+    /// (`BoardEvent::ObjectLimit`), so one module cannot grow this board without bound.
+    pub max_objects_per_source: usize,
+    /// The most objects other modules may own on this board together (default 32 768).
+    pub max_objects: usize,
+    /// The most modules this ICI keeps track of (default 1024): a message or a
+    /// liveliness token from a new address past it is refused and counted, so made-up
+    /// addresses cannot grow the board's `Module` objects without bound.
+    pub max_modules: usize,
     /// This module is a short-lived observer (the CLI's `get`, `put`, `ls`...): its
     /// hellos say so, and the boards it meets forget it as soon as it leaves instead of
     /// after `forget_dead`, so it leaves no trace (default false).
@@ -202,6 +212,9 @@ impl Default for IciConfig {
             max_tombstones: 4096,
             forget_dead: Duration::from_secs(600),
             max_sources: slate_wire::MAX_SOURCES,
+            max_objects_per_source: 4096,
+            max_objects: 32_768,
+            max_modules: 1024,
             observer: false,
             team_protocol: None,
             team_report_every: None,

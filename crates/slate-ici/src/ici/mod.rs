@@ -7,6 +7,7 @@ mod explicit;
 mod filter;
 mod frame;
 mod fuse;
+mod limits;
 mod link;
 mod module;
 mod ops;

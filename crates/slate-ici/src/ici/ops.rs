@@ -109,7 +109,7 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
 }
 
 fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
-    if board.info(&spec.name).is_some() {
+    if board.info(&spec.name).is_some() || super::limits::refuses_object(board, state, &spec) {
         return;
     }
     let name = spec.name.clone();

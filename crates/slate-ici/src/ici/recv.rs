@@ -30,7 +30,7 @@ impl State {
 
     /// A message from `from`, counted already (by itself, or as part of its team frame).
     pub(crate) fn on_inner(&mut self, from: &Address, kind: MsgKind, bytes: &[u8]) {
-        if *from == self.me {
+        if *from == self.me || self.refuses_new_module(from) {
             return;
         }
         self.heard(from);

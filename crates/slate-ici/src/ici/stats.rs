@@ -241,6 +241,9 @@ pub struct RejectStats {
     pub class_conflicts: u64,
     /// Duplicate stream messages (already received).
     pub duplicates: u64,
+    /// Objects, or modules, refused past this ICI's bounds (`max_objects_per_source`,
+    /// `max_objects`, `max_modules`).
+    pub over_limit: u64,
 }
 
 /// Catch-ups.

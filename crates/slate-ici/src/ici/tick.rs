@@ -273,6 +273,9 @@ impl State {
     ///
     /// [`timeouts`]: Self::timeouts
     pub fn on_peer(&mut self, peer: &Address, up: bool) {
+        if self.refuses_new_module(peer) {
+            return;
+        }
         let now = self.now;
         let p = self.peer(peer);
         p.up = up;

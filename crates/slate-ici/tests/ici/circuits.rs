@@ -1148,3 +1148,38 @@ fn a_plan_cannot_send_itself_on_beyond_what_its_origin_may_send() {
     let (_h, got) = send_until_initiated(&net, &exec, "t/cell/torch", own);
     assert_eq!(got[..2], [PlanStep::Received, PlanStep::Accepted]);
 }
+
+#[test]
+fn a_received_plan_cannot_write_an_owned_attribute_its_origin_does_not_own() {
+    // Issue 17, item 3: a received plan runs with the authority of the module that sent
+    // it. The planner may send the cell plans, but the cell owns the vault: a plan that
+    // writes the vault's `owned` code fails with the reason and leaves it as it was; one
+    // that writes a plain attribute runs.
+    let vault = "class Vault { code: real merge owned = 0.0; level: real = 0.0; }
+        object vault : Vault;";
+    let net = SimNet::new(74);
+    let planner = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", vault);
+    net.run_for(secs(0.5));
+    let steal = "plan steal { action { set vault.code = 66.0; } }";
+    let (_h, got) = send_until_initiated(&net, &planner, "t/r2/cell", steal);
+    assert_eq!(got[..2], [PlanStep::Received, PlanStep::Accepted]);
+    net.run_for(secs(0.5));
+    assert_eq!(cell.board.read("vault", "code").unwrap().value, 0.0.into());
+    let error = cell.engine.status("steal").and_then(|s| s.last_error);
+    let error = error.unwrap_or_default();
+    assert!(
+        error.contains("t/r1/planner may not write vault.code")
+            && error.contains("owned by t/r2/cell"),
+        "{error}"
+    );
+
+    let fill = "plan fill { action { set vault.level = 3.0; } }";
+    send_until_initiated(&net, &planner, "t/r2/cell", fill);
+    net.run_for(secs(0.5));
+    assert_eq!(cell.board.read("vault", "level").unwrap().value, 3.0.into());
+    let own = "plan own { action { set vault.code = 7.0; } }";
+    cell.engine.load("own.slate", own).unwrap();
+    net.run_for(secs(0.5));
+    assert_eq!(cell.board.read("vault", "code").unwrap().value, 7.0.into());
+}

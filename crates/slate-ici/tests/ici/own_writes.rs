@@ -104,3 +104,34 @@ fn a_packet_from_a_module_whose_clock_is_years_ahead_is_refused_counted_and_repo
     );
     team.members.retain(|n| n.address.as_str() != "t/r9/nav");
 }
+
+#[test]
+fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evented() {
+    // Issue 17, finding 3 from inside a team: evil's own board says it owns v (as a
+    // module that lies would), and writes v's `owned` heading; nav owns v everywhere else.
+    let mut team = pair(34);
+    let nav = team.board("t/r1/nav").clone();
+    nav.create("Vehicle", "v").unwrap();
+    nav.write("v", "heading", 1.0).unwrap();
+    team.run(1.0);
+    let receiver = team.board("t/r2/nav").clone();
+    let events = receiver.events();
+    let evil = team.board_at(&addr("t/r1/evil"), &classes());
+    evil.create("Vehicle", "v").unwrap();
+    team.join(evil.clone(), open());
+    team.run(1.0);
+    evil.write("v", "heading", 9.0).unwrap();
+    team.run(1.0);
+    let held = receiver.read("v", "heading").unwrap();
+    assert_eq!(held.value.as_f64(), Some(1.0));
+    assert_eq!(held.source.as_str(), "t/r1/nav");
+    assert!(team.member("t/r2/nav").ici.stats().merges.not_owner >= 1);
+    let got: Vec<BoardEvent> = events.try_iter().collect();
+    let said = got.iter().any(|e| {
+        matches!(e, BoardEvent::NotOwner { object, attr, writer, owner }
+            if object == "v" && attr == "heading" && writer.as_str() == "t/r1/evil"
+                && owner.as_str() == "t/r1/nav")
+    });
+    assert!(said, "{got:?}");
+    team.members.retain(|n| n.address.as_str() != "t/r1/evil");
+}

@@ -524,6 +524,7 @@ impl Board {
     ///   packet wins if its `(timestamp, source)` is greater than the object's own packet's;
     /// - `confident`: the higher confidence wins, ties by `latest`;
     /// - `owned`: only packets from the object's owner are applied (then by `latest`);
+    ///   another's is refused ([`Merged::NotOwner`], reported as [`BoardEvent::NotOwner`]);
     /// - any policy: a packet stamped beyond the clock's tolerance is refused
     ///   ([`Merged::FromTheFuture`], reported as [`BoardEvent::FutureStamp`]).
     ///
@@ -581,6 +582,11 @@ impl Board {
                         return Ok(Merged::FromTheFuture { ahead: drift.ahead });
                     }
                     let verdict = txn.state().merge_verdict(key, &packet)?;
+                    if verdict == Merged::NotOwner {
+                        let owner = txn.state().get(key.object).and_then(|e| e.instance());
+                        let owner = owner.map_or_else(Address::unknown, |i| i.owner.clone());
+                        refused.push(not_owner(object.as_ref(), attr.as_ref(), &packet, owner));
+                    }
                     if verdict == Merged::Applied(0) {
                         txn.merge(key, packet)?;
                     }
@@ -703,6 +709,40 @@ impl Board {
         });
     }
 
+    /// Reports that an object of `owner` was refused past a bound (the ICI, which
+    /// holds the bounds, reports it at most once a second): an event, and a warning.
+    pub fn report_object_limit(&self, owner: &Address, object: &str, limit: usize, total: bool) {
+        self.report(BoardEvent::ObjectLimit {
+            owner: owner.clone(),
+            object: object.to_owned(),
+            limit,
+            total,
+        });
+    }
+
+    /// Reports that a module not heard of before was refused past the bound on modules
+    /// (the ICI's `max_modules`): an event, and a warning.
+    pub fn report_module_limit(&self, address: &Address, limit: usize) {
+        self.report(BoardEvent::ModuleLimit {
+            address: address.clone(),
+            limit,
+        });
+    }
+
+    /// How many objects `owner` owns on this board (kept as objects are created and
+    /// deleted, not counted on each call).
+    pub fn owned_count(&self, owner: &Address) -> usize {
+        self.inner.read().state.owned_count(owner)
+    }
+
+    /// How many objects (instances) this board holds, and how many of them its own
+    /// module owns.
+    pub fn object_counts(&self) -> (usize, usize) {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        (st.instance_count(), st.owned_count(&self.address))
+    }
+
     pub(crate) fn report(&self, event: BoardEvent) {
         match &event {
             BoardEvent::FunctionFailed {
@@ -731,6 +771,25 @@ impl Board {
             }
             BoardEvent::ClassConflict { class, peer } => {
                 tracing::warn!(%class, %peer, "class defined differently by another module: its objects are not merged");
+            }
+            BoardEvent::ObjectLimit {
+                owner,
+                object,
+                limit,
+                total,
+            } => {
+                tracing::warn!(%owner, %object, limit, total, "objects of another module refused past this board's bound");
+            }
+            BoardEvent::NotOwner {
+                object,
+                attr,
+                writer,
+                owner,
+            } => {
+                tracing::warn!(%object, %attr, %writer, %owner, "packet for an owned attribute from another module than its owner refused");
+            }
+            BoardEvent::ModuleLimit { address, limit } => {
+                tracing::warn!(%address, limit, "a module not heard of before refused: as many are known as may be");
             }
         }
         self.subscribers
@@ -814,6 +873,16 @@ fn resolve_filter(st: &State, f: &Filter) -> Result<watch::Spec, LookupError> {
         attr,
         own_writes: f.own_writes,
     })
+}
+
+/// The event of a received packet for an `owned` attribute refused for its writer.
+fn not_owner(object: &str, attr: &str, packet: &Packet, owner: Address) -> BoardEvent {
+    BoardEvent::NotOwner {
+        object: object.to_owned(),
+        attr: attr.to_owned(),
+        writer: packet.source.clone(),
+        owner,
+    }
 }
 
 /// The event of a received packet refused for its stamp.

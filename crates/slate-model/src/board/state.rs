@@ -162,6 +162,10 @@ pub(crate) struct State {
     attr_names: Vec<Arc<str>>,
     pub revision: u64,
     pub thing: ObjectId,
+    /// Instances per owner, kept where entities enter and leave the slots.
+    owned: FxHashMap<Address, usize>,
+    /// Instances in all.
+    instances: usize,
     /// Rewrites the packets this board writes itself, before they are stored.
     pub normaliser: Option<Arc<dyn crate::Normaliser>>,
 }
@@ -179,6 +183,8 @@ impl State {
                 index: 0,
                 generation: 0,
             },
+            owned: FxHashMap::default(),
+            instances: 0,
             normaliser: None,
         };
         let root = ClassData {
@@ -224,6 +230,34 @@ impl State {
 
     pub fn id(&self, name: &str) -> Option<ObjectId> {
         self.names.get(name).copied()
+    }
+
+    /// Instances `owner` owns.
+    pub fn owned_count(&self, owner: &Address) -> usize {
+        self.owned.get(owner).copied().unwrap_or(0)
+    }
+
+    /// Instances in all.
+    pub fn instance_count(&self) -> usize {
+        self.instances
+    }
+
+    /// Counts an instance in (`arrived`) or out; an owner with none left is dropped,
+    /// so the map holds only owners of objects on the board.
+    fn count_instance(&mut self, e: &Entity, arrived: bool) {
+        let Some(inst) = e.instance() else { return };
+        if arrived {
+            self.instances += 1;
+            *self.owned.entry(inst.owner.clone()).or_insert(0) += 1;
+            return;
+        }
+        self.instances = self.instances.saturating_sub(1);
+        if let Some(n) = self.owned.get_mut(&inst.owner) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                self.owned.remove(&inst.owner);
+            }
+        }
     }
 
     #[inline]
@@ -647,6 +681,7 @@ impl State {
             c.instances.push(id);
         }
         self.names.insert(e.name.clone(), id);
+        self.count_instance(&e, true);
         let slot = &mut self.slots[id.index as usize];
         slot.generation = id.generation;
         slot.entity = Some(e);
@@ -868,6 +903,7 @@ impl State {
     // ----- slab -----
 
     fn insert(&mut self, e: Entity) -> ObjectId {
+        self.count_instance(&e, true);
         let name = e.name.clone();
         let id = match self.free.pop() {
             Some(index) => {
@@ -899,6 +935,7 @@ impl State {
         slot.generation = slot.generation.wrapping_add(1);
         self.free.push(id.index);
         self.names.remove(&e.name);
+        self.count_instance(&e, false);
         e
     }
 

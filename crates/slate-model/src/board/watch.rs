@@ -154,6 +154,39 @@ pub enum BoardEvent {
         /// The module whose definition differs.
         peer: Address,
     },
+    /// Objects of another module were refused: it owns as many on this board as one
+    /// module may, or all other modules together do (`total`). Reported at most once a
+    /// second while refusals go on.
+    ObjectLimit {
+        /// The module whose object was refused.
+        owner: Address,
+        /// The object refused.
+        object: String,
+        /// The bound reached.
+        limit: usize,
+        /// Whether the bound is the total for all other modules (else per module).
+        total: bool,
+    },
+    /// A received packet for an `owned` attribute was refused: its writer is not the
+    /// object's owner (on a secured team, a member that writes what it does not own).
+    NotOwner {
+        /// The object.
+        object: String,
+        /// The attribute.
+        attr: String,
+        /// The packet's source.
+        writer: Address,
+        /// The object's owner on this board.
+        owner: Address,
+    },
+    /// A module this board's ICI had not heard of was refused: it keeps track of as
+    /// many modules as it may. Reported at most once a second while refusals go on.
+    ModuleLimit {
+        /// The address refused.
+        address: Address,
+        /// The bound reached.
+        limit: usize,
+    },
 }
 
 /// The last revision a reader has taken from a [`Watch`]; writers wait on it.

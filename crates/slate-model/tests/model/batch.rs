@@ -145,3 +145,28 @@ fn batch_writes_validate_like_single_writes() {
     assert_eq!(b.read("v", "mode").unwrap().value, Value::from("idle"));
     assert!(b.batch().commit().is_ok(), "an empty batch is fine");
 }
+
+#[test]
+fn the_board_counts_objects_per_owner_through_creates_deletes_and_undone_batches() {
+    let b = board();
+    let other = slate_model::Address::new("t/r2/nav").unwrap();
+    let remote = |name: &str| slate_model::NewObject::new("Obstacle", name).owner(other.clone());
+    b.create_with(remote("a")).unwrap();
+    b.create_with(remote("b")).unwrap();
+    b.create("Obstacle", "mine").unwrap();
+    assert_eq!(b.owned_count(&other), 2);
+    assert_eq!(b.object_counts(), (3, 1));
+    b.delete("a").unwrap();
+    assert_eq!(b.owned_count(&other), 1);
+    // A batch that fails puts back what it deleted and removes what it created.
+    let mut batch = b.batch();
+    batch
+        .delete("b")
+        .create("Obstacle", "c")
+        .write("nothing", "range", 1.0);
+    assert!(batch.commit().is_err());
+    assert_eq!(b.owned_count(&other), 1);
+    assert_eq!(b.object_counts(), (2, 1));
+    b.delete("b").unwrap();
+    assert_eq!(b.owned_count(&other), 0);
+}

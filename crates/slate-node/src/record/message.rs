@@ -160,6 +160,9 @@ pub fn board_event(e: &BoardEvent) -> Json {
         BoardEvent::ChainCut(_) => "chain_cut",
         BoardEvent::FutureStamp { .. } => "future_stamp",
         BoardEvent::ClassConflict { .. } => "class_conflict",
+        BoardEvent::ObjectLimit { .. } => "object_limit",
+        BoardEvent::ModuleLimit { .. } => "module_limit",
+        BoardEvent::NotOwner { .. } => "not_owner",
         _ => "other",
     };
     json!({ "kind": kind, "text": crate::monitor::board_event(e) })
