@@ -152,7 +152,10 @@ impl State {
     pub(super) fn deadline(&self, p: &Peer) -> Duration {
         let link = self.config.link(p.link);
         let tick = Duration::from_nanos(1);
-        let silent = p.last_heard.saturating_add(link.timeout).saturating_add(tick);
+        let silent = p
+            .last_heard
+            .saturating_add(link.timeout)
+            .saturating_add(tick);
         let down = p.down_at.filter(|at| p.last_heard <= *at).map(|_| {
             let after = link.heartbeat.mul_f64(DOWN_BELIEVED_AFTER);
             p.last_heard
