@@ -139,10 +139,7 @@ impl Recording {
                 value,
                 packet,
             } => {
-                let Some(ty) = declared_type(board, object, attr) else {
-                    return false;
-                };
-                let Some(value) = value_of(value, ty) else {
+                let Some(value) = typed_value(board, object, attr, value) else {
                     return false;
                 };
                 let packet = Packet {
@@ -174,8 +171,7 @@ impl Recording {
                 value,
                 packet,
             } => {
-                let typed = declared_type(board, object, attr).and_then(|ty| value_of(value, ty));
-                let Some(value) = typed else {
+                let Some(value) = typed_value(board, object, attr, value) else {
                     return false;
                 };
                 let update = Update::new(value)
@@ -368,6 +364,12 @@ fn value_type(text: &str) -> Option<ValueType> {
                 .ok()?,
         ),
     })
+}
+
+/// A recorded value as the type `board` declares for `object.attr`; `None` when the
+/// board does not know the attribute or the value is not of its type.
+fn typed_value(board: &Board, object: &str, attr: &str, value: &Json) -> Option<Value> {
+    declared_type(board, object, attr).and_then(|ty| value_of(value, ty))
 }
 
 /// The type `object.attr` is declared with on `board` (an object's class chain, or a
