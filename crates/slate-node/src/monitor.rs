@@ -201,8 +201,8 @@ struct Sources {
     plan_events: Receiver<PlanEvent>,
     /// Plans the circuits refused for want of authority.
     refused_plans: Receiver<RefusedPlan>,
-    /// Received messages that did not decode: how many the log has told of, and when it
-    /// last did (board time).
+    /// Received messages that did not decode: how many the log has told of, and when the
+    /// count was last looked at (board time).
     undecodable: Mutex<(u64, Option<Duration>)>,
     board: std::sync::Weak<Board>,
 }
@@ -282,21 +282,22 @@ impl Sources {
     }
 
     /// Received messages that did not decode since the last time told, as one event at
-    /// most every [`UNDECODABLE_EVERY`] of board time, whatever their number.
+    /// most every [`UNDECODABLE_EVERY`] of board time, whatever their number. The count
+    /// is looked at that often too, not on every tick of the clock: it is read from a
+    /// copy of all the ICI's statistics.
     fn undecodable_news(&self, board: &Board, log: &EventLog) {
-        let count = crate::stats::Drops::of(&self.ici.stats()).undecodable;
         let now = board.clock().physical();
-        let mut told = self.undecodable.lock();
-        let due = told
-            .1
-            .is_none_or(|at| now.saturating_sub(at) >= UNDECODABLE_EVERY);
-        if count > told.0 && due {
+        let (told, looked) = *self.undecodable.lock();
+        if looked.is_some_and(|at| now.saturating_sub(at) < UNDECODABLE_EVERY) {
+            return;
+        }
+        let count = crate::stats::Drops::of(&self.ici.stats()).undecodable;
+        *self.undecodable.lock() = (count.max(told), Some(now));
+        if count > told {
             let text = format!(
                 "{} received messages did not decode and were refused (slate stats: drops.undecodable, {count} in all)",
-                count - told.0
+                count - told
             );
-            *told = (count, Some(now));
-            drop(told);
             log.push(board, Level::Warn, text);
         }
     }
