@@ -84,6 +84,7 @@ impl State {
             classes: classes || prev.is_some_and(|r| r.classes),
         };
         p.catch_up = Some(req);
+        self.catch_up_changed(source);
         self.stats.catch_up.requested += 1;
         self.send_request(source, req);
     }
@@ -459,6 +460,7 @@ impl State {
         }
         p.stream.caught_up(list.seq, now);
         p.caught_up = true;
+        self.catch_up_changed(from);
         self.stats.catch_up.completed += 1;
         for l in &list.objects {
             self.listed(

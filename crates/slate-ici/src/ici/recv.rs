@@ -47,7 +47,11 @@ impl State {
         let timeout = self.config.link(LinkKind::between(&self.me, from)).timeout;
         let p = self.peer(from);
         p.last_heard = now;
-        p.up = true;
+        let came_up = !std::mem::replace(&mut p.up, true);
+        if came_up {
+            self.catch_up_changed(from);
+        }
+        let p = self.peer(from);
         let fresh = p.alive == Some(true) && now.saturating_sub(p.seen_written) < timeout / 2;
         if fresh {
             return;
@@ -190,6 +194,7 @@ impl State {
         let p = self.peer(from);
         p.stream.announce(h.seq, now);
         p.top = p.top.max(h.seq);
+        self.catch_up_changed(from);
     }
 
     fn on_hello(&mut self, from: &Address, hello: Hello) {
@@ -361,6 +366,7 @@ impl State {
         }
         p.newest = p.newest.max(newest);
         p.top = p.top.max(seq);
+        self.catch_up_changed(from);
         true
     }
 

@@ -242,6 +242,9 @@ pub(crate) struct State {
     /// No live peer times out before this instant (`State::timeouts`); never later than
     /// the earliest deadline of a live peer.
     pub timeouts_from: Duration,
+    /// Nothing of `State::catch_up_timers` is due before this instant; never later than
+    /// the earliest [`State::catch_up_due`] of any peer.
+    pub catch_up_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
     pub watch: Watch,
@@ -302,6 +305,7 @@ impl State {
             conflicts: BTreeSet::new(),
             next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
             timeouts_from: Duration::ZERO,
+            catch_up_from: Duration::ZERO,
             dead: BTreeSet::new(),
             watch,
             stats: IciStats::default(),

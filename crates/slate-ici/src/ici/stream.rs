@@ -74,6 +74,11 @@ impl Inbound {
         self.advance(now);
     }
 
+    /// When the gap open now opened, if one is.
+    pub fn gap_since(&self) -> Option<Duration> {
+        self.gap_since
+    }
+
     /// How long a gap has been open, if one is.
     pub fn gap_age(&self, now: Duration) -> Option<Duration> {
         self.gap_since.map(|t| now.saturating_sub(t))

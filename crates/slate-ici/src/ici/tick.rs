@@ -229,9 +229,13 @@ impl State {
     /// follow in the peers' order, as they were found.
     fn catch_up_timers(&mut self) {
         let (now, retry, grace) = (self.now, self.config.catch_up_retry, self.config.gap_grace);
+        if now < self.catch_up_from {
+            return;
+        }
         // A member's inner gap waits while its robot stream is being repaired.
         let gapped = self.team_gapped_robots();
         let mut due = Vec::new();
+        let mut next = Duration::MAX;
         for (a, p) in self.peers.iter_mut() {
             match p.catch_up {
                 Some(_) if !p.up => p.catch_up = None,
@@ -249,7 +253,12 @@ impl State {
                 }
                 None => {}
             }
+            if let Some(at) = catch_up_due(p, retry, grace) {
+                next = next.min(at);
+            }
         }
+        // The sends below lower it for the requests they make.
+        self.catch_up_from = next;
         for (a, retried) in due {
             match retried {
                 Some(r) => {
@@ -297,6 +306,8 @@ impl State {
         }
         p.down_at = None;
         p.last_heard = now;
+        self.catch_up_changed(peer);
+        let p = self.peer(peer);
         if p.alive != Some(true) {
             self.stats.liveliness.found += 1;
             self.set_alive(peer, true);
@@ -355,5 +366,32 @@ impl State {
         }
         let listener = protocol.listen != crate::ici::Listen::Never;
         (protocol.priority, listener)
+    }
+}
+
+/// When [`State::catch_up_timers`] has something to do for `p`: drop a request to a peer
+/// that is down (at once), send an unanswered request again, or ask where a gap stayed
+/// open. `None`: nothing, until something changes.
+fn catch_up_due(p: &Peer, retry: Duration, grace: Duration) -> Option<Duration> {
+    match p.catch_up {
+        Some(_) if !p.up => Some(Duration::ZERO),
+        Some(r) => Some(r.since.saturating_add(retry)),
+        None if p.up => p.stream.gap_since().map(|s| s.saturating_add(grace)),
+        None => None,
+    }
+}
+
+impl State {
+    /// `peer`'s catch-up or stream changed (a request made, a position taken or
+    /// announced, it came up): what it now makes due lowers `catch_up_from`.
+    pub(crate) fn catch_up_changed(&mut self, peer: &Address) {
+        let (retry, grace) = (self.config.catch_up_retry, self.config.gap_grace);
+        if let Some(at) = self
+            .peers
+            .get(peer)
+            .and_then(|p| catch_up_due(p, retry, grace))
+        {
+            self.catch_up_from = self.catch_up_from.min(at);
+        }
     }
 }

@@ -345,10 +345,12 @@ impl State {
         let now = self.now;
         let members = self.speaker(from).members.clone();
         for (member, seq) in members.iter().zip(positions) {
-            let Some(p) = member.as_ref().and_then(|m| self.peers.get_mut(m)) else {
+            let Some(m) = member.as_ref() else { continue };
+            let Some(p) = self.peers.get_mut(m) else {
                 continue;
             };
             p.stream.announce(*seq, now);
+            self.catch_up_changed(m);
         }
     }
 
