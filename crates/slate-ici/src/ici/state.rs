@@ -59,10 +59,10 @@ pub(crate) struct Peer {
     pub incarnation: Option<u64>,
     pub last_heard: Duration,
     /// When the transport last said it went down, until it says up: the down is believed
-    /// if nothing is heard from the module after it for [`DOWN_BELIEVED_AFTER`]
-    /// heartbeat periods (see `tick.rs`, `on_peer`).
+    /// if nothing is heard from the module after it for [`down_believed_after`] its
+    /// link's heartbeat (see `tick.rs`, `on_peer`).
     ///
-    /// [`DOWN_BELIEVED_AFTER`]: super::tick::DOWN_BELIEVED_AFTER
+    /// [`down_believed_after`]: super::tick::down_believed_after
     pub down_at: Option<Duration>,
     /// `alive` as last written to its `Module` object.
     pub alive: Option<bool>,
@@ -215,6 +215,8 @@ impl Tombstones {
 
 pub(crate) struct State {
     pub me: Address,
+    /// `me`'s robot path and a slash: every address of a module of this robot starts so.
+    mates_prefix: String,
     pub board: Arc<Board>,
     pub transport: Arc<dyn Transport>,
     pub config: IciConfig,
@@ -287,6 +289,7 @@ impl State {
         State {
             incarnation: board.clock().now().raw(),
             catalog: Catalog::new(&board),
+            mates_prefix: format!("{}/", me.robot_path()),
             me,
             board,
             transport,
@@ -341,10 +344,10 @@ impl State {
     /// as their text, and a robot's are those that start with `team/robot/`), not a walk
     /// over the whole team.
     pub fn mates(&self) -> impl Iterator<Item = (&Address, &Peer)> {
-        let prefix = format!("{}/", self.me.robot_path());
+        let prefix = self.mates_prefix.as_str();
         self.peers
-            .range::<str, _>((Bound::Included(prefix.as_str()), Bound::Unbounded))
-            .take_while(move |(a, _)| a.as_str().starts_with(&prefix))
+            .range::<str, _>((Bound::Included(prefix), Bound::Unbounded))
+            .take_while(move |(a, _)| a.as_str().starts_with(prefix))
     }
 
     /// The peer entry of `address`, made on first mention.

@@ -15,12 +15,15 @@ use super::ops::own_packet;
 use super::state::{Peer, State};
 use crate::{LinkKind, MsgKind};
 
-/// Heartbeat periods of silence after which a transport's down is believed: two
-/// heartbeats missed, and a quarter period for their delivery. At 30 % loss one lost
-/// heartbeat is common (a one-period rule marked healthy modules dead when Zenoh withdrew
-/// a token meanwhile); two in a row less than a third as often (9 %). A robot that died is seen
-/// dead after 2.25 s of silence on the team link (1 s heartbeat), or its lease if longer.
-pub(crate) const DOWN_BELIEVED_AFTER: f64 = 2.25;
+/// Silence after which a transport's down is believed: 2.25 heartbeat periods of the
+/// peer's link, two heartbeats missed and a quarter period for their delivery. At 30 %
+/// loss one lost heartbeat is common (a one-period rule marked healthy modules dead when
+/// Zenoh withdrew a token meanwhile); two in a row less than a third as often (9 %). A
+/// robot that died is seen dead after 2.25 s of silence on the team link (1 s heartbeat),
+/// or its lease if longer. Exact in nanoseconds, so the timers and the rule agree.
+pub(crate) fn down_believed_after(heartbeat: Duration) -> Duration {
+    heartbeat * 9 / 4
+}
 
 impl State {
     /// Runs whatever is due at `self.now`.
@@ -134,39 +137,41 @@ impl State {
 
     /// Has `p` been silent past its link's timeout?
     fn silent(&self, p: &Peer) -> bool {
-        self.now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout
+        self.now >= self.silent_deadline(p)
     }
 
     /// Has the transport said `p` went down, with nothing heard from it since, and has it
-    /// been silent for [`DOWN_BELIEVED_AFTER`] heartbeat periods of its link?
+    /// been silent for [`down_believed_after`] its link's heartbeat?
     fn down_believed(&self, p: &Peer) -> bool {
-        let period = self.config.link(p.link).heartbeat;
-        let silence = self.now.saturating_sub(p.last_heard);
-        p.down_at.is_some_and(|at| p.last_heard <= at)
-            && silence.as_secs_f64() >= period.as_secs_f64() * DOWN_BELIEVED_AFTER
+        self.down_deadline(p).is_some_and(|at| self.now >= at)
     }
 
-    /// No earlier than this instant may `p` be found dead if it stays silent: its link's
-    /// timeout after it was last heard ([`Self::silent`]), or sooner when the transport
-    /// said it went down ([`Self::down_believed`]; a microsecond early, as floats round).
+    /// The first instant at which `p`, silent since it was last heard, is past its link's
+    /// timeout.
+    fn silent_deadline(&self, p: &Peer) -> Duration {
+        let timeout = self.config.link(p.link).timeout;
+        p.last_heard
+            .saturating_add(timeout)
+            .saturating_add(Duration::from_nanos(1))
+    }
+
+    /// The first instant at which the transport's down is believed ([`Self::down_believed`]),
+    /// if it said `p` went down and nothing was heard from it since.
+    fn down_deadline(&self, p: &Peer) -> Option<Duration> {
+        let after = down_believed_after(self.config.link(p.link).heartbeat);
+        p.down_at
+            .filter(|at| p.last_heard <= *at)
+            .map(|_| p.last_heard.saturating_add(after))
+    }
+
+    /// No earlier than this instant may `p` be found dead if it stays silent.
     pub(super) fn deadline(&self, p: &Peer) -> Duration {
-        let link = self.config.link(p.link);
-        let tick = Duration::from_nanos(1);
-        let silent = p
-            .last_heard
-            .saturating_add(link.timeout)
-            .saturating_add(tick);
-        let down = p.down_at.filter(|at| p.last_heard <= *at).map(|_| {
-            let after = link.heartbeat.mul_f64(DOWN_BELIEVED_AFTER);
-            p.last_heard
-                .saturating_add(after)
-                .saturating_sub(Duration::from_micros(1))
-        });
-        down.map_or(silent, |d| d.min(silent))
+        let silent = self.silent_deadline(p);
+        self.down_deadline(p).map_or(silent, |d| d.min(silent))
     }
 
     /// Peers silent past their link's timeout, or down and silent for
-    /// [`DOWN_BELIEVED_AFTER`] heartbeat periods, are dead. The peers are walked only once
+    /// [`down_believed_after`] their link's heartbeat, are dead. The peers are walked only once
     /// the earliest deadline of a live peer has come (`timeouts_from`): hearing a peer
     /// only moves its deadline later, and a peer found alive or said down lowers it.
     fn timeouts(&mut self) {
@@ -275,8 +280,8 @@ impl State {
 
     /// A peer came up or went down, as the transport says. Up is news: greet it and
     /// catch up. Down stops what waits on the peer (its catch-up), and is believed only
-    /// once the ICI has heard nothing from the peer for [`DOWN_BELIEVED_AFTER`] heartbeat
-    /// periods of its link (now or at a later tick, if nothing is heard after the down):
+    /// once the ICI has heard nothing from the peer for [`down_believed_after`] its link's
+    /// heartbeat (now or at a later tick, if nothing is heard after the down):
     /// a transport's down can be false while the peer's messages still arrive (Zenoh
     /// withdraws a liveliness token when a session or route elsewhere fails, and slate's
     /// Zenoh transport says down for a peer that falls behind). A peer still heard stays
