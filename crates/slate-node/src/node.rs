@@ -16,7 +16,7 @@ use slate_zenoh::{ZenohConfig, ZenohTransport};
 use zenoh::query::Queryable;
 
 use crate::authority::{PlanSender, default_plans_from, plan_authority};
-use crate::config::{NodeConfig, SourceFile};
+use crate::config::{NodeConfig, SourceFile, default_ici};
 use crate::error::StartError;
 use crate::foxglove::Foxglove;
 use crate::monitor::{EventLog, Level, Monitor, NodeEvent};
@@ -79,7 +79,8 @@ pub struct NodeBuilder {
 }
 
 impl NodeBuilder {
-    /// A node at `address`, on Zenoh with the default config, until told otherwise.
+    /// A node at `address`, on Zenoh with the default config and a node's ICI settings
+    /// ([`default_ici`]), until told otherwise.
     pub fn new(address: Address) -> Self {
         NodeBuilder {
             address,
@@ -87,7 +88,7 @@ impl NodeBuilder {
             board: None,
             engine: None,
             clock: None,
-            ici: IciConfig::default(),
+            ici: default_ici(),
             sources: Vec::new(),
             dashboard: None,
             dashboard_token: None,
@@ -129,7 +130,7 @@ impl NodeBuilder {
         self
     }
 
-    /// The ICI's settings (interest, export policy, timing).
+    /// The ICI's settings (interest, export policy, timing), in place of [`default_ici`].
     pub fn ici(mut self, config: IciConfig) -> Self {
         self.ici = config;
         self
@@ -707,5 +708,17 @@ fn say_how_secured(me: &Address, config: &ZenohConfig) {
         None => tracing::info!(
             "{me}: insecure: links are neither authenticated nor encrypted, and anyone on the network may speak as any module (add [security] keys = \"DIR\" to the config; docs/security.md)"
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_built_node_starts_from_the_same_ici_settings_as_a_configured_one() {
+        let address = Address::new("t/r1/nav").unwrap();
+        let built = NodeBuilder::new(address.clone());
+        assert_eq!(built.ici, NodeConfig::new(address).ici);
     }
 }
