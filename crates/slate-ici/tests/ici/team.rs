@@ -412,3 +412,56 @@ fn a_robots_gateway_dies_while_its_other_modules_live() {
         everyone_holds(&team, "rock_after", "hits", &Value::Int(9)).unwrap();
     }
 }
+
+/// A value a member writes as the modules start, before its robot has a gateway, announces
+/// the names and the timestamp epoch that its source's later reports are encoded against:
+/// every board must hear it, or each refuses the next report and asks the source for its
+/// whole state. Its uplink reached the gateway-to-be before that one took the role.
+#[test]
+fn a_value_written_before_the_streams_start_announces_its_names_to_everyone() {
+    let (team, _) = grid(85, LinkConfig::clean(), 1024, true);
+    let source = team.board("t/r0/m1");
+    let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
+    source.create_with(vehicle).unwrap();
+    source.write("vehicle_early", "speed", 1.5).unwrap();
+    team.run(3.0);
+    source.write("vehicle_early", "speed", 2.5).unwrap();
+    team.run(2.0);
+    let refused = team.total(|s| s.rejects.decode.rejected());
+    let asked = team.total(|s| s.team.state_asked);
+    assert_eq!((refused, asked), (0, 0), "messages refused, states asked");
+    assert!(everyone_holds(&team, "vehicle_early", "speed", &Value::Real(2.5)).is_ok());
+}
+
+/// Modules that join after a lone robot's stream has begun (a console started before
+/// its robots), or with it, learn the names and epoch of what it said before they heard
+/// it: its later reports decode on every board.
+#[test]
+fn modules_that_join_after_or_with_a_lone_robot_decode_its_later_reports() {
+    for join_after in [2.0, 0.0] {
+        let sim = SimConfig {
+            robot: LinkConfig::clean().delay(secs(0.0001)),
+            team: LinkConfig::clean().delay(secs(0.02)),
+            ..SimConfig::default()
+        };
+        let mut team = Team::with(86, sim);
+        team.add("t/base/console", config(0, 1024, true));
+        let console = team.board("t/base/console").clone();
+        let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
+        console.create_with(vehicle).unwrap();
+        console.write("vehicle_early", "speed", 1.5).unwrap();
+        team.run(join_after);
+        for r in 0..2 {
+            for m in 0..2 {
+                team.add(&format!("t/r{r}/m{m}"), config(m, 1024, true));
+            }
+        }
+        team.run(3.0);
+        console.write("vehicle_early", "speed", 2.5).unwrap();
+        team.run(2.0);
+        let refused = team.total(|s| s.rejects.decode.rejected());
+        assert_eq!(refused, 0, "messages refused, joining {join_after} s after");
+        let speed = Value::Real(2.5);
+        assert!(everyone_holds(&team, "vehicle_early", "speed", &speed).is_ok());
+    }
+}

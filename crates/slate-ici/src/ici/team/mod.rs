@@ -42,9 +42,9 @@ pub(crate) struct TeamState {
     pub listening: Option<bool>,
     /// The gateway this module last acted on (to see the election change).
     pub elected: Option<Address>,
-    /// Team messages waiting for a gateway (at most `MAX_PENDING_BYTES` in all,
+    /// Team messages waiting for a gateway, this module's and its mates' (at most `MAX_PENDING_BYTES` in all,
     /// unless one alone is larger).
-    pub pending: pace::ByteQueue<Vec<u8>>,
+    pub pending: pace::ByteQueue<pace::Held>,
     /// The remote robots' union interest, from the gateway (`None`: not known yet, so
     /// everything exported goes).
     pub remote: Option<frame::TeamInterest>,

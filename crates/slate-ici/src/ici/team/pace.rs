@@ -12,6 +12,8 @@
 use std::collections::VecDeque;
 use std::time::Duration;
 
+use slate_model::Address;
+
 /// Bits a bucket earns per second and may hold; `rate_bps` 0 never limits.
 ///
 /// Invariant: `bits` never exceeds `depth` (it may be negative: sends that may not wait
@@ -72,14 +74,27 @@ pub(crate) struct Queued {
     pub answer: bool,
 }
 
+/// A team message held until this module knows its gateway: its own (`from` is this
+/// module; its mark is taken when it is routed), or a mate's uplink that came while this
+/// module, which the mate's election chose, had not taken the role yet (the start-up
+/// wait, 2.1).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Held {
+    pub from: Address,
+    pub message: Vec<u8>,
+    pub mark: Option<u64>,
+    /// A part of a state answer.
+    pub answer: bool,
+}
+
 /// What a [`ByteQueue`] bounds: the bytes each entry holds.
 pub(crate) trait ByteLen {
     fn byte_len(&self) -> usize;
 }
 
-impl ByteLen for Vec<u8> {
+impl ByteLen for Held {
     fn byte_len(&self) -> usize {
-        self.len()
+        self.message.len()
     }
 }
 

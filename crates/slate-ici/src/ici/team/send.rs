@@ -20,7 +20,7 @@ use super::frame::{
 use super::gateway::{Framer, Gateway, Seen};
 use super::history::HistoryLimits;
 use super::nack::RepairScheduler;
-use super::pace::{Queued, TokenBucket, TxQueue};
+use super::pace::{Held, Queued, TokenBucket, TxQueue};
 use crate::ici::Listen;
 use crate::ici::classes::{ClassSet, context_bit};
 use crate::ici::state::State;
@@ -44,14 +44,36 @@ impl State {
                 self.gateway_queue(&me, message, mark, answer);
             }
             Some(g) => self.uplink(&g, message, answer),
-            None => self.hold(message),
+            None => {
+                let from = self.me.clone();
+                self.hold(Held {
+                    from,
+                    message,
+                    mark: None,
+                    answer,
+                });
+            }
         }
     }
 
     /// Keeps a message for the gateway to come, the oldest dropped past
     /// `MAX_PENDING_BYTES`.
-    fn hold(&mut self, message: Vec<u8>) {
-        self.stats.team.pending_dropped += self.team.pending.push(message);
+    fn hold(&mut self, held: Held) {
+        self.stats.team.pending_dropped += self.team.pending.push(held);
+    }
+
+    /// Hands a held message on once the election is acted on: this module's own is
+    /// routed; a mate's is queued if this module is gateway, and dropped and counted
+    /// otherwise (its inner position shows as a gap at receivers).
+    fn release(&mut self, held: Held) {
+        if held.from == self.me {
+            return self.route(held.message, held.answer);
+        }
+        if self.team.gateway.is_none() {
+            self.stats.team.uplinks_misrouted += 1;
+            return;
+        }
+        self.gateway_queue(&held.from, held.message, held.mark, held.answer);
     }
 
     /// Hands a message to the gateway with this module's inner team position as its
@@ -68,11 +90,21 @@ impl State {
         self.send_to(gateway, MsgKind::Uplink, &TeamMsg::Uplink(up).encode());
     }
 
-    /// A mate's message for the stream: this module must be gateway (an uplink that
-    /// reached a module that no longer is, or not yet, is dropped and counted: its
-    /// inner position shows as a gap at receivers).
+    /// A mate's message for the stream: this module must be gateway. One that came
+    /// before this module acted on an election that may make it gateway is held until
+    /// it does ([`Self::team_elect`]); one that reached a module that no longer is, or is
+    /// not to be, is dropped and counted: its inner position shows as a gap at receivers.
     pub(super) fn on_uplink(&mut self, from: &Address, up: Uplink) {
         if self.team.gateway.is_none() {
+            let undecided = self.team.elected.as_ref().is_none_or(|g| *g == self.me);
+            if undecided {
+                return self.hold(Held {
+                    from: from.clone(),
+                    message: up.message,
+                    mark: up.mark,
+                    answer: up.state_answer,
+                });
+            }
             self.stats.team.uplinks_misrouted += 1;
             return;
         }
@@ -107,7 +139,13 @@ impl State {
         let index = self.gateway_index(member);
         let since = self.now;
         let Some(gw) = self.team.gateway.as_mut() else {
-            return self.hold(message);
+            let from = member.clone();
+            return self.hold(Held {
+                from,
+                message,
+                mark,
+                answer,
+            });
         };
         let Some(member) = index else {
             gw.unindexed += 1;
@@ -196,7 +234,7 @@ impl State {
         }
         if self.team.elected.is_some() {
             let held = self.team.pending.drain();
-            held.into_iter().for_each(|m| self.route(m, false));
+            held.into_iter().for_each(|h| self.release(h));
         }
     }
 
@@ -510,8 +548,9 @@ mod tests {
             st.publish(LinkKind::Team, MsgKind::Report, &report);
         }
         assert_eq!(st.stats.team.pending_dropped, 201, "the oldest went");
-        assert_eq!(st.team.pending.iter().next().map(|m| m[1]), Some(1));
-        let held: usize = st.team.pending.iter().map(Vec::len).sum();
+        let first = st.team.pending.iter().next();
+        assert_eq!(first.map(|h| h.message[1]), Some(1));
+        let held: usize = st.team.pending.iter().map(|h| h.message.len()).sum();
         assert!(held <= MAX_PENDING_BYTES);
     }
 
