@@ -150,7 +150,7 @@ impl State {
 
     /// A refused message: ask its source for what was missing (names, classes).
     fn decode_failed(&mut self, from: &Address, kind: MsgKind, e: &DecodeError) {
-        tracing::debug!(from = %from, %kind, error = %e, "message refused");
+        tracing::debug!(me = %self.me, %from, %kind, error = %e, at = ?self.now, "message refused");
         let (names, classes) = match e {
             DecodeError::UnknownName { .. } => (true, false),
             DecodeError::SchemaMismatch { class, .. } => (false, !self.conflicts_with(from, class)),

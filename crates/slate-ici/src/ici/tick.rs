@@ -147,12 +147,24 @@ impl State {
     }
 
     /// The first instant at which `p`, silent since it was last heard, is past its link's
-    /// timeout.
+    /// timeout; never, if this module cannot hear it ([`Self::deaf_to`]).
     fn silent_deadline(&self, p: &Peer) -> Duration {
+        if self.deaf_to(p) {
+            return Duration::MAX;
+        }
         let timeout = self.config.link(p.link).timeout;
         p.last_heard
             .saturating_add(timeout)
             .saturating_add(Duration::from_nanos(1))
+    }
+
+    /// Does this module hear nothing `p` says on its own? A member that does not listen
+    /// to the team link (the team protocol's `Listen`) hears no other robot's module, so
+    /// their silence says nothing about them: only the transport's down is believed. (Held
+    /// dead by silence, every remote module was lost on such a member, and its names with
+    /// it: the next message it did get was refused, and its whole state asked for.)
+    fn deaf_to(&self, p: &Peer) -> bool {
+        p.link == LinkKind::Team && self.team.listening == Some(false)
     }
 
     /// The first instant at which the transport's down is believed ([`Self::down_believed`]),
@@ -222,6 +234,7 @@ impl State {
     /// A peer is dead (timeout or the transport's word). Its names are dropped from the
     /// decoder, whose slots are bounded: if it comes back, it is asked for them again.
     pub fn lost(&mut self, peer: &Address) {
+        tracing::debug!(me = %self.me, %peer, at = ?self.now, "module lost");
         self.stats.liveliness.lost += 1;
         self.decoder.forget(peer);
         self.set_alive(peer, false);
@@ -314,6 +327,7 @@ impl State {
         self.catch_up_changed(peer);
         let p = self.peer(peer);
         if p.alive != Some(true) {
+            tracing::debug!(me = %self.me, %peer, at = ?now, "module found");
             self.stats.liveliness.found += 1;
             self.set_alive(peer, true);
             self.plans.push(super::PlanEvent::Peer(peer.clone(), true));

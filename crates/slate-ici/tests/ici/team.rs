@@ -5,7 +5,8 @@
 use std::sync::Arc;
 
 use slate_ici::{
-    IciConfig, LinkConfig, LinkKind, MsgKind, Rng, SimConfig, TeamProtocol, module_object_name,
+    IciConfig, LinkConfig, LinkKind, Listen, MsgKind, Rng, SimConfig, TeamProtocol,
+    module_object_name,
 };
 use slate_model::{Context, NewObject, Value};
 
@@ -463,5 +464,47 @@ fn modules_that_join_after_or_with_a_lone_robot_decode_its_later_reports() {
         assert_eq!(refused, 0, "messages refused, joining {join_after} s after");
         let speed = Value::Real(2.5);
         assert!(everyone_holds(&team, "vehicle_early", "speed", &speed).is_ok());
+    }
+}
+
+/// A lone robot (a console) that writes once and then stays quiet is still alive on every
+/// board: its robot heartbeats vouch for it where they are heard, and members that do not
+/// listen to the team link (and so hear no other robot) do not take silence for death.
+/// When it writes again, its report decodes.
+#[test]
+fn a_quiet_lone_robot_stays_alive_everywhere_and_its_next_report_decodes() {
+    let sim = SimConfig {
+        robot: LinkConfig::clean().delay(secs(0.0001)),
+        team: LinkConfig::clean().delay(secs(0.02)),
+        ..SimConfig::default()
+    };
+    let mut team = Team::with(87, sim);
+    team.add("t/base/console", config(0, 1024, true));
+    for r in 0..2 {
+        for m in 0..3 {
+            let mut c = config(m, 1024, true);
+            if m > 0 {
+                c.team_protocol.as_mut().unwrap().listen = Listen::Never;
+            }
+            team.add(&format!("t/r{r}/m{m}"), c);
+        }
+    }
+    let console = team.board("t/base/console").clone();
+    let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
+    console.create_with(vehicle).unwrap();
+    console.write("vehicle_early", "speed", 1.5).unwrap();
+    team.run(12.0);
+    console.write("vehicle_early", "speed", 2.5).unwrap();
+    team.run(2.0);
+    let lost = team.total(|s| s.liveliness.lost);
+    let refused = team.total(|s| s.rejects.decode.rejected());
+    assert_eq!((lost, refused), (0, 0), "modules lost, messages refused");
+    for gateway in ["t/r0/m0", "t/r1/m0"] {
+        let speed = team.board(gateway).read("vehicle_early", "speed");
+        assert_eq!(
+            speed.map(|p| p.value).ok(),
+            Some(Value::Real(2.5)),
+            "{gateway}"
+        );
     }
 }

@@ -148,6 +148,7 @@ impl State {
             });
         };
         let Some(member) = index else {
+            tracing::debug!(me = %self.me, %member, "a member's message dropped: not indexed");
             gw.unindexed += 1;
             return;
         };
@@ -312,7 +313,19 @@ impl State {
         if self.team.listening != Some(on) {
             self.team.listening = Some(on);
             self.transport.listen(LinkKind::Team, on);
+            if on {
+                self.hear_from_now();
+            }
         }
+    }
+
+    /// A member that starts listening begins to time the other robots' modules by their
+    /// silence from now: before, it could not hear them (`State::deaf_to`).
+    fn hear_from_now(&mut self) {
+        let now = self.now;
+        let team = self.peers.values_mut().filter(|p| p.link == LinkKind::Team);
+        team.for_each(|p| p.last_heard = p.last_heard.max(now));
+        self.timeouts_from = self.timeouts_from.min(now);
     }
 
     fn seen_self(&self) -> Seen {
