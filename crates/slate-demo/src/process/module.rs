@@ -100,15 +100,18 @@ impl ModuleSpec {
     }
 }
 
-/// A Zenoh config file that turns gossip off, for the module's session to open with, when
-/// robots speak: each module is then linked only to the peers it was told
-/// (`ModuleSpec::connect`), instead of to every module its peers tell it of (Zenoh's
-/// default), which would link every module to every other across the radio again.
+/// A Zenoh config file that turns gossip and multicast scouting off, for the module's
+/// session to open with, when robots speak: each module is then linked only to the peers
+/// it was told (`ModuleSpec::connect`), instead of to every module its peers tell it of
+/// (gossip) or that answers its multicast scouting (Zenoh's default in a config file,
+/// which slate's own `multicast_scouting = false` does not override: docs/config.md),
+/// either of which links every module to every other across the radio again.
 /// Removed when dropped (Zenoh reads it as the session opens).
 struct NoGossipFile(std::path::PathBuf);
 
 impl NoGossipFile {
-    const TEXT: &str = "{ scouting: { gossip: { enabled: false } } }";
+    const TEXT: &str =
+        "{ scouting: { gossip: { enabled: false }, multicast: { enabled: false } } }";
 
     fn for_speakers(speakers: Speakers) -> Result<Option<NoGossipFile>, DemoError> {
         if speakers == Speakers::Modules {
@@ -281,4 +284,32 @@ fn world_reader(robot: &str, role: Role, world: &str) -> Result<Node, DemoError>
         .ici(ici)
         .source("world.slate", WORLD_CLASSES)
         .start()?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Zenoh config a robots-speaking module opens its session with, as `key`'s value.
+    fn robots_speaking_setting(key: &str) -> String {
+        let file = NoGossipFile::for_speakers(Speakers::Robots)
+            .unwrap()
+            .expect("robots speaking: a file");
+        let config = ZenohConfig {
+            file: Some(file.0.clone()),
+            ..ZenohConfig::default()
+        };
+        config.to_zenoh().unwrap().get_json(key).unwrap()
+    }
+
+    #[test]
+    fn a_robots_speaking_module_links_only_to_the_peers_it_is_told() {
+        // Multicast scouting would link every module to every other one it hears (across
+        // the radio, which carries the multicast), as gossip would.
+        assert_eq!(
+            robots_speaking_setting("scouting/multicast/enabled"),
+            "false"
+        );
+        assert_eq!(robots_speaking_setting("scouting/gossip/enabled"), "false");
+    }
 }
