@@ -103,9 +103,9 @@ impl ModuleSpec {
 /// A Zenoh config file that turns gossip and multicast scouting off, for the module's
 /// session to open with, when robots speak: each module is then linked only to the peers
 /// it was told (`ModuleSpec::connect`), instead of to every module its peers tell it of
-/// (gossip) or that answers its multicast scouting (Zenoh's default in a config file,
-/// which slate's own `multicast_scouting = false` does not override: docs/config.md),
-/// either of which links every module to every other across the radio again.
+/// (gossip) or that answers its multicast scouting (which slate's config also turns off
+/// for a file that does not name it), either of which links every module to every other
+/// across the radio again.
 /// Removed when dropped (Zenoh reads it as the session opens).
 struct NoGossipFile(std::path::PathBuf);
 
