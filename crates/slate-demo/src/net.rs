@@ -188,14 +188,42 @@ mod zenoh_net {
 
     use crate::error::DemoError;
 
+    /// Ports tried per endpoint before giving up.
+    const PORT_TRIES: u32 = 200;
+
+    /// The lowest port an endpoint is drawn from.
+    const LOWEST_PORT: u16 = 10_000;
+
     /// A free TCP endpoint on `host` (the port is free on 127.0.0.1 here when asked;
-    /// another host, a fresh network namespace, has it free too).
+    /// another host, a fresh network namespace, has it free too), never one handed out
+    /// before by this process. The port is below the kernel's ephemeral range: in it, a
+    /// module's outgoing connection can take the port as its source before the module
+    /// meant to listen there does ("Address already in use").
     pub fn free_endpoint_on(host: &str) -> Result<String, DemoError> {
-        let port = TcpListener::bind("127.0.0.1:0")
-            .and_then(|l| l.local_addr())
-            .map(|a| a.port())
-            .map_err(|e| DemoError::Network(format!("no free port on 127.0.0.1: {e}")))?;
-        Ok(format!("tcp/{host}:{port}"))
+        use std::sync::atomic::{AtomicU32, Ordering};
+        static NEXT: AtomicU32 = AtomicU32::new(0);
+        let span = u32::from(ephemeral_start().saturating_sub(LOWEST_PORT).max(1));
+        let start = std::process::id().wrapping_mul(2_654_435_761) % span;
+        for _ in 0..PORT_TRIES {
+            let draw = NEXT.fetch_add(1, Ordering::Relaxed);
+            let offset = u16::try_from((start + draw) % span).unwrap_or(0);
+            let port = LOWEST_PORT + offset;
+            if TcpListener::bind(("127.0.0.1", port)).is_ok() {
+                return Ok(format!("tcp/{host}:{port}"));
+            }
+        }
+        Err(DemoError::Network(format!(
+            "no free TCP port on 127.0.0.1 in {PORT_TRIES} tries below {}",
+            ephemeral_start()
+        )))
+    }
+
+    /// The first port of the kernel's ephemeral range (32768 if it cannot be read).
+    fn ephemeral_start() -> u16 {
+        std::fs::read_to_string("/proc/sys/net/ipv4/ip_local_port_range")
+            .ok()
+            .and_then(|t| t.split_whitespace().next()?.parse().ok())
+            .unwrap_or(32768)
     }
 
     /// A free TCP endpoint on 127.0.0.1.
@@ -301,6 +329,20 @@ mod zenoh_net {
     #[cfg(test)]
     mod tests {
         use super::*;
+
+        #[test]
+        fn free_endpoints_are_distinct_and_below_the_kernels_ephemeral_range() {
+            // In the range, a module's outgoing connection can take the port as its
+            // source before the module meant to listen there does ("Address already in
+            // use", seen in a namespace of the real-link harness).
+            let ports: Vec<u16> = (0..32)
+                .map(|_| free_endpoint_on("10.77.0.3").unwrap())
+                .map(|e| e.rsplit(':').next().unwrap().parse().unwrap())
+                .collect();
+            assert!(ports.iter().all(|p| *p < ephemeral_start()), "{ports:?}");
+            let distinct: std::collections::BTreeSet<u16> = ports.iter().copied().collect();
+            assert_eq!(distinct.len(), ports.len(), "{ports:?}");
+        }
 
         #[test]
         fn a_secured_networks_keys_are_its_members_own_and_go_with_it() {

@@ -128,13 +128,24 @@ impl ZenohConfig {
         }
         self.check_secure_endpoints()?;
         let mut c = self.base()?;
-        for (key, value) in self.settings() {
+        let scouting = self.scouting_unless_named(&c);
+        for (key, value) in self.settings().into_iter().chain(scouting) {
             c.insert_json5(key, &value).map_err(|e| OpenError::Config {
                 key,
                 reason: crate::endpoint::error_text(&e.to_string()),
             })?;
         }
         Ok(c)
+    }
+
+    /// Multicast scouting off when a file leaves it unnamed (`null` in `base`): Zenoh's
+    /// own default for a peer is on, which links the node to every Zenoh session that
+    /// answers on its networks (across a radio, every module of every robot), where
+    /// slate's default is to link only to the endpoints it is given.
+    fn scouting_unless_named(&self, base: &zenoh::Config) -> Option<(&'static str, String)> {
+        let unnamed = base.get_json(MULTICAST_SCOUTING).is_ok_and(|v| v == "null");
+        (self.file.is_some() && !self.multicast_scouting && unnamed)
+            .then(|| (MULTICAST_SCOUTING, "false".to_owned()))
     }
 
     /// With [`security`](ZenohConfig::security), every endpoint is `tls/` or `quic/`: a
@@ -186,7 +197,7 @@ impl ZenohConfig {
         }
         if all || self.multicast_scouting {
             let on = self.multicast_scouting.to_string();
-            settings.push(("scouting/multicast/enabled", on));
+            settings.push((MULTICAST_SCOUTING, on));
         }
         // Reports are published with congestion control `Drop`: a burst larger than
         // the link's queue of batches (2 by default) loses reports, which receivers
@@ -202,6 +213,9 @@ impl ZenohConfig {
         settings
     }
 }
+
+/// Zenoh's key for finding peers by UDP multicast.
+const MULTICAST_SCOUTING: &str = "scouting/multicast/enabled";
 
 /// Longest wait, when a link is listened to again, for the modules that publish on it to
 /// confirm they know the new subscription ([`keys::sync`]): a peer that has not answered
@@ -968,6 +982,27 @@ mod tests {
             err.starts_with("zenoh config file ") && err.contains("missing.json5"),
             "{err}"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_zenoh_file_that_does_not_name_multicast_scouting_leaves_it_off() {
+        // Zenoh's own default (on, for a peer) would link the node to every session that
+        // answers on its networks: across a radio, to every module of every robot.
+        let dir = slate_testing::temp_dir("zenoh-file-scouting");
+        let file = dir.join("lease.json5");
+        let text = "{ transport: { link: { tx: { lease: 20000 } } } }";
+        std::fs::write(&file, text).unwrap();
+        let config = ZenohConfig {
+            file: Some(file.clone()),
+            ..ZenohConfig::default()
+        };
+        let zenoh = config.to_zenoh().unwrap();
+        assert_eq!(
+            zenoh.get_json("scouting/multicast/enabled").unwrap(),
+            "false"
+        );
+        assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "20000");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

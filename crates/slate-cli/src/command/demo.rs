@@ -198,10 +198,7 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         .duration(Duration::from_secs_f64(args.duration))
         .fault_at((!args.no_fault).then_some(args.fault_at))
         .deck(args.deck.map(Duration::from_secs_f64))
-        .speakers(match args.speakers {
-            SpeakersArg::Modules => Speakers::Modules,
-            SpeakersArg::Robots => Speakers::Robots,
-        })
+        .speakers(speakers(args.speakers))
         .team_link(TeamLink::of(
             match args.team_link {
                 TeamLinkArg::Radio => TeamMedium::Radio,
@@ -233,16 +230,72 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
 /// Arguments of `slate demo-module` (as `slate demo --network processes` passes them).
 #[derive(Debug, clap::Args)]
 pub struct DemoModuleArgs {
-    /// ADDRESS SEED ROBOTS SPEAKERS RETURN_AFTER LISTEN WORLD [CONNECT...]
-    #[arg(num_args = 7.., allow_hyphen_values = true)]
-    pub spec: Vec<String>,
+    /// The robot it belongs to: r1, r2, ... (`base` for the console).
+    #[arg(long, value_name = "NAME")]
+    pub robot: String,
+
+    /// What it does: console, exec, nav, prox, vision or loco.
+    #[arg(long, value_name = "ROLE")]
+    pub role: String,
+
+    /// The world's seed (the layout, the drivers' noise).
+    #[arg(long)]
+    pub seed: u64,
+
+    /// Robots in the team.
+    #[arg(long)]
+    pub robots: u8,
+
+    /// Who speaks on the team link, as `slate demo --speakers` says.
+    #[arg(long, value_enum)]
+    pub speakers: SpeakersArg,
+
+    /// When the console calls the robots home, seconds of world time.
+    #[arg(long, value_name = "S")]
+    pub return_after: f64,
+
+    /// The Zenoh endpoint it listens on, like tcp/127.0.0.1:7601.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub listen: String,
+
+    /// The world module's endpoint.
+    #[arg(long, value_name = "ENDPOINT")]
+    pub world: String,
+
+    /// An endpoint of a module started before it (once per endpoint).
+    #[arg(long, value_name = "ENDPOINT")]
+    pub connect: Vec<String>,
+}
+
+impl DemoModuleArgs {
+    /// The module these flags describe, or why there is none.
+    fn spec(&self) -> anyhow::Result<slate_demo::process::ModuleSpec> {
+        Ok(slate_demo::process::ModuleSpec {
+            address: slate_demo::process::ModuleSpec::address_of(&self.robot, &self.role)?,
+            seed: self.seed,
+            robots: self.robots,
+            speakers: speakers(self.speakers),
+            return_after: self.return_after,
+            listen: self.listen.clone(),
+            world: self.world.clone(),
+            connect: self.connect.clone(),
+        })
+    }
+}
+
+/// The demo's speakers for `--speakers`.
+fn speakers(arg: SpeakersArg) -> Speakers {
+    match arg {
+        SpeakersArg::Modules => Speakers::Modules,
+        SpeakersArg::Robots => Speakers::Robots,
+    }
 }
 
 /// `slate demo-module`: one module of the demo as its own process. It says `ready` on
 /// stdout once started, and leaves when its input closes (its parent stopped or died)
 /// or at SIGTERM.
 pub fn module(args: &DemoModuleArgs) -> anyhow::Result<ExitCode> {
-    let spec = slate_demo::process::ModuleSpec::from_args(&args.spec)?;
+    let spec = args.spec()?;
     let process = slate_demo::process::ModuleProcess::start(&spec)?;
     let (tx, stop) = crossbeam_channel::bounded(1);
     let on_eof = tx.clone();
@@ -284,5 +337,60 @@ fn level(l: slate_demo::Level) -> &'static str {
         slate_demo::Level::Warn => "! ",
         slate_demo::Level::Error => "!! ",
         _ => "",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    /// `slate demo-module` alone, as clap parses it.
+    #[derive(Parser)]
+    struct DemoModuleCli {
+        #[command(flatten)]
+        args: DemoModuleArgs,
+    }
+
+    fn parsed(args: &[String]) -> Result<DemoModuleArgs, clap::Error> {
+        let argv = std::iter::once("demo-module".to_owned()).chain(args.iter().cloned());
+        DemoModuleCli::try_parse_from(argv).map(|c| c.args)
+    }
+
+    #[test]
+    fn a_module_spec_reads_back_from_the_flags_slate_demo_passes() {
+        let spec = slate_demo::process::ModuleSpec {
+            address: slate_demo::process::ModuleSpec::address_of("r2", "exec").unwrap(),
+            seed: 7,
+            robots: 3,
+            speakers: Speakers::Robots,
+            return_after: 192.0,
+            listen: "tcp/10.77.0.4:7601".into(),
+            world: "tcp/10.77.0.1:7600".into(),
+            connect: vec!["tcp/10.77.0.2:7602".into(), "tcp/10.77.0.3:7603".into()],
+        };
+        let args = spec.to_args();
+        assert!(args.contains(&"--role".to_owned()), "{args:?}");
+        assert_eq!(parsed(&args).unwrap().spec().unwrap(), spec);
+    }
+
+    #[test]
+    fn a_module_of_no_role_is_refused_naming_the_roles() {
+        let args = [
+            "--robot", "r1", "--role", "pilot", "--seed", "7", "--robots", "3",
+        ]
+        .into_iter()
+        .chain(["--speakers", "robots", "--return-after", "192"])
+        .chain([
+            "--listen",
+            "tcp/127.0.0.1:7601",
+            "--world",
+            "tcp/127.0.0.1:7600",
+        ])
+        .map(str::to_owned)
+        .collect::<Vec<_>>();
+        let error = parsed(&args).unwrap().spec().unwrap_err().to_string();
+        assert!(error.contains("pilot") && error.contains("exec"), "{error}");
     }
 }

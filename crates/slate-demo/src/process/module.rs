@@ -20,7 +20,7 @@ use crate::module::{Module, Role};
 use crate::run::DT;
 use crate::world::{Layout, World};
 
-/// What a module process is told by `slate demo` (one argument each, in this order).
+/// What a module process is told by `slate demo` (`slate demo-module`'s flags).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModuleSpec {
     /// Its address, `team/ROBOT/ROLE`.
@@ -42,73 +42,70 @@ pub struct ModuleSpec {
 }
 
 impl ModuleSpec {
-    /// As arguments of `slate demo-module`.
-    pub fn to_args(&self) -> Vec<String> {
-        let mut args = vec![
-            self.address.to_string(),
-            self.seed.to_string(),
-            self.robots.to_string(),
-            speakers_arg(self.speakers).to_owned(),
-            self.return_after.to_string(),
-            self.listen.clone(),
-            self.world.clone(),
-        ];
-        args.extend(self.connect.iter().cloned());
-        args
+    /// The address of robot `robot`'s module `role` (`console` on robot `base`), or why
+    /// there is no such module.
+    pub fn address_of(robot: &str, role: &str) -> Result<Address, DemoError> {
+        let address = Address::new(&format!("team/{robot}/{role}"))
+            .map_err(|e| DemoError::Config(format!("demo-module: {e}")))?;
+        role_of(&address)?;
+        Ok(address)
     }
 
-    /// From the arguments of `slate demo-module`; what is wrong, if anything.
-    pub fn from_args(args: &[String]) -> Result<ModuleSpec, DemoError> {
-        let bad = |what: &str| DemoError::Config(format!("demo-module: {what}"));
-        let [
-            address,
-            seed,
-            robots,
-            speakers,
-            return_after,
-            listen,
-            world,
-            connect @ ..,
-        ] = args
-        else {
-            return Err(bad(
-                "expected ADDRESS SEED ROBOTS SPEAKERS RETURN_AFTER LISTEN WORLD [CONNECT...]",
-            ));
-        };
-        Ok(ModuleSpec {
-            address: Address::new(address).map_err(|e| bad(&e.to_string()))?,
-            seed: seed.parse().map_err(|_| bad("SEED: expected a number"))?,
-            robots: robots
-                .parse()
-                .map_err(|_| bad("ROBOTS: expected 1 to 32"))?,
-            speakers: parse_speakers(speakers)
-                .ok_or_else(|| bad("SPEAKERS: expected \"modules\" or \"robots\""))?,
-            return_after: return_after
-                .parse()
-                .map_err(|_| bad("RETURN_AFTER: expected seconds"))?,
-            listen: listen.clone(),
-            world: world.clone(),
-            connect: connect.to_vec(),
-        })
+    /// As flags of `slate demo-module` (`--connect` once per endpoint).
+    pub fn to_args(&self) -> Vec<String> {
+        let flags = [
+            ("--robot", self.address.robot().to_owned()),
+            ("--role", self.address.module().to_owned()),
+            ("--seed", self.seed.to_string()),
+            ("--robots", self.robots.to_string()),
+            ("--speakers", speakers_arg(self.speakers).to_owned()),
+            ("--return-after", self.return_after.to_string()),
+            ("--listen", self.listen.clone()),
+            ("--world", self.world.clone()),
+        ];
+        let connect = self.connect.iter().map(|e| ("--connect", e.clone()));
+        flags
+            .into_iter()
+            .chain(connect)
+            .flat_map(|(flag, value)| [flag.to_owned(), value])
+            .collect()
     }
 
     fn role(&self) -> Result<Role, DemoError> {
-        let all = [Role::Console].into_iter().chain(Role::ROBOT);
-        all.into_iter()
-            .find(|r| r.name() == self.address.module())
-            .ok_or_else(|| DemoError::Config(format!("{}: no such module", self.address)))
+        role_of(&self.address)
     }
 }
 
-/// A Zenoh config file that turns gossip off, for the module's session to open with, when
-/// robots speak: each module is then linked only to the peers it was told
-/// (`ModuleSpec::connect`), instead of to every module its peers tell it of (Zenoh's
-/// default), which would link every module to every other across the radio again.
+/// The role of the demo's module at `address`, or why there is none.
+fn role_of(address: &Address) -> Result<Role, DemoError> {
+    let all = [Role::Console].into_iter().chain(Role::ROBOT);
+    all.into_iter()
+        .find(|r| r.name() == address.module())
+        .ok_or_else(|| {
+            let roles: Vec<&str> = [Role::Console]
+                .iter()
+                .chain(&Role::ROBOT)
+                .map(|r| r.name())
+                .collect();
+            DemoError::Config(format!(
+                "{address}: no such module (roles: {})",
+                roles.join(", ")
+            ))
+        })
+}
+
+/// A Zenoh config file that turns gossip and multicast scouting off, for the module's
+/// session to open with, when robots speak: each module is then linked only to the peers
+/// it was told (`ModuleSpec::connect`), instead of to every module its peers tell it of
+/// (gossip) or that answers its multicast scouting (which slate's config also turns off
+/// for a file that does not name it), either of which links every module to every other
+/// across the radio again.
 /// Removed when dropped (Zenoh reads it as the session opens).
 struct NoGossipFile(std::path::PathBuf);
 
 impl NoGossipFile {
-    const TEXT: &str = "{ scouting: { gossip: { enabled: false } } }";
+    const TEXT: &str =
+        "{ scouting: { gossip: { enabled: false }, multicast: { enabled: false } } }";
 
     fn for_speakers(speakers: Speakers) -> Result<Option<NoGossipFile>, DemoError> {
         if speakers == Speakers::Modules {
@@ -128,19 +125,12 @@ impl Drop for NoGossipFile {
     }
 }
 
-/// `speakers` as [`ModuleSpec::to_args`] writes it.
+/// `speakers` as [`ModuleSpec::to_args`] writes it (as `slate demo --speakers` takes it).
 fn speakers_arg(speakers: Speakers) -> &'static str {
     match speakers {
         Speakers::Modules => "modules",
         Speakers::Robots => "robots",
     }
-}
-
-/// The speakers [`speakers_arg`] wrote, if `text` is one.
-fn parse_speakers(text: &str) -> Option<Speakers> {
-    [Speakers::Modules, Speakers::Robots]
-        .into_iter()
-        .find(|s| speakers_arg(*s) == text)
 }
 
 /// The role's driver, on the module's board.
@@ -281,4 +271,32 @@ fn world_reader(robot: &str, role: Role, world: &str) -> Result<Node, DemoError>
         .ici(ici)
         .source("world.slate", WORLD_CLASSES)
         .start()?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Zenoh config a robots-speaking module opens its session with, as `key`'s value.
+    fn robots_speaking_setting(key: &str) -> String {
+        let file = NoGossipFile::for_speakers(Speakers::Robots)
+            .unwrap()
+            .expect("robots speaking: a file");
+        let config = ZenohConfig {
+            file: Some(file.0.clone()),
+            ..ZenohConfig::default()
+        };
+        config.to_zenoh().unwrap().get_json(key).unwrap()
+    }
+
+    #[test]
+    fn a_robots_speaking_module_links_only_to_the_peers_it_is_told() {
+        // Multicast scouting would link every module to every other one it hears (across
+        // the radio, which carries the multicast), as gossip would.
+        assert_eq!(
+            robots_speaking_setting("scouting/multicast/enabled"),
+            "false"
+        );
+        assert_eq!(robots_speaking_setting("scouting/gossip/enabled"), "false");
+    }
 }
