@@ -22,6 +22,24 @@ use crate::{LinkKind, MsgKind};
 /// dead after 2.25 s of silence on the team link (1 s heartbeat), or its lease if longer.
 pub(crate) const DOWN_BELIEVED_AFTER: f64 = 2.25;
 
+/// A team link on which a module has said nothing but heartbeats for its link's timeout
+/// is idle: its heartbeats go this many periods apart (1 s grows to 4 s), and receivers
+/// stretch its timeout and the wait before believing its down by as much, so a silence
+/// still takes the same number of missed heartbeats to kill (docs/ici.md, *Liveliness*).
+/// The robot link does not back off: it is cheap, and a robot's own modules rely on its
+/// fast detection.
+pub(crate) const TEAM_IDLE_PERIODS: u32 = 4;
+
+/// A heartbeat gap on `link` of heartbeat `period`: the period, or
+/// [`TEAM_IDLE_PERIODS`] of them on an idle team link.
+fn idle_gap(link: LinkKind, period: Duration, idle: bool) -> Duration {
+    if idle && link == LinkKind::Team {
+        period * TEAM_IDLE_PERIODS
+    } else {
+        period
+    }
+}
+
 impl State {
     /// Runs whatever is due at `self.now`.
     pub fn tick(&mut self) {
@@ -94,7 +112,7 @@ impl State {
             if !due {
                 continue;
             }
-            let next = self.now + self.config.link(link).heartbeat;
+            let next = self.now + self.heartbeat_gap(link);
             self.next_heartbeat.insert(link, next);
             // With the team protocol on, the robot heartbeat replaces the module's.
             let robot_speaks = link == LinkKind::Team && self.config.team_protocol.is_some();
@@ -115,6 +133,61 @@ impl State {
         }
     }
 
+    /// The wait before this module's next heartbeat on `link`: its period, or
+    /// [`TEAM_IDLE_PERIODS`] of them while the link is idle (nothing else said for its
+    /// timeout).
+    fn heartbeat_gap(&self, link: LinkKind) -> Duration {
+        let said = self.out.get(&link).map_or(Duration::ZERO, |o| o.said);
+        let idle = self.now.saturating_sub(said) >= self.config.link(link).timeout;
+        idle_gap(link, self.config.link(link).heartbeat, idle)
+    }
+
+    /// Something other than a heartbeat is published on `link`: the link is busy, and
+    /// its next heartbeat comes within one period, on the grid of periods its idle gap
+    /// was counted in (a busy link's heartbeats keep the times they had).
+    pub(crate) fn said(&mut self, link: LinkKind) {
+        let (now, period) = (self.now, self.config.link(link).heartbeat);
+        if let Some(o) = self.out.get_mut(&link) {
+            o.said = now;
+        }
+        let next = self.next_heartbeat.entry(link).or_insert(now);
+        while period > Duration::ZERO && next.saturating_sub(period) > now {
+            *next -= period;
+        }
+    }
+
+    /// Something other than a heartbeat is heard from `from`: it is held to its link's
+    /// own timeout again, which can bring its deadline nearer.
+    pub(crate) fn heard_saying(&mut self, from: &Address) {
+        let now = self.now;
+        let p = self.peer(from);
+        p.said = now;
+        if p.alive == Some(true) {
+            let deadline = self.deadline(&self.peers[from]);
+            self.timeouts_from = self.timeouts_from.min(deadline);
+        }
+    }
+
+    /// The longest gap between `p`'s heartbeats, as far as this module can tell: its
+    /// link's period, or the idle gap once `p` has been heard only by heartbeats for a
+    /// period less than its link's timeout (the sender goes idle at the full timeout: a
+    /// receiver that missed what the sender said judges it idle sooner, never later, and
+    /// errs towards patience).
+    fn expected_gap(&self, p: &Peer) -> Duration {
+        let link = self.config.link(p.link);
+        let quiet = p.last_heard.saturating_sub(p.said);
+        let idle = quiet >= link.timeout.saturating_sub(link.heartbeat);
+        idle_gap(p.link, link.heartbeat, idle)
+    }
+
+    /// `p`'s timeout: its link's, stretched as its heartbeats are
+    /// ([`Self::expected_gap`]).
+    fn timeout_of(&self, p: &Peer) -> Duration {
+        let link = self.config.link(p.link);
+        let stretch = self.expected_gap(p).as_secs_f64() / link.heartbeat.as_secs_f64();
+        link.timeout.mul_f64(stretch.max(1.0))
+    }
+
     fn heartbeat(&self, link: LinkKind) -> Heartbeat {
         let total = |sent: bool| {
             self.stats
@@ -132,15 +205,16 @@ impl State {
         }
     }
 
-    /// Has `p` been silent past its link's timeout?
+    /// Has `p` been silent past its timeout ([`Self::timeout_of`])?
     fn silent(&self, p: &Peer) -> bool {
-        self.now.saturating_sub(p.last_heard) > self.config.link(p.link).timeout
+        self.now.saturating_sub(p.last_heard) > self.timeout_of(p)
     }
 
     /// Has the transport said `p` went down, with nothing heard from it since, and has it
-    /// been silent for [`DOWN_BELIEVED_AFTER`] heartbeat periods of its link?
+    /// been silent for [`DOWN_BELIEVED_AFTER`] of its heartbeat gaps
+    /// ([`Self::expected_gap`])?
     fn down_believed(&self, p: &Peer) -> bool {
-        let period = self.config.link(p.link).heartbeat;
+        let period = self.expected_gap(p);
         let silence = self.now.saturating_sub(p.last_heard);
         p.down_at.is_some_and(|at| p.last_heard <= at)
             && silence.as_secs_f64() >= period.as_secs_f64() * DOWN_BELIEVED_AFTER
@@ -150,14 +224,13 @@ impl State {
     /// timeout after it was last heard ([`Self::silent`]), or sooner when the transport
     /// said it went down ([`Self::down_believed`]; a microsecond early, as floats round).
     pub(super) fn deadline(&self, p: &Peer) -> Duration {
-        let link = self.config.link(p.link);
         let tick = Duration::from_nanos(1);
         let silent = p
             .last_heard
-            .saturating_add(link.timeout)
+            .saturating_add(self.timeout_of(p))
             .saturating_add(tick);
         let down = p.down_at.filter(|at| p.last_heard <= *at).map(|_| {
-            let after = link.heartbeat.mul_f64(DOWN_BELIEVED_AFTER);
+            let after = self.expected_gap(p).mul_f64(DOWN_BELIEVED_AFTER);
             p.last_heard
                 .saturating_add(after)
                 .saturating_sub(Duration::from_micros(1))
