@@ -22,13 +22,17 @@ use crate::{LinkKind, MsgKind};
 /// dead after 2.25 s of silence on the team link (1 s heartbeat), or its lease if longer.
 pub(crate) const DOWN_BELIEVED_AFTER: f64 = 2.25;
 
-/// A team link on which a module has said nothing but heartbeats for its link's timeout
+/// A team link on which a module has said nothing but heartbeats for this many periods
 /// is idle: its heartbeats go this many periods apart (1 s grows to 4 s), and receivers
-/// stretch its timeout and the wait before believing its down by as much, so a silence
-/// still takes the same number of missed heartbeats to kill (docs/ici.md, *Liveliness*).
-/// The robot link does not back off: it is cheap, and a robot's own modules rely on its
-/// fast detection.
+/// stretch the wait before believing its down by as much and its timeout to at least
+/// [`IDLE_TIMEOUT_GAPS`] gaps, so a silence still takes five missed heartbeats to kill
+/// (docs/ici.md, *Liveliness*). The robot link does not back off: it is cheap, and a
+/// robot's own modules rely on its fast detection.
 pub(crate) const TEAM_IDLE_PERIODS: u32 = 4;
+
+/// An idle peer's timeout is at least this many of its heartbeat gaps: the library's
+/// default team link times out after five heartbeat periods (5 s for 1 s).
+pub(crate) const IDLE_TIMEOUT_GAPS: u32 = 5;
 
 /// A heartbeat gap on `link` of heartbeat `period`: the period, or
 /// [`TEAM_IDLE_PERIODS`] of them on an idle team link.
@@ -134,12 +138,13 @@ impl State {
     }
 
     /// The wait before this module's next heartbeat on `link`: its period, or
-    /// [`TEAM_IDLE_PERIODS`] of them while the link is idle (nothing else said for its
-    /// timeout).
+    /// [`TEAM_IDLE_PERIODS`] of them while the link is idle (nothing else said for as
+    /// many periods).
     fn heartbeat_gap(&self, link: LinkKind) -> Duration {
         let said = self.out.get(&link).map_or(Duration::ZERO, |o| o.said);
-        let idle = self.now.saturating_sub(said) >= self.config.link(link).timeout;
-        idle_gap(link, self.config.link(link).heartbeat, idle)
+        let period = self.config.link(link).heartbeat;
+        let idle = self.now.saturating_sub(said) >= period * TEAM_IDLE_PERIODS;
+        idle_gap(link, period, idle)
     }
 
     /// Something other than a heartbeat is published on `link`: the link is busy, and
@@ -151,8 +156,11 @@ impl State {
             o.said = now;
         }
         let next = self.next_heartbeat.entry(link).or_insert(now);
-        while period > Duration::ZERO && next.saturating_sub(period) > now {
-            *next -= period;
+        let ahead = next.saturating_sub(now);
+        if !period.is_zero() && ahead > period {
+            let whole = (ahead.as_nanos() - 1) / period.as_nanos();
+            let back = u64::try_from(whole * period.as_nanos()).unwrap_or(u64::MAX);
+            *next = next.saturating_sub(Duration::from_nanos(back));
         }
     }
 
@@ -169,23 +177,26 @@ impl State {
     }
 
     /// The longest gap between `p`'s heartbeats, as far as this module can tell: its
-    /// link's period, or the idle gap once `p` has been heard only by heartbeats for a
-    /// period less than its link's timeout (the sender goes idle at the full timeout: a
+    /// link's period, or the idle gap once `p` has been heard only by heartbeats for one
+    /// period less than [`TEAM_IDLE_PERIODS`] (the sender goes idle at the full count: a
     /// receiver that missed what the sender said judges it idle sooner, never later, and
     /// errs towards patience).
     fn expected_gap(&self, p: &Peer) -> Duration {
-        let link = self.config.link(p.link);
+        let period = self.config.link(p.link).heartbeat;
         let quiet = p.last_heard.saturating_sub(p.said);
-        let idle = quiet >= link.timeout.saturating_sub(link.heartbeat);
-        idle_gap(p.link, link.heartbeat, idle)
+        let idle = quiet >= period * (TEAM_IDLE_PERIODS - 1);
+        idle_gap(p.link, period, idle)
     }
 
-    /// `p`'s timeout: its link's, stretched as its heartbeats are
-    /// ([`Self::expected_gap`]).
+    /// `p`'s timeout: its link's, and at least [`IDLE_TIMEOUT_GAPS`] of its heartbeat
+    /// gaps while they are stretched ([`Self::expected_gap`]).
     fn timeout_of(&self, p: &Peer) -> Duration {
-        let link = self.config.link(p.link);
-        let stretch = self.expected_gap(p).as_secs_f64() / link.heartbeat.as_secs_f64();
-        link.timeout.mul_f64(stretch.max(1.0))
+        let (link, gap) = (self.config.link(p.link), self.expected_gap(p));
+        if gap > link.heartbeat {
+            link.timeout.max(gap * IDLE_TIMEOUT_GAPS)
+        } else {
+            link.timeout
+        }
     }
 
     fn heartbeat(&self, link: LinkKind) -> Heartbeat {
