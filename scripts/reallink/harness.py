@@ -241,6 +241,7 @@ class Scenario:
     window: float = 15.0
     linger: float = 3.0
     topology: str = "mesh"
+    extra: str = ""  # TOML appended to every node's config (--node-toml)
     protocol: str = "tcp"
 
 
@@ -260,6 +261,8 @@ class Team:
         (default: the counter's world and the writer's plan)."""
         self.slate, self.workdir = slate, workdir
         self.mods = mods if mods is not None else team_modules()
+        for m in self.mods:
+            m.extra = m.extra or scn.extra
         for m in self.mods:
             m.protocol = scn.protocol
         self.boards: Boards | None = None
@@ -474,7 +477,7 @@ def met(team: Team, deadline: float) -> bool:
 def scenarios(args: argparse.Namespace) -> list[Scenario]:
     """The scenarios a command line asks for."""
     loss = Impairment(loss=args.loss) if args.loss else Impairment()
-    how = {"topology": args.topology, "protocol": args.protocol}
+    how = {"topology": args.topology, "protocol": args.protocol, "extra": args.node_toml or ""}
     suffix = "-udp" if args.protocol == "udp" else ""
     if args.command == "partition":
         name = f"partition-{args.seconds:g}s" + ("-chain" if args.topology == "chain" else "")
@@ -509,7 +512,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--updates", type=int, default=300, help="bytes: updates at 20 Hz (ten times as many at 200 Hz)")
     p.add_argument("--idle", type=float, default=20.0, help="bytes: seconds of idle measured")
     p.add_argument("--zenoh-config", help="bytes: a Zenoh config file every node is given (zenoh_config)")
-    p.add_argument("--node-toml", help="bytes: TOML appended to every node's config, like '[ici]\\nteam_heartbeat = \"3s\"'")
+    p.add_argument("--node-toml", help="TOML appended to every node's config, like '[ici]\\nteam_heartbeat = \"3s\"'")
     p.add_argument("--zenoh-python", help="bytes: a Python that imports zenoh, for the baseline (default: $ZENOH_PYTHON)")
     p.add_argument("--world-extra", help="bytes: slate text added to the world file, like 'link team { ... }'")
     p.add_argument("--timeout", type=float, default=60.0, help="plansend: the command's --timeout, seconds")

@@ -102,6 +102,10 @@ class Radio:
         self.lock = threading.Lock()
         self.stopping = threading.Event()
         self.thread = threading.Thread(target=self._run, name="radio", daemon=True)
+        # REALLINK_FRAMES=PATH logs every delivered frame (time, link, length, its first
+        # 160 bytes in hex): what an idle link carries, for instance.
+        log = os.environ.get("REALLINK_FRAMES")
+        self.frame_log = open(log, "w", buffering=1) if log else None  # noqa: SIM115
 
     def start(self) -> None:
         self.thread.start()
@@ -224,6 +228,8 @@ class Radio:
                 c = self.links[pair].counters
                 c.delivered_frames += 1
                 c.delivered_bytes += len(frame)
+            if self.frame_log is not None:
+                self.frame_log.write(f"{time.monotonic():.3f} {pair[0]}>{pair[1]} {len(frame)} {frame[:160].hex()}\n")
             try:
                 os.write(self.fds[pair[1]], frame)
             except OSError:

@@ -317,6 +317,7 @@ impl Ici {
         let link = LinkKind::between(self.address(), to);
         let mut st = self.shared.state.lock();
         st.team_aired(link, bytes.len());
+        st.said(link);
         st.stats.sent(link, kind, bytes.len());
         Ok(())
     }

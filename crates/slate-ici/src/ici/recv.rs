@@ -34,6 +34,9 @@ impl State {
             return;
         }
         self.heard(from);
+        if kind != MsgKind::Heartbeat {
+            self.heard_saying(from);
+        }
         match kind {
             MsgKind::Hello | MsgKind::Lifecycle | MsgKind::ObjectList => self.on_frame(from, bytes),
             k if super::team::is_team_kind(k) => self.on_team(from, bytes),

@@ -40,6 +40,9 @@ pub(crate) struct Known {
 pub(crate) struct Outbound {
     pub seq: u64,
     pub encoder: Encoder,
+    /// When something other than a heartbeat was last published on this link: a link
+    /// silent but for heartbeats for a while is idle (`tick.rs`, `heartbeat_gap`).
+    pub said: Duration,
 }
 
 /// An outstanding catch-up request.
@@ -58,6 +61,10 @@ pub(crate) struct Peer {
     pub interest: Option<ClassSet>,
     pub incarnation: Option<u64>,
     pub last_heard: Duration,
+    /// When something other than a heartbeat was last heard from it (`ZERO`: never): a
+    /// peer heard only by heartbeats for a while may be sending them further apart
+    /// (`tick.rs`, `expected_gap`).
+    pub said: Duration,
     /// When the transport last said it went down, until it says up: the down is believed
     /// if nothing is heard from the module after it for [`down_believed_after`] its
     /// link's heartbeat (see `tick.rs`, `on_peer`).
@@ -108,6 +115,7 @@ impl Peer {
             interest: None,
             incarnation: None,
             last_heard: Duration::ZERO,
+            said: Duration::ZERO,
             down_at: None,
             alive: None,
             seen_written: Duration::ZERO,
@@ -281,6 +289,7 @@ impl State {
                     Outbound {
                         seq: 0,
                         encoder: Encoder::new(me.clone()),
+                        said: Duration::ZERO,
                     },
                 )
             })
@@ -418,6 +427,7 @@ impl State {
     pub fn send_to(&mut self, to: &Address, kind: MsgKind, bytes: &[u8]) {
         let link = LinkKind::between(&self.me, to);
         self.team_aired(link, bytes.len());
+        self.said(link);
         match self.transport.send(to, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),
             Err(e) => {
@@ -439,6 +449,9 @@ impl State {
     /// Publishes one message on `link` as it is, counting it.
     pub fn publish_now(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
         self.team_aired(link, bytes.len());
+        if kind != MsgKind::Heartbeat {
+            self.said(link);
+        }
         match self.transport.publish(link, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),
             Err(e) => {

@@ -25,6 +25,28 @@ pub(crate) fn down_believed_after(heartbeat: Duration) -> Duration {
     heartbeat * 9 / 4
 }
 
+/// A team link on which a module has said nothing but heartbeats for this many periods
+/// is idle: its heartbeats go this many periods apart (1 s grows to 4 s), and receivers
+/// stretch the wait before believing its down by as much and its timeout to at least
+/// [`IDLE_TIMEOUT_GAPS`] gaps, so a silence still takes five missed heartbeats to kill
+/// (docs/ici.md, *Liveliness*). The robot link does not back off: it is cheap, and a
+/// robot's own modules rely on its fast detection.
+pub(crate) const TEAM_IDLE_PERIODS: u32 = 4;
+
+/// An idle peer's timeout is at least this many of its heartbeat gaps: the library's
+/// default team link times out after five heartbeat periods (5 s for 1 s).
+pub(crate) const IDLE_TIMEOUT_GAPS: u32 = 5;
+
+/// A heartbeat gap on `link` of heartbeat `period`: the period, or
+/// [`TEAM_IDLE_PERIODS`] of them on an idle team link.
+fn idle_gap(link: LinkKind, period: Duration, idle: bool) -> Duration {
+    if idle && link == LinkKind::Team {
+        period * TEAM_IDLE_PERIODS
+    } else {
+        period
+    }
+}
+
 impl State {
     /// Runs whatever is due at `self.now`.
     pub fn tick(&mut self) {
@@ -97,7 +119,7 @@ impl State {
             if !due {
                 continue;
             }
-            let next = self.now + self.config.link(link).heartbeat;
+            let next = self.now + self.heartbeat_gap(link);
             self.next_heartbeat.insert(link, next);
             // With the team protocol on, the robot heartbeat replaces the module's.
             let robot_speaks = link == LinkKind::Team && self.config.team_protocol.is_some();
@@ -118,6 +140,68 @@ impl State {
         }
     }
 
+    /// The wait before this module's next heartbeat on `link`: its period, or
+    /// [`TEAM_IDLE_PERIODS`] of them while the link is idle (nothing else said for as
+    /// many periods).
+    fn heartbeat_gap(&self, link: LinkKind) -> Duration {
+        let said = self.out.get(&link).map_or(Duration::ZERO, |o| o.said);
+        let period = self.config.link(link).heartbeat;
+        let idle = self.now.saturating_sub(said) >= period * TEAM_IDLE_PERIODS;
+        idle_gap(link, period, idle)
+    }
+
+    /// Something other than a heartbeat is published on `link`: the link is busy, and
+    /// its next heartbeat comes within one period, on the grid of periods its idle gap
+    /// was counted in (a busy link's heartbeats keep the times they had).
+    pub(crate) fn said(&mut self, link: LinkKind) {
+        let (now, period) = (self.now, self.config.link(link).heartbeat);
+        if let Some(o) = self.out.get_mut(&link) {
+            o.said = now;
+        }
+        let next = self.next_heartbeat.entry(link).or_insert(now);
+        let ahead = next.saturating_sub(now);
+        if !period.is_zero() && ahead > period {
+            let whole = (ahead.as_nanos() - 1) / period.as_nanos();
+            let back = u64::try_from(whole * period.as_nanos()).unwrap_or(u64::MAX);
+            *next = next.saturating_sub(Duration::from_nanos(back));
+        }
+    }
+
+    /// Something other than a heartbeat is heard from `from`: it is held to its link's
+    /// own timeout again, which can bring its deadline nearer.
+    pub(crate) fn heard_saying(&mut self, from: &Address) {
+        let now = self.now;
+        let p = self.peer(from);
+        p.said = now;
+        if p.alive == Some(true) {
+            let deadline = self.deadline(&self.peers[from]);
+            self.timeouts_from = self.timeouts_from.min(deadline);
+        }
+    }
+
+    /// The longest gap between `p`'s heartbeats, as far as this module can tell: its
+    /// link's period, or the idle gap once `p` has been heard only by heartbeats for one
+    /// period less than [`TEAM_IDLE_PERIODS`] (the sender goes idle at the full count: a
+    /// receiver that missed what the sender said judges it idle sooner, never later, and
+    /// errs towards patience).
+    fn expected_gap(&self, p: &Peer) -> Duration {
+        let period = self.config.link(p.link).heartbeat;
+        let quiet = p.last_heard.saturating_sub(p.said);
+        let idle = quiet >= period * (TEAM_IDLE_PERIODS - 1);
+        idle_gap(p.link, period, idle)
+    }
+
+    /// `p`'s timeout: its link's, and at least [`IDLE_TIMEOUT_GAPS`] of its heartbeat
+    /// gaps while they are stretched ([`Self::expected_gap`]).
+    fn timeout_of(&self, p: &Peer) -> Duration {
+        let (link, gap) = (self.config.link(p.link), self.expected_gap(p));
+        if gap > link.heartbeat {
+            link.timeout.max(gap * IDLE_TIMEOUT_GAPS)
+        } else {
+            link.timeout
+        }
+    }
+
     fn heartbeat(&self, link: LinkKind) -> Heartbeat {
         let total = |sent: bool| {
             self.stats
@@ -135,24 +219,25 @@ impl State {
         }
     }
 
-    /// Has `p` been silent past its link's timeout?
+    /// Has `p` been silent past its timeout ([`Self::timeout_of`])?
     fn silent(&self, p: &Peer) -> bool {
         self.now >= self.silent_deadline(p)
     }
 
     /// Has the transport said `p` went down, with nothing heard from it since, and has it
-    /// been silent for [`down_believed_after`] its link's heartbeat?
+    /// been silent for [`down_believed_after`] its heartbeat gap ([`Self::expected_gap`])?
     fn down_believed(&self, p: &Peer) -> bool {
         self.down_deadline(p).is_some_and(|at| self.now >= at)
     }
 
-    /// The first instant at which `p`, silent since it was last heard, is past its link's
-    /// timeout; never, if this module cannot hear it ([`Self::deaf_to`]).
+    /// The first instant at which `p`, silent since it was last heard, is past its
+    /// timeout ([`Self::timeout_of`]); never, if this module cannot hear it
+    /// ([`Self::deaf_to`]).
     fn silent_deadline(&self, p: &Peer) -> Duration {
         if self.deaf_to(p) {
             return Duration::MAX;
         }
-        let timeout = self.config.link(p.link).timeout;
+        let timeout = self.timeout_of(p);
         p.last_heard
             .saturating_add(timeout)
             .saturating_add(Duration::from_nanos(1))
@@ -170,7 +255,7 @@ impl State {
     /// The first instant at which the transport's down is believed ([`Self::down_believed`]),
     /// if it said `p` went down and nothing was heard from it since.
     fn down_deadline(&self, p: &Peer) -> Option<Duration> {
-        let after = down_believed_after(self.config.link(p.link).heartbeat);
+        let after = down_believed_after(self.expected_gap(p));
         p.down_at
             .filter(|at| p.last_heard <= *at)
             .map(|_| p.last_heard.saturating_add(after))

@@ -584,3 +584,88 @@ fn an_observer_whose_own_hello_was_lost_is_still_forgotten_once_gone() {
     team.run(5.0);
     assert_eq!(team.board("t/r1/nav").stats().objects, before);
 }
+
+/// Two robots of one module each, where the only down is the one a test gives (the
+/// lease is longer than any test), run until their team link has nothing else to say.
+fn idle_pair(seed: u64) -> (Team, slate_model::Address, slate_model::Address) {
+    let config = SimConfig {
+        lease: secs(1000.0),
+        ..SimConfig::default()
+    };
+    let team = Team::grid(seed, config, 2, 1);
+    team.run(30.0);
+    (team, addr("t/r0/m0"), addr("t/r1/m0"))
+}
+
+#[test]
+fn an_idle_team_link_sends_a_heartbeat_every_four_periods() {
+    // Nothing written: each module's team heartbeat backs off to 4 s (4 periods of 1 s),
+    // so an idle link carries a quarter of the heartbeats it did.
+    let (team, _, _) = idle_pair(38);
+    let before = team
+        .net
+        .stats()
+        .kind(LinkKind::Team, slate_ici::MsgKind::Heartbeat);
+    team.run(60.0);
+    let after = team
+        .net
+        .stats()
+        .kind(LinkKind::Team, slate_ici::MsgKind::Heartbeat);
+    let sent = after.sent_msgs - before.sent_msgs;
+    // 2 modules x 60 s / 4 s, one more each for where the minute falls.
+    assert!(sent <= 32, "{sent} team heartbeats in an idle minute");
+    assert!(
+        sent >= 28,
+        "{sent} team heartbeats in an idle minute: detection needs them"
+    );
+    let bytes = (after.sent_bytes - before.sent_bytes) as f64 / 60.0;
+    let total = team.net.stats().total(LinkKind::Team);
+    assert!(
+        bytes <= 10.0,
+        "{bytes:.1} B/s of heartbeats on the idle team link"
+    );
+    assert!(total.sent_msgs > 0);
+}
+
+#[test]
+fn a_silent_idle_peer_is_found_dead_within_four_timeouts_not_one() {
+    // An idle peer's heartbeats come 4 s apart, so its timeout counts as many periods as
+    // a busy one's: 5 heartbeats, 20 s. It is found dead within that bound, not sooner.
+    let (team, watcher, victim) = idle_pair(39);
+    let name = module_object_name(&victim);
+    let member = team.members.iter().find(|m| m.address == watcher).unwrap();
+    let alive = || member.board.read(&name, "alive").unwrap().value;
+    team.net.kill(&victim);
+    team.run(6.0);
+    assert_eq!(
+        alive(),
+        Value::Bool(true),
+        "an idle peer is given 4 timeouts"
+    );
+    team.run(15.0);
+    assert_eq!(
+        alive(),
+        Value::Bool(false),
+        "found dead within 20 s of its last heartbeat"
+    );
+}
+
+#[test]
+fn a_peer_that_speaks_after_idling_is_held_to_the_links_timeout_again() {
+    // One write ends the idle: the peer's heartbeats come every period again, and its
+    // silence is judged by the link's own timeout (5 s).
+    let (team, watcher, victim) = idle_pair(40);
+    let writer = team.members.iter().find(|m| m.address == victim).unwrap();
+    writer.board.create("Vehicle", "probe").unwrap();
+    team.run(3.0);
+    let name = module_object_name(&victim);
+    let member = team.members.iter().find(|m| m.address == watcher).unwrap();
+    let alive = || member.board.read(&name, "alive").unwrap().value;
+    team.net.kill(&victim);
+    team.run(6.5);
+    assert_eq!(
+        alive(),
+        Value::Bool(false),
+        "dead within the link's 5 s timeout"
+    );
+}
