@@ -30,7 +30,11 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
         .start()?;
     let key = node.board().key("gsr", "speed")?;
     let mut values = crate::Cycle::new(0.0, 49.0);
-    let mut write = || drop(black_box(node.board().write_key(key, values.next_value())));
+    let written = std::cell::Cell::new(0u64);
+    let mut write = || {
+        let ok = black_box(node.board().write_key(key, values.next_value())).is_ok();
+        written.set(written.get() + u64::from(ok));
+    };
     progress("node writes, not recording");
     r.add("node_write_ns", measure(cfg, &mut write));
     progress("node writes, a bounded watch drained by a thread that discards");
@@ -41,13 +45,18 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     let path = dir.join("bench.mcap");
     node.start_recording(RecordConfig::new(&path))?;
     progress("node writes, recording");
+    let before = written.get();
     let ns = measure(cfg, &mut write);
     r.compare("node_write_recording_ns", ns, "node_write_ns", Some(1.25));
+    let written = written.get() - before;
     let stats = node.stop_recording()?.unwrap_or_default();
     node.close();
     net.run_for(Duration::from_millis(10));
     let _ = std::fs::remove_dir_all(&dir);
     r.fact("recorded_messages", json!(stats.messages));
+    r.fact("written_while_recording", json!(written));
+    let packets = stats.by_topic.get(PACKETS).copied().unwrap_or(0);
+    r.fact("recorded_packets", json!(packets));
     r.fact("recorded_bytes", json!(stats.bytes));
     r.fact("dropped_changes", json!(stats.dropped));
     r.fact("recording_failed", json!(stats.failed));
@@ -74,6 +83,9 @@ fn handed_off(board: &slate_model::Board, op: impl FnOnce() -> f64) -> anyhow::R
     })
 }
 
+/// The channel of the bench's packets (`gsr` is a `Vehicle`).
+const PACKETS: &str = "/slate/class/Vehicle";
+
 /// Every timed field of the JSON object.
 pub const TIMED_FIELDS: &[&str] = &[
     "node_write_ns",
@@ -90,5 +102,11 @@ mod tests {
         let j = run(&crate::TINY, &mut |_| {}).unwrap().json();
         crate::assert_fields(&j, TIMED_FIELDS, |x| x > 0.0);
         assert!(j["recorded_messages"].as_u64() > Some(0), "{j}");
+        // Every write recorded or counted as dropped (and the file's first packet, the
+        // value gsr had when it began).
+        let accounted =
+            j["recorded_packets"].as_u64().unwrap() + j["dropped_changes"].as_u64().unwrap();
+        let written = j["written_while_recording"].as_u64().unwrap();
+        assert!(accounted >= written, "{j}");
     }
 }

@@ -491,9 +491,10 @@ pub struct PlayArgs {
     pub dashboard: Option<std::net::SocketAddr>,
 
     /// Publish the replay onto the live team TEAM (reached with --connect) as a module of
-    /// its own, TEAM/replay/MODULE (MODULE: the recorded board's): it creates the recorded
-    /// objects and writes the recorded values again, stamped as it writes them, itself
-    /// their source. For software-in-the-loop tests.
+    /// its own, TEAM/replay/MODULE (MODULE: the recorded board's; with --operator NAME,
+    /// TEAM/replay/cli-NAME-MODULE, which a secured team lets the operator speak as): it
+    /// creates the recorded objects and writes the recorded values again, stamped as it
+    /// writes them, itself their source. For software-in-the-loop tests.
     #[arg(long, value_name = "TEAM")]
     pub onto: Option<String>,
 

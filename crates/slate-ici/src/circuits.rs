@@ -383,8 +383,9 @@ impl PlanCircuits {
 
     /// Installs again a plan [`held`](PlanCircuits::held) before a restart, on its
     /// circuit: the steps it takes from now on go to the module that sent it, numbered
-    /// from [`HeldPlan::next_step`]. The plan starts afresh (pending, then initiated when
-    /// its initiation holds). Refused, with the reason, if the module that sent it or its
+    /// from [`HeldPlan::next_step`]. The plan takes up at [`HeldPlan::progress`]: active
+    /// if it had initiated, with its `fired` count, firing on the trigger's next rising
+    /// edge if the trigger held when it was kept. Refused, with the reason, if the module that sent it or its
     /// origin may no longer send plans here, or the plan no longer loads.
     pub fn reinstate(&self, plan: HeldPlan) -> Result<(), String> {
         self.inner.reinstate(plan)
@@ -406,6 +407,9 @@ pub struct HeldPlan {
     pub text: String,
     /// The number the circuit's next step takes.
     pub next_step: u64,
+    /// Where the plan was (its latches, `fired` count and trigger's edge): it takes up
+    /// there when installed again, so a trigger that held does not fire it once more.
+    pub progress: slate_plans::PlanProgress,
 }
 
 /// Refusals a receiver of [`PlanCircuits::refusals`] may have waiting.

@@ -109,10 +109,27 @@ pub struct PlanStatus {
     pub last_error: Option<String>,
 }
 
+/// Where a plan was when its node stopped, to take it up there after a restart
+/// ([`Engine::resume`]): the latches and the trigger's edge, which the plan object alone
+/// does not say.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlanProgress {
+    /// Its state: a plan that had initiated resumes active (initiation is latched).
+    pub state: PlanState,
+    /// Times its action had run.
+    pub fired: u64,
+    /// Did the trigger hold at its last evaluation? A plan resumed with it fires on the
+    /// trigger's next rising edge, not again for the state it already fired for.
+    pub trigger_held: bool,
+}
+
 struct PlanRt {
     plan: Arc<CompiledPlan>,
     state: PlanState,
     last_trigger: bool,
+    /// Resumed after a restart, having acted: its first evaluation takes the `changed`
+    /// references from the values it reads, as after an action (they are not kept).
+    prime: bool,
     fired: u64,
     last_error: Option<String>,
     baseline: Vec<Option<Value>>,
@@ -154,6 +171,8 @@ pub(crate) struct Shared {
     links: Mutex<BTreeMap<LinkName, LinkPolicy>>,
     /// The modules received plans run as (`crate::authority`).
     origins: crate::authority::Origins,
+    /// Where plans not yet installed take up from ([`Engine::resume`]).
+    resumes: Mutex<HashMap<String, PlanProgress>>,
 }
 
 /// Runs plans on one board. Cloning gives another handle to the same engine.
@@ -198,6 +217,7 @@ impl Engine {
             installed: AtomicUsize::new(0),
             links: Mutex::new(BTreeMap::new()),
             origins: crate::authority::Origins::default(),
+            resumes: Mutex::new(HashMap::new()),
         });
         board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
         let listener: Arc<dyn ClockListener> = shared.clone();
@@ -298,6 +318,24 @@ impl Engine {
         }
     }
 
+    /// Where the plan named `plan` is: what [`Engine::resume`] takes after a restart.
+    pub fn progress(&self, plan: &str) -> Option<PlanProgress> {
+        let st = self.shared.state.lock();
+        let rt = &st.plans[*st.by_name.get(plan)?];
+        Some(PlanProgress {
+            state: rt.state,
+            fired: rt.fired,
+            trigger_held: rt.last_trigger,
+        })
+    }
+
+    /// The plan named `plan`, once loaded, takes up where `progress` says (kept before a
+    /// restart) instead of starting afresh: latched initiation and termination, its
+    /// `fired` count, and the trigger's edge. Set before the plan is loaded.
+    pub fn resume(&self, plan: &str, progress: PlanProgress) {
+        self.shared.resumes.lock().insert(plan.to_owned(), progress);
+    }
+
     /// Records who sent a plan in its object's `origin` (a guarded field: the ICI that
     /// received the plan tells the engine, which writes it).
     pub fn set_origin(&self, plan: &str, origin: &str) -> Result<(), slate_model::BatchError> {
@@ -345,11 +383,20 @@ impl Engine {
         if let Some(taken) = self.name_taken(board, &name) {
             return Err(taken);
         }
+        let resume = self.shared.resumes.lock().remove(&*name);
+        let from = resume.unwrap_or(PlanProgress {
+            state: PlanState::Pending,
+            fired: 0,
+            trigger_held: false,
+        });
         let mut batch = board.batch();
         batch
             .create_with(NewObject::new(PLAN_CLASS, &name).context(Context::Self_))
-            .write_guarded(&name, "state", PlanState::Pending.name())
+            .write_guarded(&name, "state", from.state.name())
             .write_guarded(&name, "text", plan.text.as_str());
+        if from.fired > 0 {
+            batch.write_guarded(&name, "fired", from.fired as i64);
+        }
         batch.commit().map_err(|e| e.to_string())?;
         let idx = {
             let mut st = self.shared.state.lock();
@@ -360,14 +407,19 @@ impl Engine {
             st.by_name.insert(name.clone(), idx);
             self.shared.installed.fetch_add(1, Ordering::Relaxed);
             let sites = plan.changed_sites;
+            let prime = from.fired > 0 && sites > 0;
+            let next_every = plan.every.filter(|_| from.trigger_held);
+            let now = board.clock().physical().as_secs_f64();
             st.plans.push(PlanRt {
                 plan: Arc::new(plan),
-                state: PlanState::Pending,
-                last_trigger: false,
-                fired: 0,
+                state: from.state,
+                last_trigger: from.trigger_held,
+                prime,
+                fired: from.fired,
                 last_error: None,
                 baseline: vec![None; sites],
-                next_every: None,
+                // A resumed trigger that held repeats one period after the restart.
+                next_every: next_every.map(|period| now + period),
                 timer_gen: 0,
                 fired_key: board.key(&name, "fired").ok(),
             });
@@ -631,6 +683,9 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
     if rt.state.is_over() {
         return out;
     }
+    if rt.prime && rt.state == PlanState::Active {
+        prime(rt, env);
+    }
     let plan = rt.plan.clone();
     let name = &plan.name;
     let baseline = rt.baseline.clone();
@@ -685,6 +740,18 @@ fn step(rt: &mut PlanRt, env: &SnapEnv<'_>) -> Outcome {
     let every_due = if trig { rt.next_every } else { None };
     out.wake_at = wake(&cx, every_due);
     out
+}
+
+/// Takes a resumed plan's `changed` references from the values its trigger reads now.
+fn prime(rt: &mut PlanRt, env: &SnapEnv<'_>) {
+    rt.prime = false;
+    let plan = rt.plan.clone();
+    let unset = vec![None; plan.changed_sites];
+    let mut cx = Ctx::new(env, plan.slots, &unset);
+    if let Some(trigger) = &plan.trigger {
+        drop(trigger.eval(&mut cx));
+    }
+    rt.baseline = cx.seen;
 }
 
 /// The next moment the plan must be looked at again without any write.

@@ -98,7 +98,8 @@ pub use ast::{
 };
 pub use diagnostic::{Diagnostic, Diagnostics, MAX_QUOTED_CHARS, Severity, Span, Stage};
 pub use engine::{
-    Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanState, PlanStatus, TIME_FALLBACK,
+    Engine, MAX_EVALUATIONS_PER_CHANGE, PLAN_CLASS, PlanProgress, PlanState, PlanStatus,
+    TIME_FALLBACK,
 };
 pub use eval::{EvalError, MAX_OPS};
 pub use load::{

@@ -13,7 +13,7 @@ use slate_node::Node;
 use slate_node::record::{Recording, Step, Timed, board_state};
 
 use crate::cli::{Format, LiveArgs, PlayArgs};
-use crate::command::live::{interrupted, join, print_line};
+use crate::command::live::{interrupted, join, operator_keys, print_line};
 
 /// The board's address when the file does not say whose it was.
 const UNKNOWN: &str = "replay/play/board";
@@ -151,7 +151,7 @@ fn play(
     played
 }
 
-/// `--onto TEAM`: joins the team through `--connect` as `TEAM/replay/MODULE` and writes
+/// `--onto TEAM`: joins the team through `--connect` as [`replay_address`] and writes
 /// the recording there as that module's own writes, at the recorded pace or faster.
 fn onto(
     args: &PlayArgs,
@@ -161,9 +161,7 @@ fn onto(
     (speed, until): (Option<f64>, Option<Duration>),
     format: Format,
 ) -> anyhow::Result<ExitCode> {
-    let text = format!("{team}/{REPLAY_ROBOT}/{}", recorded.module());
-    let address = Address::new(&text)
-        .with_context(|| format!("--onto {team}: {text} is not a module address"))?;
+    let address = replay_address(args, team, recorded)?;
     let live = LiveArgs {
         connection: args.connection.clone(),
         address: Some(address.to_string()),
@@ -181,6 +179,16 @@ fn onto(
     report(&node, recording, &played, format)?;
     node.close();
     Ok(ExitCode::SUCCESS)
+}
+
+/// The replay's address on `team`: `TEAM/replay/MODULE` (MODULE: the recorded board's),
+/// or with an operator's keys `TEAM/replay/cli-NAME-MODULE`, an address the operator's
+/// certificate may speak as on a secured team (docs/security.md, "Replays").
+fn replay_address(args: &PlayArgs, team: &str, recorded: &Address) -> anyhow::Result<Address> {
+    let operator = operator_keys(&args.connection)?;
+    let prefix = operator.map_or_else(String::new, |k| k.identity.observer_prefix());
+    let text = format!("{team}/{REPLAY_ROBOT}/{prefix}{}", recorded.module());
+    Address::new(&text).with_context(|| format!("--onto {team}: {text} is not a module address"))
 }
 
 /// Waits until `offset` (scaled) after `began`; true if a signal came first.

@@ -35,7 +35,13 @@ fn values(bytes: &[u8], class: &str, object: &str, attr: &str) -> Vec<Json> {
 }
 
 /// Waits (at most 20 s) until the file on disk holds `value` for `object.attr`.
-fn wait_recorded(path: &Path, class: &str, object: &str, attr: &str, value: &Json) -> bool {
+pub(crate) fn wait_recorded(
+    path: &Path,
+    class: &str,
+    object: &str,
+    attr: &str,
+    value: &Json,
+) -> bool {
     eventually(Duration::from_secs(20), || {
         let bytes = std::fs::read(path).unwrap_or_default();
         values(&bytes, class, object, attr).contains(value)

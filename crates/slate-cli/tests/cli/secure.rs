@@ -572,3 +572,41 @@ fn an_operators_plan_cannot_write_an_owned_attribute_of_its_destination() {
     assert_eq!(loco.value("vault", "code").as_deref(), Some("1.0"));
     team.stop();
 }
+
+/// `slate play --onto` on a secured team: the replay joins with the operator's keys as
+/// `t/replay/cli-alice-nav`, which the access control lets alice speak as, and the team
+/// hears what it replays.
+#[test]
+fn play_onto_a_secured_team_replays_as_the_operators_replay_module() {
+    let recording = {
+        let mut plain = Team::new("play-onto-secure-rec");
+        let file = plain.dir.join("nav.mcap");
+        plain.add_recording("t/r1/nav", "object gsr : Vehicle context self;", &file);
+        plain.wait_connected();
+        plain.ok(&["put", "gsr.mode", "manual"]);
+        let manual = serde_json::json!("manual");
+        let recorded = crate::record::wait_recorded(&file, "Vehicle", "gsr", "mode", &manual);
+        assert!(recorded, "{}", plain.logs());
+        let (clean, rest) = plain.nodes.remove(0).stop();
+        assert!(clean, "nav stopped cleanly: {rest}");
+        std::fs::read(&file).unwrap()
+    };
+    let (team, keys) = secured_team("play-onto-secure", &["t/r2/loco"]);
+    let file = team.dir.join("nav.mcap");
+    std::fs::write(&file, recording).unwrap();
+    let path = file.to_str().unwrap();
+    let alice = as_alice(&keys);
+    let play = [
+        "play", path, "--onto", "t", "--speed", "max", "--format", "json",
+    ];
+    let mut args = with(&play, &alice);
+    args.extend(["--connect", team.node("t/r2/loco").endpoint.as_str()]);
+    let out = slate(&args);
+    assert!(out.status.success(), "{}\n{}", show(&out), team.logs());
+    let played: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(played["address"], "t/replay/cli-alice-nav", "{played}");
+    assert_eq!(played["refused"], 0, "{played}");
+    let heard = team.node("t/r2/loco").wait_value("gsr", "mode", "manual");
+    assert!(heard, "loco hears the replay\n{}", team.logs());
+    team.stop();
+}

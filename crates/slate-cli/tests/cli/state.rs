@@ -273,3 +273,43 @@ fn a_plan_sent_with_slate_plan_send_runs_again_after_the_node_restarts_on_its_st
     assert!(acted, "the plan acts after the restart\n{}", team.logs());
     team.stop();
 }
+
+/// A plan that fired before the restart, whose trigger still holds after it, does not
+/// fire again for that same state: `mode`, set back by hand once it fired, stays so.
+#[test]
+fn a_plan_that_fired_before_a_restart_does_not_fire_again_for_the_same_state() {
+    let mut team = Team::new("state-plan-fired");
+    let state = team.dir.join("loco-state");
+    team.nodes.push(start_loco(&team, &state));
+    team.wait_connected();
+    let slow = team.dir.join("slow.slate");
+    let text = "plan slow { trigger: gsr.speed > 5.0; action { set gsr.mode = \"slow\"; } }";
+    std::fs::write(&slow, text).unwrap();
+    let out = team.send_plan(&slow, LOCO, "2");
+    assert!(out.status.success(), "{}", show(&out));
+    team.ok(&["put", "gsr.speed", "6"]);
+    assert!(
+        team.nodes[0].wait_value("gsr", "mode", "slow"),
+        "{}",
+        team.logs()
+    );
+    team.ok(&["put", "gsr.mode", "manual"]);
+    assert!(
+        team.nodes[0].wait_value("gsr", "mode", "manual"),
+        "{}",
+        team.logs()
+    );
+    let (clean, rest) = team.nodes.remove(0).stop();
+    assert!(clean, "loco stopped cleanly: {rest}");
+    team.nodes.push(start_loco(&team, &state));
+    team.wait_connected();
+    let active = plan_state(&team, "slow");
+    assert_eq!(active.as_deref(), Some("active"), "{}", team.logs());
+    let mode = team.json(&["get", "gsr.mode"]);
+    assert_eq!(mode["attrs"][0]["value"], "manual", "not set again: {mode}");
+    team.ok(&["put", "gsr.speed", "1"]);
+    team.ok(&["put", "gsr.speed", "7"]);
+    let acted = team.nodes[0].wait_value("gsr", "mode", "slow");
+    assert!(acted, "the next rising edge fires it\n{}", team.logs());
+    team.stop();
+}

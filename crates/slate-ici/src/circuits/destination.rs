@@ -53,6 +53,10 @@ struct Repeat {
 /// A circuit is named by its origin and the number the origin gave it.
 type Key = (Address, u64);
 
+/// An open circuit whose plan still runs: its key, the plan's name and text, and the
+/// number its next step takes.
+type Running = (Key, String, String, u64);
+
 /// The circuits other modules opened to this one.
 #[derive(Default)]
 pub(crate) struct Destination {
@@ -248,8 +252,8 @@ impl Destination {
         }
     }
 
-    /// The open circuits whose plan still runs: key, name, text, next step's number.
-    fn running(&self) -> Vec<(Key, String, String, u64)> {
+    /// The open circuits whose plan still runs.
+    fn running(&self) -> Vec<Running> {
         let open = |(key, c): (&Key, &Circuit)| {
             let running = c.phase == Phase::Open && self.by_name.get(&c.name) == Some(key);
             let next = c.first + c.steps.len() as u64;
@@ -527,11 +531,16 @@ impl Inner {
         Ok(())
     }
 
-    /// The plans received that still run, each with the origin it runs for.
+    /// The plans received that still run, each with the origin it runs for and where it
+    /// is (the engine is asked before the origins are locked: one lock at a time).
     pub(super) fn held(&self) -> Vec<HeldPlan> {
         let running = self.destination.lock().running();
+        let running: Vec<_> = running
+            .into_iter()
+            .filter_map(|r| Some((self.engine.progress(&r.1)?, r)))
+            .collect();
         let runs_for = self.runs_for.lock();
-        let held = |((from, circuit), name, text, next_step): (Key, String, String, u64)| {
+        let held = |(progress, ((from, circuit), name, text, next_step)): (_, Running)| {
             let origin = runs_for.get(&name).cloned().unwrap_or_else(|| from.clone());
             HeldPlan {
                 from,
@@ -540,6 +549,7 @@ impl Inner {
                 name,
                 text,
                 next_step,
+                progress,
             }
         };
         running.into_iter().map(held).collect()
@@ -563,6 +573,7 @@ impl Inner {
         let key = (plan.from.clone(), plan.circuit);
         self.destination.lock().reopen(&key, &plan)?;
         let file = format!("{}/{}.slate", plan.from, plan.name);
+        self.engine.resume(&plan.name, plan.progress);
         if let Err(e) = self.engine.load(&file, &plan.text) {
             self.destination.lock().forget(&key);
             return Err(e.rendered);

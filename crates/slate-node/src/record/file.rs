@@ -32,6 +32,12 @@ const CHUNK_BYTES: u64 = 1 << 20;
 /// gains little on JSON this repetitive.
 const ZSTD_LEVEL: u32 = 1;
 
+/// zstd compresses in the recorder thread itself, with no worker threads (the `mcap`
+/// crate's default is one per CPU): workers cost about 1 250 instructions more per
+/// message (callgrind, docs/performance.md) and compete with the node's writers for the
+/// cores.
+const ZSTD_THREADS: u32 = 0;
+
 /// The path of the `index`th file of a recording at `base`: `base` itself, then
 /// `NAME.1.mcap`, `NAME.2.mcap`... beside it.
 pub fn rotated_path(base: &Path, index: u32) -> PathBuf {
@@ -148,6 +154,7 @@ impl Files {
             .library(concat!("slate ", env!("CARGO_PKG_VERSION")))
             .compression(Some(Compression::Zstd))
             .compression_level(ZSTD_LEVEL)
+            .compression_threads(ZSTD_THREADS)
             .chunk_size(Some(self.chunk_bytes()))
             .create(counted)
             .map_err(|error| RecordError::Mcap {

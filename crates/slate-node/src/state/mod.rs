@@ -16,8 +16,10 @@
 //! the built-in `Module` and `Plan` classes are not kept: liveliness is the ICI's to
 //! find out again, and plans come back from the node's files. Plans other modules sent
 //! and the node accepted are kept (their text, sender, circuit and origin) while they
-//! run; after a restart they are installed again on their circuits and start afresh
-//! (a plan that ended or was cancelled before the restart does not come back).
+//! run, with where each was (its state, `fired` count and trigger's edge); after a
+//! restart they are installed again on their circuits and take up there, so a trigger
+//! that held does not fire them once more (a plan that ended or was cancelled before
+//! the restart does not come back).
 
 mod keeper;
 mod pending;

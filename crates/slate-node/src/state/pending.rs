@@ -40,7 +40,7 @@ pub(crate) struct Pending {
 
 /// Is an object of `class` left out of the store? Liveliness (`Module`) is the ICI's to
 /// find out again; `Plan` objects belong to plans, which come back from the files or,
-/// for plans received, from the store's plans table (and start afresh).
+/// for plans received, from the store's plans table (with where each was).
 pub(crate) fn transient(class: &str) -> bool {
     class == MODULE_CLASS || class == PLAN_CLASS
 }

@@ -24,7 +24,8 @@ pub struct Restored {
     pub objects: usize,
     /// Packets the board took.
     pub packets: usize,
-    /// Plans other modules had sent, installed again (they start afresh).
+    /// Plans other modules had sent, installed again where they were (see
+    /// [`PlanCircuits::reinstate`]).
     pub plans: usize,
     /// Entries the board refused: a class the files now define differently, a packet
     /// of an attribute no longer declared, stamped beyond the clock's tolerance, or

@@ -8,6 +8,7 @@ use redb::{Database, ReadableTable, TableDefinition};
 use serde_json::{Value as Json, json};
 use slate_ici::HeldPlan;
 use slate_model::{Address, ClassDef, Context, NewObject, Packet};
+use slate_plans::{PlanProgress, PlanState};
 
 use super::pending::{ObjectRecord, Pending};
 use super::{Durability, StateError};
@@ -24,8 +25,9 @@ const CLASSES: TableDefinition<&str, &[u8]> = TableDefinition::new("classes");
 const OBJECTS: TableDefinition<&str, &[u8]> = TableDefinition::new("objects");
 /// `(object or class, attribute)` → `{"value", "accuracy", "confidence", "hlc", "source"}`.
 const PACKETS: TableDefinition<(&str, &str), &[u8]> = TableDefinition::new("packets");
-/// Plan name → `{"from", "circuit", "origin", "text", "next_step"}`: the plans other
-/// modules sent that the node runs ([`HeldPlan`]).
+/// Plan name → `{"from", "circuit", "origin", "text", "next_step", "state", "fired",
+/// "trigger_held"}`: the plans other modules sent that the node runs ([`HeldPlan`]).
+/// A row of an earlier build without the last three takes the plan up as pending.
 const PLANS: TableDefinition<&str, &[u8]> = TableDefinition::new("plans");
 /// The layout of the tables above; a store of another format is refused.
 const FORMAT: &str = "1";
@@ -372,7 +374,22 @@ fn saved_packet(object: &str, attr: &str, j: &Json) -> Option<SavedPacket> {
 fn plan_json(p: &HeldPlan) -> Json {
     json!({
         "from": p.from.as_str(), "circuit": p.circuit, "origin": p.origin.as_str(),
-        "text": p.text, "next_step": p.next_step,
+        "text": p.text, "next_step": p.next_step, "state": p.progress.state.name(),
+        "fired": p.progress.fired, "trigger_held": p.progress.trigger_held,
+    })
+}
+
+/// Where a stored plan was (pending and unfired for a row without it).
+fn plan_progress(j: &Json) -> Option<PlanProgress> {
+    let state = match j["state"].as_str() {
+        None | Some("pending") => PlanState::Pending,
+        Some("active") => PlanState::Active,
+        Some(_) => return None,
+    };
+    Some(PlanProgress {
+        state,
+        fired: j["fired"].as_u64().unwrap_or(0),
+        trigger_held: j["trigger_held"].as_bool().unwrap_or(false),
     })
 }
 
@@ -384,5 +401,6 @@ fn held_plan(name: &str, j: &Json) -> Option<HeldPlan> {
         name: name.to_owned(),
         text: j["text"].as_str()?.to_owned(),
         next_step: j["next_step"].as_u64()?,
+        progress: plan_progress(j)?,
     })
 }

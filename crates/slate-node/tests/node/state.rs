@@ -135,9 +135,16 @@ fn loco(net: &SimNet, dir: &std::path::Path) -> Node {
         .unwrap()
 }
 
-/// loco accepts `plan` from the planner, runs a while, and restarts on its state while
-/// the planner is gone (a planner still up would send its plan again by itself).
+/// loco accepts `plan` from the planner, is written `speed` (then `mode`, if given),
+/// runs a while, and restarts on its state while the planner is gone (a planner still up
+/// would send its plan again by itself).
 fn restart_after_plan(dir: &std::path::Path, plan: &str, speed: f64) -> Node {
+    restart_after_plan_with(dir, plan, &[("speed", speed.into())])
+}
+
+/// [`restart_after_plan`] with the writes to `gsr` made once the plan is accepted, in
+/// order, each followed by a while for the plan and the store.
+fn restart_after_plan_with(dir: &std::path::Path, plan: &str, writes: &[(&str, Value)]) -> Node {
     let net = SimNet::new(21);
     let planner = start(&net, PLANNER, "");
     let first = loco(&net, dir);
@@ -149,8 +156,10 @@ fn restart_after_plan(dir: &std::path::Path, plan: &str, speed: f64) -> Node {
             .any(|s| s == slate_wire::PlanStep::Accepted)
     };
     assert!(run_until(&net, 3.0, || accepted(&handle)));
-    first.board().write("gsr", "speed", speed).unwrap();
-    net.run_for(std::time::Duration::from_millis(500));
+    for (attr, value) in writes {
+        first.board().write("gsr", attr, value.clone()).unwrap();
+        net.run_for(std::time::Duration::from_millis(500));
+    }
     planner.close();
     first.close();
     drop(first);
@@ -190,5 +199,47 @@ fn a_received_plan_that_ended_before_the_restart_does_not_come_back() {
         "an ended plan stays ended"
     );
     assert_eq!(loco.restored().map(|r| r.plans), Some(0));
+    loco.close();
+}
+
+/// The plan fired for `gsr.speed > 5.0`; `mode` was then set back by hand while the
+/// trigger still held. After the restart the trigger still holds, but it already fired
+/// for that state: it must not set `mode` again.
+#[test]
+fn a_reinstated_plan_whose_trigger_held_does_not_fire_again_for_the_same_state() {
+    let dir = temp_dir("node-state-plan-held");
+    let writes = [("speed", 6.0.into()), ("mode", "manual".into())];
+    let loco = restart_after_plan_with(&dir, SLOW, &writes);
+    let status = loco.engine().status("slow").expect("the plan came back");
+    assert_eq!(status.state.name(), "active", "{status:?}");
+    assert_eq!(status.fired, 1, "it kept its count and did not fire again");
+    let mode = loco.board().read("gsr", "mode").unwrap().value;
+    assert_eq!(mode, Value::Str("manual".into()), "not set again");
+    // The next rising edge fires it.
+    loco.board().write("gsr", "speed", 1.0).unwrap();
+    loco.board().write("gsr", "speed", 7.0).unwrap();
+    let mode = loco.board().read("gsr", "mode").unwrap().value;
+    assert_eq!(mode, Value::Str("slow".into()));
+    assert_eq!(loco.engine().status("slow").map(|s| s.fired), Some(2));
+    loco.close();
+}
+
+/// Initiation is latched: a plan initiated before the restart is still active after it,
+/// although its initiation no longer holds.
+#[test]
+fn a_reinstated_plan_that_had_initiated_stays_initiated() {
+    let dir = temp_dir("node-state-plan-latched");
+    let plan = "plan go { initiation: gsr.mode == \"go\"; trigger: gsr.speed > 5.0; action { set gsr.mode = \"slow\"; } }";
+    let writes = [("mode", "go".into()), ("mode", "auto".into())];
+    let loco = restart_after_plan_with(&dir, plan, &writes);
+    let status = loco.engine().status("go").expect("the plan came back");
+    assert_eq!(status.state.name(), "active", "{status:?}");
+    loco.board().write("gsr", "speed", 6.0).unwrap();
+    let mode = loco.board().read("gsr", "mode").unwrap().value;
+    assert_eq!(
+        mode,
+        Value::Str("slow".into()),
+        "it acts without initiating again"
+    );
     loco.close();
 }

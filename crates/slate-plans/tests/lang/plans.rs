@@ -511,3 +511,74 @@ fn a_failed_action_does_not_count_as_fired() {
             .contains("outside the declared bounds")
     );
 }
+
+/// A board with the signals written by `before`, then plan `p` (these conditions,
+/// counting in log.n) loaded to take up at `progress`, as after a restart.
+fn resumed(
+    conditions: &str,
+    before: impl FnOnce(&Board),
+    progress: slate_plans::PlanProgress,
+) -> (Arc<Board>, Engine) {
+    let (board, engine) = engine();
+    engine.load("signals.slate", SIGNALS).unwrap();
+    before(&board);
+    engine.resume("p", progress);
+    let plan = format!("plan p {{ {conditions} action {{ set log.n = log.n + 1; }} }}");
+    engine
+        .load("p.slate", &plan)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (board, engine)
+}
+
+fn logged(b: &Board) -> Value {
+    b.read("log", "n").unwrap().value
+}
+
+#[test]
+fn a_resumed_plan_whose_trigger_held_fires_only_on_its_next_rising_edge() {
+    let progress = slate_plans::PlanProgress {
+        state: PlanState::Active,
+        fired: 3,
+        trigger_held: true,
+    };
+    let (b, e) = resumed("trigger: trig.on;", |b| set(b, "trig", true), progress);
+    let status = e.status("p").unwrap();
+    assert_eq!((status.state, status.fired), (PlanState::Active, 3));
+    assert_eq!(b.read("p", "fired").unwrap().value, Value::Int(3));
+    assert_eq!(logged(&b), Value::Int(0), "it had fired for this state");
+    set(&b, "trig", false);
+    set(&b, "trig", true);
+    assert_eq!(logged(&b), Value::Int(1));
+    assert_eq!(e.status("p").unwrap().fired, 4);
+}
+
+#[test]
+fn a_resumed_plan_whose_trigger_did_not_hold_fires_once_it_holds() {
+    let progress = slate_plans::PlanProgress {
+        state: PlanState::Active,
+        fired: 1,
+        trigger_held: false,
+    };
+    let conditions = "initiation: init.on; trigger: trig.on;";
+    let (b, _e) = resumed(conditions, |b| set(b, "trig", true), progress);
+    assert_eq!(logged(&b), Value::Int(1), "active (latched) and a new edge");
+}
+
+#[test]
+fn a_resumed_plan_that_had_acted_takes_its_changed_references_from_the_board() {
+    let progress = slate_plans::PlanProgress {
+        state: PlanState::Active,
+        fired: 1,
+        trigger_held: false,
+    };
+    let level = |b: &Board, x: f64| {
+        b.write("trig", "level", x).unwrap();
+    };
+    let conditions = "trigger: changed(trig.level, 0.5);";
+    let (b, _e) = resumed(conditions, |b| level(b, 3.0), progress);
+    assert_eq!(logged(&b), Value::Int(0), "nothing moved since the restart");
+    level(&b, 3.2);
+    assert_eq!(logged(&b), Value::Int(0));
+    level(&b, 3.6);
+    assert_eq!(logged(&b), Value::Int(1));
+}
