@@ -19,15 +19,19 @@ fn config(module: usize, mtu: usize, on: bool) -> IciConfig {
     open().team_protocol(on.then_some(protocol))
 }
 
-/// 3 robots × 3 modules on `link` (team link; the robot link is clean), the team
-/// protocol on or off; returns the team and each module's largest team publish.
-fn grid(seed: u64, link: LinkConfig, mtu: usize, on: bool) -> (Team, Vec<Arc<Tap>>) {
-    let sim = SimConfig {
+/// A clean robot link and `link` as the team link, 20 ms away.
+fn sim(link: LinkConfig) -> SimConfig {
+    SimConfig {
         robot: LinkConfig::clean().delay(secs(0.0001)),
         team: link.delay(secs(0.02)),
         ..SimConfig::default()
-    };
-    let mut team = Team::with(seed, sim);
+    }
+}
+
+/// 3 robots × 3 modules on `link` (team link; the robot link is clean), the team
+/// protocol on or off; returns the team and each module's largest team publish.
+fn grid(seed: u64, link: LinkConfig, mtu: usize, on: bool) -> (Team, Vec<Arc<Tap>>) {
+    let mut team = Team::with(seed, sim(link));
     let mut recorders = Vec::new();
     for r in 0..3 {
         for m in 0..3 {
@@ -434,23 +438,25 @@ fn a_value_written_before_the_streams_start_announces_its_names_to_everyone() {
     assert!(everyone_holds(&team, "vehicle_early", "speed", &Value::Real(2.5)).is_ok());
 }
 
+/// A console alone on its robot `base` that has created `vehicle_early` and written its
+/// speed (1.5) before anyone else joined or any time passed.
+fn console_writing_at_start(seed: u64) -> (Team, Arc<slate_model::Board>) {
+    let mut team = Team::with(seed, sim(LinkConfig::clean()));
+    team.add("t/base/console", config(0, 1024, true));
+    let console = team.board("t/base/console").clone();
+    let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
+    console.create_with(vehicle).unwrap();
+    console.write("vehicle_early", "speed", 1.5).unwrap();
+    (team, console)
+}
+
 /// Modules that join after a lone robot's stream has begun (a console started before
 /// its robots), or with it, learn the names and epoch of what it said before they heard
 /// it: its later reports decode on every board.
 #[test]
 fn modules_that_join_after_or_with_a_lone_robot_decode_its_later_reports() {
     for join_after in [2.0, 0.0] {
-        let sim = SimConfig {
-            robot: LinkConfig::clean().delay(secs(0.0001)),
-            team: LinkConfig::clean().delay(secs(0.02)),
-            ..SimConfig::default()
-        };
-        let mut team = Team::with(86, sim);
-        team.add("t/base/console", config(0, 1024, true));
-        let console = team.board("t/base/console").clone();
-        let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
-        console.create_with(vehicle).unwrap();
-        console.write("vehicle_early", "speed", 1.5).unwrap();
+        let (mut team, console) = console_writing_at_start(86);
         team.run(join_after);
         for r in 0..2 {
             for m in 0..2 {
@@ -473,13 +479,7 @@ fn modules_that_join_after_or_with_a_lone_robot_decode_its_later_reports() {
 /// When it writes again, its report decodes.
 #[test]
 fn a_quiet_lone_robot_stays_alive_everywhere_and_its_next_report_decodes() {
-    let sim = SimConfig {
-        robot: LinkConfig::clean().delay(secs(0.0001)),
-        team: LinkConfig::clean().delay(secs(0.02)),
-        ..SimConfig::default()
-    };
-    let mut team = Team::with(87, sim);
-    team.add("t/base/console", config(0, 1024, true));
+    let (mut team, console) = console_writing_at_start(87);
     for r in 0..2 {
         for m in 0..3 {
             let mut c = config(m, 1024, true);
@@ -489,10 +489,6 @@ fn a_quiet_lone_robot_stays_alive_everywhere_and_its_next_report_decodes() {
             team.add(&format!("t/r{r}/m{m}"), c);
         }
     }
-    let console = team.board("t/base/console").clone();
-    let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
-    console.create_with(vehicle).unwrap();
-    console.write("vehicle_early", "speed", 1.5).unwrap();
     team.run(12.0);
     console.write("vehicle_early", "speed", 2.5).unwrap();
     team.run(2.0);
