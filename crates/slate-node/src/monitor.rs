@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
 use slate_ici::{ClassSet, Ici, MODULE_CLASS, RefusedPlan};
-use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Filter, Value, Watch};
+use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Every, Filter, Value, Watch};
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
 use crate::observer::OBSERVER_PREFIX;
@@ -121,7 +121,7 @@ impl Monitor {
             board_events: board.events(),
             plan_events: engine.events(),
             refused_plans: ici.2,
-            undecodable: Mutex::new((0, None)),
+            undecodable: Mutex::new((0, Every::new(UNDECODABLE_EVERY))),
             board: Arc::downgrade(board),
         };
         if board.clock().is_manual() {
@@ -201,9 +201,9 @@ struct Sources {
     plan_events: Receiver<PlanEvent>,
     /// Plans the circuits refused for want of authority.
     refused_plans: Receiver<RefusedPlan>,
-    /// Received messages that did not decode: how many the log has told of, and when the
-    /// count was last looked at (board time).
-    undecodable: Mutex<(u64, Option<Duration>)>,
+    /// Received messages that did not decode: how many the log has told of, and how
+    /// often the count is looked at (board time).
+    undecodable: Mutex<(u64, Every)>,
     board: std::sync::Weak<Board>,
 }
 
@@ -287,12 +287,14 @@ impl Sources {
     /// copy of all the ICI's statistics.
     fn undecodable_news(&self, board: &Board, log: &EventLog) {
         let now = board.clock().physical();
-        let (told, looked) = *self.undecodable.lock();
-        if looked.is_some_and(|at| now.saturating_sub(at) < UNDECODABLE_EVERY) {
+        let mut undecodable = self.undecodable.lock();
+        if !undecodable.1.due(now) {
             return;
         }
+        let told = undecodable.0;
         let count = crate::stats::Drops::of(&self.ici.stats()).undecodable;
-        *self.undecodable.lock() = (count.max(told), Some(now));
+        undecodable.0 = count.max(told);
+        drop(undecodable);
         if count > told {
             let text = format!(
                 "{} received messages did not decode and were refused (slate stats: drops.undecodable, {count} in all)",
@@ -343,8 +345,31 @@ fn refused_plan(r: &RefusedPlan) -> String {
     format!("plan {} from {} refused: {}", r.name, r.from, r.reason)
 }
 
-/// A board event as a sentence (the event log's, and a recording's `text`).
+/// A board event as a sentence (the event log's, and a recording's `text`); a refusal
+/// that stands for others not told one by one says how many.
 pub(crate) fn board_event(e: &BoardEvent) -> String {
+    let text = board_event_alone(e);
+    match suppressed(e) {
+        0 => text,
+        n => {
+            format!("{text}; and {n} more like it since the last such event (at most one a second)")
+        }
+    }
+}
+
+/// How many refusals like `e` it stands for besides itself.
+fn suppressed(e: &BoardEvent) -> u64 {
+    match e {
+        BoardEvent::FutureStamp { suppressed, .. }
+        | BoardEvent::ObjectLimit { suppressed, .. }
+        | BoardEvent::NotOwner { suppressed, .. }
+        | BoardEvent::ModuleLimit { suppressed, .. } => *suppressed,
+        _ => 0,
+    }
+}
+
+/// A board event as a sentence, on its own.
+fn board_event_alone(e: &BoardEvent) -> String {
     match e {
         BoardEvent::FunctionFailed {
             function,
@@ -372,6 +397,7 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
             object,
             limit,
             total,
+            ..
         } => {
             let whose = if *total {
                 "other modules together"
@@ -387,10 +413,11 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
             attr,
             writer,
             owner,
+            ..
         } => format!(
             "packet for {object}.{attr} from {writer} refused: the attribute is owned, and only its owner {owner} may write it"
         ),
-        BoardEvent::ModuleLimit { address, limit } => format!(
+        BoardEvent::ModuleLimit { address, limit, .. } => format!(
             "module {address} refused: this node keeps track of at most {limit} modules (ici.max_modules)"
         ),
         other => format!("{other:?}"),

@@ -101,6 +101,7 @@ impl From<BoardEvent> for Event {
                 source,
                 stamp,
                 ahead,
+                ..
             } => Event {
                 kind: "future_stamp",
                 object: Some(object),

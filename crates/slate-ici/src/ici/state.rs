@@ -259,8 +259,6 @@ pub(crate) struct State {
     pub spare_items: Vec<super::send::Item>,
     /// The team protocol's state (empty while `config.team_protocol` is `None`).
     pub team: super::team::TeamState,
-    /// When a refusal past a bound was last reported as an event (`limits.rs`).
-    pub limit_reported: Option<Duration>,
 }
 
 impl State {
@@ -314,7 +312,6 @@ impl State {
             plans: Vec::new(),
             spare_items: Vec::new(),
             team: super::team::TeamState::new(),
-            limit_reported: None,
         }
     }
 
