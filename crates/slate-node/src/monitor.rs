@@ -363,6 +363,7 @@ fn suppressed(e: &BoardEvent) -> u64 {
         BoardEvent::FutureStamp { suppressed, .. }
         | BoardEvent::ObjectLimit { suppressed, .. }
         | BoardEvent::NotOwner { suppressed, .. }
+        | BoardEvent::NameLimit { suppressed, .. }
         | BoardEvent::ModuleLimit { suppressed, .. } => *suppressed,
         _ => 0,
     }
@@ -416,6 +417,9 @@ fn board_event_alone(e: &BoardEvent) -> String {
             ..
         } => format!(
             "packet for {object}.{attr} from {writer} refused: the attribute is owned, and only its owner {owner} may write it"
+        ),
+        BoardEvent::NameLimit { source, limit, .. } => format!(
+            "a message from {source} refused: it would make this node hold more than {limit} names of that module (ici.max_names_per_source)"
         ),
         BoardEvent::ModuleLimit { address, limit, .. } => format!(
             "module {address} refused: this node keeps track of at most {limit} modules (ici.max_modules)"

@@ -93,6 +93,8 @@ pub(crate) struct Peer {
     /// waits for the answer interval to pass (see `State::on_request`).
     pub answered: Option<Duration>,
     pub deferred: Option<slate_wire::CatchUpRequest>,
+    /// The catch-up answer bytes sent it and not yet paid off (`limits.rs`).
+    pub answer_bytes: super::limits::AnswerBytes,
     /// A mate's election priority, from its robot-link hello (`None`: not eligible, or
     /// no hello with the team protocol heard).
     pub priority: Option<u8>,
@@ -122,6 +124,7 @@ impl Peer {
             observer: false,
             answered: None,
             deferred: None,
+            answer_bytes: Default::default(),
             priority: None,
             listener: false,
         }
@@ -288,7 +291,8 @@ impl State {
             me,
             board,
             transport,
-            decoder: Decoder::with_max_sources(config.max_sources),
+            decoder: Decoder::with_max_sources(config.max_sources)
+                .with_max_names(config.max_names_per_source),
             config,
             out,
             peers: BTreeMap::new(),

@@ -728,6 +728,17 @@ impl Board {
         });
     }
 
+    /// Reports that a message from `source` was refused: its names would take what the
+    /// ICI holds of `source`'s past `limit`. An event and a warning, at most once a
+    /// second per source.
+    pub fn report_name_limit(&self, source: &Address, limit: usize) {
+        self.report(BoardEvent::NameLimit {
+            source: source.clone(),
+            limit,
+            suppressed: 0,
+        });
+    }
+
     /// Reports that a module not heard of before was refused past the bound on modules
     /// (the ICI's `max_modules`): an event and a warning, at most once a second for all
     /// addresses together.
@@ -789,6 +800,9 @@ impl Board {
             BoardEvent::ObjectLimit {
                 owner, suppressed, ..
             } => ((NewsKind::ObjectLimit, owner.clone()), suppressed),
+            BoardEvent::NameLimit {
+                source, suppressed, ..
+            } => ((NewsKind::NameLimit, source.clone()), suppressed),
             BoardEvent::ModuleLimit { suppressed, .. } => {
                 ((NewsKind::ModuleLimit, Address::unknown()), suppressed)
             }
@@ -844,6 +858,9 @@ impl Board {
                 ..
             } => {
                 tracing::warn!(%object, %attr, %writer, %owner, "packet for an owned attribute from another module than its owner refused");
+            }
+            BoardEvent::NameLimit { source, limit, .. } => {
+                tracing::warn!(%source, limit, "a message of another module refused: it would hold more names than one module may");
             }
             BoardEvent::ModuleLimit { address, limit, .. } => {
                 tracing::warn!(%address, limit, "a module not heard of before refused: as many are known as may be");
@@ -966,6 +983,7 @@ enum NewsKind {
     FutureStamp,
     NotOwner,
     ObjectLimit,
+    NameLimit,
     ModuleLimit,
 }
 

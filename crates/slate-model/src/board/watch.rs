@@ -192,6 +192,18 @@ pub enum BoardEvent {
         /// last event of them, not reported one by one: at most one such event a second.
         suppressed: u64,
     },
+    /// A message from `source` was refused: the names it announces would take what this
+    /// board's ICI holds of that source's past the bound (`ici.max_names_per_source`).
+    /// Reported at most once a second per source while refusals go on.
+    NameLimit {
+        /// The module whose message was refused.
+        source: Address,
+        /// The bound reached.
+        limit: usize,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
+    },
     /// A module this board's ICI had not heard of was refused: it keeps track of as
     /// many modules as it may. Reported at most once a second (for all addresses together:
     /// they may be made up) while refusals go on.
