@@ -10,7 +10,9 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
 use slate_ici::{ClassSet, Ici, MODULE_CLASS, RefusedPlan};
-use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Every, Filter, Value, Watch};
+use slate_model::{
+    Address, Board, BoardEvent, ChangeItem, ClockListener, Every, EveryPer, Filter, Value, Watch,
+};
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
 use crate::observer::OBSERVER_PREFIX;
@@ -23,8 +25,13 @@ const KEEP: usize = 300;
 /// interest stays unknown, and nothing is sent to it live).
 const REGREET: Duration = Duration::from_secs(1);
 
-/// Undecodable messages are told of at most this often (a flood is one event a second).
-const UNDECODABLE_EVERY: Duration = Duration::from_secs(1);
+/// News a flood repeats (undecodable messages, refused plans from one sender) is told of
+/// at most this often: a flood is one event a second.
+const NEWS_EVERY: Duration = Duration::from_secs(1);
+
+/// Senders whose refused plans are told of apart, at most once a second each (past them,
+/// the others share one limit).
+const REFUSED_SENDERS: usize = 256;
 
 /// How often the monitor looks at the board's events and the engine's.
 const POLL: Duration = Duration::from_millis(50);
@@ -121,7 +128,8 @@ impl Monitor {
             board_events: board.events(),
             plan_events: engine.events(),
             refused_plans: ici.2,
-            undecodable: Mutex::new((0, Every::new(UNDECODABLE_EVERY))),
+            refusals_told: Mutex::new(EveryPer::new(NEWS_EVERY, REFUSED_SENDERS)),
+            undecodable: Mutex::new((0, Every::new(NEWS_EVERY))),
             board: Arc::downgrade(board),
         };
         if board.clock().is_manual() {
@@ -201,6 +209,9 @@ struct Sources {
     plan_events: Receiver<PlanEvent>,
     /// Plans the circuits refused for want of authority.
     refused_plans: Receiver<RefusedPlan>,
+    /// Refused plans are told of at most once a second per sender: each is acknowledged
+    /// and counted, but a flood from one sender would push every other event out.
+    refusals_told: Mutex<EveryPer<Address>>,
     /// Received messages that did not decode: how many the log has told of, and how
     /// often the count is looked at (board time).
     undecodable: Mutex<(u64, Every)>,
@@ -276,13 +287,16 @@ impl Sources {
             log.push(board, level, text);
         }
         for r in self.refused_plans.try_iter() {
-            log.push(board, Level::Warn, refused_plan(&r));
+            let now = board.clock().physical();
+            if let Some(held) = self.refusals_told.lock().due(r.from.clone(), now) {
+                log.push(board, Level::Warn, refused_plan(&r, held));
+            }
         }
         self.undecodable_news(board, log);
     }
 
     /// Received messages that did not decode since the last time told, as one event at
-    /// most every [`UNDECODABLE_EVERY`] of board time, whatever their number. The count
+    /// most every [`NEWS_EVERY`] of board time, whatever their number. The count
     /// is looked at that often too, not on every tick of the clock: it is read from a
     /// copy of all the ICI's statistics.
     fn undecodable_news(&self, board: &Board, log: &EventLog) {
@@ -340,9 +354,16 @@ impl Sources {
     }
 }
 
-/// A plan refused for want of authority, as a sentence (its reason says who may send).
-fn refused_plan(r: &RefusedPlan) -> String {
-    format!("plan {} from {} refused: {}", r.name, r.from, r.reason)
+/// A plan refused for want of authority, as a sentence (its reason says who may send),
+/// with how many more from the same sender were not told one by one.
+fn refused_plan(r: &RefusedPlan, held: u64) -> String {
+    let text = format!("plan {} from {} refused: {}", r.name, r.from, r.reason);
+    match held {
+        0 => text,
+        n => {
+            format!("{text}; and {n} more like it since the last such event (at most one a second)")
+        }
+    }
 }
 
 /// A board event as a sentence (the event log's, and a recording's `text`); a refusal
