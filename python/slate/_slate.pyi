@@ -397,6 +397,11 @@ _EventKind = Literal[
     "chain_cut",
     "future_stamp",
     "class_conflict",
+    "not_owner",
+    "object_limit",
+    "name_limit",
+    "module_limit",
+    "other",
     "installed",
     "initiated",
     "triggered",
@@ -427,6 +432,8 @@ class Event:
     def error(self) -> str | None: ...
     @property
     def fired(self) -> int | None: ...
+    @property
+    def suppressed(self) -> int | None: ...
 
 @final
 class Events:

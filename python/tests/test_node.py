@@ -342,6 +342,45 @@ def test_a_class_two_nodes_define_differently_is_an_event_on_both() -> None:
     assert "defined differently" in (conflict.error or "")
 
 
+OWNED = "class Vehicle { heading: real merge owned; speed: real; }\n"
+
+
+def test_a_write_of_an_owned_attribute_by_another_module_is_a_not_owner_event() -> None:
+    # evil's board says it owns gsr (as a module that lies would) and writes gsr's owned
+    # heading; nav owns gsr on loco's board. evil starts last, listening where loco
+    # already connects, so that loco hears it at once.
+    endpoint, evils = free_endpoint(), free_endpoint()
+    boards = {name: slate.Board(address=name) for name in ["t/r1/nav", "t/r2/loco", "t/r1/evil"]}
+    boards["t/r1/nav"].load(OWNED + "object gsr : Vehicle;")
+    boards["t/r2/loco"].load(OWNED)
+    boards["t/r1/evil"].load(OWNED + "object gsr : Vehicle;")
+    loco = boards["t/r2/loco"]
+    events = loco.events(timeout=0.0)
+    seen: list[slate.Event] = []
+    with (
+        slate.Node("t/r1/nav", boards["t/r1/nav"], listen=[endpoint], export=["Thing"]),
+        slate.Node("t/r2/loco", loco, connect=[endpoint, evils], export=["Thing"]),
+    ):
+        boards["t/r1/nav"].write("gsr", "heading", 1.0)
+        assert eventually(lambda: "gsr" in loco and loco.read("gsr", "heading").value == 1.0)
+        evil = slate.Node(
+            "t/r1/evil", boards["t/r1/evil"], listen=[evils], connect=[endpoint], export=["Thing"]
+        )
+        with evil:
+
+            def refused() -> bool:
+                boards["t/r1/evil"].write("gsr", "heading", 9.0)
+                seen.extend(events.drain())
+                return any(e.kind == "not_owner" for e in seen)
+
+            assert eventually(refused), seen
+        assert loco.read("gsr", "heading").value == 1.0
+    event = next(e for e in seen if e.kind == "not_owner")
+    assert (event.object, event.attr, event.source) == ("gsr", "heading", "t/r1/evil")
+    assert "t/r1/nav" in (event.error or "") and event.suppressed is not None
+    assert all(e.kind != "other" for e in seen), seen
+
+
 def test_packets_from_a_module_whose_clock_is_years_ahead_are_refused_and_reported() -> None:
     endpoint = free_endpoint()
     ahead = slate.Clock("manual")

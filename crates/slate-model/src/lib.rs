@@ -37,6 +37,7 @@ mod class;
 mod class_tree;
 mod clock;
 mod error;
+mod every;
 mod id;
 pub mod memo;
 mod packet;
@@ -63,6 +64,7 @@ pub use error::{
     BatchError, ChainError, CreateError, DefineError, DeleteError, LookupError, ReadError,
     WriteError,
 };
+pub use every::{Every, EveryPer};
 pub use id::{AttrId, Key, ObjectId};
 pub use packet::{Packet, Update, ValueError, check_quality, check_value};
 pub use umbrella::Error;

@@ -143,6 +143,8 @@ const ICI: &[&str] = &[
     "max_objects_per_source",
     "max_objects",
     "max_modules",
+    "max_names_per_source",
+    "max_answer_bytes_per_requester",
 ];
 
 /// A node's team link sends one attribute at most every 200 ms (`[ici]
@@ -517,6 +519,12 @@ fn ici_limits(t: &mut Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     if let Some(n) = t.count("max_modules")? {
         ici.max_modules = n;
     }
+    if let Some(n) = t.count("max_names_per_source")? {
+        ici.max_names_per_source = n;
+    }
+    if let Some(n) = t.count("max_answer_bytes_per_requester")? {
+        ici.max_answer_bytes_per_requester = n as u64;
+    }
     Ok(())
 }
 
@@ -736,6 +744,8 @@ mod tests {
             max_objects_per_source = 50
             max_objects = 500
             max_modules = 20
+            max_names_per_source = 300
+            max_answer_bytes_per_requester = 5000
             "#,
         )
         .unwrap();
@@ -771,10 +781,12 @@ mod tests {
             (
                 c.ici.max_objects_per_source,
                 c.ici.max_objects,
-                c.ici.max_modules
+                c.ici.max_modules,
+                c.ici.max_names_per_source
             ),
-            (50, 500, 20)
+            (50, 500, 20, 300)
         );
+        assert_eq!(c.ici.max_answer_bytes_per_requester, 5000);
         assert_eq!(c.ici.catch_up_retry, Duration::from_secs(1));
         assert_eq!(c.ici.team_report_every, None, "0s: every value at once");
         assert_eq!((c.ici.max_report_items, c.ici.max_tombstones), (64, 100));

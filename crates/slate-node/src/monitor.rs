@@ -10,7 +10,9 @@ use std::time::{Duration, Instant};
 use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
 use slate_ici::{ClassSet, Ici, MODULE_CLASS, RefusedPlan};
-use slate_model::{Board, BoardEvent, ChangeItem, ClockListener, Filter, Value, Watch};
+use slate_model::{
+    Address, Board, BoardEvent, ChangeItem, ClockListener, Every, EveryPer, Filter, Value, Watch,
+};
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
 use crate::observer::OBSERVER_PREFIX;
@@ -23,8 +25,13 @@ const KEEP: usize = 300;
 /// interest stays unknown, and nothing is sent to it live).
 const REGREET: Duration = Duration::from_secs(1);
 
-/// Undecodable messages are told of at most this often (a flood is one event a second).
-const UNDECODABLE_EVERY: Duration = Duration::from_secs(1);
+/// News a flood repeats (undecodable messages, refused plans from one sender) is told of
+/// at most this often: a flood is one event a second.
+const NEWS_EVERY: Duration = Duration::from_secs(1);
+
+/// Senders whose refused plans are told of apart, at most once a second each (past them,
+/// the others share one limit).
+const REFUSED_SENDERS: usize = 256;
 
 /// How often the monitor looks at the board's events and the engine's.
 const POLL: Duration = Duration::from_millis(50);
@@ -121,7 +128,8 @@ impl Monitor {
             board_events: board.events(),
             plan_events: engine.events(),
             refused_plans: ici.2,
-            undecodable: Mutex::new((0, None)),
+            refusals_told: Mutex::new(EveryPer::new(NEWS_EVERY, REFUSED_SENDERS)),
+            undecodable: Mutex::new((0, Every::new(NEWS_EVERY))),
             board: Arc::downgrade(board),
         };
         if board.clock().is_manual() {
@@ -201,9 +209,12 @@ struct Sources {
     plan_events: Receiver<PlanEvent>,
     /// Plans the circuits refused for want of authority.
     refused_plans: Receiver<RefusedPlan>,
-    /// Received messages that did not decode: how many the log has told of, and when the
-    /// count was last looked at (board time).
-    undecodable: Mutex<(u64, Option<Duration>)>,
+    /// Refused plans are told of at most once a second per sender: each is acknowledged
+    /// and counted, but a flood from one sender would push every other event out.
+    refusals_told: Mutex<EveryPer<Address>>,
+    /// Received messages that did not decode: how many the log has told of, and how
+    /// often the count is looked at (board time).
+    undecodable: Mutex<(u64, Every)>,
     board: std::sync::Weak<Board>,
 }
 
@@ -276,23 +287,28 @@ impl Sources {
             log.push(board, level, text);
         }
         for r in self.refused_plans.try_iter() {
-            log.push(board, Level::Warn, refused_plan(&r));
+            let now = board.clock().physical();
+            if let Some(held) = self.refusals_told.lock().due(r.from.clone(), now) {
+                log.push(board, Level::Warn, refused_plan(&r, held));
+            }
         }
         self.undecodable_news(board, log);
     }
 
     /// Received messages that did not decode since the last time told, as one event at
-    /// most every [`UNDECODABLE_EVERY`] of board time, whatever their number. The count
+    /// most every [`NEWS_EVERY`] of board time, whatever their number. The count
     /// is looked at that often too, not on every tick of the clock: it is read from a
     /// copy of all the ICI's statistics.
     fn undecodable_news(&self, board: &Board, log: &EventLog) {
         let now = board.clock().physical();
-        let (told, looked) = *self.undecodable.lock();
-        if looked.is_some_and(|at| now.saturating_sub(at) < UNDECODABLE_EVERY) {
+        let mut undecodable = self.undecodable.lock();
+        if !undecodable.1.due(now) {
             return;
         }
+        let told = undecodable.0;
         let count = crate::stats::Drops::of(&self.ici.stats()).undecodable;
-        *self.undecodable.lock() = (count.max(told), Some(now));
+        undecodable.0 = count.max(told);
+        drop(undecodable);
         if count > told {
             let text = format!(
                 "{} received messages did not decode and were refused (slate stats: drops.undecodable, {count} in all)",
@@ -338,13 +354,44 @@ impl Sources {
     }
 }
 
-/// A plan refused for want of authority, as a sentence (its reason says who may send).
-fn refused_plan(r: &RefusedPlan) -> String {
-    format!("plan {} from {} refused: {}", r.name, r.from, r.reason)
+/// A plan refused for want of authority, as a sentence (its reason says who may send),
+/// with how many more from the same sender were not told one by one.
+fn refused_plan(r: &RefusedPlan, held: u64) -> String {
+    let text = format!("plan {} from {} refused: {}", r.name, r.from, r.reason);
+    match held {
+        0 => text,
+        n => {
+            format!("{text}; and {n} more like it since the last such event (at most one a second)")
+        }
+    }
 }
 
-/// A board event as a sentence (the event log's, and a recording's `text`).
+/// A board event as a sentence (the event log's, and a recording's `text`); a refusal
+/// that stands for others not told one by one says how many.
 pub(crate) fn board_event(e: &BoardEvent) -> String {
+    let text = board_event_alone(e);
+    match suppressed(e) {
+        0 => text,
+        n => {
+            format!("{text}; and {n} more like it since the last such event (at most one a second)")
+        }
+    }
+}
+
+/// How many refusals like `e` it stands for besides itself.
+fn suppressed(e: &BoardEvent) -> u64 {
+    match e {
+        BoardEvent::FutureStamp { suppressed, .. }
+        | BoardEvent::ObjectLimit { suppressed, .. }
+        | BoardEvent::NotOwner { suppressed, .. }
+        | BoardEvent::NameLimit { suppressed, .. }
+        | BoardEvent::ModuleLimit { suppressed, .. } => *suppressed,
+        _ => 0,
+    }
+}
+
+/// A board event as a sentence, on its own.
+fn board_event_alone(e: &BoardEvent) -> String {
     match e {
         BoardEvent::FunctionFailed {
             function,
@@ -372,6 +419,7 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
             object,
             limit,
             total,
+            ..
         } => {
             let whose = if *total {
                 "other modules together"
@@ -387,10 +435,14 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
             attr,
             writer,
             owner,
+            ..
         } => format!(
             "packet for {object}.{attr} from {writer} refused: the attribute is owned, and only its owner {owner} may write it"
         ),
-        BoardEvent::ModuleLimit { address, limit } => format!(
+        BoardEvent::NameLimit { source, limit, .. } => format!(
+            "a message from {source} refused: it would make this node hold more than {limit} names of that module (ici.max_names_per_source)"
+        ),
+        BoardEvent::ModuleLimit { address, limit, .. } => format!(
             "module {address} refused: this node keeps track of at most {limit} modules (ici.max_modules)"
         ),
         other => format!("{other:?}"),

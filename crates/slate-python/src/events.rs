@@ -7,7 +7,7 @@ use std::time::Duration;
 use crossbeam_channel::Receiver;
 use parking_lot::Mutex;
 use pyo3::prelude::*;
-use slate_model::{Board, BoardEvent};
+use slate_model::{Address, Board, BoardEvent};
 use slate_plans::PlanEvent;
 
 use crate::packet::quote;
@@ -19,8 +19,16 @@ use crate::stream;
 ///   an active function raised or failed; the access that ran it stands),
 ///   `"chain_cut"` (`error`: a chain of active functions was too deep or a cycle),
 ///   `"future_stamp"` (`object`, `attr`, `source`, `error`: a received packet stamped
-///   beyond the clock's tolerance was refused) and `"class_conflict"` (`object` is the
-///   class, `source` the module that defines it differently; their objects are not merged);
+///   beyond the clock's tolerance was refused), `"class_conflict"` (`object` is the
+///   class, `source` the module that defines it differently; their objects are not merged),
+///   `"not_owner"` (`object`, `attr`, `source` the writer, `error` naming the owner: a
+///   received packet for an `owned` attribute from another module than its owner was
+///   refused), `"object_limit"` (`object`, `source` its owner), `"name_limit"` (`source`)
+///   and `"module_limit"` (`source` the address refused): what arrived was past one of
+///   the node's bounds and was refused. The refusals (`future_stamp`, `not_owner` and
+///   the limits) are told at most once a second per source; `suppressed` says how many
+///   more like it came since the last one. `"other"` is a kind this version does not
+///   name (`error` describes it);
 /// - plan events: `"installed"`, `"initiated"`, `"triggered"` (`fired`, and `error` if the
 ///   action failed), `"terminated"`, `"cancelled"`, `"failed"` (`error`: a condition could
 ///   not be evaluated), all with `plan`.
@@ -45,6 +53,9 @@ pub(crate) struct Event {
     error: Option<String>,
     /// Times the plan has fired, for `triggered`.
     fired: Option<u64>,
+    /// For refusals: how many more like it (same kind, same source) came since the last
+    /// such event and were not told one by one.
+    suppressed: Option<u64>,
 }
 
 #[pymethods]
@@ -67,6 +78,9 @@ impl Event {
         }
         if let Some(n) = self.fired {
             parts.push(format!("fired={n}"));
+        }
+        if let Some(n) = self.suppressed {
+            parts.push(format!("suppressed={n}"));
         }
         format!("Event({})", parts.join(", "))
     }
@@ -101,8 +115,10 @@ impl From<BoardEvent> for Event {
                 source,
                 stamp,
                 ahead,
+                suppressed,
             } => Event {
                 kind: "future_stamp",
+                suppressed: Some(suppressed),
                 object: Some(object),
                 attr: Some(attr),
                 error: Some(format!(
@@ -121,12 +137,101 @@ impl From<BoardEvent> for Event {
                 source: Some(peer.to_string()),
                 ..Event::default()
             },
+            refusal @ (BoardEvent::NotOwner { .. }
+            | BoardEvent::ObjectLimit { .. }
+            | BoardEvent::NameLimit { .. }
+            | BoardEvent::ModuleLimit { .. }) => refused(refusal),
             other => Event {
                 kind: "other",
                 error: Some(format!("{other:?}")),
                 ..Event::default()
             },
         }
+    }
+}
+
+/// A refusal past a bound or of a non-owner's packet, as an event.
+fn refused(e: BoardEvent) -> Event {
+    let error = Some(refusal_text(&e));
+    match e {
+        BoardEvent::NotOwner {
+            object,
+            attr,
+            writer,
+            suppressed,
+            ..
+        } => Event {
+            kind: "not_owner",
+            object: Some(object),
+            attr: Some(attr),
+            source: Some(writer.to_string()),
+            suppressed: Some(suppressed),
+            error,
+            ..Event::default()
+        },
+        BoardEvent::ObjectLimit {
+            owner,
+            object,
+            suppressed,
+            ..
+        } => Event {
+            kind: "object_limit",
+            object: Some(object),
+            source: Some(owner.to_string()),
+            suppressed: Some(suppressed),
+            error,
+            ..Event::default()
+        },
+        BoardEvent::NameLimit {
+            source, suppressed, ..
+        } => limit("name_limit", source, suppressed, error),
+        BoardEvent::ModuleLimit {
+            address,
+            suppressed,
+            ..
+        } => limit("module_limit", address, suppressed, error),
+        other => Event {
+            kind: "other",
+            error: Some(format!("{other:?}")),
+            ..Event::default()
+        },
+    }
+}
+
+/// A limit's event: `kind`, about `source`.
+fn limit(kind: &'static str, source: Address, suppressed: u64, error: Option<String>) -> Event {
+    Event {
+        kind,
+        source: Some(source.to_string()),
+        suppressed: Some(suppressed),
+        error,
+        ..Event::default()
+    }
+}
+
+/// What a refusal says, in a sentence.
+fn refusal_text(e: &BoardEvent) -> String {
+    match e {
+        BoardEvent::NotOwner { owner, .. } => {
+            format!("the attribute is owned, and only its owner {owner} may write it: refused")
+        }
+        BoardEvent::ObjectLimit { limit, total, .. } => {
+            let whose = if *total {
+                "other modules together"
+            } else {
+                "one module"
+            };
+            format!(
+                "{whose} may own at most {limit} objects on this board: refused (ici.max_objects_per_source, ici.max_objects)"
+            )
+        }
+        BoardEvent::NameLimit { limit, .. } => format!(
+            "it would make this board's node hold more than {limit} names of that module: refused (ici.max_names_per_source)"
+        ),
+        BoardEvent::ModuleLimit { limit, .. } => {
+            format!("the node keeps track of at most {limit} modules: refused (ici.max_modules)")
+        }
+        other => format!("{other:?}"),
     }
 }
 

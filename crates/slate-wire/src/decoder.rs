@@ -11,7 +11,8 @@ use crate::message::Kind;
 use crate::names::{Section, SourceDict, View, read_section};
 use crate::report::{ReportReader, read_report};
 use crate::{
-    DecodeError, DecodeStats, MAX_MESSAGE_BYTES, MAX_SOURCES, Message, Names, Schema, VERSION,
+    DecodeError, DecodeStats, MAX_MESSAGE_BYTES, MAX_NAMES_PER_SOURCE, MAX_SOURCES, Message, Names,
+    Schema, VERSION,
 };
 
 /// Turns bytes back into messages, for every source a module hears.
@@ -38,6 +39,8 @@ pub struct Decoder {
     evicted: Option<Address>,
     /// How many dictionaries it keeps.
     max_sources: usize,
+    /// How many names one source's dictionary may hold.
+    max_names: usize,
     stats: DecodeStats,
 }
 
@@ -68,8 +71,17 @@ impl Decoder {
             clock: 0,
             evicted: None,
             max_sources: max.max(1),
+            max_names: MAX_NAMES_PER_SOURCE,
             stats: DecodeStats::default(),
         }
+    }
+
+    /// The same decoder, holding at most `max` names per source (all tables together;
+    /// [`MAX_NAMES_PER_SOURCE`] by default): a message that would take its source's
+    /// dictionary past it is refused whole, as [`DecodeError::TooManyNames`].
+    pub fn with_max_names(mut self, max: usize) -> Self {
+        self.max_names = max;
+        self
     }
 
     /// Decodes one message from `from`. Values are unpacked against `schema`, which must
@@ -130,6 +142,7 @@ impl Decoder {
         let (msg, section) = self.read_body(kind, &mut r, from, schema)?;
         r.finish()?;
         if let Some(section) = section {
+            self.check_names(from, &section)?;
             self.apply(from, section);
         }
         Ok(msg)
@@ -162,6 +175,20 @@ impl Decoder {
                 (Message::Names(names_of(&section, base)?), Some(section))
             }
             other => (read_simple(other, r)?, None),
+        })
+    }
+
+    /// Refuses `section` if it would take `from`'s dictionary past the names one source
+    /// may have.
+    fn check_names(&self, from: &Address, section: &Section) -> Result<(), DecodeError> {
+        let base = self.sources.get(from).map(|h| &h.dict);
+        let names = SourceDict::len_with(base, section);
+        if names <= self.max_names {
+            return Ok(());
+        }
+        Err(DecodeError::TooManyNames {
+            names: names as u64,
+            max: self.max_names as u64,
         })
     }
 

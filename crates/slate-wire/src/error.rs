@@ -55,6 +55,17 @@ pub enum DecodeError {
     /// Bits remain after the end of the message (non-zero padding or extra bytes).
     #[error("{0} unexpected bits after the end of the message")]
     Trailing(u64),
+    /// The names the message announces would take its source's dictionary past the
+    /// names one source may have ([`Decoder::with_max_names`](crate::Decoder::with_max_names)).
+    #[error(
+        "this source would hold {names} names, more than the {max} one source may have (the ICI's max_names_per_source)"
+    )]
+    TooManyNames {
+        /// The names the source's dictionary would hold with the message's.
+        names: u64,
+        /// The bound.
+        max: u64,
+    },
 }
 
 /// Why a message could not be encoded. The encoder's state is unchanged by a failed
@@ -137,13 +148,18 @@ pub struct DecodeStats {
     pub bad_value: u64,
     /// Rejected: [`DecodeError::Trailing`].
     pub trailing: u64,
+    /// Refused: [`DecodeError::TooManyNames`]. Not in [`rejected`](DecodeStats::rejected):
+    /// such a message is well formed, a bound refused it (the ICI counts it as over a
+    /// limit).
+    pub too_many_names: u64,
     /// Not a rejection: sources whose dictionaries were dropped to make room for a new
     /// source (the table holds [`MAX_SOURCES`](crate::MAX_SOURCES)).
     pub evicted: u64,
 }
 
 impl DecodeStats {
-    /// All rejected messages.
+    /// All rejected messages (malformed, or not readable without names or classes
+    /// first): not those refused for too many names.
     pub fn rejected(&self) -> u64 {
         self.truncated
             + self.bad_version
@@ -167,6 +183,7 @@ impl DecodeStats {
             Err(DecodeError::SchemaMismatch { .. }) => &mut self.schema_mismatch,
             Err(DecodeError::BadValue(_)) => &mut self.bad_value,
             Err(DecodeError::Trailing(_)) => &mut self.trailing,
+            Err(DecodeError::TooManyNames { .. }) => &mut self.too_many_names,
         };
         *counter += 1;
     }

@@ -27,3 +27,11 @@ pub const MAX_IDS: usize = 65_536;
 /// Most sources whose dictionaries one decoder keeps; a new source beyond this takes the
 /// slot of the source heard least recently.
 pub const MAX_SOURCES: usize = 4096;
+
+/// Most names one source's dictionary holds, all tables together (objects, attributes,
+/// classes, addresses): a message that would take it past this is refused
+/// ([`DecodeError::TooManyNames`](crate::DecodeError::TooManyNames)), so that one source
+/// cannot make a receiver hold up to 4 x [`MAX_IDS`] names of up to [`MAX_NAME_BYTES`]
+/// each. A sender never forgets a name until it restarts, so this is what one module may
+/// name in its lifetime; the demo's modules name a few hundred at most.
+pub const MAX_NAMES_PER_SOURCE: usize = 16_384;

@@ -137,6 +137,25 @@ pub(crate) struct Section {
 }
 
 impl SourceDict {
+    /// The names it holds, all tables together.
+    fn len(&self) -> usize {
+        self.addrs.len() + self.classes.len() + self.attrs.len() + self.objects.len()
+    }
+
+    /// The names a dictionary `base` (none: a source not heard yet) would hold with
+    /// `section` applied.
+    pub fn len_with(base: Option<&SourceDict>, section: &Section) -> usize {
+        let d = &section.delta;
+        let Some(base) = base.filter(|_| !section.fresh) else {
+            return d.len();
+        };
+        base.len()
+            + unheld(&d.addrs, &base.addrs)
+            + unheld(&d.classes, &base.classes)
+            + unheld(&d.attrs, &base.attrs)
+            + unheld(&d.objects, &base.objects)
+    }
+
     /// Applies a section (after the whole message decoded).
     pub fn apply(&mut self, section: Section) {
         if section.fresh {
@@ -149,6 +168,11 @@ impl SourceDict {
         self.attrs.extend(d.attrs);
         self.objects.extend(d.objects);
     }
+}
+
+/// The ids of `delta` that `held` does not hold yet.
+fn unheld<V>(delta: &FxHashMap<u32, V>, held: &FxHashMap<u32, V>) -> usize {
+    delta.keys().filter(|k| !held.contains_key(k)).count()
 }
 
 /// Lookups through a pending section, then the source's dictionary.

@@ -15,7 +15,8 @@ use slate_node::team_keys::{self, Identity};
 use slate_zenoh::{Security, ZenohConfig};
 
 use crate::support::{
-    NodeProc, Team, WORLD, entry, eventually, free_port, http_get, show, slate, steps, wait_output,
+    NodeProc, Team, WORLD, entry, eventually, free_port, http_get, show, slate, steps, value_in,
+    wait_output,
 };
 
 /// The team's keys: nav, cam and loco, gps (a member that does not run a node) and the
@@ -608,5 +609,93 @@ fn play_onto_a_secured_team_replays_as_the_operators_replay_module() {
     assert_eq!(played["refused"], 0, "{played}");
     let heard = team.node("t/r2/loco").wait_value("gsr", "mode", "manual");
     assert!(heard, "loco hears the replay\n{}", team.logs());
+}
+
+/// A module started in this process as `address` on `endpoints` (insecure), which owns
+/// `count` obstacles `junk0`.. and exports them: a participant spraying objects.
+fn sprayer(address: &str, endpoints: Vec<String>, count: usize) -> Node {
+    let junk: String = (0..count)
+        .map(|i| format!("object junk{i} : Obstacle {{ range = 1.5; }}\n"))
+        .collect();
+    Node::builder(Address::new(address).unwrap())
+        .zenoh(ZenohConfig {
+            connect: endpoints,
+            ..ZenohConfig::default()
+        })
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .source("w.slate", WORLD)
+        .source("junk.slate", &junk)
+        .start()
+        .expect("the sprayer starts")
+}
+
+/// A team of nav (owning rock) and loco (with `[ici]` lines `bound`), and a sprayer of
+/// 60 objects as t/r9/evil; returns once loco's events say `said`.
+fn sprayed(name: &str, bound: &str, said: &str) -> (Team, Node) {
+    let mut team = Team::new(name);
+    team.add("t/r1/nav", "object rock : Obstacle { range = 7.5; }");
+    team.add_with_ici("t/r2/loco", "", bound);
+    team.wait_connected();
+    let endpoints = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+    let spray = sprayer("t/r9/evil", endpoints, 60);
+    let loco = team.node("t/r2/loco");
+    let told = || event_texts(loco).iter().any(|t| t.contains(said));
+    let evented = eventually(Duration::from_secs(20), told);
+    assert!(evented, "{:?}\n{}", event_texts(loco), team.logs());
+    (team, spray)
+}
+
+/// `slate stats`' count of what loco refused.
+fn loco_refused(team: &Team) -> Option<u64> {
+    let stats = team.json(&["stats", "t/r2/loco", "--interval", "1"]);
+    stats["modules"][0]["drops"]["refused"].as_u64()
+}
+
+/// Finding 5 against a real node (issue 17, "What it must show"): a participant on
+/// 127.0.0.1 creates 60 objects; loco, a `slate node` process that holds at most 10 of
+/// any other module's, refuses the rest, counts them and says so in an event, stays up,
+/// and nav's object is untouched.
+#[test]
+fn a_participant_creating_objects_past_a_real_nodes_bound_is_refused_counted_and_evented() {
+    let said = "of t/r9/evil refused: one module may own at most 10";
+    let (mut team, spray) = sprayed("bounds-objects", "max_objects_per_source = 10", said);
+    let loco = team.node("t/r2/loco");
+    let snap = loco.snapshot();
+    let objects = snap["objects"].as_array().cloned().unwrap_or_default();
+    let evils = objects.iter().filter(|o| o["owner"] == "t/r9/evil").count();
+    assert_eq!(evils, 10, "{snap}");
+    let valued =
+        |i: &usize| value_in(&snap, &format!("junk{i}"), "range").as_deref() == Some("1.5");
+    assert_eq!(
+        (0..60).filter(valued).count(),
+        10,
+        "the values of those held: {snap}"
+    );
+    assert!(loco.wait_value("rock", "range", "7.5"), "nav's untouched");
+    let refused = loco_refused(&team);
+    assert!(refused.is_some_and(|n| n >= 50), "{refused:?}");
+    spray.close();
+    let (clean, log) = team.nodes.remove(1).stop();
+    assert!(clean, "loco stayed up and stopped cleanly: {log}");
+    team.stop();
+}
+
+/// The same participant against a node that holds at most 20 names of any module: its
+/// reports past them are refused, counted and evented; loco stays up, nav's untouched.
+#[test]
+fn a_participant_naming_past_a_real_nodes_bound_is_refused_counted_and_evented() {
+    let said = "a message from t/r9/evil refused: it would make this node hold more than 20";
+    let (mut team, spray) = sprayed("bounds-names", "max_names_per_source = 20", said);
+    let loco = team.node("t/r2/loco");
+    let snap = loco.snapshot();
+    let valued =
+        |i: &usize| value_in(&snap, &format!("junk{i}"), "range").as_deref() == Some("1.5");
+    let held = (0..60).filter(valued).count();
+    assert!(held < 60, "{held} of evil's values held: {snap}");
+    assert!(loco.wait_value("rock", "range", "7.5"), "nav's untouched");
+    assert!(loco_refused(&team).is_some_and(|n| n >= 1));
+    spray.close();
+    let (clean, log) = team.nodes.remove(1).stop();
+    assert!(clean, "loco stayed up and stopped cleanly: {log}");
     team.stop();
 }

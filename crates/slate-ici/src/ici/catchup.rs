@@ -128,17 +128,16 @@ impl State {
     // ----- the source's side -----
 
     /// Answers a request with the current state: at once, unless this module answered
-    /// `from` less than its link's heartbeat interval ago. Then the request waits (merged
-    /// with any other that came meanwhile) and one answer goes when the interval is over
-    /// ([`State::deferred_answers`]): a peer that asks again and again, or never reads
-    /// what it asked for, costs one current state per interval, not one per request.
+    /// `from` less than its link's heartbeat interval ago, or the answer bytes sent it
+    /// are not paid off yet (`max_answer_bytes_per_requester` a second). Then the request
+    /// waits (merged with any other that came meanwhile) and one answer goes when both
+    /// are over ([`State::deferred_answers`]): a peer that asks again and again, or never
+    /// reads what it asked for, costs one current state per interval at most, and a
+    /// bounded number of bytes a second.
     pub fn on_request(&mut self, from: &Address, req: CatchUpRequest) {
         let now = self.now;
-        if self
-            .peers
-            .get(from)
-            .is_some_and(|p| self.answered_lately(p))
-        {
+        if self.peers.get(from).is_some_and(|p| self.answer_waits(p)) {
+            self.stats.catch_up.over_budget += u64::from(self.over_budget(from));
             let p = self.peer(from);
             p.deferred = Some(match p.deferred {
                 Some(d) => CatchUpRequest {
@@ -155,6 +154,21 @@ impl State {
         self.answer(from, req);
     }
 
+    /// Must an answer to `p` wait: answered less than their link's heartbeat interval
+    /// ago, or the answer bytes sent it not paid off yet?
+    fn answer_waits(&self, p: &Peer) -> bool {
+        let rate = self.config.max_answer_bytes_per_requester;
+        self.answered_lately(p) || p.answer_bytes.owes(self.now, rate)
+    }
+
+    /// Does an answer to `from` wait for its answer bytes alone?
+    fn over_budget(&self, from: &Address) -> bool {
+        let rate = self.config.max_answer_bytes_per_requester;
+        self.peers
+            .get(from)
+            .is_some_and(|p| !self.answered_lately(p) && p.answer_bytes.owes(self.now, rate))
+    }
+
     /// Did this module answer `p` less than their link's heartbeat interval ago?
     fn answered_lately(&self, p: &Peer) -> bool {
         let interval = self.config.link(p.link).heartbeat;
@@ -167,7 +181,7 @@ impl State {
         let due: Vec<Address> = self
             .peers
             .iter()
-            .filter(|(_, p)| p.deferred.is_some() && !self.answered_lately(p))
+            .filter(|(_, p)| p.deferred.is_some() && !self.answer_waits(p))
             .map(|(a, _)| a.clone())
             .collect();
         let now = self.now;
@@ -230,7 +244,12 @@ impl State {
     /// stream as a state answer for the whole team.
     fn deliver_answer(&mut self, to: Audience<'_>, kind: MsgKind, bytes: &[u8]) {
         match to {
-            Audience::Peer(peer) => self.send_to(peer, kind, bytes),
+            Audience::Peer(peer) => {
+                let now = self.now;
+                let rate = self.config.max_answer_bytes_per_requester;
+                self.peer(peer).answer_bytes.charge(bytes.len(), now, rate);
+                self.send_to(peer, kind, bytes);
+            }
             Audience::Team(_) => self.team_state_out(bytes),
         }
     }

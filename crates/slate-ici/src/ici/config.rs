@@ -69,6 +69,18 @@ pub struct IciConfig {
     /// liveliness token from a new address past it is refused and counted, so made-up
     /// addresses cannot grow the board's `Module` objects without bound.
     pub max_modules: usize,
+    /// The most names one module's messages may make this ICI hold (default 16 384,
+    /// `slate_wire::MAX_NAMES_PER_SOURCE`; objects, attributes, classes and addresses
+    /// together): a message announcing names past it is refused, counted
+    /// (`rejects.over_limit`) and an event (`BoardEvent::NameLimit`), so that one module
+    /// cannot fill the decoder's dictionaries (up to 4 x 65 536 names of 1 KiB each).
+    pub max_names_per_source: usize,
+    /// The most bytes of catch-up answers this module sends one requester a second, on
+    /// average (default 64 KiB): an answer goes whole, and the requester's next waits
+    /// until the bytes sent are paid off at this rate (counted as
+    /// `catch_up.over_budget`), so that one asking in a loop cannot make this module
+    /// send without bound (a 3-byte request draws the whole current state).
+    pub max_answer_bytes_per_requester: u64,
     /// This module is a short-lived observer (the CLI's `get`, `put`, `ls`...): its
     /// hellos say so, and the boards it meets forget it as soon as it leaves instead of
     /// after `forget_dead`, so it leaves no trace (default false).
@@ -215,6 +227,8 @@ impl Default for IciConfig {
             max_objects_per_source: 4096,
             max_objects: 32_768,
             max_modules: 1024,
+            max_names_per_source: slate_wire::MAX_NAMES_PER_SOURCE,
+            max_answer_bytes_per_requester: 64 * 1024,
             observer: false,
             team_protocol: None,
             team_report_every: None,

@@ -157,6 +157,7 @@ impl State {
         let (names, classes) = match e {
             DecodeError::UnknownName { .. } => (true, false),
             DecodeError::SchemaMismatch { class, .. } => (false, !self.conflicts_with(from, class)),
+            DecodeError::TooManyNames { .. } => return self.refuse_names(from),
             _ => return,
         };
         if !(names || classes) {

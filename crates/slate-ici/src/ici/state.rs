@@ -100,6 +100,8 @@ pub(crate) struct Peer {
     /// waits for the answer interval to pass (see `State::on_request`).
     pub answered: Option<Duration>,
     pub deferred: Option<slate_wire::CatchUpRequest>,
+    /// The catch-up answer bytes sent it and not yet paid off (`limits.rs`).
+    pub answer_bytes: super::limits::AnswerBytes,
     /// A mate's election priority, from its robot-link hello (`None`: not eligible, or
     /// no hello with the team protocol heard).
     pub priority: Option<u8>,
@@ -130,6 +132,7 @@ impl Peer {
             observer: false,
             answered: None,
             deferred: None,
+            answer_bytes: Default::default(),
             priority: None,
             listener: false,
         }
@@ -269,8 +272,6 @@ pub(crate) struct State {
     pub spare_items: Vec<super::send::Item>,
     /// The team protocol's state (empty while `config.team_protocol` is `None`).
     pub team: super::team::TeamState,
-    /// When a refusal past a bound was last reported as an event (`limits.rs`).
-    pub limit_reported: Option<Duration>,
 }
 
 impl State {
@@ -302,7 +303,8 @@ impl State {
             me,
             board,
             transport,
-            decoder: Decoder::with_max_sources(config.max_sources),
+            decoder: Decoder::with_max_sources(config.max_sources)
+                .with_max_names(config.max_names_per_source),
             config,
             out,
             peers: BTreeMap::new(),
@@ -326,7 +328,6 @@ impl State {
             plans: Vec::new(),
             spare_items: Vec::new(),
             team: super::team::TeamState::new(),
-            limit_reported: None,
         }
     }
 

@@ -262,6 +262,10 @@ pub struct CatchUpStats {
     /// Requests that came within the answer interval of the previous answer to the same
     /// module: they wait, merged, for one answer when the interval is over.
     pub deferred: u64,
+    /// Of those, requests that waited because their module had had its share of answer
+    /// bytes (`max_answer_bytes_per_requester`): a requester asking in a loop costs this
+    /// module a bounded number of bytes a second.
+    pub over_budget: u64,
     /// Class definitions sent on request.
     pub classes_sent: u64,
 }

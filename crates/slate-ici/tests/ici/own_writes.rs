@@ -128,10 +128,61 @@ fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evente
     assert!(team.member("t/r2/nav").ici.stats().merges.not_owner >= 1);
     let got: Vec<BoardEvent> = events.try_iter().collect();
     let said = got.iter().any(|e| {
-        matches!(e, BoardEvent::NotOwner { object, attr, writer, owner }
+        matches!(e, BoardEvent::NotOwner { object, attr, writer, owner, .. }
             if object == "v" && attr == "heading" && writer.as_str() == "t/r1/evil"
                 && owner.as_str() == "t/r1/nav")
     });
     assert!(said, "{got:?}");
+    team.members.retain(|n| n.address.as_str() != "t/r1/evil");
+}
+
+#[test]
+fn a_peer_sending_a_thousand_not_owner_writes_makes_a_bounded_number_of_events_and_each_is_counted()
+{
+    // As above, but evil keeps writing: 1 000 writes over 5 s of the simulator.
+    let mut team = pair(35);
+    let nav = team.board("t/r1/nav").clone();
+    nav.create("Vehicle", "v").unwrap();
+    nav.write("v", "heading", 1.0).unwrap();
+    team.run(1.0);
+    let receiver = team.board("t/r2/nav").clone();
+    let events = receiver.events();
+    let evil = team.board_at(&addr("t/r1/evil"), &classes());
+    evil.create("Vehicle", "v").unwrap();
+    team.join(evil.clone(), open());
+    team.run(1.0);
+    for i in 0..1000 {
+        evil.write("v", "heading", f64::from(i)).unwrap();
+        team.run(0.005);
+    }
+    team.run(1.0);
+    assert_eq!(
+        receiver.read("v", "heading").unwrap().value.as_f64(),
+        Some(1.0)
+    );
+    let refused = team.member("t/r2/nav").ici.stats().merges.not_owner;
+    assert!(refused >= 100, "{refused} refused");
+    assert_eq!(receiver.stats().not_owner, refused, "the board counts each");
+    let got: Vec<BoardEvent> = events.try_iter().collect();
+    let from_evil: Vec<u64> = got
+        .iter()
+        .filter_map(|e| match e {
+            BoardEvent::NotOwner {
+                suppressed, writer, ..
+            } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
+            _ => None,
+        })
+        .collect();
+    // 6 s of refusals: at most one event a second; together they tell of all but the
+    // last second's.
+    assert!(
+        (2..=7).contains(&from_evil.len()),
+        "{} events",
+        from_evil.len()
+    );
+    assert!(
+        from_evil.iter().sum::<u64>() <= refused,
+        "{from_evil:?} of {refused}"
+    );
     team.members.retain(|n| n.address.as_str() != "t/r1/evil");
 }

@@ -57,6 +57,8 @@ impl BoardBuilder {
             function_failures: AtomicU64::new(0),
             chain_cuts: AtomicU64::new(0),
             future_stamps: AtomicU64::new(0),
+            not_owner: AtomicU64::new(0),
+            news: Mutex::new(super::news_limit()),
             fn_seq: AtomicU64::new(0),
         };
         board.define_builtins();

@@ -28,8 +28,8 @@ use txn::{Inner, Txn};
 pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Watch};
 
 use crate::{
-    Address, AttrDecl, ClassDef, Clock, Context, CreateError, DefineError, DeleteError, Key,
-    LookupError, ObjectId, Packet, ReadError, THING, Trigger, Update, WriteError,
+    Address, AttrDecl, ClassDef, Clock, Context, CreateError, DefineError, DeleteError, EveryPer,
+    Key, LookupError, ObjectId, Packet, ReadError, THING, Trigger, Update, WriteError,
 };
 
 /// Default limit on the depth of chains of active functions.
@@ -70,6 +70,9 @@ pub struct Board {
     function_failures: AtomicU64,
     chain_cuts: AtomicU64,
     future_stamps: AtomicU64,
+    not_owner: AtomicU64,
+    /// The refusals' news: at most one event a second per kind and source.
+    news: Mutex<EveryPer<(NewsKind, Address)>>,
     fn_seq: AtomicU64,
 }
 
@@ -227,6 +230,8 @@ pub struct BoardStats {
     pub chain_cuts: u64,
     /// Received packets refused for a stamp beyond the clock's tolerance.
     pub future_stamps: u64,
+    /// Received packets for an `owned` attribute refused: their source is not its owner.
+    pub not_owner: u64,
 }
 
 impl Default for Board {
@@ -689,6 +694,7 @@ impl Board {
             function_failures: self.function_failures.load(Ordering::Relaxed),
             chain_cuts: self.chain_cuts.load(Ordering::Relaxed),
             future_stamps: self.future_stamps.load(Ordering::Relaxed),
+            not_owner: self.not_owner.load(Ordering::Relaxed),
         }
     }
 
@@ -709,23 +715,38 @@ impl Board {
         });
     }
 
-    /// Reports that an object of `owner` was refused past a bound (the ICI, which
-    /// holds the bounds, reports it at most once a second): an event, and a warning.
+    /// Reports that an object of `owner` was refused past a bound (the ICI holds the
+    /// bounds and reports each refusal): an event and a warning, at most once a second
+    /// per owner.
     pub fn report_object_limit(&self, owner: &Address, object: &str, limit: usize, total: bool) {
         self.report(BoardEvent::ObjectLimit {
             owner: owner.clone(),
             object: object.to_owned(),
             limit,
             total,
+            suppressed: 0,
+        });
+    }
+
+    /// Reports that a message from `source` was refused: its names would take what the
+    /// ICI holds of `source`'s past `limit`. An event and a warning, at most once a
+    /// second per source.
+    pub fn report_name_limit(&self, source: &Address, limit: usize) {
+        self.report(BoardEvent::NameLimit {
+            source: source.clone(),
+            limit,
+            suppressed: 0,
         });
     }
 
     /// Reports that a module not heard of before was refused past the bound on modules
-    /// (the ICI's `max_modules`): an event, and a warning.
+    /// (the ICI's `max_modules`): an event and a warning, at most once a second for all
+    /// addresses together.
     pub fn report_module_limit(&self, address: &Address, limit: usize) {
         self.report(BoardEvent::ModuleLimit {
             address: address.clone(),
             limit,
+            suppressed: 0,
         });
     }
 
@@ -743,7 +764,57 @@ impl Board {
         (st.instance_count(), st.owned_count(&self.address))
     }
 
+    /// Counts `event`, and tells it (the log, the subscribers) unless it is a refusal
+    /// whose source has had one told in the last second ([`Board::limit_news`]).
     pub(crate) fn report(&self, event: BoardEvent) {
+        self.count(&event);
+        if let Some(event) = self.limit_news(event) {
+            self.tell(event);
+        }
+    }
+
+    /// Counts an event: every one, told or not.
+    fn count(&self, event: &BoardEvent) {
+        match event {
+            BoardEvent::FunctionFailed { .. } => &self.function_failures,
+            BoardEvent::ChainCut(_) => &self.chain_cuts,
+            BoardEvent::FutureStamp { .. } => &self.future_stamps,
+            BoardEvent::NotOwner { .. } => &self.not_owner,
+            _ => return,
+        }
+        .fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// `event` as it is to be told, or `None` if its kind and source had one told in the
+    /// last second of the board's clock: a flood from one source is one event a second,
+    /// which says how many refusals it stands for (`suppressed`). Refused modules share
+    /// one limit, whatever their address (they may be made up).
+    fn limit_news(&self, mut event: BoardEvent) -> Option<BoardEvent> {
+        let (key, suppressed) = match &mut event {
+            BoardEvent::FutureStamp {
+                source, suppressed, ..
+            } => ((NewsKind::FutureStamp, source.clone()), suppressed),
+            BoardEvent::NotOwner {
+                writer, suppressed, ..
+            } => ((NewsKind::NotOwner, writer.clone()), suppressed),
+            BoardEvent::ObjectLimit {
+                owner, suppressed, ..
+            } => ((NewsKind::ObjectLimit, owner.clone()), suppressed),
+            BoardEvent::NameLimit {
+                source, suppressed, ..
+            } => ((NewsKind::NameLimit, source.clone()), suppressed),
+            BoardEvent::ModuleLimit { suppressed, .. } => {
+                ((NewsKind::ModuleLimit, Address::unknown()), suppressed)
+            }
+            _ => return Some(event),
+        };
+        let now = self.clock.physical();
+        *suppressed = self.news.lock().due(key, now)?;
+        Some(event)
+    }
+
+    /// Logs `event` and hands it to every subscriber.
+    fn tell(&self, event: BoardEvent) {
         match &event {
             BoardEvent::FunctionFailed {
                 function,
@@ -752,11 +823,9 @@ impl Board {
                 error,
                 ..
             } => {
-                self.function_failures.fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(%function, %object, %attr, %error, "active function failed");
             }
             BoardEvent::ChainCut(cut) => {
-                self.chain_cuts.fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(%cut, "active function chain cut");
             }
             BoardEvent::FutureStamp {
@@ -765,8 +834,8 @@ impl Board {
                 source,
                 stamp,
                 ahead,
+                ..
             } => {
-                self.future_stamps.fetch_add(1, Ordering::Relaxed);
                 tracing::warn!(%object, %attr, %source, %stamp, ?ahead, "packet stamped in the future refused");
             }
             BoardEvent::ClassConflict { class, peer } => {
@@ -777,6 +846,7 @@ impl Board {
                 object,
                 limit,
                 total,
+                ..
             } => {
                 tracing::warn!(%owner, %object, limit, total, "objects of another module refused past this board's bound");
             }
@@ -785,10 +855,14 @@ impl Board {
                 attr,
                 writer,
                 owner,
+                ..
             } => {
                 tracing::warn!(%object, %attr, %writer, %owner, "packet for an owned attribute from another module than its owner refused");
             }
-            BoardEvent::ModuleLimit { address, limit } => {
+            BoardEvent::NameLimit { source, limit, .. } => {
+                tracing::warn!(%source, limit, "a message of another module refused: it would hold more names than one module may");
+            }
+            BoardEvent::ModuleLimit { address, limit, .. } => {
                 tracing::warn!(%address, limit, "a module not heard of before refused: as many are known as may be");
             }
         }
@@ -882,6 +956,7 @@ fn not_owner(object: &str, attr: &str, packet: &Packet, owner: Address) -> Board
         attr: attr.to_owned(),
         writer: packet.source.clone(),
         owner,
+        suppressed: 0,
     }
 }
 
@@ -898,5 +973,24 @@ fn future_stamp(
         source: packet.source.clone(),
         stamp: packet.timestamp,
         ahead: drift.ahead,
+        suppressed: 0,
     }
+}
+
+/// What kind of refusal a piece of news is, for its rate limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum NewsKind {
+    FutureStamp,
+    NotOwner,
+    ObjectLimit,
+    NameLimit,
+    ModuleLimit,
+}
+
+/// Sources whose refusals are limited apart (past them, the others share one limit).
+const NEWS_SOURCES: usize = 256;
+
+/// The limit on the refusals' news: at most one event a second per kind and source.
+fn news_limit() -> EveryPer<(NewsKind, Address)> {
+    EveryPer::new(std::time::Duration::from_secs(1), NEWS_SOURCES)
 }

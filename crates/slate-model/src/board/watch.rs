@@ -132,7 +132,9 @@ pub enum BoardEvent {
     /// have continued it was refused.
     ChainCut(ChainError),
     /// A received packet was refused: it is stamped further ahead of this board's clock
-    /// than the clock tolerates (its source's clock is wrong, or this one's is).
+    /// than the clock tolerates (its source's clock is wrong, or this one's is). Reported
+    /// at most once a second per source; each refusal is counted
+    /// ([`BoardStats::future_stamps`](crate::BoardStats)).
     FutureStamp {
         /// Object the packet was for.
         object: String,
@@ -144,6 +146,9 @@ pub enum BoardEvent {
         stamp: crate::Timestamp,
         /// How far ahead of this board's physical time it was.
         ahead: std::time::Duration,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
     },
     /// Another module defines a class of this board's differently: objects of that class
     /// are not merged between the two boards (each keeps its own), until one of them
@@ -156,7 +161,7 @@ pub enum BoardEvent {
     },
     /// Objects of another module were refused: it owns as many on this board as one
     /// module may, or all other modules together do (`total`). Reported at most once a
-    /// second while refusals go on.
+    /// second per owner while refusals go on.
     ObjectLimit {
         /// The module whose object was refused.
         owner: Address,
@@ -166,9 +171,14 @@ pub enum BoardEvent {
         limit: usize,
         /// Whether the bound is the total for all other modules (else per module).
         total: bool,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
     },
     /// A received packet for an `owned` attribute was refused: its writer is not the
     /// object's owner (on a secured team, a member that writes what it does not own).
+    /// Reported at most once a second per writer; each refusal is counted
+    /// ([`BoardStats::not_owner`](crate::BoardStats)).
     NotOwner {
         /// The object.
         object: String,
@@ -178,14 +188,33 @@ pub enum BoardEvent {
         writer: Address,
         /// The object's owner on this board.
         owner: Address,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
+    },
+    /// A message from `source` was refused: the names it announces would take what this
+    /// board's ICI holds of that source's past the bound (`ici.max_names_per_source`).
+    /// Reported at most once a second per source while refusals go on.
+    NameLimit {
+        /// The module whose message was refused.
+        source: Address,
+        /// The bound reached.
+        limit: usize,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
     },
     /// A module this board's ICI had not heard of was refused: it keeps track of as
-    /// many modules as it may. Reported at most once a second while refusals go on.
+    /// many modules as it may. Reported at most once a second (for all addresses together:
+    /// they may be made up) while refusals go on.
     ModuleLimit {
         /// The address refused.
         address: Address,
         /// The bound reached.
         limit: usize,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
     },
 }
 

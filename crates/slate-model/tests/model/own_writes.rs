@@ -199,3 +199,75 @@ fn a_call_token_from_another_board_is_refused() {
     assert!(b.read_as(&token, "t", "latest").is_err());
     assert!(b.read("t", "latest").unwrap().value.is_none());
 }
+
+/// A packet for `t.attr` from `source`, stamped `ahead` of `b`'s clock.
+fn packet_from(b: &Board, source: &str, ahead: Duration) -> Packet {
+    Packet {
+        source: addr(source),
+        ..future_packet(b, ahead)
+    }
+}
+
+/// Refusals the events in `got` account for: each event is one, plus those from the same
+/// source it says were not reported one by one before it.
+fn told(got: &[BoardEvent]) -> u64 {
+    got.iter()
+        .map(|e| match e {
+            BoardEvent::NotOwner { suppressed, .. }
+            | BoardEvent::FutureStamp { suppressed, .. } => 1 + suppressed,
+            _ => 0,
+        })
+        .sum()
+}
+
+/// `n` packets from `source` merged into `b` one every 5 ms of its clock, each refused
+/// as `refused` says; what the board's events said meanwhile.
+fn flood(b: &Board, n: usize, (attr, ahead): (&str, Duration), source: &str) -> Vec<BoardEvent> {
+    let events = b.events();
+    for _ in 0..n {
+        b.clock().advance(Duration::from_millis(5)).unwrap();
+        let out = b.merge("t", attr, packet_from(b, source, ahead)).unwrap();
+        assert!(!matches!(out, Merged::Applied(_)), "{out:?}");
+    }
+    events.try_iter().collect()
+}
+
+#[test]
+fn a_thousand_not_owner_packets_make_a_bounded_number_of_events_and_each_is_counted() {
+    let b = board_at("team/r2/nav");
+    let got = flood(&b, 1000, ("owned", Duration::ZERO), "team/r9/evil");
+    assert_eq!(b.stats().not_owner, 1000);
+    // 5 s of the board's clock: at most one event a second from that source.
+    assert!(
+        (2..=6).contains(&got.len()),
+        "{} events: {:?}",
+        got.len(),
+        got.first()
+    );
+    // The events say how many refusals each stands for; only the last second's are
+    // still to be told.
+    let told = told(&got);
+    assert!(told <= 1000 && 1000 - told <= 200, "{told} told of 1000");
+    // Another source is told of at once, whatever the first one does.
+    let other = flood(&b, 1, ("owned", Duration::ZERO), "team/r8/cam");
+    let said = other.iter().any(
+        |e| matches!(e, BoardEvent::NotOwner { writer, suppressed: 0, .. } if writer.as_str() == "team/r8/cam"),
+    );
+    assert!(said, "{other:?}");
+}
+
+#[test]
+fn a_thousand_future_stamped_packets_make_a_bounded_number_of_events_and_each_is_counted() {
+    let b = board_at("team/r2/nav");
+    let years = Duration::from_secs(3 * 365 * 86_400);
+    let got = flood(&b, 1000, ("latest", years), "team/r9/evil");
+    assert_eq!(b.stats().future_stamps, 1000);
+    assert!(
+        (2..=6).contains(&got.len()),
+        "{} events: {:?}",
+        got.len(),
+        got.first()
+    );
+    let told = told(&got);
+    assert!(told <= 1000 && 1000 - told <= 200, "{told} told of 1000");
+}

@@ -162,6 +162,7 @@ pub fn board_event(e: &BoardEvent) -> Json {
         BoardEvent::ClassConflict { .. } => "class_conflict",
         BoardEvent::ObjectLimit { .. } => "object_limit",
         BoardEvent::ModuleLimit { .. } => "module_limit",
+        BoardEvent::NameLimit { .. } => "name_limit",
         BoardEvent::NotOwner { .. } => "not_owner",
         _ => "other",
     };

@@ -352,6 +352,35 @@ fn a_plan_from_another_robots_module_is_refused_by_default_and_logged() {
 }
 
 #[test]
+fn a_stranger_sending_two_hundred_plans_makes_a_bounded_number_of_events_and_each_is_counted() {
+    // A refused plan is acknowledged and counted each time, but the event log tells of
+    // a flood from one sender once a second, or it would push everything else out.
+    let net = SimNet::new(6);
+    let stranger = start(&net, "t/r9/evil", "");
+    let loco = start(&net, "t/r2/loco", "object gsr : Vehicle context self;");
+    net.run_for(Duration::from_millis(500));
+    let pwn = "plan pwn { action { set gsr.mode = \"pwned\"; } }";
+    for _ in 0..200 {
+        stranger.send_plan(&addr("t/r2/loco"), pwn).unwrap();
+        net.run_for(Duration::from_millis(10));
+    }
+    net.run_for(Duration::from_millis(1500));
+    assert_eq!(loco.circuits().stats().unauthorised, 200);
+    let told: Vec<String> = loco
+        .events()
+        .into_iter()
+        .map(|e| e.text)
+        .filter(|t| t.starts_with("plan pwn from t/r9/evil refused"))
+        .collect();
+    assert!(
+        (2..=5).contains(&told.len()),
+        "{} events: {told:?}",
+        told.len()
+    );
+    assert!(told.iter().any(|t| t.contains("more like it")), "{told:?}");
+}
+
+#[test]
 fn a_packet_stamped_beyond_the_clock_tolerance_is_refused_counted_and_an_event() {
     // Issue 17, finding 3 (a packet stamped far in the future holds an attribute): a
     // module whose clock is an hour ahead writes; the receiver refuses its packets.

@@ -81,3 +81,44 @@ fn a_decoder_given_a_smaller_table_keeps_that_many_sources() {
     }
     assert_eq!(decoder.stats().evicted, 7);
 }
+
+/// A report of `from`'s object `name`, stamped by `from`.
+fn object_of(from: &Address, name: &str, seq: u64) -> Message {
+    let mut p = packet(1.5, 0.1, 0.9, at(seq * 1000, 0));
+    p.source = from.clone();
+    let object = ObjectEntry::new(name, "Robot").owner(from.clone());
+    Message::Report(report(seq, vec![assertion(&object, "x", p)]))
+}
+
+#[test]
+fn a_source_naming_more_than_its_bound_is_refused_and_counted_and_keeps_what_it_had() {
+    let schema = schema();
+    let mut decoder = Decoder::new().with_max_names(10);
+    let evil = source(9);
+    let mut encoder = Encoder::new(evil.clone());
+    let mut send = |decoder: &mut Decoder, name: &str, seq: u64| {
+        let bytes = encoder.encode(&object_of(&evil, name, seq), &schema);
+        decoder.decode(&evil, &bytes.unwrap(), &schema)
+    };
+    let accepted = (0..30)
+        .take_while(|i| send(&mut decoder, &format!("o{i}"), *i + 1).is_ok())
+        .count();
+    assert!((1..30).contains(&accepted), "{accepted} accepted");
+    let refused = send(&mut decoder, "another", 99);
+    assert!(
+        matches!(refused, Err(DecodeError::TooManyNames { max: 10, .. })),
+        "{refused:?}"
+    );
+    let stats = decoder.stats();
+    assert_eq!(stats.too_many_names, 2);
+    assert_eq!(
+        stats.rejected(),
+        0,
+        "well formed: refused by a bound, not rejected"
+    );
+    // What it named before still decodes; another source is not held to its count.
+    assert!(send(&mut decoder, "o0", 100).is_ok());
+    let other = source(1);
+    let bytes = Encoder::new(other.clone()).encode(&pose_of(&other, 1), &schema);
+    assert!(decoder.decode(&other, &bytes.unwrap(), &schema).is_ok());
+}
