@@ -137,12 +137,16 @@ fn a_plain_zenoh_config_files_lease_decides_how_soon_a_silent_peer_is_dropped() 
     )
     .unwrap();
     let port = free_port();
-    let listen =
-        format!("zenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n");
+    // Heartbeats every 0.5 s (2 s once the link is idle): the transport's down is then
+    // believed 4.5 s after the last one, well inside the 8 s below.
+    let ici = "[ici]\nteam_heartbeat = \"0.5s\"\n";
+    let listen = format!(
+        "zenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n{ici}"
+    );
     let nav = module(&d, "t/r1/nav", &listen);
     let radio = Freezer::new(port);
     let connect = format!(
-        "[zenoh]\nconnect = [\"tcp/127.0.0.1:{}\"]\n[ici]\nteam_timeout = \"30s\"\n",
+        "[zenoh]\nconnect = [\"tcp/127.0.0.1:{}\"]\n{ici}team_timeout = \"30s\"\n",
         radio.port
     );
     let base = module(&d, "t/r2/base", &connect);
