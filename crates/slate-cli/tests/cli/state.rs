@@ -5,7 +5,7 @@
 //! directory stops the start with an error naming it, and `--reset-state` is the way out.
 
 use std::collections::BTreeMap;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -245,9 +245,10 @@ fn plan_state(team: &Team, name: &str) -> Option<String> {
     plan["state"].as_str().map(str::to_owned)
 }
 
-#[test]
-fn a_plan_sent_with_slate_plan_send_runs_again_after_the_node_restarts_on_its_state() {
-    let mut team = Team::new("state-plan");
+/// A team of loco with a state directory (returned), to which `slate plan send` sent
+/// plan `slow`: `gsr.mode = "slow"` once `gsr.speed > 5`.
+fn loco_with_plan_slow(name: &str) -> (Team, PathBuf) {
+    let mut team = Team::new(name);
     let state = team.dir.join("loco-state");
     team.nodes.push(start_loco(&team, &state));
     team.wait_connected();
@@ -256,6 +257,12 @@ fn a_plan_sent_with_slate_plan_send_runs_again_after_the_node_restarts_on_its_st
     std::fs::write(&slow, text).unwrap();
     let out = team.send_plan(&slow, LOCO, "2");
     assert!(out.status.success(), "{}", show(&out));
+    (team, state)
+}
+
+#[test]
+fn a_plan_sent_with_slate_plan_send_runs_again_after_the_node_restarts_on_its_state() {
+    let (mut team, state) = loco_with_plan_slow("state-plan");
     assert_eq!(plan_state(&team, "slow").as_deref(), Some("active"));
     // The sender (this `slate plan send`) is gone: only loco's state can bring it back.
     let (clean, rest) = team.nodes.remove(0).stop();
@@ -278,15 +285,7 @@ fn a_plan_sent_with_slate_plan_send_runs_again_after_the_node_restarts_on_its_st
 /// fire again for that same state: `mode`, set back by hand once it fired, stays so.
 #[test]
 fn a_plan_that_fired_before_a_restart_does_not_fire_again_for_the_same_state() {
-    let mut team = Team::new("state-plan-fired");
-    let state = team.dir.join("loco-state");
-    team.nodes.push(start_loco(&team, &state));
-    team.wait_connected();
-    let slow = team.dir.join("slow.slate");
-    let text = "plan slow { trigger: gsr.speed > 5.0; action { set gsr.mode = \"slow\"; } }";
-    std::fs::write(&slow, text).unwrap();
-    let out = team.send_plan(&slow, LOCO, "2");
-    assert!(out.status.success(), "{}", show(&out));
+    let (mut team, state) = loco_with_plan_slow("state-plan-fired");
     team.ok(&["put", "gsr.speed", "6"]);
     assert!(
         team.nodes[0].wait_value("gsr", "mode", "slow"),

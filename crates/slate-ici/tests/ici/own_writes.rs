@@ -4,6 +4,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
+use crossbeam_channel::Receiver;
 use slate_ici::{Ici, SimConfig};
 use slate_model::{Board, BoardEvent, Clock, Timestamp, Update, WriteError};
 
@@ -105,11 +106,11 @@ fn a_packet_from_a_module_whose_clock_is_years_ahead_is_refused_counted_and_repo
     team.members.retain(|n| n.address.as_str() != "t/r9/nav");
 }
 
-#[test]
-fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evented() {
-    // Issue 17, finding 3 from inside a team: evil's own board says it owns v (as a
-    // module that lies would), and writes v's `owned` heading; nav owns v everywhere else.
-    let mut team = pair(34);
+/// A pair where nav owns `v` (heading 1.0) and `t/r1/evil` has joined with a board of its
+/// own that says it owns `v` too (as a module that lies would): the team, r2/nav's board
+/// and its events from before evil joined, and evil's board.
+fn evil_beside_nav(seed: u64) -> (Team, Arc<Board>, Receiver<BoardEvent>, Arc<Board>) {
+    let mut team = pair(seed);
     let nav = team.board("t/r1/nav").clone();
     nav.create("Vehicle", "v").unwrap();
     nav.write("v", "heading", 1.0).unwrap();
@@ -120,6 +121,14 @@ fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evente
     evil.create("Vehicle", "v").unwrap();
     team.join(evil.clone(), open());
     team.run(1.0);
+    (team, receiver, events, evil)
+}
+
+#[test]
+fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evented() {
+    // Issue 17, finding 3 from inside a team: evil's own board says it owns v (as a
+    // module that lies would), and writes v's `owned` heading; nav owns v everywhere else.
+    let (mut team, receiver, events, evil) = evil_beside_nav(34);
     evil.write("v", "heading", 9.0).unwrap();
     team.run(1.0);
     let held = receiver.read("v", "heading").unwrap();
@@ -140,17 +149,7 @@ fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evente
 fn a_peer_sending_a_thousand_not_owner_writes_makes_a_bounded_number_of_events_and_each_is_counted()
 {
     // As above, but evil keeps writing: 1 000 writes over 5 s of the simulator.
-    let mut team = pair(35);
-    let nav = team.board("t/r1/nav").clone();
-    nav.create("Vehicle", "v").unwrap();
-    nav.write("v", "heading", 1.0).unwrap();
-    team.run(1.0);
-    let receiver = team.board("t/r2/nav").clone();
-    let events = receiver.events();
-    let evil = team.board_at(&addr("t/r1/evil"), &classes());
-    evil.create("Vehicle", "v").unwrap();
-    team.join(evil.clone(), open());
-    team.run(1.0);
+    let (mut team, receiver, events, evil) = evil_beside_nav(35);
     for i in 0..1000 {
         evil.write("v", "heading", f64::from(i)).unwrap();
         team.run(0.005);
