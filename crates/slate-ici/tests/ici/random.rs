@@ -159,8 +159,11 @@ fn run(seed: u64) {
 /// --release -p slate-ici --test ici replay` replays any of them. 250, 302 and 507 joined
 /// when every team frame gained its tag check (one byte more per frame moved their
 /// timing); 302 has no fault at all (docs/team-protocol.md, "Findings of session 10").
-/// 478 converges since a transport's down is believed only after 2.25 heartbeat periods.
-const TEAM_PROTOCOL_FINDINGS: &[u64] = &[190, 250, 302, 507, 508, 959, 985];
+/// 478 converges since a transport's down is believed only after 2.25 heartbeat periods;
+/// 190, 250, 302, 959 and 985 since a robot hello's member positions open the gaps of
+/// what its members said through an earlier gateway or epoch; 507 with this session's
+/// other changes (the held uplinks, the idle heartbeat back-off), not yet told apart.
+const TEAM_PROTOCOL_FINDINGS: &[u64] = &[508];
 
 /// Runs the seeds of `seeds` that are not known findings.
 fn converge(seeds: std::ops::Range<u64>) {

@@ -277,12 +277,17 @@ impl State {
             };
             self.member_hello(&addr, m.incarnation);
         }
+        let positions: Vec<u64> = hello.members.iter().map(|m| m.inner_seq).collect();
         let s = self.speaker(from);
         (s.hello, s.hello_ask) = (Some(hello), None);
         // The old epoch's missing positions will never be repaired: stop NACKing them.
         if let (Some(tag), Some(n)) = (ended, self.team.nacks.as_mut()) {
             n.forget(tag);
         }
+        // Every hello says how far each member has gone: what this module lacks of it
+        // (said through another gateway, in an epoch not followed to its end) shows as
+        // gaps in the members' own streams, which their catch-up closes.
+        self.announce_positions(from, &positions);
         self.team.interest_dirty = true;
         self.apply_alive(from);
         let parked: Vec<TeamFrame> = self.speaker(from).parked.drain(..).collect();
