@@ -135,7 +135,8 @@ impl State {
     }
 
     /// The decoder's table of sources is full of live modules if it had to evict one
-    /// this board holds alive (dead modules' names are dropped when they die): say so.
+    /// this board holds alive (dead modules' names are dropped when they are forgotten):
+    /// say so.
     fn warn_if_evicted_alive(&mut self) {
         let Some(gone) = self.decoder.take_evicted() else {
             return;

@@ -307,8 +307,8 @@ impl State {
             .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
             .map(|(a, _)| a.clone())
             .collect();
-        // Its names left the decoder when it was lost.
         for peer in gone {
+            self.decoder.forget(&peer);
             self.dead.remove(&peer);
             self.peers.remove(&peer);
             self.stats.liveliness.forgotten += 1;
@@ -316,12 +316,13 @@ impl State {
         }
     }
 
-    /// A peer is dead (timeout or the transport's word). Its names are dropped from the
-    /// decoder, whose slots are bounded: if it comes back, it is asked for them again.
+    /// A peer is dead (timeout or the transport's word). Its names stay in the decoder
+    /// until it is forgotten (`forget_dead`; an observer at once): a module held dead a
+    /// while (a partition, heartbeats stuck behind a radio's backlog) whose later messages
+    /// use names it announced before is heard again without asking for its whole state.
     pub fn lost(&mut self, peer: &Address) {
         tracing::debug!(me = %self.me, %peer, at = ?self.now, "module lost");
         self.stats.liveliness.lost += 1;
-        self.decoder.forget(peer);
         self.set_alive(peer, false);
         self.plans.push(super::PlanEvent::Peer(peer.clone(), false));
     }

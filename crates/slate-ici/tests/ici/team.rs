@@ -504,3 +504,33 @@ fn a_quiet_lone_robot_stays_alive_everywhere_and_its_next_report_decodes() {
         );
     }
 }
+
+/// A robot held dead for a while (cut off past the team timeout, its heartbeats queued
+/// behind a radio's backlog) and heard again keeps the names its modules announced: their
+/// next reports decode, and nobody asks for their whole state for want of them.
+#[test]
+fn a_robot_heard_again_after_being_held_dead_keeps_its_names() {
+    let (mut team, _) = grid(88, LinkConfig::clean(), 1024, true);
+    team.add("t/base/console", config(0, 1024, true));
+    let console = team.board("t/base/console").clone();
+    let vehicle = NewObject::new("Vehicle", "vehicle_early").context(Context::Self_);
+    console.create_with(vehicle).unwrap();
+    console.write("vehicle_early", "speed", 1.5).unwrap();
+    team.run(3.0);
+    let others: Vec<_> = team.members.iter().map(|m| m.address.clone()).collect();
+    let others: Vec<_> = others.into_iter().filter(|a| a.robot() != "base").collect();
+    team.net.partition(&[addr("t/base/console")], &others);
+    team.run(12.0);
+    assert!(
+        team.total(|s| s.liveliness.lost) > 0,
+        "held dead while cut off"
+    );
+    team.net.heal();
+    team.run(3.0);
+    console.write("vehicle_early", "speed", 2.5).unwrap();
+    team.run(2.0);
+    let refused = team.total(|s| s.rejects.decode.rejected());
+    assert_eq!(refused, 0, "messages refused");
+    let speed = Value::Real(2.5);
+    assert!(everyone_holds(&team, "vehicle_early", "speed", &speed).is_ok());
+}
