@@ -181,8 +181,8 @@ pub struct DemoConfig {
     /// becomes [`Self::team_link`] and the mission runs. The mission's duration, its
     /// deadline and the fault count from launch.
     pub deck: Option<Duration>,
-    /// Who speaks on the team link: every module (today's protocol, the default) or one
-    /// gateway per robot (the team protocol being built, docs/team-protocol.md).
+    /// Who speaks on the team link: one gateway per robot (the default,
+    /// docs/team-protocol.md) or every module (the per-module protocol of docs/ici.md).
     pub speakers: Speakers,
     /// On Zenoh: a secured team (docs/security.md), with keys made for the run in a
     /// temporary folder, TLS with mutual authentication and the generated access control.
@@ -213,12 +213,12 @@ pub struct Placement {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Speakers {
     /// Every module greets, heartbeats and catches up with every module of the other
-    /// robots (the protocol in docs/ici.md).
-    #[default]
+    /// robots (the protocol in docs/ici.md): its cost grows with the square of the
+    /// number of modules.
     Modules,
     /// One gateway per robot relays its modules' exports as one robot stream, repaired by
-    /// NACK (`IciConfig::team_protocol`; docs/team-protocol.md). Being built: not every
-    /// step of its plan is in yet.
+    /// NACK (`IciConfig::team_protocol`; docs/team-protocol.md).
+    #[default]
     Robots,
 }
 
@@ -235,7 +235,7 @@ impl Default for DemoConfig {
             fault_at: Some(30.0),
             team_link: TeamLink::default(),
             deck: None,
-            speakers: Speakers::Modules,
+            speakers: Speakers::default(),
             secure: false,
             placement: Placement::default(),
             record: None,

@@ -53,10 +53,11 @@ pub struct DemoArgs {
     #[arg(long, value_name = "SECONDS")]
     pub deck: Option<f64>,
 
-    /// Who speaks on the team link: every module (the protocol in docs/ici.md), or one
-    /// gateway per robot relaying its modules' exports as one stream repaired by NACK
-    /// (docs/team-protocol.md; being built, opt-in until it passes every test).
-    #[arg(long, value_enum, default_value_t = SpeakersArg::Modules)]
+    /// Who speaks on the team link: one gateway per robot relaying its modules' exports
+    /// as one stream repaired by NACK (docs/team-protocol.md), or every module (the
+    /// per-module protocol of docs/ici.md, whose cost grows with the square of the
+    /// number of modules).
+    #[arg(long, value_enum, default_value_t = SpeakersArg::from(Speakers::default()))]
     pub speakers: SpeakersArg,
 
     /// Serve the live dashboard at this address, like 127.0.0.1:8080 (the simulator then
@@ -141,8 +142,17 @@ pub enum TeamLinkArg {
 pub enum SpeakersArg {
     /// Every module (the per-module protocol).
     Modules,
-    /// One gateway per robot (the team protocol being built).
+    /// One gateway per robot (the team protocol).
     Robots,
+}
+
+impl From<Speakers> for SpeakersArg {
+    fn from(speakers: Speakers) -> Self {
+        match speakers {
+            Speakers::Modules => SpeakersArg::Modules,
+            Speakers::Robots => SpeakersArg::Robots,
+        }
+    }
 }
 
 /// Runs the demo; exits 0 when the mission completes, 1 when it does not.
@@ -198,7 +208,7 @@ fn config(args: &DemoArgs) -> anyhow::Result<DemoConfig> {
         .duration(Duration::from_secs_f64(args.duration))
         .fault_at((!args.no_fault).then_some(args.fault_at))
         .deck(args.deck.map(Duration::from_secs_f64))
-        .speakers(speakers(args.speakers))
+        .speakers(args.speakers.into())
         .team_link(TeamLink::of(
             match args.team_link {
                 TeamLinkArg::Radio => TeamMedium::Radio,
@@ -274,7 +284,7 @@ impl DemoModuleArgs {
             address: slate_demo::process::ModuleSpec::address_of(&self.robot, &self.role)?,
             seed: self.seed,
             robots: self.robots,
-            speakers: speakers(self.speakers),
+            speakers: self.speakers.into(),
             return_after: self.return_after,
             listen: self.listen.clone(),
             world: self.world.clone(),
@@ -283,11 +293,12 @@ impl DemoModuleArgs {
     }
 }
 
-/// The demo's speakers for `--speakers`.
-fn speakers(arg: SpeakersArg) -> Speakers {
-    match arg {
-        SpeakersArg::Modules => Speakers::Modules,
-        SpeakersArg::Robots => Speakers::Robots,
+impl From<SpeakersArg> for Speakers {
+    fn from(arg: SpeakersArg) -> Self {
+        match arg {
+            SpeakersArg::Modules => Speakers::Modules,
+            SpeakersArg::Robots => Speakers::Robots,
+        }
     }
 }
 

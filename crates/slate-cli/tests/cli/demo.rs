@@ -164,10 +164,11 @@ fn processes_mission(extra: &[&str]) -> (serde_json::Value, String) {
 
 /// `--network processes`: sixteen module processes over Zenoh on 127.0.0.1, the world
 /// served to their drivers as a module; the mission completes as in-process, with the
-/// same summary, and no module process outlives the run.
+/// same summary, and no module process outlives the run. By default the robots speak
+/// on the team link (one gateway per robot), not every module.
 #[test]
 fn the_demo_mission_completes_with_every_module_its_own_process() {
-    let (j, _) = processes_mission(&[]);
+    let (j, stderr) = processes_mission(&[]);
     let sim = slate(&[
         "demo",
         "--robots",
@@ -181,14 +182,6 @@ fn the_demo_mission_completes_with_every_module_its_own_process() {
     ]);
     let sim: serde_json::Value = serde_json::from_slice(&sim.stdout).unwrap();
     assert_eq!(keys(&j), keys(&sim), "the same summary fields");
-}
-
-/// `--network processes --speakers robots`: the module processes run the team protocol
-/// (one gateway per robot speaks on the team link) and the mission completes as with
-/// every module speaking.
-#[test]
-fn the_processes_mission_completes_with_robots_speaking() {
-    let (j, stderr) = processes_mission(&["--speakers", "robots"]);
     let kinds = &j["team_bytes_by_kind"];
     assert!(kinds["team_frame"].as_u64() > Some(0), "{kinds}\n{stderr}");
     assert!(kinds["robot_heartbeat"].as_u64() > Some(0), "{kinds}");
@@ -197,6 +190,16 @@ fn the_processes_mission_completes_with_robots_speaking() {
         None,
         "modules said their own heartbeats on the team link: {kinds}"
     );
+}
+
+/// `--network processes --speakers modules`: the per-module protocol (every module
+/// speaks on the team link) still runs the mission to its end as processes.
+#[test]
+fn the_processes_mission_completes_with_every_module_speaking() {
+    let (j, stderr) = processes_mission(&["--speakers", "modules"]);
+    let kinds = &j["team_bytes_by_kind"];
+    assert!(kinds["heartbeat"].as_u64() > Some(0), "{kinds}\n{stderr}");
+    assert_eq!(kinds.get("team_frame"), None, "{kinds}");
 }
 
 #[test]

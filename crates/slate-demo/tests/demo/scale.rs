@@ -157,3 +157,27 @@ fn an_overloaded_acoustic_channel_drops_what_would_wait_beyond_its_queue() {
     );
     assert_eq!(s.to_json()["team_messages_dropped"], channel.dropped_msgs);
 }
+
+/// The team link's cost at 8 robots, robots speaking (the default), over the first
+/// minute of the mission (seed 7; a debug build takes about a minute and a half for it):
+/// the overhead and bytes per robot per minute stay within today's figures and a small
+/// margin (0.54 and 14 275 B in the release build of session 13, docs/demo.md "More
+/// robots"; bytes are deterministic per seed). The team protocol's target is 0.20.
+#[test]
+fn eight_robots_keep_the_team_links_cost_within_its_bounds() {
+    let s = within(Duration::from_secs(900), || {
+        let c = config(7).robots(8).duration(Duration::from_secs(60));
+        run(c, &mut |_| {}).expect("the demo runs")
+    });
+    let text = s.to_text();
+    assert_eq!(s.duplicate_investigations, 0, "{text}");
+    assert!(s.detection_seconds.is_some(), "{text}");
+    assert!(s.consistency_lag_seconds.is_some(), "{text}");
+    let overhead = s.team_overhead_fraction();
+    assert!(overhead <= 0.57, "overhead {overhead}:\n{text}");
+    let per_robot = s.team_bytes_per_robot_minute();
+    assert!(
+        per_robot <= 15_000.0,
+        "{per_robot} B per robot per minute:\n{text}"
+    );
+}

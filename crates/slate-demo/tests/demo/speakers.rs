@@ -1,11 +1,13 @@
-//! `--speakers robots`: the team protocol being built (docs/team-protocol.md), opt-in. Its
-//! mission figures are not asserted until every step of its plan is in; what is asserted
-//! is the part already built: one gateway per robot, the execution controller, and the
-//! robot stream carrying the team traffic.
+//! Who speaks on the team link. By default the robots do (docs/team-protocol.md): one
+//! gateway per robot, the execution controller, and the robot stream carrying the team
+//! traffic (the mission tests run it to its end). `--speakers modules`, the per-module
+//! protocol a `slate node` still speaks by default, runs the mission too.
 
 use std::time::Duration;
 
 use slate_demo::{Demo, DemoConfig, Role, Speakers};
+
+use crate::mission::{assert_mission, mission_of};
 use slate_ici::{LinkKind, MsgKind};
 
 use super::support::within;
@@ -57,4 +59,21 @@ fn only_gateways_publish_the_team_streams_frames() {
             m.address()
         );
     }
+}
+
+#[test]
+fn every_module_speaking_completes_the_mission_too() {
+    let s = mission_of(DemoConfig::default().seed(7).speakers(Speakers::Modules));
+    assert_mission(&s);
+    assert_eq!(
+        s.team_bytes_by_kind.get("team_frame"),
+        None,
+        "{}",
+        s.to_text()
+    );
+    assert!(
+        s.team_bytes_by_kind.get("heartbeat") > Some(&0),
+        "{}",
+        s.to_text()
+    );
 }

@@ -534,3 +534,65 @@ fn a_robot_heard_again_after_being_held_dead_keeps_its_names() {
     let speed = Value::Real(2.5);
     assert!(everyone_holds(&team, "vehicle_early", "speed", &speed).is_ok());
 }
+
+/// The acoustic preset (`TeamProtocol::acoustic()`: 32-byte frames, 2 s batches, slow
+/// NACK and repair timers) for module m{j}, priority j.
+fn acoustic_config(module: usize) -> IciConfig {
+    let protocol = TeamProtocol::acoustic().priority(Some(module as u8));
+    open().team_protocol(Some(protocol))
+}
+
+/// 3 robots × 3 modules with the acoustic preset on `link`: after the random work the
+/// boards agree within 900 s.
+fn acoustic_work_converges(link: LinkConfig) {
+    let mut team = Team::with(
+        90,
+        SimConfig {
+            robot: LinkConfig::clean().delay(secs(0.0001)),
+            team: link,
+            ..SimConfig::default()
+        },
+    );
+    for r in 0..3 {
+        for m in 0..3 {
+            team.add(&format!("t/r{r}/m{m}"), acoustic_config(m));
+        }
+    }
+    team.run(0.5);
+    workload(&team, &mut Rng::new(90), 30, 0.05);
+    team.assert_converges(900);
+}
+
+/// One shared channel of 32-byte frames at 9600 bit/s (the acoustic channel's shape, a
+/// fast rate), 20 ms away.
+fn shared_frames() -> LinkConfig {
+    LinkConfig::clean()
+        .delay(secs(0.02))
+        .bandwidth(9600)
+        .shared()
+        .frames(32, secs(0.25))
+}
+
+#[test]
+fn the_acoustic_preset_converges_on_a_shared_channel_of_32_byte_frames() {
+    acoustic_work_converges(shared_frames());
+}
+
+#[test]
+fn the_acoustic_preset_converges_at_20_percent_loss_on_whole_messages() {
+    acoustic_work_converges(LinkConfig::clean().delay(secs(0.02)).loss(0.2));
+}
+
+/// Finding of session 13: with both (a shared channel of 32-byte frames and 20 % loss
+/// per frame and receiver) the boards never agree: `x` that r2's gateway wrote never
+/// reaches t/r1/m1 in 900 s. Each part alone converges (the two tests above); so does
+/// the radio preset with a 32-byte MTU at 20 % loss. In 300 s the gateways made 6 858
+/// NACK transmissions against 1 710 team frames, and of 138 robot hellos (73 B, three
+/// frames each) 41 arrived: a NACK storm on a half-duplex channel, where a gateway that
+/// transmits misses what it would hear. This is why no demo mission completes on
+/// `--team-link acoustic` with the robots speaking (docs/demo.md).
+#[test]
+#[ignore = "finding: the acoustic preset does not converge on a lossy shared framed channel (docs/demo.md, the narrow channel)"]
+fn the_acoustic_preset_converges_on_a_lossy_shared_channel_of_32_byte_frames() {
+    acoustic_work_converges(shared_frames().loss(0.2));
+}
