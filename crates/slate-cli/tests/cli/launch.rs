@@ -98,6 +98,14 @@ impl Launched {
         assert!(up, "the team did not come up\n{}", self.output());
     }
 
+    /// The endpoint launch's `ready` event says the team is observed through.
+    fn connect(&self) -> String {
+        let ready = self.events.iter().find(|j| j["event"] == "ready");
+        let connect = ready.and_then(|j| j["connect"].as_str());
+        let connect = connect.unwrap_or_else(|| panic!("no endpoint in ready\n{}", self.output()));
+        connect.to_owned()
+    }
+
     /// The pid of each `started` event, in order, with its address.
     fn started(&self) -> Vec<(String, u32)> {
         self.events
@@ -232,13 +240,14 @@ fn all_up_as(endpoint: &str, addresses: &[&str], more: &[&str]) -> bool {
     answered == sorted && modules.iter().all(hears_all)
 }
 
-/// Launches `file`, waits until `ls CLASS` shows every one of `expected`, stops it with
-/// SIGTERM, and checks that launch exited 0 and no module process is left.
+/// Launches `file`, waits until `ls CLASS` through the endpoint launch says it is
+/// observed through shows every one of `expected`, stops it with SIGTERM, and checks that launch exited 0 and no module process is left.
 fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected: &[&str]) {
     let base = free_ports(modules);
     let mut launched = Launched::start(file, base, &turn.dir.join("logs"));
     launched.wait_up();
-    let endpoint = format!("tcp/127.0.0.1:{}", base + modules - 1);
+    let endpoint = launched.connect();
+    assert!(endpoint.starts_with("tcp/127.0.0.1:"), "{endpoint}");
     let seen = eventually(Duration::from_secs(30), || {
         let names = objects(class, &endpoint);
         expected.iter().all(|e| names.iter().any(|n| n == e))
