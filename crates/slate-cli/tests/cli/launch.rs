@@ -460,13 +460,13 @@ fn robot_runs_only_that_robots_modules_on_this_host() {
 }
 
 #[test]
-fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
+fn a_module_that_keeps_dying_is_restarted_after_a_doubling_wait_then_given_up_on() {
     let turn = Team::new("launch-give-up");
     let text = std::fs::read_to_string(teams().join("small.toml")).unwrap();
     let small = teams().join("small");
     let text = text
         .replace("\"small/", &format!("\"{}/", small.display()))
-        .replace("limit = 5", "limit = 1")
+        .replace("limit = 5", "limit = 2")
         .replace("backoff = \"500ms\"", "backoff = \"100ms\"");
     let file = turn.dir.join("small.toml");
     std::fs::write(&file, text).unwrap();
@@ -475,7 +475,7 @@ fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
         Launched::start_with(&file, base, &turn.dir.join("logs"), &["--only", "r1/nav"]);
     launched.wait_up();
     let mut killed = Vec::new();
-    for round in 0..2 {
+    for round in 0..3 {
         let (_, pid) = *launched.started().last().unwrap();
         signal("-KILL", pid);
         killed.push(pid);
@@ -490,10 +490,18 @@ fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
             launched.output()
         );
     }
+    // Each restart waits twice as long as the one before.
+    let waits: Vec<u64> = launched
+        .events
+        .iter()
+        .filter(|j| j["event"] == "exited")
+        .filter_map(|j| j["in_ms"].as_u64())
+        .collect();
+    assert_eq!(waits, [100, 200], "{}", launched.output());
     let gave_up = launched.events.iter().find(|j| j["event"] == "gave_up");
     let text = gave_up.map(|j| j["text"].to_string()).unwrap_or_default();
     assert!(
-        text.contains("after 1 restarts: giving up on it"),
+        text.contains("after 2 restarts: giving up on it"),
         "{}",
         launched.output()
     );
