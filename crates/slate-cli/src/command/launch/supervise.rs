@@ -280,15 +280,16 @@ impl Supervisor {
             .map_err(|e| anyhow::anyhow!("cannot start {address}: {e}"))?;
         m.ready.store(false, Ordering::Relaxed);
         m.pumps.retain(|p| !p.is_finished());
-        let to = |ready| Pump {
+        let to = |pipe, ready| Pump {
             address: address.clone(),
             log: log.clone(),
             console,
+            pipe,
             ready,
         };
-        m.pumps.push(pump(child.stderr.take(), to(None)));
-        m.pumps
-            .push(pump(child.stdout.take(), to(Some(m.ready.clone()))));
+        m.pumps.push(pump(child.stderr.take(), to(Pipe::Log, None)));
+        let events = to(Pipe::Events, Some(m.ready.clone()));
+        m.pumps.push(pump(child.stdout.take(), events));
         m.started = Instant::now();
         let pid = child.id();
         m.child = Some(child);
@@ -379,6 +380,8 @@ struct Pump {
     address: String,
     log: Arc<Mutex<File>>,
     console: Console,
+    /// Which pipe it is.
+    pipe: Pipe,
     /// Set when the node's `ready` event is read (its stdout only).
     ready: Option<Arc<AtomicBool>>,
 }
@@ -393,11 +396,7 @@ fn pump(pipe: Option<impl Read + Send + 'static>, to: Pump) -> JoinHandle<()> {
             if let Some(ready) = to.ready.as_ref().filter(|_| is_ready_event(&line)) {
                 ready.store(true, Ordering::Relaxed);
             }
-            let pipe = match to.ready {
-                Some(_) => Pipe::Events,
-                None => Pipe::Log,
-            };
-            to.console.line(&to.address, &line, pipe);
+            to.console.line(&to.address, &line, to.pipe);
         }
     })
 }
