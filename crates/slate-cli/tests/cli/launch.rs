@@ -588,7 +588,14 @@ fn a_team_launched_with_keys_runs_over_tls_and_sigterm_stops_it() {
         config.contains(&format!("tls/127.0.0.1:{base}")),
         "{config}"
     );
-    let endpoint = format!("tls/127.0.0.1:{}", base + 1);
+    let endpoint = launched.connect();
+    assert_eq!(endpoint, format!("tls/127.0.0.1:{base}"));
+    let ready = launched.events.iter().find(|j| j["event"] == "ready");
+    let said = ready.and_then(|j| j["text"].as_str()).unwrap_or_default();
+    assert!(
+        said.contains(&format!("--keys {k} --operator sec/")),
+        "{said}"
+    );
     let alice = ["--keys", k, "--operator", "sec/alice"];
     let up = eventually(Duration::from_secs(30), || {
         all_up_as(&endpoint, &["sec/r1/nav", "sec/r2/nav"], &alice)
