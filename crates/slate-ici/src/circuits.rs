@@ -549,7 +549,7 @@ impl Inner {
             return;
         }
         let now = self.now();
-        let resend = self.origin.lock().resume(peer, now);
+        let resend = self.origin.lock().resume(peer, now, self.lossy);
         self.count_resent(resend.len());
         for msg in resend {
             self.transmit_logged(peer, msg);

@@ -116,7 +116,7 @@ pub enum ObserveError {
     Open(#[from] slate_zenoh::OpenError),
     /// No slate module answered in time.
     #[error(
-        "no slate module reachable through {endpoints} within {seconds:.1} s (is a node running? see `slate node --help`)"
+        "no slate module reachable through {endpoints} within {seconds:.1} s (is a module listening there? `slate node` and `slate launch` print each module's endpoint; the live verbs take one with --connect)"
     )]
     NoModules {
         /// The endpoints tried.

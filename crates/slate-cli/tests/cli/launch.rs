@@ -98,6 +98,14 @@ impl Launched {
         assert!(up, "the team did not come up\n{}", self.output());
     }
 
+    /// The endpoint launch's `ready` event says the team is observed through.
+    fn connect(&self) -> String {
+        let ready = self.events.iter().find(|j| j["event"] == "ready");
+        let connect = ready.and_then(|j| j["connect"].as_str());
+        let connect = connect.unwrap_or_else(|| panic!("no endpoint in ready\n{}", self.output()));
+        connect.to_owned()
+    }
+
     /// The pid of each `started` event, in order, with its address.
     fn started(&self) -> Vec<(String, u32)> {
         self.events
@@ -232,13 +240,14 @@ fn all_up_as(endpoint: &str, addresses: &[&str], more: &[&str]) -> bool {
     answered == sorted && modules.iter().all(hears_all)
 }
 
-/// Launches `file`, waits until `ls CLASS` shows every one of `expected`, stops it with
-/// SIGTERM, and checks that launch exited 0 and no module process is left.
+/// Launches `file`, waits until `ls CLASS` through the endpoint launch says it is
+/// observed through shows every one of `expected`, stops it with SIGTERM, and checks that launch exited 0 and no module process is left.
 fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected: &[&str]) {
     let base = free_ports(modules);
     let mut launched = Launched::start(file, base, &turn.dir.join("logs"));
     launched.wait_up();
-    let endpoint = format!("tcp/127.0.0.1:{}", base + modules - 1);
+    let endpoint = launched.connect();
+    assert!(endpoint.starts_with("tcp/127.0.0.1:"), "{endpoint}");
     let seen = eventually(Duration::from_secs(30), || {
         let names = objects(class, &endpoint);
         expected.iter().all(|e| names.iter().any(|n| n == e))
@@ -451,13 +460,13 @@ fn robot_runs_only_that_robots_modules_on_this_host() {
 }
 
 #[test]
-fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
+fn a_module_that_keeps_dying_is_restarted_after_a_doubling_wait_then_given_up_on() {
     let turn = Team::new("launch-give-up");
     let text = std::fs::read_to_string(teams().join("small.toml")).unwrap();
     let small = teams().join("small");
     let text = text
         .replace("\"small/", &format!("\"{}/", small.display()))
-        .replace("limit = 5", "limit = 1")
+        .replace("limit = 5", "limit = 2")
         .replace("backoff = \"500ms\"", "backoff = \"100ms\"");
     let file = turn.dir.join("small.toml");
     std::fs::write(&file, text).unwrap();
@@ -466,7 +475,7 @@ fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
         Launched::start_with(&file, base, &turn.dir.join("logs"), &["--only", "r1/nav"]);
     launched.wait_up();
     let mut killed = Vec::new();
-    for round in 0..2 {
+    for round in 0..3 {
         let (_, pid) = *launched.started().last().unwrap();
         signal("-KILL", pid);
         killed.push(pid);
@@ -481,10 +490,18 @@ fn a_module_that_keeps_dying_is_given_up_on_and_launch_says_so() {
             launched.output()
         );
     }
+    // Each restart waits twice as long as the one before.
+    let waits: Vec<u64> = launched
+        .events
+        .iter()
+        .filter(|j| j["event"] == "exited")
+        .filter_map(|j| j["in_ms"].as_u64())
+        .collect();
+    assert_eq!(waits, [100, 200], "{}", launched.output());
     let gave_up = launched.events.iter().find(|j| j["event"] == "gave_up");
     let text = gave_up.map(|j| j["text"].to_string()).unwrap_or_default();
     assert!(
-        text.contains("after 1 restarts: giving up on it"),
+        text.contains("after 2 restarts: giving up on it"),
         "{}",
         launched.output()
     );
@@ -571,7 +588,14 @@ fn a_team_launched_with_keys_runs_over_tls_and_sigterm_stops_it() {
         config.contains(&format!("tls/127.0.0.1:{base}")),
         "{config}"
     );
-    let endpoint = format!("tls/127.0.0.1:{}", base + 1);
+    let endpoint = launched.connect();
+    assert_eq!(endpoint, format!("tls/127.0.0.1:{base}"));
+    let ready = launched.events.iter().find(|j| j["event"] == "ready");
+    let said = ready.and_then(|j| j["text"].as_str()).unwrap_or_default();
+    assert!(
+        said.contains(&format!("--keys {k} --operator sec/")),
+        "{said}"
+    );
     let alice = ["--keys", k, "--operator", "sec/alice"];
     let up = eventually(Duration::from_secs(30), || {
         all_up_as(&endpoint, &["sec/r1/nav", "sec/r2/nav"], &alice)

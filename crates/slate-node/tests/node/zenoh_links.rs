@@ -1,6 +1,6 @@
 //! Zenoh's own settings reach a node, and its link kinds work, on 127.0.0.1: a plain
 //! Zenoh config file's lease decides how soon a silent session is dropped, and two
-//! nodes share values over `udp/` links.
+//! nodes share values over `udp/` links and over a Unix socket.
 
 use std::io::{Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -169,22 +169,20 @@ fn a_plain_zenoh_config_files_lease_decides_how_soon_a_silent_peer_is_dropped() 
     drop(radio);
 }
 
-#[test]
-fn two_nodes_share_a_value_over_udp_links() {
-    let d = temp_dir("node-zenoh-udp");
-    std::fs::write(d.join("world.slate"), crate::support::WORLD).unwrap();
-    let endpoint = format!("udp/127.0.0.1:{}", free_port());
+/// Two nodes, one listening on `endpoint` and the other connecting to it, share a value.
+fn two_nodes_share_a_value_over(dir: &Path, endpoint: &str) {
+    std::fs::write(dir.join("world.slate"), crate::support::WORLD).unwrap();
     let nav = module(
-        &d,
+        dir,
         "t/r1/nav",
         &format!("[zenoh]\nlisten = [{endpoint:?}]\n"),
     );
     let base = module(
-        &d,
+        dir,
         "t/r2/base",
         &format!("[zenoh]\nconnect = [{endpoint:?}]\n"),
     );
-    assert_eq!(nav.listening(), std::slice::from_ref(&endpoint));
+    assert_eq!(nav.listening(), [endpoint]);
     assert!(eventually(Duration::from_secs(20), || base.peers().len() == 1));
     nav.board().create("Vehicle", "gsr").unwrap();
     nav.board().write("gsr", "speed", 2.5).unwrap();
@@ -195,7 +193,21 @@ fn two_nodes_share_a_value_over_udp_links() {
             .and_then(|p| p.value.as_f64())
     };
     let arrived = eventually(Duration::from_secs(20), || speed() == Some(2.5));
-    assert!(arrived, "r2/base holds {:?}", speed());
+    assert!(arrived, "r2/base over {endpoint} holds {:?}", speed());
     base.close();
     nav.close();
+}
+
+#[test]
+fn two_nodes_share_a_value_over_udp_links() {
+    let d = temp_dir("node-zenoh-udp");
+    two_nodes_share_a_value_over(&d, &format!("udp/127.0.0.1:{}", free_port()));
+}
+
+/// Modules of one computer may talk over Unix sockets instead of loopback TCP.
+#[test]
+fn two_nodes_share_a_value_over_a_unix_socket() {
+    let d = temp_dir("node-zenoh-unix");
+    let socket = d.join("nav.sock");
+    two_nodes_share_a_value_over(&d, &format!("unixsock-stream/{}", socket.display()));
 }

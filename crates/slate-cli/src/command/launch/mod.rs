@@ -6,7 +6,7 @@ mod check;
 mod supervise;
 mod team;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use serde_json::json;
@@ -81,11 +81,12 @@ pub fn run(args: &LaunchArgs, format: Format, logs: ModuleLogs) -> anyhow::Resul
     let started = modules.start_all(signals);
     let outcome = match started {
         Ok(true) => {
+            let (text, connect) = ready_news(&team.name, &dir, modules.first_module());
             console.event(
                 "ready",
                 &team.name,
-                &format!("every module is up; logs in {}", dir.display()),
-                json!({"logs": dir}),
+                &text,
+                json!({"logs": dir, "connect": connect}),
             );
             Ok(modules.run(signals))
         }
@@ -97,6 +98,21 @@ pub fn run(args: &LaunchArgs, format: Format, logs: ModuleLogs) -> anyhow::Resul
         true => Ok(ExitCode::SUCCESS),
         false => Ok(ExitCode::from(1)),
     }
+}
+
+/// Launch's news once every module is up: where the logs are, and the endpoint (the
+/// first module's) through which `slate stats` and the other live verbs reach the team.
+fn ready_news(team: &str, logs: &Path, first: Option<&ModulePlan>) -> (String, Option<String>) {
+    let mut text = format!("every module is up; logs in {}", logs.display());
+    let connect = first.and_then(|m| m.config.zenoh.listen.first().cloned());
+    if let (Some(m), Some(endpoint)) = (first, &connect) {
+        text += &format!("; watch it with `slate stats --connect {endpoint}");
+        if let Some(keys) = &m.config.security {
+            text += &format!(" --keys {} --operator {team}/OPERATOR", keys.display());
+        }
+        text += "`";
+    }
+    (text, connect)
 }
 
 /// The modules chosen by `--robot` and `--only` (all without either); an error naming

@@ -50,16 +50,34 @@ impl Console {
         }
     }
 
-    /// One line a module printed.
-    fn line(&self, address: &str, line: &str) {
-        match self.format {
-            Format::Text => println!("{address} | {line}"),
-            Format::Json => println!(
-                "{}",
-                json!({"event": "log", "address": address, "line": line})
-            ),
+    /// One line a module printed, on the console.
+    fn line(&self, address: &str, line: &str, pipe: Pipe) {
+        if let Some(shown) = self.shown(address, line, pipe) {
+            println!("{shown}");
         }
     }
+
+    /// How a module's line shows on the console, if it does: as text, its log lines only
+    /// (its events, `slate node --format json`'s lines, say the same sentences and stay
+    /// in its log file); as JSON, every line.
+    fn shown(&self, address: &str, line: &str, pipe: Pipe) -> Option<String> {
+        match self.format {
+            Format::Text if pipe == Pipe::Events => None,
+            Format::Text => Some(format!("{address} | {line}")),
+            Format::Json => {
+                Some(json!({"event": "log", "address": address, "line": line}).to_string())
+            }
+        }
+    }
+}
+
+/// Which of a module's pipes a line came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pipe {
+    /// Its log (stderr).
+    Log,
+    /// Its events (stdout: `slate node --format json`'s lines).
+    Events,
 }
 
 /// One module under supervision.
@@ -262,15 +280,16 @@ impl Supervisor {
             .map_err(|e| anyhow::anyhow!("cannot start {address}: {e}"))?;
         m.ready.store(false, Ordering::Relaxed);
         m.pumps.retain(|p| !p.is_finished());
-        let to = |ready| Pump {
+        let to = |pipe, ready| Pump {
             address: address.clone(),
             log: log.clone(),
             console,
+            pipe,
             ready,
         };
-        m.pumps.push(pump(child.stderr.take(), to(None)));
-        m.pumps
-            .push(pump(child.stdout.take(), to(Some(m.ready.clone()))));
+        m.pumps.push(pump(child.stderr.take(), to(Pipe::Log, None)));
+        let events = to(Pipe::Events, Some(m.ready.clone()));
+        m.pumps.push(pump(child.stdout.take(), events));
         m.started = Instant::now();
         let pid = child.id();
         m.child = Some(child);
@@ -299,6 +318,11 @@ impl Supervisor {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped());
         Ok(command)
+    }
+
+    /// The first module this host runs.
+    pub fn first_module(&self) -> Option<&ModulePlan> {
+        self.modules.first().map(|m| &m.plan)
     }
 
     fn first_exited(&mut self) -> Option<usize> {
@@ -356,6 +380,8 @@ struct Pump {
     address: String,
     log: Arc<Mutex<File>>,
     console: Console,
+    /// Which pipe it is.
+    pipe: Pipe,
     /// Set when the node's `ready` event is read (its stdout only).
     ready: Option<Arc<AtomicBool>>,
 }
@@ -370,7 +396,7 @@ fn pump(pipe: Option<impl Read + Send + 'static>, to: Pump) -> JoinHandle<()> {
             if let Some(ready) = to.ready.as_ref().filter(|_| is_ready_event(&line)) {
                 ready.store(true, Ordering::Relaxed);
             }
-            to.console.line(&to.address, &line);
+            to.console.line(&to.address, &line, to.pipe);
         }
     })
 }
@@ -411,4 +437,39 @@ fn log_tail(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap_or_default();
     let lines: Vec<&str> = text.lines().rev().take(3).collect();
     lines.into_iter().rev().collect::<Vec<_>>().join(" / ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const NEWS: &str = r#"{"event":"news","level":"info","text":"peer t/r1/loco up","time":1.0}"#;
+    const LOGGED: &str = "2026-11-29T04:48:38Z  INFO slate_node::monitor: peer t/r1/loco up";
+
+    #[test]
+    fn the_text_console_shows_a_modules_log_once_not_its_events_beside_it() {
+        let text = Console {
+            format: Format::Text,
+        };
+        assert_eq!(
+            text.shown("t/r1/nav", LOGGED, Pipe::Log).as_deref(),
+            Some(format!("t/r1/nav | {LOGGED}").as_str())
+        );
+        // The same sentence, as the node's JSON event: said once already.
+        assert_eq!(text.shown("t/r1/nav", NEWS, Pipe::Events), None);
+    }
+
+    #[test]
+    fn the_json_console_passes_on_both_pipes_as_log_events() {
+        let json = Console {
+            format: Format::Json,
+        };
+        for (line, pipe) in [(LOGGED, Pipe::Log), (NEWS, Pipe::Events)] {
+            let shown = json.shown("t/r1/nav", line, pipe).unwrap();
+            let j: serde_json::Value = serde_json::from_str(&shown).unwrap();
+            assert_eq!(j["event"], "log");
+            assert_eq!(j["address"], "t/r1/nav");
+            assert_eq!(j["line"], line);
+        }
+    }
 }
