@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use parking_lot::Mutex;
 use serde_json::Value;
 use slate_dashboard::Status;
-use slate_ici::LinkKind;
+use slate_ici::{LinkKind, MsgKind};
 use slate_model::Address;
 use slate_wire::PlanStep;
 
@@ -287,10 +287,27 @@ impl Demo {
             deck_seconds: self.config.deck.map(|d| d.as_secs_f64()),
             deck_bytes: self.traffic.deck_bytes,
             deck_bytes_by_kind: names(&self.deck_by_kind),
-            team_repair_bytes: crate::traffic::team_repair_bytes(&self.team),
-            team_queue_max_seconds: crate::traffic::team_queue_max_seconds(&self.team),
+            team_repair_bytes: self.team_repair_bytes(),
+            team_queue_max_seconds: self
+                .net
+                .module_stats()
+                .is_none()
+                .then(|| crate::traffic::team_queue_max_seconds(&self.team)),
             recording: None,
         }
+    }
+
+    /// Bytes of the team protocol's repairs the modules sent: from their ICIs, or with
+    /// module processes from the traffic each module answered.
+    fn team_repair_bytes(&self) -> u64 {
+        let Some(modules) = self.net.module_stats() else {
+            return crate::traffic::team_repair_bytes(&self.team);
+        };
+        let repair = MsgKind::TeamRepair.name();
+        let rows = modules.iter().flat_map(|m| &m.traffic);
+        rows.filter(|r| r.link == "team" && r.kind == repair)
+            .map(|r| r.sent_bytes)
+            .sum()
     }
 
     /// Plans sent, accepted and rejected: from the senders' circuits, or with module

@@ -141,8 +141,9 @@ pub struct Summary {
     pub team_repair_bytes: u64,
     /// The longest a module's message waited in its gateway's queue for the radio (the
     /// team protocol paces itself, so a backlog waits there rather than in the radio:
-    /// it has not vanished). 0 without the team protocol.
-    pub team_queue_max_seconds: f64,
+    /// it has not vanished). 0 without the team protocol; `None` with module processes,
+    /// whose stats answers do not carry it.
+    pub team_queue_max_seconds: Option<f64>,
     /// With `--record` or `--final-board`: the recorder's counters (`messages`, `bytes`,
     /// `dropped`, `files`, `by_topic`), `final_board`, and `failed` if either failed.
     pub recording: Option<Value>,
@@ -270,17 +271,14 @@ impl Summary {
         map
     }
 
-    /// The team protocol's repair bytes and queue wait, as JSON fields: each absent
-    /// while 0 (so a run without the team protocol reports what it always did).
+    /// The team protocol's repair bytes and queue wait, as JSON fields, present in every
+    /// run (0 without the team protocol) so that the summary's fields do not depend on
+    /// the protocol or the network.
     fn team_protocol_json(&self) -> serde_json::Map<String, Value> {
         let mut map = serde_json::Map::new();
-        if self.team_repair_bytes > 0 {
-            map.insert("team_repair_bytes".into(), json!(self.team_repair_bytes));
-        }
-        if self.team_queue_max_seconds > 0.0 {
-            let wait = round(self.team_queue_max_seconds);
-            map.insert("team_queue_max_seconds".into(), json!(wait));
-        }
+        map.insert("team_repair_bytes".into(), json!(self.team_repair_bytes));
+        let wait = self.team_queue_max_seconds.map(round);
+        map.insert("team_queue_max_seconds".into(), json!(wait));
         map
     }
 
@@ -447,11 +445,10 @@ impl Summary {
                 self.team_repair_bytes
             );
         }
-        if self.team_queue_max_seconds > 0.0 {
+        if let Some(wait) = self.team_queue_max_seconds.filter(|w| *w > 0.0) {
             let _ = writeln!(
                 s,
-                "  gateways' queues: a message waited at most {:.2} s for the radio",
-                self.team_queue_max_seconds
+                "  gateways' queues: a message waited at most {wait:.2} s for the radio"
             );
         }
         let _ = writeln!(s, "  team by kind:  {}", kinds(&self.team_bytes_by_kind));
@@ -513,9 +510,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn repair_bytes_are_reported_only_when_there_are_some() {
+    fn repair_bytes_are_in_every_json_summary_and_in_the_text_when_there_are_some() {
         let none = Summary::default();
-        assert!(none.to_json().get("team_repair_bytes").is_none());
+        assert_eq!(none.to_json()["team_repair_bytes"], json!(0));
+        assert_eq!(none.to_json()["team_queue_max_seconds"], Value::Null);
         assert!(!none.to_text().contains("repairs:"));
         let some = Summary {
             team_repair_bytes: 120,
