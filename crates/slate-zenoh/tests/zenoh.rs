@@ -222,7 +222,12 @@ fn every_publication_of_flow_every_reaches_a_slow_handler_in_order_and_latest_on
         let dropped = receiver.stats().behind_dropped;
         match flow {
             slate_transport::Flow::Every => {
-                assert_eq!(got, (0..N).collect::<Vec<_>>(), "{flow:?}");
+                let misplaced = (0..N).zip(&got).find(|(n, g)| n != *g);
+                assert!(
+                    got.len() == N as usize && misplaced.is_none(),
+                    "{flow:?}: {} of {N} arrived, first out of place {misplaced:?}",
+                    got.len()
+                );
                 assert_eq!(dropped, 0);
             }
             _ => {
