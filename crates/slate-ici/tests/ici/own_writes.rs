@@ -147,6 +147,14 @@ fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evente
     team.members.retain(|n| n.address.as_str() != "t/r1/evil");
 }
 
+/// 6 s of refusals, each event counting itself and those it held back (`told`):
+/// at most one event a second; together they tell of no more than were `refused` (all but
+/// the last second's).
+fn assert_one_event_a_second(told: Vec<u64>, refused: u64) {
+    assert!((2..=7).contains(&told.len()), "{} events", told.len());
+    assert!(told.iter().sum::<u64>() <= refused, "{told:?} of {refused}");
+}
+
 #[test]
 fn a_peer_sending_a_thousand_not_owner_writes_makes_a_bounded_number_of_events_and_each_is_counted()
 {
@@ -164,27 +172,13 @@ fn a_peer_sending_a_thousand_not_owner_writes_makes_a_bounded_number_of_events_a
     let refused = team.member("t/r2/nav").ici.stats().merges.not_owner;
     assert!(refused >= 100, "{refused} refused");
     assert_eq!(receiver.stats().not_owner, refused, "the board counts each");
-    let got: Vec<BoardEvent> = events.try_iter().collect();
-    let from_evil: Vec<u64> = got
-        .iter()
-        .filter_map(|e| match e {
-            BoardEvent::NotOwner {
-                suppressed, writer, ..
-            } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
-            _ => None,
-        })
-        .collect();
-    // 6 s of refusals: at most one event a second; together they tell of all but the
-    // last second's.
-    assert!(
-        (2..=7).contains(&from_evil.len()),
-        "{} events",
-        from_evil.len()
-    );
-    assert!(
-        from_evil.iter().sum::<u64>() <= refused,
-        "{from_evil:?} of {refused}"
-    );
+    let from_evil = events.try_iter().filter_map(|e| match e {
+        BoardEvent::NotOwner {
+            suppressed, writer, ..
+        } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
+        _ => None,
+    });
+    assert_one_event_a_second(from_evil.collect(), refused);
     team.members.retain(|n| n.address.as_str() != "t/r1/evil");
 }
 
@@ -251,24 +245,13 @@ fn a_peer_sending_a_thousand_unauthorised_writes_makes_a_bounded_number_of_event
         refused,
         "the board counts each"
     );
-    let from_evil: Vec<u64> = events
-        .try_iter()
-        .filter_map(|e| match e {
-            BoardEvent::Unauthorised {
-                suppressed, writer, ..
-            } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
-            _ => None,
-        })
-        .collect();
-    assert!(
-        (2..=7).contains(&from_evil.len()),
-        "{} events",
-        from_evil.len()
-    );
-    assert!(
-        from_evil.iter().sum::<u64>() <= refused,
-        "{from_evil:?} of {refused}"
-    );
+    let from_evil = events.try_iter().filter_map(|e| match e {
+        BoardEvent::Unauthorised {
+            suppressed, writer, ..
+        } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
+        _ => None,
+    });
+    assert_one_event_a_second(from_evil.collect(), refused);
     team.members.retain(|n| n.address.as_str() != "t/r1/evil");
 }
 

@@ -876,7 +876,7 @@ impl Board {
     /// which says how many refusals it stands for (`suppressed`). Refused modules share
     /// one limit, whatever their address (they may be made up).
     fn limit_news(&self, mut event: BoardEvent) -> Option<BoardEvent> {
-        use NewsKey::From;
+        use NewsKey::Source;
         let (key, suppressed) = match &mut event {
             BoardEvent::FunctionFailed {
                 function,
@@ -885,22 +885,23 @@ impl Board {
             } => (NewsKey::Function(function.clone()), suppressed),
             BoardEvent::FutureStamp {
                 source, suppressed, ..
-            } => (From(NewsKind::FutureStamp, source.clone()), suppressed),
+            } => (Source(NewsKind::FutureStamp, source.clone()), suppressed),
             BoardEvent::NotOwner {
                 writer, suppressed, ..
-            } => (From(NewsKind::NotOwner, writer.clone()), suppressed),
+            } => (Source(NewsKind::NotOwner, writer.clone()), suppressed),
             BoardEvent::Unauthorised {
                 writer, suppressed, ..
-            } => (From(NewsKind::Unauthorised, writer.clone()), suppressed),
+            } => (Source(NewsKind::Unauthorised, writer.clone()), suppressed),
             BoardEvent::ObjectLimit {
                 owner, suppressed, ..
-            } => (From(NewsKind::ObjectLimit, owner.clone()), suppressed),
+            } => (Source(NewsKind::ObjectLimit, owner.clone()), suppressed),
             BoardEvent::NameLimit {
                 source, suppressed, ..
-            } => (From(NewsKind::NameLimit, source.clone()), suppressed),
-            BoardEvent::ModuleLimit { suppressed, .. } => {
-                (From(NewsKind::ModuleLimit, Address::unknown()), suppressed)
-            }
+            } => (Source(NewsKind::NameLimit, source.clone()), suppressed),
+            BoardEvent::ModuleLimit { suppressed, .. } => (
+                Source(NewsKind::ModuleLimit, Address::unknown()),
+                suppressed,
+            ),
             _ => return Some(event),
         };
         let now = self.clock.physical();
@@ -1138,7 +1139,7 @@ enum NewsKind {
 /// function that failed.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 enum NewsKey {
-    From(NewsKind, Address),
+    Source(NewsKind, Address),
     Function(String),
 }
 

@@ -448,7 +448,7 @@ impl State {
     /// unstamped write gets `stamp`, or a fresh timestamp. A given timestamp is kept and
     /// merged into the clock. An [`Origin::Own`] write must also be one every receiver
     /// would store (see [`State::admit_own`]); a [`Origin::Merged`] one was judged by
-    /// [`State::merge_verdict`] already.
+    /// [`State::write_refusal`] and [`State::merge_verdict`] already.
     pub fn prepare(
         &self,
         key: Key,
