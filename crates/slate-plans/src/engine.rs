@@ -629,7 +629,7 @@ impl Shared {
         let Some(at) = outcome.wake_at else { return };
         let rt = &mut st.plans[idx];
         rt.timer_gen += 1;
-        let due = micros(Duration::from_secs_f64(at.max(0.0)));
+        let due = micros(Duration::try_from_secs_f64(at.max(0.0)).unwrap_or(Duration::MAX));
         st.timers.push(Reverse((due, idx, rt.timer_gen)));
         let mut next = self.wake.0.lock();
         if next.is_none_or(|n| due < n) {
