@@ -398,6 +398,7 @@ _EventKind = Literal[
     "future_stamp",
     "class_conflict",
     "not_owner",
+    "unauthorised",
     "object_limit",
     "name_limit",
     "module_limit",

@@ -33,9 +33,10 @@ use slate_plans::{Diagnostic, Diagnostics, Engine, Item, Outgoing, PlanEvent, Sp
 use slate_wire::{Message, PlanStep};
 
 use crate::{Ici, PlanHandler, SendRawError};
-pub use authority::{AddressPattern, PatternError, PlanAuthority};
+pub use authority::PlanAuthority;
 use destination::Destination;
 use origin::Origin;
+pub use slate_model::{AddressPattern, PatternError};
 
 /// How long a gap in a circuit's acknowledgements may stay open (later steps arrived,
 /// an earlier one did not) before the origin asks the destination for its steps again.

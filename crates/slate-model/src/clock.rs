@@ -126,9 +126,17 @@ struct WallClock {
 
 const ANCHOR_EVERY: u64 = 1_000_000_000;
 
+/// The process's one calibrated TSC clock: calibrating one takes some 40 µs, which
+/// every board on the system clock paid (a fifth to a third of a small `.slate` load's
+/// time: the `slate_check` fuzz target's), for the same result. Clones share it.
+fn shared_tsc() -> quanta::Clock {
+    static TSC: std::sync::OnceLock<quanta::Clock> = std::sync::OnceLock::new();
+    TSC.get_or_init(quanta::Clock::new).clone()
+}
+
 impl WallClock {
     fn new() -> Self {
-        let tsc = quanta::Clock::new();
+        let tsc = shared_tsc();
         let start = tsc.now();
         let wall = WallClock {
             tsc,

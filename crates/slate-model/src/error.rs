@@ -208,6 +208,17 @@ pub enum WriteError {
         /// The write's source.
         writer: Address,
     },
+    /// A write by a module the board's rules do not let write it (`[authority] writes`,
+    /// [`WriteAuthority`](crate::WriteAuthority)).
+    #[error("{writer} may not write {target} on this board: {rule} ([authority] writes)")]
+    Unauthorised {
+        /// `object.attr`, or the object created.
+        target: String,
+        /// The module that would write.
+        writer: Address,
+        /// The rule that refuses it.
+        rule: String,
+    },
     /// An own write stamped further ahead of this board's clock than it tolerates: every
     /// receiver would refuse it.
     #[error(

@@ -31,6 +31,7 @@
 
 mod active;
 mod address;
+mod authority;
 mod board;
 mod builtin;
 mod class;
@@ -46,6 +47,9 @@ mod value;
 
 pub use active::{ActiveFn, Call, CallToken, FnError, FnRef, Trigger};
 pub use address::{Address, AddressError, Context};
+pub use authority::{
+    AddressPattern, PatternError, WriteAuthority, WriteRule, listed as listed_patterns,
+};
 pub use board::{
     Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeHook, ChangeItem, Cursor,
     DEFAULT_MAX_DEPTH, Filter, MAX_NESTED_FUNCTIONS, Merged, NewObject, Normaliser, ObjectInfo,

@@ -1,5 +1,7 @@
-//! Who may send a node plans: `[authority] plans_from` (docs/security.md, "Authority
-//! over plans"), turned into the plan circuits' [`PlanAuthority`].
+//! Who may send a node plans, `[authority] plans_from` (docs/security.md, "Authority
+//! over plans"), turned into the plan circuits' [`PlanAuthority`]; and who may write
+//! which classes and attributes on its board, `[authority.writes]` ("Authority over
+//! writes"), turned into the board's [`WriteAuthority`]. Both take the same entries.
 //!
 //! By default a node accepts plans from the modules of its own robot and from the team's
 //! operators: on a secured team, the operators whose certificates are in its keys folder
@@ -10,11 +12,11 @@
 use std::str::FromStr;
 
 use slate_ici::{AddressPattern, PatternError, PlanAuthority};
-use slate_model::Address;
+use slate_model::{Address, Board, WriteAuthority};
 
 use crate::observer::OBSERVER_PREFIX;
 
-/// One entry of `plans_from`.
+/// One entry of `plans_from`, or of a rule of `[authority.writes]`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum PlanSender {
     /// `"robot"`: the modules of this module's robot.
@@ -56,6 +58,73 @@ pub fn plan_authority(
         }
     }
     authority
+}
+
+/// One rule of `[authority.writes]`: only `writers` (and the node's own module) may
+/// write `class` (and its subclasses) on the node's board, or with `attr` only that
+/// attribute of it (`"Class.attr" = [...]`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct WritesFrom {
+    /// The class.
+    pub class: String,
+    /// The attribute, if the rule is for one only.
+    pub attr: Option<String>,
+    /// Who may write it.
+    pub writers: Vec<PlanSender>,
+}
+
+impl WritesFrom {
+    /// The rule for `target`, `"Class"` or `"Class.attr"`.
+    pub fn new(target: &str, writers: Vec<PlanSender>) -> WritesFrom {
+        let (class, attr) = match target.split_once('.') {
+            Some((class, attr)) => (class, Some(attr.to_owned())),
+            None => (target, None),
+        };
+        WritesFrom {
+            class: class.to_owned(),
+            attr,
+            writers,
+        }
+    }
+
+    /// `Class` or `Class.attr`.
+    pub fn target(&self) -> String {
+        match &self.attr {
+            Some(attr) => format!("{}.{attr}", self.class),
+            None => self.class.clone(),
+        }
+    }
+}
+
+/// The write rules of the node at `me` whose `[authority.writes]` is `rules`, for its
+/// board; `operators` as for [`plan_authority`]. A rule naming a class or an attribute
+/// `board` does not have (after its files loaded) is an error: it would guard nothing.
+pub fn write_authority(
+    me: &Address,
+    rules: &[WritesFrom],
+    operators: Option<&[String]>,
+    board: &Board,
+) -> Result<WriteAuthority, String> {
+    let mut authority = WriteAuthority::default();
+    for rule in rules {
+        let known = match &rule.attr {
+            Some(attr) => board.attr_decl(&rule.class, attr).is_some(),
+            None => board.class_def(&rule.class).is_some() || rule.class == slate_model::THING,
+        };
+        if !known {
+            return Err(format!(
+                "authority.writes: `{}` names no class or attribute of this module's files",
+                rule.target()
+            ));
+        }
+        let writers = rule
+            .writers
+            .iter()
+            .flat_map(|w| patterns(me, w, operators))
+            .collect();
+        authority = authority.rule(&rule.class, rule.attr.as_deref(), writers);
+    }
+    Ok(authority)
 }
 
 /// The address patterns one entry stands for.

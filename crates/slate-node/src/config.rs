@@ -11,7 +11,7 @@ use slate_model::{Address, Context};
 use slate_plans::Substitution;
 use slate_zenoh::{Mode, ZenohConfig};
 
-use crate::authority::{PlanSender, default_plans_from};
+use crate::authority::{PlanSender, WritesFrom, default_plans_from};
 use crate::error::ConfigError;
 use crate::fields::{Fields, describe};
 use crate::record::RecordConfig;
@@ -71,6 +71,9 @@ pub struct NodeConfig {
     /// Who may send this module plans (`[authority] plans_from`): by default its robot's
     /// modules and the team's operators.
     pub plans_from: Vec<PlanSender>,
+    /// Who may write which classes and attributes on this module's board besides itself
+    /// (`[authority.writes]`): by default no rule, any module.
+    pub writes_from: Vec<WritesFrom>,
 }
 
 /// A `.slate` file a node loads at start, and the placeholders replaced in its text
@@ -113,7 +116,7 @@ const TOP: &[&str] = &[
     "authority",
 ];
 /// Keys of `[authority]`.
-const AUTHORITY: &[&str] = &["plans_from"];
+const AUTHORITY: &[&str] = &["plans_from", "writes"];
 /// Keys of `[storage]`.
 const STORAGE: &[&str] = &["commit_every", "commit_changes", "queue", "durability"];
 /// Keys of `[security]`.
@@ -145,6 +148,7 @@ const ICI: &[&str] = &[
     "max_objects",
     "max_modules",
     "max_names_per_source",
+    "max_names",
     "max_answer_bytes_per_requester",
 ];
 
@@ -193,6 +197,7 @@ impl NodeConfig {
             state: None,
             security: None,
             plans_from: default_plans_from(),
+            writes_from: Vec::new(),
         }
     }
 
@@ -242,7 +247,7 @@ impl NodeConfig {
             config.security = Some(security_section(security, base)?);
         }
         if let Some(authority) = top.table("authority", AUTHORITY)? {
-            config.plans_from = authority_section(authority)?;
+            (config.plans_from, config.writes_from) = authority_section(authority)?;
         }
         top.finish()?;
         Ok(config)
@@ -492,18 +497,53 @@ fn security_section(mut t: Fields, base: &Path) -> Result<PathBuf, ConfigError> 
 }
 
 /// `[authority] plans_from = ["robot", "operators", "team/base/console"]`: who may send
-/// this module plans (each entry a word or an address pattern; docs/security.md).
-fn authority_section(mut t: Fields) -> Result<Vec<PlanSender>, ConfigError> {
+/// this module plans (each entry a word or an address pattern; docs/security.md); and
+/// `[authority.writes]`, `"Class.attr" = [...]` with the same entries: who may write it.
+fn authority_section(mut t: Fields) -> Result<(Vec<PlanSender>, Vec<WritesFrom>), ConfigError> {
     const EXPECTED: &str =
         "a list of \"robot\", \"operators\" and address patterns like \"team/*/planner\"";
-    let list = t.strings("plans_from", EXPECTED)?.unwrap_or_default();
-    let senders = list
-        .iter()
-        .map(|entry| entry.parse::<PlanSender>())
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|e| t.invalid("plans_from", EXPECTED, &e.to_string()))?;
+    let senders = |t: &mut Fields, key: &str| -> Result<Option<Vec<PlanSender>>, ConfigError> {
+        let Some(list) = t.strings(key, EXPECTED)? else {
+            return Ok(None);
+        };
+        list.iter()
+            .map(|entry| entry.parse::<PlanSender>())
+            .collect::<Result<Vec<_>, _>>()
+            .map(Some)
+            .map_err(|e| t.invalid(key, EXPECTED, &e.to_string()))
+    };
+    let plans_from = senders(&mut t, "plans_from")?.unwrap_or_default();
+    let mut writes_from = Vec::new();
+    if let Some(mut writes) = t.free_table("writes")? {
+        for target in writes.keys() {
+            if !valid_target(&target) {
+                return Err(writes.invalid(
+                    &target,
+                    "a class or an attribute of one, like \"Vehicle\" or \"Vehicle.mode\"",
+                    &format!("{target:?}"),
+                ));
+            }
+            let writers = senders(&mut writes, &target)?.unwrap_or_default();
+            writes_from.push(WritesFrom::new(&target, writers));
+        }
+        writes.finish()?;
+    }
     t.finish()?;
-    Ok(senders)
+    Ok((plans_from, writes_from))
+}
+
+/// `Class` or `Class.attr`: names (letters, digits, `_`, not starting with a digit).
+fn valid_target(target: &str) -> bool {
+    let name = |s: &str| {
+        s.chars()
+            .next()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == '_')
+            && s.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+    };
+    match target.split_once('.') {
+        Some((class, attr)) => name(class) && name(attr),
+        None => name(target),
+    }
 }
 
 /// `proto/address`, like `tcp/127.0.0.1:7447` (Zenoh checks the rest when it opens).
@@ -525,6 +565,9 @@ fn ici_limits(t: &mut Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     }
     if let Some(n) = t.count("max_names_per_source")? {
         ici.max_names_per_source = n;
+    }
+    if let Some(n) = t.count("max_names")? {
+        ici.max_names = n;
     }
     if let Some(n) = t.count("max_answer_bytes_per_requester")? {
         ici.max_answer_bytes_per_requester = n as u64;
@@ -717,6 +760,47 @@ mod tests {
     }
 
     #[test]
+    fn authority_writes_says_who_may_write_a_class_or_an_attribute() {
+        assert!(
+            parse("address = \"t/r1/nav\"")
+                .unwrap()
+                .writes_from
+                .is_empty()
+        );
+        let c = parse(
+            "address = \"t/r1/nav\"\n[authority.writes]\n\"Vehicle.mode\" = [\"robot\", \"operators\"]\nObstacle = [\"t/*/nav\"]",
+        )
+        .unwrap();
+        let nav = "t/*/nav".parse().unwrap();
+        assert_eq!(
+            c.writes_from,
+            [
+                WritesFrom::new("Obstacle", vec![nav]),
+                WritesFrom::new(
+                    "Vehicle.mode",
+                    vec![PlanSender::Robot, PlanSender::Operators]
+                ),
+            ]
+        );
+        assert_eq!(c.writes_from[1].attr.as_deref(), Some("mode"));
+        for (bad, says) in [
+            (
+                "\"Vehicle.mode\" = [\"everyone\"]",
+                "authority.writes.Vehicle.mode",
+            ),
+            (
+                "\"Vehicle.mode.x\" = [\"robot\"]",
+                "like \"Vehicle\" or \"Vehicle.mode\"",
+            ),
+            ("Vehicle = \"robot\"", "authority.writes.Vehicle"),
+        ] {
+            let text = format!("address = \"t/r1/nav\"\n[authority.writes]\n{bad}");
+            let err = parse(&text).unwrap_err().to_string();
+            assert!(err.contains(says), "{bad}: {err}");
+        }
+    }
+
+    #[test]
     fn every_key_is_read() {
         let c = parse(
             r#"
@@ -750,6 +834,7 @@ mod tests {
             max_objects = 500
             max_modules = 20
             max_names_per_source = 300
+            max_names = 9000
             max_answer_bytes_per_requester = 5000
             "#,
         )
@@ -788,9 +873,10 @@ mod tests {
                 c.ici.max_objects_per_source,
                 c.ici.max_objects,
                 c.ici.max_modules,
-                c.ici.max_names_per_source
+                c.ici.max_names_per_source,
+                c.ici.max_names
             ),
-            (50, 500, 20, 300)
+            (50, 500, 20, 300, 9000)
         );
         assert_eq!(c.ici.max_answer_bytes_per_requester, 5000);
         assert_eq!(c.ici.catch_up_retry, Duration::from_secs(1));

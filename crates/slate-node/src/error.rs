@@ -102,6 +102,9 @@ pub enum StartError {
     /// The team's keys (`[security]` in the config) cannot be used.
     #[error("cannot use the team's keys: {0}")]
     Keys(#[from] crate::team_keys::KeysError),
+    /// A rule of `[authority.writes]` names what the board does not have.
+    #[error("{0}")]
+    Authority(String),
     /// The Foxglove server (`foxglove` in the config) did not start.
     #[error(transparent)]
     Foxglove(#[from] crate::foxglove::FoxgloveError),

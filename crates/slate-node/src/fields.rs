@@ -146,6 +146,26 @@ impl Fields {
         }
     }
 
+    /// An optional sub-table whose keys are the user's (not a fixed set), read key by
+    /// key with [`Fields::keys`].
+    pub fn free_table(&mut self, key: &str) -> Result<Option<Fields>, ConfigError> {
+        match self.take(key) {
+            Some(Value::Table(table)) => Ok(Some(Fields {
+                file: self.file.clone(),
+                prefix: format!("{}{key}.", self.prefix),
+                table,
+                known: &[],
+            })),
+            Some(v) => Err(self.invalid(key, "a table", &describe(&v))),
+            None => Ok(None),
+        }
+    }
+
+    /// The keys not read yet, in order.
+    pub fn keys(&self) -> Vec<String> {
+        self.table.keys().cloned().collect()
+    }
+
     /// An optional sub-table, read with its own known keys.
     pub fn table(
         &mut self,

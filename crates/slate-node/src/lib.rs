@@ -58,7 +58,7 @@ pub mod team_keys;
 mod timers;
 mod view;
 
-pub use authority::PlanSender;
+pub use authority::{PlanSender, WritesFrom};
 pub use config::{NodeConfig, SourceFile, class_set, default_ici, parse_toml, read_text};
 pub use error::{ConfigError, Error, ObserveError, StartError};
 pub use fields::parse_duration;

@@ -382,8 +382,10 @@ pub(crate) fn board_event(e: &BoardEvent) -> String {
 fn suppressed(e: &BoardEvent) -> u64 {
     match e {
         BoardEvent::FutureStamp { suppressed, .. }
+        | BoardEvent::FunctionFailed { suppressed, .. }
         | BoardEvent::ObjectLimit { suppressed, .. }
         | BoardEvent::NotOwner { suppressed, .. }
+        | BoardEvent::Unauthorised { suppressed, .. }
         | BoardEvent::NameLimit { suppressed, .. }
         | BoardEvent::ModuleLimit { suppressed, .. } => *suppressed,
         _ => 0,
@@ -438,6 +440,24 @@ fn board_event_alone(e: &BoardEvent) -> String {
             ..
         } => format!(
             "packet for {object}.{attr} from {writer} refused: the attribute is owned, and only its owner {owner} may write it"
+        ),
+        BoardEvent::Unauthorised {
+            object,
+            attr: Some(attr),
+            writer,
+            rule,
+            ..
+        } => format!(
+            "packet for {object}.{attr} from {writer} refused: {rule} on this board ([authority] writes)"
+        ),
+        BoardEvent::Unauthorised {
+            object,
+            attr: None,
+            writer,
+            rule,
+            ..
+        } => format!(
+            "object {object} of {writer} refused: {rule} on this board ([authority] writes)"
         ),
         BoardEvent::NameLimit { source, limit, .. } => format!(
             "a message from {source} refused: it would make this node hold more than {limit} names of that module (ici.max_names_per_source)"

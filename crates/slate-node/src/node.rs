@@ -15,7 +15,9 @@ use slate_plans::{Engine, LinkName, LoadError, Loaded};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 use zenoh::query::Queryable;
 
-use crate::authority::{PlanSender, default_plans_from, plan_authority};
+use crate::authority::{
+    PlanSender, WritesFrom, default_plans_from, plan_authority, write_authority,
+};
 use crate::config::{NodeConfig, SourceFile, default_ici};
 use crate::error::StartError;
 use crate::foxglove::Foxglove;
@@ -76,6 +78,7 @@ pub struct NodeBuilder {
     record: Option<RecordConfig>,
     state: Option<StateConfig>,
     plans_from: Vec<PlanSender>,
+    writes_from: Vec<WritesFrom>,
 }
 
 impl NodeBuilder {
@@ -96,6 +99,7 @@ impl NodeBuilder {
             record: None,
             state: None,
             plans_from: default_plans_from(),
+            writes_from: Vec::new(),
         }
     }
 
@@ -193,6 +197,15 @@ impl NodeBuilder {
         self
     }
 
+    /// Who may write which classes and attributes on the node's board besides itself
+    /// (`[authority.writes]`; by default no rule: any module, as the merge policies
+    /// allow). Each rule's class and attribute must be on the board once its sources
+    /// load, or the start fails.
+    pub fn writes_from(mut self, rules: Vec<WritesFrom>) -> Self {
+        self.writes_from = rules;
+        self
+    }
+
     /// Starts the node: loads the sources, restores its state, joins the network, starts the ICI, the plan
     /// circuits, the timers (on the system clock) and the dashboard.
     pub fn start(self) -> Result<Node, StartError> {
@@ -236,6 +249,14 @@ impl NodeBuilder {
         let mut zenoh = None;
         let operators = secured_operators(&self.address, &self.transport);
         let authority = plan_authority(&self.address, &self.plans_from, operators.as_deref());
+        let writes = write_authority(
+            &self.address,
+            &self.writes_from,
+            operators.as_deref(),
+            &board,
+        )
+        .map_err(StartError::Authority)?;
+        board.set_write_authority(writes);
         let (transport, listen): (Arc<dyn Transport>, Vec<String>) = match self.transport {
             TransportChoice::Zenoh(config) => {
                 let t = ZenohTransport::open(self.address.clone(), &config)?;
@@ -483,7 +504,9 @@ impl Node {
         if let Some(s) = &config.state {
             b = b.state(s.clone());
         }
-        b.plans_from(config.plans_from.clone()).start()
+        b.plans_from(config.plans_from.clone())
+            .writes_from(config.writes_from.clone())
+            .start()
     }
 
     fn started(&self) {

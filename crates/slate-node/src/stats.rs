@@ -242,7 +242,8 @@ impl Drops {
                 + r.object_conflicts
                 + r.class_conflicts
                 + r.over_limit
-                + s.merges.not_owner,
+                + s.merges.not_owner
+                + s.merges.unauthorised,
             duplicates: r.duplicates,
             team_dropped: t.pending_dropped + t.parked_dropped + t.undecoded_dropped,
             behind_dropped: 0,

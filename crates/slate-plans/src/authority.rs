@@ -1,15 +1,17 @@
 //! The authority a received plan runs with: that of the module that sent it (its
 //! origin). A plan this board loaded itself writes as this module does; a received one
-//! may not write an `owned` attribute of an object its origin does not own, though the
-//! module running it may (docs/security.md, *Authority over plans*). Judged when an
-//! action's effects are applied, so a target chosen at run time (`any o: ...`) is judged
-//! too: a refused write fails the whole action, which then writes nothing.
+//! may write only what this board would take from its origin: not an `owned` attribute
+//! of an object its origin does not own, nor what the board's `[authority] writes` do
+//! not let its origin write, though the module running it may (docs/security.md,
+//! *Authority over plans*). Judged when an action's effects are applied, so a target
+//! chosen at run time (`any o: ...`) is judged too: a refused write fails the whole
+//! action, which then writes nothing.
 
 use std::collections::HashMap;
 use std::sync::Arc;
 
 use parking_lot::Mutex;
-use slate_model::{Address, Board, MergePolicy};
+use slate_model::{Address, Board, WriteError};
 
 use crate::action::Effect;
 
@@ -35,27 +37,35 @@ impl Origins {
     }
 }
 
-/// Why `plan`, running as `origin`, may not apply `effects` on `board`: the first write
-/// of an `owned` attribute of an object `origin` does not own.
+/// Why `plan`, running as `origin`, may not apply `effects` on `board`: the first
+/// write the board would not take from `origin` ([`Board::write_refusal`]: an `owned`
+/// attribute of an object `origin` does not own, or what the board's `[authority]
+/// writes` do not let `origin` write), or object of a class it may not create.
 pub(crate) fn refusal(
     board: &Board,
     plan: &str,
     origin: &Address,
     effects: &[Effect],
 ) -> Option<String> {
-    effects.iter().find_map(|e| match e {
-        Effect::Write(object, attr, _, _) => owned_by_another(board, object, attr, origin).map(|owner| {
-            format!(
-                "plan {plan} runs with the authority of {origin}: {origin} may not write {object}.{attr}, an owned attribute owned by {owner}"
-            )
-        }),
-        _ => None,
+    effects.iter().find_map(|e| {
+        let refused = match e {
+            Effect::Write(object, attr, _, _) => board.write_refusal(object, attr, origin),
+            Effect::Create(spec) => board.admit_write(&spec.class, &spec.name, None, origin, false),
+            _ => Ok(()),
+        };
+        let why = match refused.err()? {
+            WriteError::NotOwner {
+                object,
+                attr,
+                owner,
+                writer,
+            } => format!(
+                "{writer} may not write {object}.{attr}, an owned attribute owned by {owner}"
+            ),
+            other => other.to_string(),
+        };
+        Some(format!(
+            "plan {plan} runs with the authority of {origin}: {why}"
+        ))
     })
-}
-
-/// The owner of `object`, if `attr` is `owned` there and `writer` is not its owner.
-fn owned_by_another(board: &Board, object: &str, attr: &str, writer: &Address) -> Option<Address> {
-    let info = board.info(object).filter(|i| !i.is_class)?;
-    let decl = board.attr_decl(&info.class, attr)?;
-    (decl.merge == MergePolicy::Owned && info.owner != *writer).then_some(info.owner)
 }

@@ -309,8 +309,11 @@ impl Engine {
     }
 
     /// The plan named `plan`, once loaded, runs with the authority of `origin` (a plan
-    /// received from another module): its actions may not write an `owned` attribute of
-    /// an object `origin` does not own. Set before the plan is loaded; `None` clears it.
+    /// received from another module): its actions may write only what the board would
+    /// take from `origin` ([`Board::write_refusal`](slate_model::Board::write_refusal):
+    /// not an `owned` attribute of an object `origin` does not own, nor what the board's
+    /// write rules do not let `origin` write). Set before the plan is loaded; `None`
+    /// clears it.
     pub fn run_as(&self, plan: &str, origin: Option<&slate_model::Address>) {
         match origin {
             Some(origin) => self.shared.origins.set(plan, origin.clone()),
@@ -626,7 +629,7 @@ impl Shared {
         let Some(at) = outcome.wake_at else { return };
         let rt = &mut st.plans[idx];
         rt.timer_gen += 1;
-        let due = micros(Duration::from_secs_f64(at.max(0.0)));
+        let due = micros(Duration::try_from_secs_f64(at.max(0.0)).unwrap_or(Duration::MAX));
         st.timers.push(Reverse((due, idx, rt.timer_gen)));
         let mut next = self.wake.0.lock();
         if next.is_none_or(|n| due < n) {

@@ -16,16 +16,20 @@ use crate::stream;
 /// An event. `kind` says which; the other fields are set where they apply:
 ///
 /// - board events: `"function_failed"` (`function`, `object`, `attr`, `trigger`, `error`:
-///   an active function raised or failed; the access that ran it stands),
+///   an active function raised or failed; the access that ran it stands; at most one a
+///   second per function, with `suppressed`),
 ///   `"chain_cut"` (`error`: a chain of active functions was too deep or a cycle),
 ///   `"future_stamp"` (`object`, `attr`, `source`, `error`: a received packet stamped
 ///   beyond the clock's tolerance was refused), `"class_conflict"` (`object` is the
 ///   class, `source` the module that defines it differently; their objects are not merged),
 ///   `"not_owner"` (`object`, `attr`, `source` the writer, `error` naming the owner: a
 ///   received packet for an `owned` attribute from another module than its owner was
-///   refused), `"object_limit"` (`object`, `source` its owner), `"name_limit"` (`source`)
+///   refused), `"unauthorised"` (`object`, `attr` unless an object's creation was
+///   refused, `source` the writer, `error` naming the rule: this board's `[authority]
+///   writes` do not let the writer write it), `"object_limit"` (`object`, `source` its owner), `"name_limit"` (`source`)
 ///   and `"module_limit"` (`source` the address refused): what arrived was past one of
-///   the node's bounds and was refused. The refusals (`future_stamp`, `not_owner` and
+///   the node's bounds and was refused. The refusals (`future_stamp`, `not_owner`,
+///   `unauthorised` and
 ///   the limits) are told at most once a second per source; `suppressed` says how many
 ///   more like it came since the last one. `"other"` is a kind this version does not
 ///   name (`error` describes it);
@@ -95,6 +99,7 @@ impl From<BoardEvent> for Event {
                 attr,
                 trigger,
                 error,
+                suppressed,
             } => Event {
                 kind: "function_failed",
                 function: Some(function),
@@ -102,6 +107,7 @@ impl From<BoardEvent> for Event {
                 attr: Some(attr),
                 trigger: Some(trigger.to_string()),
                 error: Some(error),
+                suppressed: Some(suppressed),
                 ..Event::default()
             },
             BoardEvent::ChainCut(cut) => Event {
@@ -138,6 +144,7 @@ impl From<BoardEvent> for Event {
                 ..Event::default()
             },
             refusal @ (BoardEvent::NotOwner { .. }
+            | BoardEvent::Unauthorised { .. }
             | BoardEvent::ObjectLimit { .. }
             | BoardEvent::NameLimit { .. }
             | BoardEvent::ModuleLimit { .. }) => refused(refusal),
@@ -164,6 +171,21 @@ fn refused(e: BoardEvent) -> Event {
             kind: "not_owner",
             object: Some(object),
             attr: Some(attr),
+            source: Some(writer.to_string()),
+            suppressed: Some(suppressed),
+            error,
+            ..Event::default()
+        },
+        BoardEvent::Unauthorised {
+            object,
+            attr,
+            writer,
+            suppressed,
+            ..
+        } => Event {
+            kind: "unauthorised",
+            object: Some(object),
+            attr,
             source: Some(writer.to_string()),
             suppressed: Some(suppressed),
             error,
@@ -214,6 +236,9 @@ fn refusal_text(e: &BoardEvent) -> String {
     match e {
         BoardEvent::NotOwner { owner, .. } => {
             format!("the attribute is owned, and only its owner {owner} may write it: refused")
+        }
+        BoardEvent::Unauthorised { rule, .. } => {
+            format!("{rule} on this board ([authority] writes): refused")
         }
         BoardEvent::ObjectLimit { limit, total, .. } => {
             let whose = if *total {

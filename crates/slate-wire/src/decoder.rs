@@ -11,8 +11,8 @@ use crate::message::Kind;
 use crate::names::{Section, SourceDict, View, read_section};
 use crate::report::{ReportReader, read_report};
 use crate::{
-    DecodeError, DecodeStats, MAX_MESSAGE_BYTES, MAX_NAMES_PER_SOURCE, MAX_SOURCES, Message, Names,
-    Schema, VERSION,
+    DecodeError, DecodeStats, MAX_MESSAGE_BYTES, MAX_NAMES, MAX_NAMES_PER_SOURCE, MAX_SOURCES,
+    Message, Names, Schema, VERSION,
 };
 
 /// Turns bytes back into messages, for every source a module hears.
@@ -30,6 +30,11 @@ use crate::{
 /// once by [`take_evicted`](Decoder::take_evicted); the evicted source's next message
 /// that uses its names is refused as [`DecodeError::UnknownName`], which asks it to
 /// announce them again. A new source is never refused for want of room.
+///
+/// The names of all sources together are bounded too ([`MAX_NAMES`], or
+/// [`with_max_total_names`](Decoder::with_max_total_names)): a message whose names would
+/// pass it makes the sources heard least recently give up their dictionaries first, in
+/// the same way (counted, the last named).
 #[derive(Debug)]
 pub struct Decoder {
     sources: FxHashMap<Address, Heard>,
@@ -41,6 +46,10 @@ pub struct Decoder {
     max_sources: usize,
     /// How many names one source's dictionary may hold.
     max_names: usize,
+    /// How many names all dictionaries together may hold.
+    max_total: usize,
+    /// How many they hold.
+    total: usize,
     stats: DecodeStats,
 }
 
@@ -72,6 +81,8 @@ impl Decoder {
             evicted: None,
             max_sources: max.max(1),
             max_names: MAX_NAMES_PER_SOURCE,
+            max_total: MAX_NAMES,
+            total: 0,
             stats: DecodeStats::default(),
         }
     }
@@ -81,7 +92,20 @@ impl Decoder {
     /// dictionary past it is refused whole, as [`DecodeError::TooManyNames`].
     pub fn with_max_names(mut self, max: usize) -> Self {
         self.max_names = max;
+        self.max_total = self.max_total.max(max);
         self
+    }
+
+    /// The same decoder, holding at most `max` names of all sources together (at least
+    /// its bound per source; [`MAX_NAMES`] by default).
+    pub fn with_max_total_names(mut self, max: usize) -> Self {
+        self.max_total = max.max(self.max_names);
+        self
+    }
+
+    /// The names it holds, of all sources together.
+    pub fn names(&self) -> usize {
+        self.total
     }
 
     /// Decodes one message from `from`. Values are unpacked against `schema`, which must
@@ -121,7 +145,9 @@ impl Decoder {
 
     /// Drops what `from` announced (the source is gone, or restarted).
     pub fn forget(&mut self, from: &Address) {
-        self.sources.remove(from);
+        if let Some(gone) = self.sources.remove(from) {
+            self.total -= gone.dict.len();
+        }
     }
 
     fn read(
@@ -192,25 +218,41 @@ impl Decoder {
         })
     }
 
-    /// Applies a decoded names section, making room for a new source if needed.
+    /// Applies a decoded names section, making room for a new source, and for its names
+    /// among all sources', if needed.
     fn apply(&mut self, from: &Address, section: Section) {
         if !self.sources.contains_key(from) && self.sources.len() >= self.max_sources {
-            self.evict_least_recent();
+            self.evict_least_recent(from);
         }
+        let base = self.sources.get(from).map(|h| &h.dict);
+        let (before, after) = (
+            base.map_or(0, SourceDict::len),
+            SourceDict::len_with(base, &section),
+        );
+        // At most `max_names` (checked) of `max_total`: the others can always make room.
+        while self.total - before + after > self.max_total && self.evict_least_recent(from) {}
         let heard = self.sources.entry(from.clone()).or_default();
         heard.dict.apply(section);
+        self.total = self.total - before + heard.dict.len();
     }
 
-    /// Drops the dictionary of the source heard least recently (a scan: it happens only
-    /// when a new source finds the table full).
-    fn evict_least_recent(&mut self) {
-        let oldest = self.sources.iter().min_by_key(|(_, h)| h.last);
+    /// Drops the dictionary of the source heard least recently other than `keep` (a scan:
+    /// it happens only when the table or the names are full); false if there is none.
+    fn evict_least_recent(&mut self, keep: &Address) -> bool {
+        let oldest = self
+            .sources
+            .iter()
+            .filter(|(a, _)| *a != keep)
+            .min_by_key(|(_, h)| h.last);
         let Some(gone) = oldest.map(|(a, _)| a.clone()) else {
-            return;
+            return false;
         };
-        self.sources.remove(&gone);
+        if let Some(heard) = self.sources.remove(&gone) {
+            self.total -= heard.dict.len();
+        }
         self.stats.evicted += 1;
         self.evicted = Some(gone);
+        true
     }
 }
 

@@ -80,8 +80,8 @@ pub use error::{DecodeError, DecodeStats, EncodeError};
 #[cfg(feature = "testing")]
 pub use fuzz::{fuzz_classes, fuzz_decode, fuzz_source};
 pub use limits::{
-    MAX_ELEMENTS, MAX_IDS, MAX_ITEMS, MAX_MESSAGE_BYTES, MAX_NAME_BYTES, MAX_NAMES_PER_SOURCE,
-    MAX_SOURCES, MAX_TEXT_BYTES, VERSION,
+    MAX_ELEMENTS, MAX_IDS, MAX_ITEMS, MAX_MESSAGE_BYTES, MAX_NAME_BYTES, MAX_NAMES,
+    MAX_NAMES_PER_SOURCE, MAX_SOURCES, MAX_TEXT_BYTES, VERSION,
 };
 pub use message::{
     Assertion, AssertionParts, CatchUpRequest, Heartbeat, Message, Names, ObjectEntry, Plan,

@@ -35,3 +35,11 @@ pub const MAX_SOURCES: usize = 4096;
 /// each. A sender never forgets a name until it restarts, so this is what one module may
 /// name in its lifetime; the demo's modules name a few hundred at most.
 pub const MAX_NAMES_PER_SOURCE: usize = 16_384;
+
+/// Most names one decoder holds of all its sources together: past it, the sources heard
+/// least recently give up their dictionaries (and announce their names again when next
+/// they speak), so that [`MAX_SOURCES`] sources cannot make a receiver hold
+/// [`MAX_NAMES_PER_SOURCE`] names each. 262 144 names of at most [`MAX_NAME_BYTES`] is
+/// at most 256 MiB; the demo's 8 robots (about 50 modules of a few hundred names) hold
+/// some 15 000, its 24 robots some 45 000.
+pub const MAX_NAMES: usize = 262_144;

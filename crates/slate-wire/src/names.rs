@@ -138,7 +138,7 @@ pub(crate) struct Section {
 
 impl SourceDict {
     /// The names it holds, all tables together.
-    fn len(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.addrs.len() + self.classes.len() + self.attrs.len() + self.objects.len()
     }
 

@@ -680,6 +680,52 @@ fn a_participant_creating_objects_past_a_real_nodes_bound_is_refused_counted_and
     team.stop();
 }
 
+/// Issue 17, item 3 against a real node: loco, a `slate node` process whose config lets
+/// only nav write an obstacle's range (`[authority.writes]`), hears a participant on
+/// 127.0.0.1 write nav's rock.range: it refuses it, counts it in `slate stats`, says so
+/// in an event naming the rule, keeps nav's value, stays up and stops cleanly.
+#[test]
+fn a_participant_writing_what_a_real_nodes_rules_keep_is_refused_counted_and_evented() {
+    let mut team = Team::new("authority-writes");
+    team.add("t/r1/nav", "object rock : Obstacle { range = 7.5; }");
+    let connect: Vec<String> = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+    let rules = "[authority.writes]\n\"Obstacle.range\" = [\"t/r1/nav\"]";
+    let loco = NodeProc::start_config(
+        &team.dir,
+        "t/r2/loco",
+        "",
+        &connect,
+        &["\"Thing\"", "", rules],
+    );
+    team.nodes.push(loco);
+    team.wait_connected();
+    let loco = team.node("t/r2/loco");
+    assert!(loco.wait_value("rock", "range", "7.5"), "{}", team.logs());
+    let endpoints = team.nodes.iter().map(|n| n.endpoint.clone()).collect();
+    let evil = sprayer("t/r9/evil", endpoints, 0);
+    let heard = eventually(Duration::from_secs(20), || {
+        evil.board().info("rock").is_some()
+    });
+    assert!(heard, "the participant hears of nav's rock");
+    let said =
+        "packet for rock.range from t/r9/evil refused: Obstacle.range may be written by t/r1/nav";
+    let told = eventually(Duration::from_secs(20), || {
+        drop(evil.board().write("rock", "range", 66.0));
+        event_texts(loco).iter().any(|t| t.contains(said))
+    });
+    assert!(told, "{:?}\n{}", event_texts(loco), team.logs());
+    assert_eq!(
+        value_in(&loco.snapshot(), "rock", "range").as_deref(),
+        Some("7.5")
+    );
+    let refused = loco_refused(&team);
+    assert!(refused.is_some_and(|n| n >= 1), "{refused:?}");
+    evil.close();
+    let (clean, log) = team.nodes.remove(1).stop();
+    assert!(clean, "loco stayed up and stopped cleanly: {log}");
+    team.stop();
+}
+
 /// The same participant against a node that holds at most 20 names of any module: its
 /// reports past them are refused, counted and evented; loco stays up, nav's untouched.
 #[test]
@@ -696,6 +742,83 @@ fn a_participant_naming_past_a_real_nodes_bound_is_refused_counted_and_evented()
     assert!(loco_refused(&team).is_some_and(|n| n >= 1));
     spray.close();
     let (clean, log) = team.nodes.remove(1).stop();
+    assert!(clean, "loco stayed up and stopped cleanly: {log}");
+    team.stop();
+}
+
+/// Counts the catch-up answer bytes a participant is sent, and drops everything.
+#[derive(Default)]
+struct AnswerBytes(std::sync::atomic::AtomicU64);
+
+impl slate_ici::Handler for AnswerBytes {
+    fn message(&self, _: &Address, bytes: &[u8]) {
+        if slate_ici::MsgKind::of(bytes) == slate_ici::MsgKind::CatchUpAnswer {
+            let n = bytes.len() as u64;
+            self.0.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    fn peer(&self, _: &Address, _: bool) {}
+}
+
+/// Finding 5 (a 3-byte catch-up request draws the whole state) against a real node:
+/// loco, a `slate node` process holding 200 obstacles and answering one requester at most
+/// 2 KiB a second (`[ici] max_answer_bytes_per_requester`), is asked for its state 500
+/// times in 5 s by a participant on 127.0.0.1 (a raw Zenoh transport in the test's
+/// process, on loco's robot): it sends a bounded number of answer bytes, stays up and
+/// stops cleanly. One answer per heartbeat interval alone (250 ms) would allow 20.
+#[test]
+fn a_participant_asking_a_real_node_for_catch_up_in_a_loop_gets_a_bounded_number_of_bytes() {
+    use slate_ici::{MsgKind, Transport};
+    use slate_wire::{CatchUpRequest, Encoder, Message, Schema};
+    let mut team = Team::new("bounds-answers");
+    let rocks: String = (0..200)
+        .map(|i| format!("object rock{i} : Obstacle {{ range = {i}.5; }}\n"))
+        .collect();
+    team.add_with_ici("t/r2/loco", &rocks, "max_answer_bytes_per_requester = 2048");
+    let loco = team.node("t/r2/loco");
+    let me = Address::new("t/r2/flood").unwrap();
+    let zenoh = ZenohConfig {
+        connect: vec![loco.endpoint.clone()],
+        ..ZenohConfig::default()
+    };
+    let flood = slate_zenoh::ZenohTransport::open(me.clone(), &zenoh).unwrap();
+    let answers = std::sync::Arc::new(AnswerBytes::default());
+    flood.set_handler(answers.clone());
+    let request = Message::CatchUpRequest(CatchUpRequest {
+        have_seq: 0,
+        needs_names: true,
+        needs_classes: true,
+    });
+    let bytes = Encoder::new(me)
+        .encode(&request, &Schema::new(&[]))
+        .unwrap();
+    let to = Address::new("t/r2/loco").unwrap();
+    let received = || answers.0.load(std::sync::atomic::Ordering::Relaxed);
+    let answered = eventually(Duration::from_secs(20), || {
+        drop(flood.send(&to, MsgKind::CatchUpRequest, &bytes));
+        std::thread::sleep(Duration::from_millis(200));
+        received() > 0
+    });
+    assert!(answered, "loco answers a request\n{}", team.logs());
+    std::thread::sleep(Duration::from_secs(2));
+    let one_state = received();
+    assert!(one_state > 2048, "one state: {one_state} bytes");
+    let before = received();
+    for _ in 0..500 {
+        drop(flood.send(&to, MsgKind::CatchUpRequest, &bytes));
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(500));
+    let sent = received() - before;
+    // The debt of the answers before, paid off at 2 KiB/s, then 2 KiB/s: at most two
+    // states (one owed, one whole) beyond 5.5 s of the rate.
+    assert!(
+        sent <= 2 * one_state + 6 * 2048,
+        "{sent} bytes of answers in 5 s for a state of {one_state}"
+    );
+    assert!(sent < 10 * one_state, "{sent} vs {one_state}");
+    flood.close();
+    let (clean, log) = team.nodes.remove(0).stop();
     assert!(clean, "loco stayed up and stopped cleanly: {log}");
     team.stop();
 }

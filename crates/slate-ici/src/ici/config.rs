@@ -83,6 +83,12 @@ pub struct IciConfig {
     /// (`rejects.over_limit`) and an event (`BoardEvent::NameLimit`), so that one module
     /// cannot fill the decoder's dictionaries (up to 4 x 65 536 names of 1 KiB each).
     pub max_names_per_source: usize,
+    /// The most names all modules' messages together may make this ICI hold (default
+    /// 262 144, `slate_wire::MAX_NAMES`; at least `max_names_per_source`): past it, the
+    /// modules heard least recently give up their names (counted as `decode.evicted`),
+    /// and announce them again when next they speak, so that `max_sources` modules
+    /// cannot make it hold `max_names_per_source` names each.
+    pub max_names: usize,
     /// The most bytes of catch-up answers this module sends one requester a second, on
     /// average (default 64 KiB): an answer goes whole, and the requester's next waits
     /// until the bytes sent are paid off at this rate (counted as
@@ -237,6 +243,7 @@ impl Default for IciConfig {
             max_objects: 32_768,
             max_modules: 1024,
             max_names_per_source: slate_wire::MAX_NAMES_PER_SOURCE,
+            max_names: slate_wire::MAX_NAMES,
             max_answer_bytes_per_requester: 64 * 1024,
             observer: false,
             team_protocol: None,

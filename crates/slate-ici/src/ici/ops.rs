@@ -47,6 +47,7 @@ pub(crate) struct Tally {
     applied: u64,
     kept: u64,
     not_owner: u64,
+    unauthorised: u64,
     invalid: u64,
     /// Packets stamped beyond the board clock's tolerance (the board reported each).
     future: u64,
@@ -61,6 +62,7 @@ impl Tally {
             Ok(Merged::Applied(_)) => self.applied += 1,
             Ok(Merged::Kept) => self.kept += 1,
             Ok(Merged::NotOwner) => self.not_owner += 1,
+            Ok(Merged::Unauthorised) => self.unauthorised += 1,
             Ok(Merged::FromTheFuture { .. }) => self.future += 1,
             Err(e) => {
                 self.invalid += 1;
@@ -71,7 +73,8 @@ impl Tally {
 
     /// Adds the counts to the state's stats (one lock for a whole queue of merges).
     pub fn flush(self, state: &Mutex<State>) {
-        if self.applied + self.kept + self.not_owner + self.invalid + self.future == 0 {
+        let any = self.applied + self.kept + self.not_owner + self.unauthorised;
+        if any + self.invalid + self.future == 0 {
             return;
         }
         let mut st = state.lock();
@@ -82,6 +85,7 @@ impl Tally {
         m.applied += self.applied;
         m.kept += self.kept;
         m.not_owner += self.not_owner;
+        m.unauthorised += self.unauthorised;
         st.stats.rejects.invalid += self.invalid;
         st.stats.rejects.future += self.future;
     }
@@ -110,6 +114,14 @@ pub(crate) fn apply(board: &Board, state: &Mutex<State>, op: BoardOp, tally: &mu
 
 fn ensure(board: &Board, state: &Mutex<State>, spec: NewObject) {
     if board.info(&spec.name).is_some() || super::limits::refuses_object(board, state, &spec) {
+        return;
+    }
+    let owner = spec.owner.clone().unwrap_or_else(Address::unknown);
+    if board
+        .admit_write(&spec.class, &spec.name, None, &owner, true)
+        .is_err()
+    {
+        state.lock().stats.merges.unauthorised += 1;
         return;
     }
     let name = spec.name.clone();

@@ -452,7 +452,7 @@ impl State {
         let known = self.known.get(&a.object.name, &a.attr);
         if let Some(k) = known.filter(|k| k.entry == a.object) {
             let (merge, key) = (k.merge, k.key);
-            return self.merge_item(&a.object.name, a.attr, merge, Some(key), a.packet);
+            return self.merge_item(&a.object, a.attr, merge, Some(key), a.packet);
         }
         let Some(context) = self.interested(from, &a.object) else {
             return;
@@ -482,7 +482,7 @@ impl State {
             };
             self.known.insert(&a.object.name, &a.attr, known);
         }
-        self.merge_item(&a.object.name, a.attr, merge, key, a.packet);
+        self.merge_item(&a.object, a.attr, merge, key, a.packet);
     }
 
     /// The context the object takes on this board, if this board models it.
@@ -560,12 +560,13 @@ impl State {
 
     fn merge_item(
         &mut self,
-        object: &Arc<str>,
+        entry: &ObjectEntry,
         attr: Arc<str>,
         merge: MergePolicy,
         board_key: Option<slate_model::Key>,
         packet: Packet,
     ) {
+        let object = &entry.name;
         if merge == MergePolicy::Confident {
             let key = (object.clone(), attr.clone());
             if self
@@ -585,9 +586,18 @@ impl State {
             });
             return;
         }
-        // Merges check stamps on the board; a fused estimate is kept here instead.
+        // Merges check stamps and writers on the board; a fused estimate is kept here
+        // instead.
         if self.board.admit_stamp(object, &attr, &packet).is_err() {
             self.stats.rejects.future += 1;
+            return;
+        }
+        let writer = &packet.source;
+        let admitted = self
+            .board
+            .admit_write(&entry.class, object, Some(&attr), writer, true);
+        if admitted.is_err() {
+            self.stats.merges.unauthorised += 1;
             return;
         }
         let key = (object.clone(), attr);

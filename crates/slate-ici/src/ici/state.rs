@@ -309,7 +309,8 @@ impl State {
             board,
             transport,
             decoder: Decoder::with_max_sources(config.max_sources)
-                .with_max_names(config.max_names_per_source),
+                .with_max_names(config.max_names_per_source)
+                .with_max_total_names(config.max_names),
             config,
             out,
             peers: BTreeMap::new(),

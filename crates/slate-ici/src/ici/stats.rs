@@ -211,6 +211,9 @@ pub struct MergeStats {
     pub kept: u64,
     /// `owned` attribute written by a module that does not own the object: refused.
     pub not_owner: u64,
+    /// Packets and objects refused: this board's rules (`[authority] writes`) do not let
+    /// their writer write them (each also a `BoardEvent::Unauthorised`).
+    pub unauthorised: u64,
     /// Estimates taken into a `fused` attribute.
     pub fused: u64,
     /// Objects created on receipt.

@@ -11,7 +11,7 @@ use slate_ici::{
     MAX_PLAN_TEXT_BYTES, MsgKind, PlanAuthority, PlanCircuits, PlanHandle, Rng, SendError,
     SendPlanError, SimConfig, SimNet, Transport,
 };
-use slate_model::{Address, Board};
+use slate_model::{Address, Board, WriteAuthority};
 use slate_plans::{Engine, PlanState};
 use slate_wire::{Decoder, Message, Plan, PlanAck, PlanStep, Schema};
 
@@ -1182,4 +1182,42 @@ fn a_received_plan_cannot_write_an_owned_attribute_its_origin_does_not_own() {
     cell.engine.load("own.slate", own).unwrap();
     net.run_for(secs(0.5));
     assert_eq!(cell.board.read("vault", "code").unwrap().value, 7.0.into());
+}
+
+#[test]
+fn a_received_plan_cannot_write_what_the_boards_rules_do_not_let_its_origin_write() {
+    // Issue 17, item 3: the cell's board lets only its own robot write the vault's level
+    // (`[authority.writes]`). The planner may send the cell plans, so its plan is
+    // accepted, but it runs with the planner's authority: writing the level fails with
+    // the rule, creating a vault too; the cell's own plan writes it.
+    let vault = "class Vault { level: real = 0.0; } object vault : Vault;";
+    let net = SimNet::new(75);
+    let planner = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", vault);
+    let robot = vec![AddressPattern::robot_of(&addr("t/r2/cell"))];
+    cell.board
+        .set_write_authority(WriteAuthority::default().rule("Vault", None, robot));
+    net.run_for(secs(0.5));
+    let fill = "plan fill { action { set vault.level = 3.0; } }";
+    let (_h, got) = send_until_initiated(&net, &planner, "t/r2/cell", fill);
+    assert_eq!(got[..2], [PlanStep::Received, PlanStep::Accepted]);
+    net.run_for(secs(0.5));
+    assert_eq!(cell.board.read("vault", "level").unwrap().value, 0.0.into());
+    let error = cell.engine.status("fill").and_then(|s| s.last_error);
+    let error = error.unwrap_or_default();
+    assert!(
+        error.contains("runs with the authority of t/r1/planner")
+            && error.contains("t/r1/planner may not write vault.level")
+            && error.contains("Vault may be written by t/r2/*"),
+        "{error}"
+    );
+    let make = "plan make { action { create Vault spare; } }";
+    send_until_initiated(&net, &planner, "t/r2/cell", make);
+    net.run_for(secs(0.5));
+    assert!(cell.board.info("spare").is_none());
+
+    let own = "plan own { action { set vault.level = 7.0; } }";
+    cell.engine.load("own.slate", own).unwrap();
+    net.run_for(secs(0.5));
+    assert_eq!(cell.board.read("vault", "level").unwrap().value, 7.0.into());
 }

@@ -6,7 +6,9 @@ use std::time::Duration;
 
 use crossbeam_channel::Receiver;
 use slate_ici::{Ici, SimConfig};
-use slate_model::{Board, BoardEvent, Clock, Timestamp, Update, WriteError};
+use slate_model::{
+    AddressPattern, Board, BoardEvent, Clock, Timestamp, Update, WriteAuthority, WriteError,
+};
 
 use crate::support::{Team, addr, classes, open};
 
@@ -145,6 +147,14 @@ fn a_write_of_an_owned_attribute_by_another_module_is_refused_counted_and_evente
     team.members.retain(|n| n.address.as_str() != "t/r1/evil");
 }
 
+/// 6 s of refusals, each event counting itself and those it held back (`told`):
+/// at most one event a second; together they tell of no more than were `refused` (all but
+/// the last second's).
+fn assert_one_event_a_second(told: Vec<u64>, refused: u64) {
+    assert!((2..=7).contains(&told.len()), "{} events", told.len());
+    assert!(told.iter().sum::<u64>() <= refused, "{told:?} of {refused}");
+}
+
 #[test]
 fn a_peer_sending_a_thousand_not_owner_writes_makes_a_bounded_number_of_events_and_each_is_counted()
 {
@@ -162,26 +172,131 @@ fn a_peer_sending_a_thousand_not_owner_writes_makes_a_bounded_number_of_events_a
     let refused = team.member("t/r2/nav").ici.stats().merges.not_owner;
     assert!(refused >= 100, "{refused} refused");
     assert_eq!(receiver.stats().not_owner, refused, "the board counts each");
+    let from_evil = events.try_iter().filter_map(|e| match e {
+        BoardEvent::NotOwner {
+            suppressed, writer, ..
+        } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
+        _ => None,
+    });
+    assert_one_event_a_second(from_evil.collect(), refused);
+    team.members.retain(|n| n.address.as_str() != "t/r1/evil");
+}
+
+// ----- Authority over writes: what a board's rules let others write on it -----
+
+/// [`evil_beside_nav`], where r2/nav's board lets only the navs write a `Vehicle`'s
+/// `mode` (`[authority.writes] "Vehicle.mode" = ["t/*/nav"]`), and nav has written
+/// v.mode = "auto"; evil's board has v too.
+fn evil_beside_nav_with_rules(seed: u64) -> (Team, Arc<Board>, Receiver<BoardEvent>, Arc<Board>) {
+    let (team, receiver, events, evil) = evil_beside_nav(seed);
+    let navs = vec![AddressPattern::new("t/*/nav").unwrap()];
+    receiver.set_write_authority(WriteAuthority::default().rule("Vehicle", Some("mode"), navs));
+    team.board("t/r1/nav").write("v", "mode", "auto").unwrap();
+    team.run(1.0);
+    assert_eq!(receiver.read("v", "mode").unwrap().value, "auto".into());
+    (team, receiver, events, evil)
+}
+
+#[test]
+fn a_write_the_receivers_rules_do_not_allow_is_refused_counted_and_evented() {
+    // Issue 17, item 3: evil writes v.mode, a plain (`latest`) attribute that r2/nav's
+    // board lets only the navs write: refused there, counted, an event naming the rule.
+    // r1/nav's board has no rule and takes it; what no rule covers (speed) goes through.
+    let (mut team, receiver, events, evil) = evil_beside_nav_with_rules(36);
+    evil.write("v", "mode", "pwned").unwrap();
+    evil.write("v", "speed", 3.0).unwrap();
+    team.run(1.0);
+    let held = receiver.read("v", "mode").unwrap();
+    assert_eq!(held.value, "auto".into());
+    assert_eq!(held.source.as_str(), "t/r1/nav");
+    assert_eq!(
+        receiver.read("v", "speed").unwrap().value.as_f64(),
+        Some(3.0)
+    );
+    let open_board = team.board("t/r1/nav");
+    assert_eq!(open_board.read("v", "mode").unwrap().value, "pwned".into());
+    let stats = team.member("t/r2/nav").ici.stats();
+    assert!(stats.merges.unauthorised >= 1, "{:?}", stats.merges);
+    assert_eq!(receiver.stats().unauthorised, stats.merges.unauthorised);
     let got: Vec<BoardEvent> = events.try_iter().collect();
-    let from_evil: Vec<u64> = got
-        .iter()
-        .filter_map(|e| match e {
-            BoardEvent::NotOwner {
-                suppressed, writer, ..
-            } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
-            _ => None,
+    let said = got.iter().any(|e| {
+        matches!(e, BoardEvent::Unauthorised { object, attr: Some(attr), writer, rule, .. }
+            if object == "v" && attr == "mode" && writer.as_str() == "t/r1/evil"
+                && rule == "Vehicle.mode may be written by t/*/nav")
+    });
+    assert!(said, "{got:?}");
+    team.members.retain(|n| n.address.as_str() != "t/r1/evil");
+}
+
+#[test]
+fn a_peer_sending_a_thousand_unauthorised_writes_makes_a_bounded_number_of_events_and_each_is_counted()
+ {
+    let (mut team, receiver, events, evil) = evil_beside_nav_with_rules(37);
+    for i in 0..1000 {
+        evil.write("v", "mode", format!("m{i}")).unwrap();
+        team.run(0.005);
+    }
+    team.run(1.0);
+    assert_eq!(receiver.read("v", "mode").unwrap().value, "auto".into());
+    let refused = team.member("t/r2/nav").ici.stats().merges.unauthorised;
+    assert!(refused >= 100, "{refused} refused");
+    assert_eq!(
+        receiver.stats().unauthorised,
+        refused,
+        "the board counts each"
+    );
+    let from_evil = events.try_iter().filter_map(|e| match e {
+        BoardEvent::Unauthorised {
+            suppressed, writer, ..
+        } if writer.as_str() == "t/r1/evil" => Some(1 + suppressed),
+        _ => None,
+    });
+    assert_one_event_a_second(from_evil.collect(), refused);
+    team.members.retain(|n| n.address.as_str() != "t/r1/evil");
+}
+
+#[test]
+fn objects_and_fused_estimates_of_a_class_the_rules_keep_are_refused_from_others() {
+    // A whole-class rule covers the class's objects, its subclasses and every attribute:
+    // r2/nav lets only the navs write `Tracked` (and `Rock`, a subclass) and `Target`
+    // (whose range is `fused`). Evil's rock is not created there; its estimate of a
+    // target's range is not fused in; nav's are.
+    let (mut team, receiver, events, evil) = evil_beside_nav(38);
+    let navs = || vec![AddressPattern::new("t/*/nav").unwrap()];
+    receiver.set_write_authority(
+        WriteAuthority::default()
+            .rule("Tracked", None, navs())
+            .rule("Target", None, navs()),
+    );
+    let nav = team.board("t/r1/nav").clone();
+    nav.create("Rock", "r1").unwrap();
+    nav.create("Target", "tg").unwrap();
+    nav.write("tg", "range", Update::new(10.0).accuracy(1.0))
+        .unwrap();
+    team.run(1.0);
+    evil.create("Rock", "r9").unwrap();
+    evil.write("r9", "x", 1.0).unwrap();
+    evil.write("tg", "range", Update::new(50.0).accuracy(1.0))
+        .unwrap();
+    team.run(1.0);
+    assert!(receiver.info("r1").is_some());
+    assert!(receiver.info("r9").is_none(), "evil's rock was created");
+    let range = receiver.read("tg", "range").unwrap();
+    assert_eq!(
+        range.value.as_f64(),
+        Some(10.0),
+        "{range:?} {:?}",
+        team.member("t/r2/nav").ici.stats().merges
+    );
+    assert!(team.board("t/r1/nav").info("r9").is_some(), "no rule there");
+    let got: Vec<BoardEvent> = events.try_iter().collect();
+    let about = |object: &str, attr: Option<&str>| {
+        got.iter().any(|e| {
+            matches!(e, BoardEvent::Unauthorised { object: o, attr: a, writer, .. }
+                if o == object && a.as_deref() == attr && writer.as_str() == "t/r1/evil")
         })
-        .collect();
-    // 6 s of refusals: at most one event a second; together they tell of all but the
-    // last second's.
-    assert!(
-        (2..=7).contains(&from_evil.len()),
-        "{} events",
-        from_evil.len()
-    );
-    assert!(
-        from_evil.iter().sum::<u64>() <= refused,
-        "{from_evil:?} of {refused}"
-    );
+    };
+    assert!(about("r9", None) || about("tg", Some("range")), "{got:?}");
+    assert!(team.member("t/r2/nav").ici.stats().merges.unauthorised >= 2);
     team.members.retain(|n| n.address.as_str() != "t/r1/evil");
 }

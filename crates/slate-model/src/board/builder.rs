@@ -58,6 +58,7 @@ impl BoardBuilder {
             chain_cuts: AtomicU64::new(0),
             future_stamps: AtomicU64::new(0),
             not_owner: AtomicU64::new(0),
+            unauthorised: AtomicU64::new(0),
             news: Mutex::new(super::news_limit()),
             fn_seq: AtomicU64::new(0),
         };

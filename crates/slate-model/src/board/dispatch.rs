@@ -142,6 +142,7 @@ impl Board {
             attr: call.attr.to_string(),
             trigger: call.trigger,
             error,
+            suppressed: 0,
         });
         false
     }
@@ -262,6 +263,7 @@ impl PendingRead {
                         attr: call.attr.to_string(),
                         trigger: Trigger::Read,
                         error: format!("returned an invalid packet: {e}"),
+                        suppressed: 0,
                     });
                     call.packet = before;
                 }

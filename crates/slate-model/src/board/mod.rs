@@ -71,8 +71,9 @@ pub struct Board {
     chain_cuts: AtomicU64,
     future_stamps: AtomicU64,
     not_owner: AtomicU64,
+    unauthorised: AtomicU64,
     /// The refusals' news: at most one event a second per kind and source.
-    news: Mutex<EveryPer<(NewsKind, Address)>>,
+    news: Mutex<EveryPer<NewsKey>>,
     fn_seq: AtomicU64,
 }
 
@@ -197,6 +198,9 @@ pub enum Merged {
     Kept,
     /// The attribute is `owned` and the packet's source is not the object's owner.
     NotOwner,
+    /// The rule of this board deciding the write ([`crate::WriteAuthority`]) does not
+    /// let the packet's source write it.
+    Unauthorised,
     /// The packet is stamped further ahead of this board's clock than it tolerates (a
     /// wrong clock elsewhere): refused, or it would win every merge until then.
     FromTheFuture {
@@ -232,6 +236,9 @@ pub struct BoardStats {
     pub future_stamps: u64,
     /// Received packets for an `owned` attribute refused: their source is not its owner.
     pub not_owner: u64,
+    /// Received packets and objects refused: this board's rules ([`crate::WriteAuthority`])
+    /// do not let their source write them.
+    pub unauthorised: u64,
 }
 
 impl Default for Board {
@@ -336,6 +343,75 @@ impl Board {
         let st = &inner.state;
         let c = st.class(st.class_id(class)?)?;
         c.decls.get(&st.attr_id(attr)?).map(|d| d.decl.clone())
+    }
+
+    // ----- authority -----
+
+    /// Sets who may write what on this board besides its own module (`[authority]
+    /// writes`; docs/security.md, "Authority over writes"). Received packets and objects
+    /// are judged by it from then on.
+    pub fn set_write_authority(&self, authority: crate::WriteAuthority) {
+        self.inner.write().state.authority = Arc::new(authority);
+    }
+
+    /// Who may write what on this board besides its own module.
+    pub fn write_authority(&self) -> Arc<crate::WriteAuthority> {
+        self.inner.read().state.authority.clone()
+    }
+
+    /// Would this board take a write of `object.attr` by `writer`? The one rule of who
+    /// may write what, which [`merge`](Board::merge) applies to every received packet: an
+    /// `owned` attribute only its owner ([`WriteError::NotOwner`]), and otherwise what
+    /// the rule deciding it allows another module than this board's
+    /// ([`WriteError::Unauthorised`]). Nothing is counted or reported: for a writer that
+    /// acts for another (a received plan, which runs with its origin's authority).
+    pub fn write_refusal(
+        &self,
+        object: &str,
+        attr: &str,
+        writer: &Address,
+    ) -> Result<(), WriteError> {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        let key = st.key(object, attr)?;
+        match st.write_refusal(key, writer, &self.address)? {
+            None => Ok(()),
+            Some(refusal) => Err(refusal_error(object, Some(attr), writer, refusal)),
+        }
+    }
+
+    /// May `writer` write `attr` of an object `object` of `class` here (with `attr`
+    /// `None`: create it)? What the rules deciding it allow another module than this
+    /// board's ([`crate::WriteAuthority`]; whole-class rules alone decide a creation),
+    /// judged by class, so the object need not be on the board yet: for a receiver that
+    /// keeps packets elsewhere (the ICI's `fused` estimates) or creates objects (the
+    /// ICI, a received plan). `owned` is judged where the object is
+    /// ([`write_refusal`](Board::write_refusal)). A refusal is counted and reported when
+    /// `report` (a [`BoardEvent::Unauthorised`], at most once a second per writer), as
+    /// for a packet; else only judged.
+    pub fn admit_write(
+        &self,
+        class: &str,
+        object: &str,
+        attr: Option<&str>,
+        writer: &Address,
+        report: bool,
+    ) -> Result<(), WriteError> {
+        let refusal = {
+            let inner = self.inner.read();
+            let st = &inner.state;
+            match st.class_id(class) {
+                Some(id) if *writer != self.address => st.unauthorised(id, attr, writer),
+                _ => None,
+            }
+        };
+        let Some(refusal) = refusal else {
+            return Ok(());
+        };
+        if report && let state::Refusal::Unauthorised(rule) = &refusal {
+            self.report(unauthorised(object, attr, writer, rule));
+        }
+        Err(refusal_error(object, attr, writer, refusal))
     }
 
     // ----- objects -----
@@ -586,12 +662,20 @@ impl Board {
                         refused.push(future_stamp(object.as_ref(), attr.as_ref(), &packet, drift));
                         return Ok(Merged::FromTheFuture { ahead: drift.ahead });
                     }
-                    let verdict = txn.state().merge_verdict(key, &packet)?;
-                    if verdict == Merged::NotOwner {
-                        let owner = txn.state().get(key.object).and_then(|e| e.instance());
-                        let owner = owner.map_or_else(Address::unknown, |i| i.owner.clone());
-                        refused.push(not_owner(object.as_ref(), attr.as_ref(), &packet, owner));
+                    let st = txn.state();
+                    let (o, a) = (object.as_ref(), attr.as_ref());
+                    match st.write_refusal(key, &packet.source, &self.address)? {
+                        Some(state::Refusal::NotOwner(owner)) => {
+                            refused.push(not_owner(o, a, &packet, owner));
+                            return Ok(Merged::NotOwner);
+                        }
+                        Some(state::Refusal::Unauthorised(rule)) => {
+                            refused.push(unauthorised(o, Some(a), &packet.source, &rule));
+                            return Ok(Merged::Unauthorised);
+                        }
+                        None => {}
                     }
+                    let verdict = st.merge_verdict(key, &packet)?;
                     if verdict == Merged::Applied(0) {
                         txn.merge(key, packet)?;
                     }
@@ -695,6 +779,7 @@ impl Board {
             chain_cuts: self.chain_cuts.load(Ordering::Relaxed),
             future_stamps: self.future_stamps.load(Ordering::Relaxed),
             not_owner: self.not_owner.load(Ordering::Relaxed),
+            unauthorised: self.unauthorised.load(Ordering::Relaxed),
         }
     }
 
@@ -780,6 +865,7 @@ impl Board {
             BoardEvent::ChainCut(_) => &self.chain_cuts,
             BoardEvent::FutureStamp { .. } => &self.future_stamps,
             BoardEvent::NotOwner { .. } => &self.not_owner,
+            BoardEvent::Unauthorised { .. } => &self.unauthorised,
             _ => return,
         }
         .fetch_add(1, Ordering::Relaxed);
@@ -790,22 +876,32 @@ impl Board {
     /// which says how many refusals it stands for (`suppressed`). Refused modules share
     /// one limit, whatever their address (they may be made up).
     fn limit_news(&self, mut event: BoardEvent) -> Option<BoardEvent> {
+        use NewsKey::Source;
         let (key, suppressed) = match &mut event {
+            BoardEvent::FunctionFailed {
+                function,
+                suppressed,
+                ..
+            } => (NewsKey::Function(function.clone()), suppressed),
             BoardEvent::FutureStamp {
                 source, suppressed, ..
-            } => ((NewsKind::FutureStamp, source.clone()), suppressed),
+            } => (Source(NewsKind::FutureStamp, source.clone()), suppressed),
             BoardEvent::NotOwner {
                 writer, suppressed, ..
-            } => ((NewsKind::NotOwner, writer.clone()), suppressed),
+            } => (Source(NewsKind::NotOwner, writer.clone()), suppressed),
+            BoardEvent::Unauthorised {
+                writer, suppressed, ..
+            } => (Source(NewsKind::Unauthorised, writer.clone()), suppressed),
             BoardEvent::ObjectLimit {
                 owner, suppressed, ..
-            } => ((NewsKind::ObjectLimit, owner.clone()), suppressed),
+            } => (Source(NewsKind::ObjectLimit, owner.clone()), suppressed),
             BoardEvent::NameLimit {
                 source, suppressed, ..
-            } => ((NewsKind::NameLimit, source.clone()), suppressed),
-            BoardEvent::ModuleLimit { suppressed, .. } => {
-                ((NewsKind::ModuleLimit, Address::unknown()), suppressed)
-            }
+            } => (Source(NewsKind::NameLimit, source.clone()), suppressed),
+            BoardEvent::ModuleLimit { suppressed, .. } => (
+                Source(NewsKind::ModuleLimit, Address::unknown()),
+                suppressed,
+            ),
             _ => return Some(event),
         };
         let now = self.clock.physical();
@@ -858,6 +954,16 @@ impl Board {
                 ..
             } => {
                 tracing::warn!(%object, %attr, %writer, %owner, "packet for an owned attribute from another module than its owner refused");
+            }
+            BoardEvent::Unauthorised {
+                object,
+                attr,
+                writer,
+                rule,
+                ..
+            } => {
+                let attr = attr.as_deref().unwrap_or("");
+                tracing::warn!(%object, %attr, %writer, %rule, "a write refused: this board's rules do not let its writer write it");
             }
             BoardEvent::NameLimit { source, limit, .. } => {
                 tracing::warn!(%source, limit, "a message of another module refused: it would hold more names than one module may");
@@ -960,6 +1066,47 @@ fn not_owner(object: &str, attr: &str, packet: &Packet, owner: Address) -> Board
     }
 }
 
+/// The event of a write (of an object, with no `attr`) refused by `rule`.
+fn unauthorised(
+    object: &str,
+    attr: Option<&str>,
+    writer: &Address,
+    rule: &crate::WriteRule,
+) -> BoardEvent {
+    BoardEvent::Unauthorised {
+        object: object.to_owned(),
+        attr: attr.map(str::to_owned),
+        writer: writer.clone(),
+        rule: rule.to_string(),
+        suppressed: 0,
+    }
+}
+
+/// The error of a write `refusal` judged.
+fn refusal_error(
+    object: &str,
+    attr: Option<&str>,
+    writer: &Address,
+    refusal: state::Refusal,
+) -> WriteError {
+    match refusal {
+        state::Refusal::NotOwner(owner) => WriteError::NotOwner {
+            object: object.to_owned(),
+            attr: attr.unwrap_or_default().to_owned(),
+            owner,
+            writer: writer.clone(),
+        },
+        state::Refusal::Unauthorised(rule) => WriteError::Unauthorised {
+            target: match attr {
+                Some(attr) => format!("{object}.{attr}"),
+                None => object.to_owned(),
+            },
+            writer: writer.clone(),
+            rule: rule.to_string(),
+        },
+    }
+}
+
 /// The event of a received packet refused for its stamp.
 fn future_stamp(
     object: &str,
@@ -982,15 +1129,25 @@ fn future_stamp(
 enum NewsKind {
     FutureStamp,
     NotOwner,
+    Unauthorised,
     ObjectLimit,
     NameLimit,
     ModuleLimit,
 }
 
+/// What one piece of news is limited by: a refusal's kind and source, or the active
+/// function that failed.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+enum NewsKey {
+    Source(NewsKind, Address),
+    Function(String),
+}
+
 /// Sources whose refusals are limited apart (past them, the others share one limit).
 const NEWS_SOURCES: usize = 256;
 
-/// The limit on the refusals' news: at most one event a second per kind and source.
-fn news_limit() -> EveryPer<(NewsKind, Address)> {
+/// The limit on the refusals' news: at most one event a second per kind and source (and
+/// per failing function).
+fn news_limit() -> EveryPer<NewsKey> {
     EveryPer::new(std::time::Duration::from_secs(1), NEWS_SOURCES)
 }

@@ -168,6 +168,18 @@ pub(crate) struct State {
     instances: usize,
     /// Rewrites the packets this board writes itself, before they are stored.
     pub normaliser: Option<Arc<dyn crate::Normaliser>>,
+    /// Who may write what here besides this board's module (`[authority] writes`).
+    pub authority: Arc<crate::WriteAuthority>,
+}
+
+/// Why a write from another module is not taken: the one rule of who may write what on
+/// a board ([`State::write_refusal`]).
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Refusal {
+    /// The attribute is `owned`, and the object is this module's.
+    NotOwner(Address),
+    /// The rule that decides the write does not let the writer write.
+    Unauthorised(crate::WriteRule),
 }
 
 impl State {
@@ -186,6 +198,7 @@ impl State {
             owned: FxHashMap::default(),
             instances: 0,
             normaliser: None,
+            authority: Arc::default(),
         };
         let root = ClassData {
             def: ClassDef {
@@ -435,7 +448,7 @@ impl State {
     /// unstamped write gets `stamp`, or a fresh timestamp. A given timestamp is kept and
     /// merged into the clock. An [`Origin::Own`] write must also be one every receiver
     /// would store (see [`State::admit_own`]); a [`Origin::Merged`] one was judged by
-    /// [`State::merge_verdict`] already.
+    /// [`State::write_refusal`] and [`State::merge_verdict`] already.
     pub fn prepare(
         &self,
         key: Key,
@@ -503,14 +516,12 @@ impl State {
     ) -> Result<(), WriteError> {
         use crate::MergePolicy;
         let names = || (self.name_or_stale(key.object), decl.name.clone());
-        if decl.merge == MergePolicy::Owned
-            && let Some(i) = e.instance().filter(|i| i.owner != packet.source)
-        {
+        if let Some(owner) = not_owner(e, decl, &packet.source) {
             let (object, attr) = names();
             return Err(WriteError::NotOwner {
                 object,
                 attr,
-                owner: i.owner.clone(),
+                owner: owner.clone(),
                 writer: packet.source.clone(),
             });
         }
@@ -547,6 +558,7 @@ impl State {
 
     /// Would a received packet win against the object's own packet under the attribute's
     /// merge policy? `Applied(0)` means yes (the revision is not known yet).
+    /// The writer must be allowed to write it first ([`State::write_refusal`]).
     pub fn merge_verdict(&self, key: Key, packet: &Packet) -> Result<crate::Merged, Missing> {
         use crate::{MergePolicy, Merged};
         let (e, _, decl) = self.decl(key)?;
@@ -561,18 +573,48 @@ impl State {
             MergePolicy::Confident => own.is_none_or(|p| {
                 packet.confidence > p.confidence || (packet.confidence == p.confidence && newer(p))
             }),
-            MergePolicy::Owned => {
-                if e.instance().is_some_and(|i| i.owner != packet.source) {
-                    return Ok(Merged::NotOwner);
-                }
-                own.is_none_or(newer)
-            }
+            MergePolicy::Owned => own.is_none_or(newer),
         };
         Ok(if wins {
             Merged::Applied(0)
         } else {
             Merged::Kept
         })
+    }
+
+    /// May `writer` write `key` on the board of `me`? The one rule of who may write what:
+    /// an `owned` attribute of an instance only its owner; else, for another module
+    /// than `me`, what the declared rule deciding it ([`crate::WriteAuthority`]) allows.
+    pub fn write_refusal(
+        &self,
+        key: Key,
+        writer: &Address,
+        me: &Address,
+    ) -> Result<Option<Refusal>, Missing> {
+        let (e, _, decl) = self.decl(key)?;
+        if let Some(owner) = not_owner(e, &decl.decl, writer) {
+            return Ok(Some(Refusal::NotOwner(owner.clone())));
+        }
+        if writer == me || self.authority.is_empty() {
+            return Ok(None);
+        }
+        let attr = self.attr_name(key.attr);
+        Ok(self.unauthorised(key.object, Some(&attr), writer))
+    }
+
+    /// The declared rule deciding `writer`'s write of `attr` of `id` (of the object
+    /// itself with `None`), if it refuses it.
+    pub fn unauthorised(
+        &self,
+        id: ObjectId,
+        attr: Option<&str>,
+        writer: &Address,
+    ) -> Option<Refusal> {
+        let lineage = self.lineage(id).iter().filter_map(|c| self.name(*c));
+        self.authority
+            .deciding(lineage, attr)
+            .filter(|rule| !rule.permits(writer))
+            .map(|rule| Refusal::Unauthorised(rule.clone()))
     }
 
     /// Stores a packet; returns the entity's previous own value of that attribute.
@@ -1031,4 +1073,11 @@ fn refuse_guarded(
         object: object(),
         attr: decl.name.clone(),
     })
+}
+
+/// The owner of `e`, if `decl` is `owned` there and `writer` is not that owner.
+fn not_owner<'e>(e: &'e Entity, decl: &AttrDecl, writer: &Address) -> Option<&'e Address> {
+    e.instance()
+        .map(|i| &i.owner)
+        .filter(|owner| decl.merge == crate::MergePolicy::Owned && *owner != writer)
 }

@@ -115,7 +115,9 @@ pub struct Change {
 #[derive(Clone, Debug, PartialEq)]
 pub enum BoardEvent {
     /// An active function returned an error or panicked. The board is unchanged by it,
-    /// and the other functions still ran.
+    /// and the other functions still ran. Reported at most once a second per function
+    /// (a peer's writes can make one fail at will); each failure is counted
+    /// ([`BoardStats::function_failures`](crate::BoardStats)).
     FunctionFailed {
         /// The function's name.
         function: String,
@@ -127,6 +129,9 @@ pub enum BoardEvent {
         trigger: Trigger,
         /// What went wrong.
         error: String,
+        /// Failures of the same function since the last event of them, not reported one
+        /// by one: at most one such event a second.
+        suppressed: u64,
     },
     /// A chain of active functions was cut (too deep, or a cycle); the access that would
     /// have continued it was refused.
@@ -188,6 +193,24 @@ pub enum BoardEvent {
         writer: Address,
         /// The object's owner on this board.
         owner: Address,
+        /// Refusals like this one (of the same kind, from the same source) since the
+        /// last event of them, not reported one by one: at most one such event a second.
+        suppressed: u64,
+    },
+    /// A write from another module was refused: the rule of this board that decides it
+    /// (`[authority] writes`, [`WriteAuthority`](crate::WriteAuthority)) does not let
+    /// that module write it. A received packet (`attr` named), or an object created
+    /// (`attr` is `None`). Reported at most once a second per writer; each refusal is
+    /// counted ([`BoardStats::unauthorised`](crate::BoardStats)).
+    Unauthorised {
+        /// The object (or class) written.
+        object: String,
+        /// The attribute written, or `None` for the object's creation.
+        attr: Option<String>,
+        /// The module that wrote it.
+        writer: Address,
+        /// The rule that refused it, as `Class.attr may be written by PATTERNS`.
+        rule: String,
         /// Refusals like this one (of the same kind, from the same source) since the
         /// last event of them, not reported one by one: at most one such event a second.
         suppressed: u64,

@@ -621,3 +621,34 @@ where
         (self.0)(call)
     }
 }
+
+#[test]
+fn a_function_failing_on_a_thousand_writes_makes_a_bounded_number_of_events_and_each_is_counted() {
+    // Issue 17, bounded in total: a peer's writes at will make an on-write function fail
+    // at will. Each failure is counted; events are at most one a second per function,
+    // each saying how many it stands for.
+    let b = Board::builder().clock(Clock::manual()).build();
+    b.define(ClassDef::new("Vehicle").attr(AttrDecl::new("speed", ValueType::Real)))
+        .unwrap();
+    b.create("Vehicle", "v").unwrap();
+    b.on_write("Vehicle", "speed", |_| Err(FnError::from("no")))
+        .unwrap();
+    let events = b.events();
+    for i in 0..1000 {
+        b.clock()
+            .advance(std::time::Duration::from_millis(5))
+            .unwrap();
+        b.write("v", "speed", f64::from(i)).unwrap();
+    }
+    assert_eq!(b.stats().function_failures, 1000);
+    let told: Vec<u64> = events
+        .try_iter()
+        .filter_map(|e| match e {
+            BoardEvent::FunctionFailed { suppressed, .. } => Some(1 + suppressed),
+            _ => None,
+        })
+        .collect();
+    assert!((5..=6).contains(&told.len()), "{} events", told.len());
+    assert!(told.iter().sum::<u64>() <= 1000, "{told:?}");
+    assert!(told.iter().sum::<u64>() >= 800, "{told:?}");
+}

@@ -164,6 +164,7 @@ pub fn board_event(e: &BoardEvent) -> Json {
         BoardEvent::ModuleLimit { .. } => "module_limit",
         BoardEvent::NameLimit { .. } => "name_limit",
         BoardEvent::NotOwner { .. } => "not_owner",
+        BoardEvent::Unauthorised { .. } => "unauthorised",
         _ => "other",
     };
     json!({ "kind": kind, "text": crate::monitor::board_event(e) })

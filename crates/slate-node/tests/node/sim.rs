@@ -453,3 +453,66 @@ fn messages_that_do_not_decode_are_counted_and_an_event() {
     );
     assert!(undecodable.iter().all(|e| e.level == Level::Warn));
 }
+
+/// `[authority.writes]` rules (`"Class.attr" = [entries]`) for a node builder.
+fn writes_from(rules: &[(&str, &[&str])]) -> Vec<slate_node::WritesFrom> {
+    rules
+        .iter()
+        .map(|(target, entries)| slate_node::WritesFrom::new(target, plans_from(entries)))
+        .collect()
+}
+
+#[test]
+fn a_write_the_nodes_rules_do_not_allow_is_refused_counted_and_an_event() {
+    // Issue 17, item 3: loco lets only its robot and the navs write a `Vehicle`'s mode.
+    // A module of another robot writes gsr.mode: loco refuses it, counts it, logs a
+    // warning naming the rule; nav's write of the same attribute is taken.
+    let net = SimNet::new(7);
+    let nav = start(&net, "t/r1/nav", "object gsr : Vehicle;");
+    let loco = on_net(&net, "t/r2/loco", "")
+        .ici(IciConfig::default().export(ClassSet::all()))
+        .writes_from(writes_from(&[("Vehicle.mode", &["robot", "t/*/nav"])]))
+        .start()
+        .unwrap();
+    let evil = start(&net, "t/r3/evil", "");
+    net.run_for(Duration::from_millis(500));
+    nav.board().write("gsr", "mode", "manual").unwrap();
+    net.run_for(Duration::from_millis(500));
+    let mode = |n: &Node| n.board().read("gsr", "mode").ok().map(|p| p.value);
+    assert_eq!(mode(&loco), Some("manual".into()));
+    evil.board().write("gsr", "mode", "pwned").unwrap();
+    net.run_for(Duration::from_millis(500));
+    assert_eq!(mode(&loco), Some("manual".into()));
+    assert_eq!(mode(&nav), Some("pwned".into()), "nav has no rule");
+    assert_eq!(loco.ici().stats().merges.unauthorised, 1);
+    let events = loco.events();
+    let refused = events.iter().find(|e| {
+        e.text
+            .contains("packet for gsr.mode from t/r3/evil refused")
+            && e.text
+                .contains("Vehicle.mode may be written by t/r2/*, t/*/nav")
+    });
+    assert!(
+        refused.is_some_and(|e| e.level == Level::Warn),
+        "{events:?}"
+    );
+}
+
+#[test]
+fn a_write_rule_naming_what_the_files_do_not_declare_stops_the_start() {
+    let net = SimNet::new(8);
+    for target in ["Vehicl", "Vehicle.mod"] {
+        let err = on_net(&net, "t/r2/loco", "")
+            .writes_from(writes_from(&[(target, &["robot"])]))
+            .start()
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        assert_eq!(
+            err,
+            format!(
+                "authority.writes: `{target}` names no class or attribute of this module's files"
+            )
+        );
+    }
+}

@@ -127,7 +127,8 @@ pub(super) fn report_policy(
         e.as_ref()
             .and_then(|e| constant(ck, e))
             .and_then(|v| v.as_f64())
-            .map(|s| std::time::Duration::from_secs_f64(s.max(0.0)))
+            // At most some 127 years, so a `1e30s` is no `Duration` overflow.
+            .map(|s| std::time::Duration::try_from_secs_f64(s.clamp(0.0, 4e9)).unwrap_or_default())
     };
     ReportPolicy {
         min_interval: secs(&r.every),

@@ -280,12 +280,15 @@ fn reported_attribute(ck: &mut Checker<'_>, path: &Path) -> Option<(String, Stri
     }
 }
 
-/// A positive constant duration, in seconds.
+/// A positive constant duration, in seconds, that a `Duration` holds (not `1e30s`).
 fn duration(ck: &mut Checker<'_>, e: &Expr) -> Option<Duration> {
     let secs = constant(ck, e)?.as_f64();
-    match secs {
-        Some(s) if s > 0.0 && s.is_finite() => Some(Duration::from_secs_f64(s)),
-        _ => {
+    match secs
+        .filter(|s| *s > 0.0)
+        .and_then(|s| Duration::try_from_secs_f64(s).ok())
+    {
+        Some(d) => Some(d),
+        None => {
             ck.error(e.span, "expected a positive duration (`20s`, `500ms`)");
             None
         }

@@ -275,3 +275,14 @@ fn a_link_block_may_name_classes_of_its_own_file() {
     engine.load("console.slate", src).unwrap();
     assert_eq!(team(&engine).export[0].class, "Mission");
 }
+
+#[test]
+fn a_duration_too_long_for_a_duration_is_refused_not_a_panic() {
+    // Found by the `slate_check` fuzz target (session 13): `heartbeat 7e23s` panicked in
+    // `Duration::from_secs_f64`.
+    let e = link_errors("link team {\n    heartbeat 699999999999999999999999s timeout 5s;\n}");
+    assert!(e[0].2.contains("positive duration"), "{e:?}");
+    let (_board, engine) = engine();
+    let huge = "class Robot { position: real report every 1e30s; }";
+    assert!(engine.load("huge.slate", huge).is_ok());
+}

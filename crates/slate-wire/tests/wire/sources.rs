@@ -122,3 +122,29 @@ fn a_source_naming_more_than_its_bound_is_refused_and_counted_and_keeps_what_it_
     let bytes = Encoder::new(other.clone()).encode(&pose_of(&other, 1), &schema);
     assert!(decoder.decode(&other, &bytes.unwrap(), &schema).is_ok());
 }
+
+#[test]
+fn names_are_bounded_in_total_across_sources_and_the_least_recent_give_way() {
+    // Issue 17, bounded in total: 50 sources, each naming up to 8 objects (and its
+    // address, class and attribute), against a decoder holding at most 60 names in all.
+    // The total never passes it; sources heard least recently give up their names (and
+    // are named, so they announce them again); the source just heard always decodes.
+    let schema = schema();
+    let mut decoder = Decoder::new().with_max_names(20).with_max_total_names(60);
+    let mut encoders: Vec<Encoder> = (0..50).map(|i| Encoder::new(source(i))).collect();
+    for round in 0..8u64 {
+        for (i, encoder) in encoders.iter_mut().enumerate() {
+            let from = source(i);
+            let bytes = encoder.encode(&object_of(&from, &format!("o{round}"), round + 1), &schema);
+            let got = decoder.decode(&from, &bytes.unwrap(), &schema);
+            assert!(
+                matches!(got, Ok(_) | Err(DecodeError::UnknownName { .. })),
+                "source {i}, round {round}: {got:?}"
+            );
+            assert!(decoder.names() <= 60, "{} names held", decoder.names());
+        }
+    }
+    assert!(decoder.stats().evicted >= 40, "{:?}", decoder.stats());
+    let last = source(49);
+    assert!(decoder.knows(&last));
+}
