@@ -138,7 +138,8 @@ pub enum ObserveError {
     Start(#[from] StartError),
     /// The observer's address is not one the operator's certificate may speak as.
     #[error(
-        "{identity} may join only as TEAM/ROBOT/{}PID, not as {address}; leave out --as or give such an address",
+        "{identity} may join only as {}/ROBOT/{}NAME, not as {address}",
+        identity.team(),
         identity.observer_prefix()
     )]
     NotOperator {

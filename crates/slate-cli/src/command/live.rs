@@ -20,6 +20,12 @@ use crate::command::failed;
 /// Joins the team as an observer and waits for its catch-up. A malformed endpoint is
 /// named as the `--connect` it came from, not reported as unreachable.
 pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
+    join_as(live, "--as")
+}
+
+/// [`join`], where `flag` is the option the address came from (`--as`, or `--onto TEAM`
+/// for a replay): an address the operator may not speak as is named as that option.
+pub fn join_as(live: &LiveArgs, flag: &str) -> anyhow::Result<Node> {
     let address = optional_address(live.address.as_deref(), "--as")?;
     let connection = &live.connection;
     let options = ObserverOptions {
@@ -32,6 +38,7 @@ pub fn join(live: &LiveArgs) -> anyhow::Result<Node> {
         ObserveError::Open(OpenError::Endpoint(bad)) => {
             anyhow::Error::new(bad).context("--connect")
         }
+        e @ ObserveError::NotOperator { .. } => anyhow::Error::new(e).context(flag.to_owned()),
         other => other.into(),
     })
 }

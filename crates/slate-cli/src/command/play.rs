@@ -13,7 +13,7 @@ use slate_node::Node;
 use slate_node::record::{Recording, Step, Timed, board_state};
 
 use crate::cli::{Format, LiveArgs, PlayArgs};
-use crate::command::live::{interrupted, join, operator_keys, print_line};
+use crate::command::live::{interrupted, join_as, operator_keys, print_line};
 
 /// The board's address when the file does not say whose it was.
 const UNKNOWN: &str = "replay/play/board";
@@ -166,7 +166,7 @@ fn onto(
         connection: args.connection.clone(),
         address: Some(address.to_string()),
     };
-    let node = join(&live)?;
+    let node = join_as(&live, &format!("--onto {team}"))?;
     let pace = Pace {
         speed,
         until,

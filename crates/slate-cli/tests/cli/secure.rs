@@ -611,6 +611,48 @@ fn play_onto_a_secured_team_replays_as_the_operators_replay_module() {
     assert!(heard, "loco hears the replay\n{}", team.logs());
 }
 
+/// `slate play --onto` onto another team than the operator's: the error names `--onto`,
+/// the option that chose the replay's address, not an `--as` that was never given; it
+/// comes before anything is connected.
+#[test]
+fn play_onto_a_team_the_operator_may_not_join_names_onto_not_as() {
+    let team = Team::new("play-onto-other-team");
+    let keys = keys(&team);
+    let file = team.dir.join("nav.mcap");
+    let net = slate_ici::SimNet::new(1);
+    let nav = Address::new("t/r1/nav").unwrap();
+    Node::builder(nav.clone())
+        .transport(net.join(&nav))
+        .clock(net.clock())
+        .source("w.slate", WORLD)
+        .record(slate_node::RecordConfig::new(&file))
+        .start()
+        .expect("a recording node starts")
+        .close();
+    let alice = as_alice(&keys);
+    let play = ["play", file.to_str().unwrap(), "--onto", "other"];
+    let mut args = with(&play, &alice);
+    let nowhere = format!("tcp/127.0.0.1:{}", free_port());
+    args.extend(["--connect", nowhere.as_str(), "--wait", "1"]);
+    let out = slate(&args);
+    assert!(!out.status.success(), "{}", show(&out));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--onto other: t/alice may join only as t/ROBOT/cli-alice-NAME, not as other/replay/cli-alice-nav"),
+        "{err}"
+    );
+    assert!(!err.contains("--as"), "{err}");
+    let get = ["get", "gsr.speed", "--as", "t/r1/nav"];
+    let mut args = with(&get, &alice);
+    args.extend(["--connect", nowhere.as_str(), "--wait", "1"]);
+    let out = slate(&args);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--as: t/alice may join only as t/ROBOT/cli-alice-NAME, not as t/r1/nav"),
+        "{err}"
+    );
+}
+
 /// A module started in this process as `address` on `endpoints` (insecure), which owns
 /// `count` obstacles `junk0`.. and exports them: a participant spraying objects.
 fn sprayer(address: &str, endpoints: Vec<String>, count: usize) -> Node {
