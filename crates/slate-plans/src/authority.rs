@@ -2,7 +2,8 @@
 //! origin). A plan this board loaded itself writes as this module does; a received one
 //! may write only what this board would take from its origin: not an `owned` attribute
 //! of an object its origin does not own, nor what the board's `[authority] writes` do
-//! not let its origin write, though the module running it may (docs/security.md,
+//! not let its origin write, nor delete an object holding such values or of a class its
+//! origin may not create, though the module running it may (docs/security.md,
 //! *Authority over plans*). Judged when an action's effects are applied, so a target
 //! chosen at run time (`any o: ...`) is judged too: a refused write fails the whole
 //! action, which then writes nothing.
@@ -40,7 +41,8 @@ impl Origins {
 /// Why `plan`, running as `origin`, may not apply `effects` on `board`: the first
 /// write the board would not take from `origin` ([`Board::write_refusal`]: an `owned`
 /// attribute of an object `origin` does not own, or what the board's `[authority]
-/// writes` do not let `origin` write), or object of a class it may not create.
+/// writes` do not let `origin` write), object of a class it may not create, or object
+/// it may not delete ([`Board::delete_refusal`]).
 pub(crate) fn refusal(
     board: &Board,
     plan: &str,
@@ -51,6 +53,7 @@ pub(crate) fn refusal(
         let refused = match e {
             Effect::Write(object, attr, _, _) => board.write_refusal(object, attr, origin),
             Effect::Create(spec) => board.admit_write(&spec.class, &spec.name, None, origin, false),
+            Effect::Delete(object) => board.delete_refusal(object, origin),
             _ => Ok(()),
         };
         let why = match refused.err()? {
@@ -64,8 +67,12 @@ pub(crate) fn refusal(
             ),
             other => other.to_string(),
         };
+        let deleting = match e {
+            Effect::Delete(object) => format!("deleting {object}, "),
+            _ => String::new(),
+        };
         Some(format!(
-            "plan {plan} runs with the authority of {origin}: {why}"
+            "plan {plan} runs with the authority of {origin}: {deleting}{why}"
         ))
     })
 }

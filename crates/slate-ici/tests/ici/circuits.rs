@@ -1185,6 +1185,60 @@ fn a_received_plan_cannot_write_an_owned_attribute_its_origin_does_not_own() {
 }
 
 #[test]
+fn a_received_plan_cannot_delete_what_its_origin_may_not_write() {
+    // Issue 17, item 3: deleting an object takes away every value it holds, so a received
+    // plan deletes only what its origin could write. The cell owns the vault (an `owned`
+    // code) and its rules keep crates to its own robot: the planner's plans deleting
+    // either fail with the reason and leave the object; deleting a plain object runs, and
+    // so do the cell's own plans.
+    let things = "class Vault { code: real merge owned = 0.0; }
+        class Crate { weight: real = 0.0; }
+        class Note { text: string = \"\"; }
+        object vault : Vault; object box : Crate; object memo : Note; object spare : Crate;";
+    let net = SimNet::new(76);
+    let planner = module(&net, "t/r1/planner", "");
+    let cell = module(&net, "t/r2/cell", things);
+    let robot = vec![AddressPattern::robot_of(&addr("t/r2/cell"))];
+    cell.board
+        .set_write_authority(WriteAuthority::default().rule("Crate", None, robot));
+    net.run_for(secs(0.5));
+    let error = |plan: &str| {
+        let status = cell.engine.status(plan).and_then(|s| s.last_error);
+        status.unwrap_or_default()
+    };
+    for (plan, object, reason) in [
+        (
+            "crack",
+            "vault",
+            "t/r1/planner may not write vault.code, an owned attribute owned by t/r2/cell",
+        ),
+        ("dump", "box", "Crate may be written by t/r2/*"),
+    ] {
+        let text = format!("plan {plan} {{ action {{ delete {object}; }} }}");
+        let (_h, got) = send_until_initiated(&net, &planner, "t/r2/cell", &text);
+        assert_eq!(got[..2], [PlanStep::Received, PlanStep::Accepted]);
+        net.run_for(secs(0.5));
+        assert!(cell.board.info(object).is_some(), "{object} was deleted");
+        let error = error(plan);
+        assert!(
+            error.contains("runs with the authority of t/r1/planner")
+                && error.contains(&format!("deleting {object}"))
+                && error.contains(reason),
+            "{error}"
+        );
+    }
+
+    let tidy = "plan tidy { action { delete memo; } }";
+    send_until_initiated(&net, &planner, "t/r2/cell", tidy);
+    net.run_for(secs(0.5));
+    assert!(cell.board.info("memo").is_none(), "{}", error("tidy"));
+    let own = "plan own { action { delete vault; delete spare; } }";
+    cell.engine.load("own.slate", own).unwrap();
+    net.run_for(secs(0.5));
+    assert!(cell.board.info("vault").is_none() && cell.board.info("spare").is_none());
+}
+
+#[test]
 fn a_received_plan_cannot_write_what_the_boards_rules_do_not_let_its_origin_write() {
     // Issue 17, item 3: the cell's board lets only its own robot write the vault's level
     // (`[authority.writes]`). The planner may send the cell plans, so its plan is

@@ -380,6 +380,24 @@ impl Board {
         }
     }
 
+    /// Would this board let `writer` delete `object`? A deletion takes away every value
+    /// the object holds, so it is refused when creating an object of its class, or a
+    /// write of any of its attributes, would be ([`write_refusal`](Board::write_refusal)).
+    /// An object the board does not hold is not refused here: deleting it fails on its
+    /// own. Nothing is counted or reported: for a received plan, which deletes with its
+    /// origin's authority.
+    pub fn delete_refusal(&self, object: &str, writer: &Address) -> Result<(), WriteError> {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        let refused = st
+            .id(object)
+            .and_then(|id| st.delete_refusal(id, writer, &self.address));
+        match refused {
+            None => Ok(()),
+            Some((attr, refusal)) => Err(refusal_error(object, attr.as_deref(), writer, refusal)),
+        }
+    }
+
     /// May `writer` write `attr` of an object `object` of `class` here (with `attr`
     /// `None`: create it)? What the rules deciding it allow another module than this
     /// board's ([`crate::WriteAuthority`]; whole-class rules alone decide a creation),

@@ -602,6 +602,36 @@ impl State {
         Ok(self.unauthorised(key.object, Some(&attr), writer))
     }
 
+    /// May `writer` delete `id` on the board of `me`? A deletion takes away every value
+    /// the object holds, so it is judged as creating one of its class and writing each of
+    /// its attributes ([`State::write_refusal`]); the refused attribute (the first by
+    /// name) comes with the refusal, `None` when the class itself decided.
+    pub fn delete_refusal(
+        &self,
+        id: ObjectId,
+        writer: &Address,
+        me: &Address,
+    ) -> Option<(Option<Arc<str>>, Refusal)> {
+        let (e, class) = self.decl_class(id)?;
+        let open = writer == me || self.authority.is_empty();
+        if !open && let Some(refusal) = self.unauthorised(id, None, writer) {
+            return Some((None, refusal));
+        }
+        class
+            .decls
+            .iter()
+            .filter_map(|(attr, d)| {
+                let refusal = match not_owner(e, &d.decl, writer) {
+                    Some(owner) => Refusal::NotOwner(owner.clone()),
+                    None if open => return None,
+                    None => self.unauthorised(id, Some(&self.attr_name(*attr)), writer)?,
+                };
+                Some((self.attr_name(*attr), refusal))
+            })
+            .min_by(|a, b| a.0.cmp(&b.0))
+            .map(|(attr, refusal)| (Some(attr), refusal))
+    }
+
     /// The declared rule deciding `writer`'s write of `attr` of `id` (of the object
     /// itself with `None`), if it refuses it.
     pub fn unauthorised(
