@@ -13,6 +13,7 @@ use super::frame::{Frame, Hello};
 use super::ops::BoardOp;
 use super::ops::own_packet;
 use super::state::{Peer, State};
+use super::team::catch_up_retry;
 use crate::{LinkKind, MsgKind};
 
 /// Silence after which a transport's down is believed: 2.25 heartbeat periods of the
@@ -332,7 +333,7 @@ impl State {
     /// test for every peer, were the simulator's largest cost at 8 robots); the sends
     /// follow in the peers' order, as they were found.
     fn catch_up_timers(&mut self) {
-        let (now, retry, grace) = (self.now, self.config.catch_up_retry, self.config.gap_grace);
+        let (now, grace) = (self.now, self.config.gap_grace);
         if now < self.catch_up_from {
             return;
         }
@@ -341,6 +342,7 @@ impl State {
         let mut due = Vec::new();
         let mut next = Duration::MAX;
         for (a, p) in self.peers.iter_mut() {
+            let retry = catch_up_retry(&self.config, &self.me, a);
             match p.catch_up {
                 Some(_) if !p.up => p.catch_up = None,
                 Some(mut r) if now.saturating_sub(r.since) >= retry => {
@@ -490,7 +492,8 @@ impl State {
     /// `peer`'s catch-up or stream changed (a request made, a position taken or
     /// announced, it came up): what it now makes due lowers `catch_up_from`.
     pub(crate) fn catch_up_changed(&mut self, peer: &Address) {
-        let (retry, grace) = (self.config.catch_up_retry, self.config.gap_grace);
+        let retry = catch_up_retry(&self.config, &self.me, peer);
+        let grace = self.config.gap_grace;
         if let Some(at) = self
             .peers
             .get(peer)

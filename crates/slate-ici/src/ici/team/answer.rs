@@ -23,7 +23,7 @@ use crate::ici::catchup::Audience;
 use crate::ici::classes::ClassSet;
 use crate::ici::frame::MAX_ITEMS;
 use crate::ici::state::State;
-use crate::{LinkKind, MsgKind};
+use crate::{IciConfig, LinkKind, MsgKind, TeamProtocol};
 
 /// A state ask for some members of one robot, waiting for its back-off. One per
 /// followed gateway (`Speaker`), so bounded by the speakers' limit.
@@ -48,8 +48,7 @@ impl State {
     /// A member whose robot hello is not known yet is not asked: the hello is NACKed
     /// first, and the caller's retry asks again.
     pub(crate) fn team_state_ask(&mut self, member: &Address, names: bool, classes: bool) -> bool {
-        let team = LinkKind::between(&self.me, member) == LinkKind::Team;
-        if self.config.team_protocol.is_none() || self.config.observer || !team {
+        if asked_through_stream(&self.config, &self.me, member).is_none() {
             return false;
         }
         if let Some((gateway, index)) = self.gateway_of(member) {
@@ -124,6 +123,32 @@ impl State {
         }
         entries
     }
+}
+
+/// The team protocol through which the module at `me` asks `member` for its state, if
+/// it does: `member` is on another robot and the module is not an observer (which keeps
+/// the unicast catch-up request).
+pub(crate) fn asked_through_stream<'c>(
+    config: &'c IciConfig,
+    me: &Address,
+    member: &Address,
+) -> Option<&'c TeamProtocol> {
+    let team = LinkKind::between(me, member) == LinkKind::Team;
+    config
+        .team_protocol
+        .as_ref()
+        .filter(|_| team && !config.observer)
+}
+
+/// How long an unanswered catch-up of `member` waits before the module at `me` asks
+/// again. Through a robot stream the member answers at most once per
+/// `answer_interval`, and its answer may need a repair (`repair_wait`): asking sooner
+/// only adds asks to the team link (on the acoustic channel, an ask every 3 s per
+/// member made most of its traffic and the boards never agreed).
+pub(crate) fn catch_up_retry(config: &IciConfig, me: &Address, member: &Address) -> Duration {
+    let answered =
+        asked_through_stream(config, me, member).map(|p| p.answer_interval + p.repair_wait);
+    config.catch_up_retry.max(answered.unwrap_or_default())
 }
 
 fn state_entry(tag: StreamTag, ask: StateAsk) -> NackEntry {
@@ -377,6 +402,27 @@ mod tests {
         tick_at(&mut st, ms(400));
         assert_eq!(sent(&st, LinkKind::Team, MsgKind::Nack), 1);
         assert_eq!(sent(&st, LinkKind::Team, MsgKind::CatchUpRequest), 0);
+    }
+
+    #[test]
+    fn an_unanswered_state_ask_goes_again_only_once_an_answer_could_have_come() {
+        // Acoustic: the member answers at most once per 30 s and its answer may need a
+        // repair (10 s). Asking again every `catch_up_retry` (3 s) made most of the
+        // channel's traffic, and the boards never agreed.
+        let config = IciConfig::default().team_protocol(Some(TeamProtocol::acoustic()));
+        let (_net, mut st) = super::super::test_state::alone("t/r0/m0", config);
+        st.now = START;
+        hear_robot_1(&mut st);
+        st.request_catch_up(&addr("t/r1/m1"), false, false);
+        let run_to = |st: &mut State, until: u64| {
+            while st.now < START + ms(until) {
+                st.now += ms(250);
+                st.tick();
+            }
+            sent(st, LinkKind::Team, MsgKind::Nack)
+        };
+        assert_eq!(run_to(&mut st, 39_000), 1, "asked once in the first 39 s");
+        assert_eq!(run_to(&mut st, 46_000), 2, "asked again after 40 s");
     }
 
     #[test]

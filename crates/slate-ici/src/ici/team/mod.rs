@@ -23,6 +23,7 @@ use std::collections::{BTreeMap, VecDeque};
 
 use slate_model::Address;
 
+pub(crate) use answer::catch_up_retry;
 pub(crate) use receive::{Speaker, Undecoded, is_team_kind};
 
 /// Bytes of messages a member holds while it knows no gateway; past it, the oldest go
