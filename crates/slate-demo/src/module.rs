@@ -161,19 +161,25 @@ fn plans_from() -> Vec<PlanSender> {
     senders
 }
 
-/// The team protocol's preset for the demo's link, its gateway's token bucket at 80 %
-/// of a radio's budget, or at 70 % of the shared acoustic channel's divided among the
-/// `gateways` that share it (so that together they never offer it more).
+/// The team protocol's preset for the demo's link, paced at [`team_rate`].
 fn team_protocol(link: &TeamLink, gateways: usize) -> TeamProtocol {
-    let (mut protocol, share) = match link.medium {
-        TeamMedium::Radio => (TeamProtocol::radio(), link.budget_bps * 8 / 10),
-        TeamMedium::Acoustic => {
-            let channel = link.budget_bps * 7 / 10;
-            (TeamProtocol::acoustic(), channel / gateways.max(1) as u64)
-        }
+    let mut protocol = match link.medium {
+        TeamMedium::Radio => TeamProtocol::radio(),
+        TeamMedium::Acoustic => TeamProtocol::acoustic(),
     };
-    protocol.rate_bps = u32::try_from(share.max(1)).unwrap_or(u32::MAX);
+    protocol.rate_bps = team_rate(link, gateways);
     protocol
+}
+
+/// A gateway's pace on `link`: 80 % of a radio's budget, or 70 % of the shared acoustic
+/// channel's divided among the `gateways` that share it (so that together they never
+/// offer it more).
+pub(crate) fn team_rate(link: &TeamLink, gateways: usize) -> u32 {
+    let share = match link.medium {
+        TeamMedium::Radio => link.budget_bps * 8 / 10,
+        TeamMedium::Acoustic => link.budget_bps * 7 / 10 / gateways.max(1) as u64,
+    };
+    u32::try_from(share.max(1)).unwrap_or(u32::MAX)
 }
 
 /// One module: a [`slate_node::Node`] (board, plan engine, ICI, plan circuits) on the

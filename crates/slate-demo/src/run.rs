@@ -11,7 +11,7 @@ use slate_ici::{LinkKind, MsgKind};
 use slate_model::Address;
 use slate_wire::PlanStep;
 
-use crate::config::DemoConfig;
+use crate::config::{DemoConfig, TeamLink};
 use crate::consistency::{Propagation, disagreement};
 use crate::error::DemoError;
 use crate::module::Role;
@@ -90,6 +90,7 @@ impl Demo {
         let return_after = config.duration.as_secs_f64() * 0.8;
         if config.deck.is_some() {
             team.operator.deck_until(config.launch_seconds());
+            team.set_team_link(&TeamLink::deck(&config.team_link));
         }
         if team.drives {
             team.operator
@@ -153,6 +154,7 @@ impl Demo {
         self.traffic.launch();
         self.deck_by_kind = by_kind(&self.net, &self.team, LinkKind::Team);
         self.net.set_team_link(&self.config.team_link);
+        self.team.set_team_link(&self.config.team_link);
     }
 
     /// Seconds since launch (world time, the deck phase excluded).

@@ -140,6 +140,16 @@ impl Team {
         }
     }
 
+    /// From now on the team link is `link`: each gateway paces its radio to it
+    /// ([`slate_ici::Ici::set_team_rate`]; the modules of every robot and the console
+    /// share an acoustic channel). Without the team protocol it changes nothing.
+    pub(crate) fn set_team_link(&self, link: &TeamLink) {
+        let rate = crate::module::team_rate(link, self.robots.len() + 1);
+        for m in &self.modules {
+            m.node.ici().set_team_rate(rate);
+        }
+    }
+
     /// Robot `i` dies: every module of it leaves the network, its body stops.
     pub(crate) fn kill(&mut self, i: usize, net: &Network, world: &mut World) {
         self.dead[i] = true;

@@ -265,6 +265,15 @@ impl Ici {
             .with_state(|st| self.shared.links.lock().set(st, link, policy));
     }
 
+    /// The team link's rate changed (a robot on deck, on a fast link, goes to sea on its
+    /// acoustic modem): with the team protocol on, its gateway paces its radio to
+    /// `rate_bps` from now on (`TeamProtocol::rate_bps`), its token bucket full. What it
+    /// sent on the link before is not owed at the new rate: a few kilobytes of plans on
+    /// deck would otherwise hold back every frame for minutes at a few bytes a second.
+    pub fn set_team_rate(&self, rate_bps: u32) {
+        self.shared.with_state(|st| st.set_team_rate(rate_bps));
+    }
+
     /// The policy last set for one kind of link.
     pub fn link_policy(&self, link: LinkKind) -> Option<LinkPolicy> {
         self.shared.links.lock().get(link).cloned()

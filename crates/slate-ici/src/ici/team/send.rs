@@ -114,6 +114,18 @@ impl State {
         self.gateway_queue(from, up.message, up.mark, up.state_answer);
     }
 
+    /// Paces the team link at `rate_bps` from now on ([`crate::Ici::set_team_rate`]).
+    pub(crate) fn set_team_rate(&mut self, rate_bps: u32) {
+        let Some(protocol) = self.config.team_protocol.as_mut() else {
+            return;
+        };
+        protocol.rate_bps = rate_bps;
+        let mtu = protocol.mtu;
+        if let Some(gw) = self.team.gateway.as_mut() {
+            gw.bucket = TokenBucket::new(rate_bps, mtu, self.now);
+        }
+    }
+
     /// Charges `bytes` this module put on `link` to its bucket while it is gateway:
     /// whatever goes on the robot's radio, stream or not (plans, acks), leaves that
     /// much less for the queue (2.3).
@@ -638,6 +650,25 @@ mod tests {
             60,
             "every report went out in the end"
         );
+    }
+
+    #[test]
+    fn a_gateway_moved_to_a_slower_link_owes_nothing_it_sent_before() {
+        // On deck (a fast link) the console's gateway sends kilobytes of plans, charged
+        // to its bucket; at sea the acoustic share is a few bytes a second. Owed at that
+        // rate, they would hold back every frame for minutes.
+        let (_net, mut st) = state(Some(0));
+        elected(&mut st);
+        st.team_aired(LinkKind::Team, 6_000);
+        st.set_team_rate(70);
+        assert_eq!(
+            st.config.team_protocol.as_ref().map(|p| p.rate_bps),
+            Some(70)
+        );
+        burst(&mut st, 1, 20);
+        st.now += Duration::from_secs(1);
+        st.team_tick();
+        assert_eq!(sent(&st, MsgKind::Report), 1, "the report went at once");
     }
 
     #[test]
