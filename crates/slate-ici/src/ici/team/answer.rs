@@ -192,11 +192,13 @@ impl State {
             classes: ask.classes,
             robots: vec![Arc::from(from.robot())],
         };
+        let now = self.now;
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
         if !gw.queue.is_empty() {
             for name in names {
+                gw.held_since.get_or_insert(now);
                 let held = gw.held_asks.remove(&name);
                 gw.held_asks.insert(name, merge_requests(held, req.clone()));
             }
@@ -207,14 +209,28 @@ impl State {
         }
     }
 
-    /// Forwards the state asks held while the queue was not empty, once it is.
+    /// Forwards the state asks held while the queue was not empty, once it is, or once
+    /// the oldest has waited `answer_interval`: on a channel slower than what the robot
+    /// says (the acoustic console's) the queue never empties, and an ask held for that
+    /// would never be answered.
     pub(super) fn forward_held_state_asks(&mut self) {
+        let now = self.now;
+        let interval = self
+            .config
+            .team_protocol
+            .as_ref()
+            .map(|p| p.answer_interval);
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
-        if !gw.queue.is_empty() {
+        let waited = gw
+            .held_since
+            .zip(interval)
+            .is_some_and(|(since, interval)| now >= since + interval);
+        if !gw.queue.is_empty() && !waited {
             return;
         }
+        gw.held_since = None;
         for (name, req) in std::mem::take(&mut gw.held_asks) {
             self.forward_state_request(&name, req);
         }
@@ -517,6 +533,23 @@ mod tests {
             2,
             "one merged request per member once the queue is empty"
         );
+    }
+
+    #[test]
+    fn a_held_state_ask_goes_after_answer_interval_though_the_queue_never_empties() {
+        // The acoustic console's queue never emptied: the asks it held were never
+        // answered, and a robot that missed the launch report never got it.
+        let (_net, mut st) = state();
+        st.team.gateway = Some(gateway_of_three(Some((0, false))));
+        st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, true));
+        let interval = TeamProtocol::radio().answer_interval;
+        st.now = START + interval - ms(1);
+        st.forward_held_state_asks();
+        assert_eq!(sent(&st, LinkKind::Robot, MsgKind::StateRequest), 0);
+        st.now = START + interval;
+        st.forward_held_state_asks();
+        assert!(!st.team.gateway.as_ref().unwrap().queue.is_empty());
+        assert_eq!(sent(&st, LinkKind::Robot, MsgKind::StateRequest), 2);
     }
 
     #[test]

@@ -216,6 +216,8 @@ pub(crate) struct Gateway {
     /// State asks for members held while the queue is not empty, merged per member
     /// (at most one per member).
     pub held_asks: BTreeMap<Arc<str>, StateRequest>,
+    /// When the oldest of `held_asks` was held (`None` when none is).
+    pub held_since: Option<Duration>,
 }
 
 impl Gateway {
@@ -240,6 +242,7 @@ impl Gateway {
             bucket: TokenBucket::new(0, 0, Duration::ZERO),
             told: Vec::new(),
             held_asks: BTreeMap::new(),
+            held_since: None,
         }
     }
 
