@@ -1,7 +1,7 @@
 """Type stubs of the native module slate._slate (checked against it by mypy.stubtest)."""
 
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from types import TracebackType
 from typing import Any, Literal, TypeVar, final, overload
 
@@ -584,6 +584,7 @@ class Node:
         record: str | os.PathLike[str] | None = None,
         state: str | os.PathLike[str] | None = None,
         plans_from: Sequence[str] | None = None,
+        writes: Mapping[str, Sequence[str]] | None = None,
     ) -> Node:
         """`record=`: record the board to this MCAP file from the start
         (docs/recording.md). `state=`: keep the board in this directory and restore it
@@ -592,7 +593,11 @@ class Node:
         with the restored ones. A damaged state directory raises NodeError naming it.
         `plans_from=`: who may send this node plans, as `[authority] plans_from` in a
         node's config: "robot", "operators" and address patterns like "t/*/planner"
-        (default: its robot's modules and the team's operators; docs/security.md)."""
+        (default: its robot's modules and the team's operators; docs/security.md).
+        `writes=`: who besides this module may write what on its board, as
+        `[authority.writes]`: `{"Vehicle.mode": ["robot"], "Target": ["t/*/exec"]}`
+        (default: anyone; a class or attribute no loaded file declares raises
+        NodeError)."""
     @property
     def address(self) -> str: ...
     @property

@@ -170,6 +170,39 @@ def test_a_plan_from_a_module_without_authority_is_rejected_with_the_reason() ->
         nav.close()
 
 
+def test_a_write_the_boards_rules_keep_from_its_writer_is_refused_with_an_event() -> None:
+    # `writes=` is `[authority.writes]`: only nav's own robot may write a Vehicle's mode
+    # on nav's board. Loco, on another robot, writes both attributes: the speed arrives,
+    # the mode is refused with an `unauthorised` event naming the rule.
+    endpoint = free_endpoint()
+    nav_board = slate.Board(address="t/r1/nav")
+    nav_board.load(WORLD + "object gsr : Vehicle context system;")
+    events = nav_board.events()
+    nav = slate.Node("t/r1/nav", nav_board, listen=[endpoint], export=["Thing"], writes={"Vehicle.mode": ["robot"]})
+    loco_board = slate.Board(address="t/r2/loco")
+    loco_board.load(WORLD)
+    loco = slate.Node("t/r2/loco", loco_board, connect=[endpoint], export=["Thing"])
+    try:
+
+        def check() -> None:
+            assert eventually(lambda: "gsr" in loco.board)
+            loco.board.write("gsr", "mode", "stolen")
+            loco.board.write("gsr", "speed", 3.0)
+            assert eventually(lambda: nav.board.read("gsr", "speed").value == 3.0)
+            assert nav.board.read("gsr", "mode").value == "auto"
+            refused = [e for e in events.drain() if e.kind == "unauthorised"]
+            assert refused and refused[0].attr == "mode", refused
+            with pytest.raises(ValueError, match="writes"):
+                slate.Node("t/r1/other", writes={"Vehicle.mode": ["everyone"]})
+            with pytest.raises(slate.NodeError, match="Nothing"):
+                slate.Node("t/r1/other", writes={"Nothing": ["robot"]})
+
+        run_with_timeout(check)
+    finally:
+        loco.close()
+        nav.close()
+
+
 def test_cancel_a_plan_from_its_handle(pair: tuple[slate.Node, slate.Node]) -> None:
     nav, loco = pair
 

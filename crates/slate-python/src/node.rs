@@ -1,6 +1,7 @@
 //! `Node`: a board on the network (its ICI over Zenoh, its plan circuits), `PlanHandle`
 //! (a plan sent, and its acknowledgements as they arrive) and `Ack`.
 
+use std::collections::BTreeMap;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -105,22 +106,35 @@ fn check_not_open(py: Python<'_>, address: &Address, board: &Arc<Board>) -> PyRe
     Ok(())
 }
 
-/// `plans_from=`'s entries, or a ValueError naming the one that is wrong.
-fn plan_senders(entries: &[String]) -> PyResult<Vec<slate_node::PlanSender>> {
+/// The entries of `key` (`plans_from=`, or one of `writes=`), or a ValueError naming
+/// the one that is wrong.
+fn plan_senders(key: &str, entries: &[String]) -> PyResult<Vec<slate_node::PlanSender>> {
     let parse = |e: &String| {
         e.parse().map_err(|why: slate_ici::PatternError| {
             pyo3::exceptions::PyValueError::new_err(format!(
-                "plans_from: {why}; or \"robot\" or \"operators\""
+                "{key}: {why}; or \"robot\" or \"operators\""
             ))
         })
     };
     entries.iter().map(parse).collect()
 }
 
+/// `writes=`: `{"Class.attr" or "Class": [entries as in plans_from]}`, as
+/// `[authority.writes]` in a node's config.
+fn write_rules(rules: BTreeMap<String, Vec<String>>) -> PyResult<Vec<slate_node::WritesFrom>> {
+    rules
+        .into_iter()
+        .map(|(target, entries)| {
+            let writers = plan_senders(&format!("writes[{}]", quote(&target)), &entries)?;
+            Ok(slate_node::WritesFrom::new(&target, writers))
+        })
+        .collect()
+}
+
 #[pymethods]
 impl PyNode {
     #[new]
-    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None, record=None, state=None, plans_from=None))]
+    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None, record=None, state=None, plans_from=None, writes=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -135,6 +149,7 @@ impl PyNode {
         record: Option<PathBuf>,
         state: Option<PathBuf>,
         plans_from: Option<Vec<String>>,
+        writes: Option<BTreeMap<String, Vec<String>>>,
     ) -> PyResult<Self> {
         let addr = to_address(py, address)?;
         let board = match board {
@@ -178,7 +193,10 @@ impl PyNode {
             builder = builder.state(StateConfig::new(dir));
         }
         if let Some(entries) = plans_from {
-            builder = builder.plans_from(plan_senders(&entries)?);
+            builder = builder.plans_from(plan_senders("plans_from", &entries)?);
+        }
+        if let Some(rules) = writes {
+            builder = builder.writes_from(write_rules(rules)?);
         }
         let node = py
             .detach(|| builder.start())
