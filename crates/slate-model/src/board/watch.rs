@@ -1,10 +1,10 @@
 //! Watching a board: change notifications, revision cursors and board events.
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, TrySendError};
 use parking_lot::{Condvar, Mutex};
 
 use super::state::State;
@@ -276,43 +276,71 @@ impl Cursor {
 
 /// A subscription to a board's changes. Iterating blocks for the next change; dropping
 /// the watch unsubscribes.
+///
+/// Writers hand changes over in batches: a commit appends its items to the watch's queue
+/// (no allocation once the queue has grown, and a wake-up only when the reader sleeps),
+/// and the reader takes everything waiting at once, then hands it out change by change.
 #[derive(Debug)]
 pub struct Watch {
-    rx: Receiver<Change>,
+    shared: Arc<Shared>,
+    /// The batch the reader took last, handed out change by change.
+    taken: Mutex<Batch>,
     cursor: Cursor,
-    /// Changes a bounded watch had no room for (always 0 for an unbounded one).
-    dropped: Arc<AtomicU64>,
 }
 
 impl Watch {
     /// The next change, waiting as long as it takes (`None` once the board is gone).
     pub fn recv(&self) -> Option<Change> {
-        self.rx
-            .recv()
-            .ok()
-            .inspect(|c| self.cursor.advance(c.revision))
+        self.take(Wait::Forever)
     }
 
     /// The next change, waiting at most `timeout`.
     pub fn recv_timeout(&self, timeout: Duration) -> Option<Change> {
-        match self.rx.recv_timeout(timeout) {
-            Ok(c) => {
-                self.cursor.advance(c.revision);
-                Some(c)
-            }
-            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => None,
-        }
+        self.take(Wait::Until(Instant::now() + timeout))
     }
 
     /// The next change if one is waiting.
     pub fn try_recv(&self) -> Option<Change> {
-        match self.rx.try_recv() {
-            Ok(c) => {
-                self.cursor.advance(c.revision);
-                Some(c)
+        self.take(Wait::No)
+    }
+
+    /// Hands out the next change of the batch taken, else takes the next batch.
+    fn take(&self, wait: Wait) -> Option<Change> {
+        let mut taken = self.taken.lock();
+        if taken.changes.is_empty() {
+            let mut queue = self.shared.queue.lock();
+            while queue.waiting.changes.is_empty() {
+                if queue.closed {
+                    return None;
+                }
+                let timed_out = match wait {
+                    Wait::No => return None,
+                    Wait::Forever => {
+                        queue.sleeping = true;
+                        self.shared.ready.wait(&mut queue);
+                        false
+                    }
+                    Wait::Until(deadline) => {
+                        queue.sleeping = true;
+                        self.shared
+                            .ready
+                            .wait_until(&mut queue, deadline)
+                            .timed_out()
+                    }
+                };
+                queue.sleeping = false;
+                if timed_out && queue.waiting.changes.is_empty() {
+                    return None;
+                }
             }
-            Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
+            // The emptied buffers go back to the writers, who fill them again without
+            // allocating.
+            std::mem::swap(&mut queue.waiting, &mut *taken);
         }
+        let (revision, n) = taken.changes.pop_front()?;
+        let items = taken.items.drain(..n).collect();
+        self.cursor.advance(revision);
+        Some(Change { revision, items })
     }
 
     /// A cursor a writer can wait on until this watch's reader has seen its write.
@@ -322,13 +350,23 @@ impl Watch {
 
     /// Changes waiting to be received.
     pub fn pending(&self) -> usize {
-        self.rx.len()
+        let taken = self.taken.lock().changes.len();
+        taken + self.shared.queue.lock().waiting.changes.len()
     }
 
     /// Changes not delivered because a bounded watch was full (see
     /// [`Board::watch_bounded`](crate::Board::watch_bounded)).
     pub fn dropped(&self) -> u64 {
-        self.dropped.load(Ordering::Relaxed)
+        self.shared.dropped.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for Watch {
+    fn drop(&mut self) {
+        // The writers see it at their next change and forget the watcher.
+        let mut queue = self.shared.queue.lock();
+        queue.closed = true;
+        queue.waiting = Batch::default();
     }
 }
 
@@ -337,6 +375,43 @@ impl Iterator for Watch {
     fn next(&mut self) -> Option<Change> {
         self.recv()
     }
+}
+
+/// How long [`Watch::take`] waits for a batch.
+#[derive(Clone, Copy)]
+enum Wait {
+    No,
+    Forever,
+    Until(Instant),
+}
+
+/// Changes, as their items in order and, per change, its revision and how many items it
+/// holds: one buffer for all, not one allocation per change.
+#[derive(Debug, Default)]
+struct Batch {
+    items: VecDeque<ChangeItem>,
+    changes: VecDeque<(u64, usize)>,
+}
+
+/// What waits for the reader.
+#[derive(Debug, Default)]
+struct Queue {
+    waiting: Batch,
+    /// The reader waits on [`Shared::ready`]: the next change wakes it.
+    sleeping: bool,
+    /// The reader or the board is gone.
+    closed: bool,
+}
+
+/// What a watch's writers (the board) and its reader share.
+#[derive(Debug)]
+struct Shared {
+    queue: Mutex<Queue>,
+    ready: Condvar,
+    /// At most this many changes wait in `queue` (the reader's batch taken aside).
+    capacity: Option<usize>,
+    /// Changes a bounded watch had no room for (always 0 for an unbounded one).
+    dropped: AtomicU64,
 }
 
 /// A filter with its names resolved.
@@ -374,45 +449,57 @@ impl Spec {
 
 pub(crate) struct Watcher {
     pub spec: Spec,
-    tx: Sender<Change>,
-    dropped: Arc<AtomicU64>,
+    shared: Arc<Shared>,
 }
 
 impl Watcher {
-    /// Hands a change to the reader without ever waiting: a full bounded watch drops it
-    /// and counts it. False once the reader is gone (the watcher is then removed).
-    pub fn offer(&self, change: Change) -> bool {
-        match self.tx.try_send(change) {
-            Ok(()) => true,
-            Err(TrySendError::Full(_)) => {
-                self.dropped.fetch_add(1, Ordering::Relaxed);
-                true
-            }
-            Err(TrySendError::Disconnected(_)) => false,
+    /// Hands a change (the `items` of `revision`) to the reader without ever waiting: a
+    /// full bounded watch drops it and counts it. False once the reader is gone (the
+    /// watcher is then removed).
+    pub fn offer(&self, revision: u64, items: impl IntoIterator<Item = ChangeItem>) -> bool {
+        let shared = &*self.shared;
+        let mut queue = shared.queue.lock();
+        if queue.closed {
+            return false;
         }
+        let waiting = &mut queue.waiting;
+        if shared.capacity.is_some_and(|n| waiting.changes.len() >= n) {
+            shared.dropped.fetch_add(1, Ordering::Relaxed);
+            return true;
+        }
+        let before = waiting.items.len();
+        waiting.items.extend(items);
+        let n = waiting.items.len() - before;
+        waiting.changes.push_back((revision, n));
+        if std::mem::take(&mut queue.sleeping) {
+            drop(queue);
+            shared.ready.notify_one();
+        }
+        true
+    }
+}
+
+impl Drop for Watcher {
+    /// The board is gone: a waiting reader gets what is left, then `None`.
+    fn drop(&mut self) {
+        self.shared.queue.lock().closed = true;
+        self.shared.ready.notify_all();
     }
 }
 
 /// Creates a watcher and the watch its reader holds; `capacity` bounds the changes
 /// waiting (`None`: unbounded).
 pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch) {
-    let (tx, rx) = match capacity {
-        Some(n) => crossbeam_channel::bounded(n),
-        None => crossbeam_channel::unbounded(),
+    let shared = Arc::new(Shared {
+        queue: Mutex::new(Queue::default()),
+        ready: Condvar::new(),
+        capacity,
+        dropped: AtomicU64::new(0),
+    });
+    let watch = Watch {
+        shared: shared.clone(),
+        taken: Mutex::new(Batch::default()),
+        cursor: Cursor::default(),
     };
-    let dropped = Arc::new(AtomicU64::new(0));
-    let watcher = Watcher {
-        spec,
-        tx,
-        dropped: dropped.clone(),
-    };
-    let cursor = Cursor::default();
-    (
-        watcher,
-        Watch {
-            rx,
-            cursor,
-            dropped,
-        },
-    )
+    (Watcher { spec, shared }, watch)
 }

@@ -151,3 +151,94 @@ fn a_bounded_watch_drops_and_counts_what_does_not_fit_and_never_blocks_the_write
     let unbounded = b.watch(Filter::all()).unwrap();
     assert_eq!(unbounded.dropped(), 0);
 }
+
+/// The reader takes every change waiting at once and hands them out one by one; while it
+/// holds that batch, writers have the whole capacity again (memory stays bounded: at most
+/// `capacity` changes waiting plus the batch taken).
+#[test]
+fn a_batch_taken_at_once_is_handed_out_change_by_change_while_writers_fill_the_queue_again() {
+    let b = board();
+    b.create("Gsr", "g").unwrap();
+    let w = b.watch_bounded(Filter::all(), 4).unwrap();
+    let mut revs: Vec<u64> = (0..4)
+        .map(|i| b.write("g", "speed", f64::from(i)).unwrap())
+        .collect();
+    assert_eq!(w.try_recv().map(|c| c.revision), Some(revs[0]));
+    assert_eq!(
+        w.pending(),
+        3,
+        "three of the batch taken are still to be handed out"
+    );
+    revs.extend((4..8).map(|i| b.write("g", "speed", f64::from(i)).unwrap()));
+    assert_eq!(w.dropped(), 0, "the queue had room for four more");
+    assert_eq!(w.pending(), 7);
+    b.write("g", "speed", 9.0).unwrap();
+    assert_eq!(w.dropped(), 1, "the fifth waiting change had no room");
+    let seen: Vec<u64> = std::iter::from_fn(|| w.try_recv())
+        .map(|c| c.revision)
+        .collect();
+    assert_eq!(seen, revs[1..]);
+    assert_eq!(w.pending(), 0);
+}
+
+/// A reader blocked on `recv` gets what is left, then `None`, once the board is gone.
+#[test]
+fn a_waiting_reader_gets_what_is_left_then_none_when_the_board_is_dropped() {
+    let b = with_vehicle();
+    let w = b.watch(Filter::all()).unwrap();
+    b.write("v", "speed", 1.0).unwrap();
+    let reader = thread::spawn(move || {
+        let first = w.recv().map(|c| writes(&c));
+        let second = w.recv().map(|c| writes(&c));
+        (first, second)
+    });
+    thread::sleep(Duration::from_millis(50));
+    drop(b);
+    let (first, second) = reader.join().unwrap();
+    assert_eq!(first, Some(vec!["v.speed".to_owned()]));
+    assert_eq!(second, None);
+}
+
+/// Two writers and a reader that waits, each on its own thread: every change arrives once,
+/// in revision order, or is counted as dropped; no wake-up is lost (the reader would
+/// wait for ever).
+#[test]
+fn changes_from_two_writer_threads_all_reach_a_waiting_reader_in_revision_order() {
+    const WRITES: u64 = 20_000;
+    for capacity in [None, Some(64)] {
+        let b = Arc::new(board());
+        b.create("Gsr", "g").unwrap();
+        b.create("Gsr", "h").unwrap();
+        let w = match capacity {
+            None => b.watch(Filter::all()).unwrap(),
+            Some(n) => b.watch_bounded(Filter::all(), n).unwrap(),
+        };
+        let writers: Vec<_> = ["g", "h"]
+            .into_iter()
+            .map(|name| {
+                let b = b.clone();
+                thread::spawn(move || {
+                    for i in 0..WRITES {
+                        b.write(name, "speed", (i % 40) as f64).unwrap();
+                    }
+                })
+            })
+            .collect();
+        let total = 2 * WRITES;
+        let (mut seen, mut last) = (0, 0);
+        while seen + w.dropped() < total {
+            let c = w
+                .recv_timeout(Duration::from_secs(10))
+                .expect("a change within 10 s");
+            assert!(c.revision > last, "{} after {last}", c.revision);
+            last = c.revision;
+            seen += 1;
+        }
+        writers.into_iter().for_each(|t| t.join().unwrap());
+        assert_eq!(w.try_recv(), None, "nothing beyond the writes");
+        assert_eq!(seen + w.dropped(), total, "capacity {capacity:?}");
+        if capacity.is_none() {
+            assert_eq!(w.dropped(), 0);
+        }
+    }
+}
