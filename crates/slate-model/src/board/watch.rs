@@ -2,7 +2,7 @@
 
 use std::collections::VecDeque;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use parking_lot::{Condvar, Mutex};
@@ -280,6 +280,9 @@ impl Cursor {
 /// Writers hand changes over in batches: a commit appends its items to the watch's queue
 /// (no allocation once the queue has grown, and a wake-up only when the reader sleeps),
 /// and the reader takes everything waiting at once, then hands it out change by change.
+/// A reader that finds nothing looks again for a microsecond or so before it sleeps, so
+/// a busy board's writers seldom pay a wake-up; a sleeping reader is woken by the very
+/// write that gives it something (no timer, no added latency).
 #[derive(Debug)]
 pub struct Watch {
     shared: Arc<Shared>,
@@ -308,25 +311,37 @@ impl Watch {
     fn take(&self, wait: Wait) -> Option<Change> {
         let mut taken = self.taken.lock();
         if taken.changes.is_empty() {
-            let mut queue = self.shared.queue.lock();
+            let shared = &*self.shared;
+            let mut queue = shared.queue.lock();
+            let mut looked = false;
             while queue.waiting.changes.is_empty() {
                 if queue.closed {
                     return None;
                 }
-                let timed_out = match wait {
+                let deadline = match wait {
                     Wait::No => return None,
-                    Wait::Forever => {
-                        queue.sleeping = true;
-                        self.shared.ready.wait(&mut queue);
+                    Wait::Forever => None,
+                    Wait::Until(deadline) => Some(deadline),
+                };
+                // Awake, the reader costs a writer no system call: it looks again a few
+                // times before it sleeps (the next change of a busy board is usually a
+                // microsecond away), then sleeps until a writer wakes it.
+                if !looked {
+                    looked = true;
+                    drop(queue);
+                    let posted = shared.look_again(deadline);
+                    queue = shared.queue.lock();
+                    if posted {
+                        continue;
+                    }
+                }
+                queue.sleeping = true;
+                let timed_out = match deadline {
+                    None => {
+                        shared.ready.wait(&mut queue);
                         false
                     }
-                    Wait::Until(deadline) => {
-                        queue.sleeping = true;
-                        self.shared
-                            .ready
-                            .wait_until(&mut queue, deadline)
-                            .timed_out()
-                    }
+                    Some(deadline) => shared.ready.wait_until(&mut queue, deadline).timed_out(),
                 };
                 queue.sleeping = false;
                 if timed_out && queue.waiting.changes.is_empty() {
@@ -336,6 +351,7 @@ impl Watch {
             // The emptied buffers go back to the writers, who fill them again without
             // allocating.
             std::mem::swap(&mut queue.waiting, &mut *taken);
+            shared.posted.store(false, Ordering::Relaxed);
         }
         let (revision, n) = taken.changes.pop_front()?;
         let items = taken.items.drain(..n).collect();
@@ -408,11 +424,37 @@ struct Queue {
 struct Shared {
     queue: Mutex<Queue>,
     ready: Condvar,
+    /// Something waits in `queue`: what the reader looks at before it sleeps, without
+    /// taking the lock (set by the writers, cleared by the reader when it takes a batch).
+    posted: AtomicBool,
     /// At most this many changes wait in `queue` (the reader's batch taken aside).
     capacity: Option<usize>,
     /// Changes a bounded watch had no room for (always 0 for an unbounded one).
     dropped: AtomicU64,
 }
+
+impl Shared {
+    /// Looks for a change posted, spinning a little (255 pause instructions in all: a
+    /// microsecond to a few, depending on the processor, about what a writer's wake-up
+    /// of a sleeping reader costs), until `deadline` at the latest: true if one was.
+    fn look_again(&self, deadline: Option<Instant>) -> bool {
+        for step in 0..SPINS {
+            if self.posted.load(Ordering::Acquire) {
+                return true;
+            }
+            if deadline.is_some_and(|d| Instant::now() >= d) {
+                return false;
+            }
+            for _ in 0..1u32 << step {
+                std::hint::spin_loop();
+            }
+        }
+        self.posted.load(Ordering::Acquire)
+    }
+}
+
+/// Looks of [`Shared::look_again`], each spinning twice as long as the one before.
+const SPINS: u32 = 8;
 
 /// A filter with its names resolved.
 #[derive(Debug)]
@@ -471,6 +513,10 @@ impl Watcher {
         waiting.items.extend(items);
         let n = waiting.items.len() - before;
         waiting.changes.push_back((revision, n));
+        // Written once per batch, not per change: the reader reads it while it looks.
+        if !shared.posted.load(Ordering::Relaxed) {
+            shared.posted.store(true, Ordering::Release);
+        }
         if std::mem::take(&mut queue.sleeping) {
             drop(queue);
             shared.ready.notify_one();
@@ -493,6 +539,7 @@ pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch)
     let shared = Arc::new(Shared {
         queue: Mutex::new(Queue::default()),
         ready: Condvar::new(),
+        posted: AtomicBool::new(false),
         capacity,
         dropped: AtomicU64::new(0),
     });

@@ -242,3 +242,60 @@ fn changes_from_two_writer_threads_all_reach_a_waiting_reader_in_revision_order(
         }
     }
 }
+
+/// A reader asleep in `recv` (no timeout: nothing wakes it but a writer) gets each change
+/// as it is written: the writer waits until the reader has seen its write before the
+/// next, so the reader is asleep again each time (it looks again only briefly before it
+/// sleeps). A lost wake-up would leave the writer waiting.
+#[test]
+fn a_reader_asleep_in_recv_is_woken_by_each_write() {
+    let b = Arc::new(with_vehicle());
+    let w = b.watch(Filter::all()).unwrap();
+    let cursor = w.cursor();
+    let reader = thread::spawn(move || {
+        (0..20)
+            .map(|_| w.recv().map(|c| c.revision))
+            .collect::<Vec<_>>()
+    });
+    let mut revs = Vec::new();
+    for i in 0..20 {
+        thread::sleep(Duration::from_millis(5));
+        let rev = b.write("v", "speed", f64::from(i)).unwrap();
+        assert!(
+            cursor.wait_for(rev, Duration::from_secs(10)),
+            "the reader did not get write {i}"
+        );
+        revs.push(Some(rev));
+    }
+    assert_eq!(reader.join().unwrap(), revs);
+}
+
+/// A reader that keeps up with a writer writing flat out (it looks for the next change
+/// before it sleeps) gets every change once, in order, each with its own items.
+#[test]
+fn a_reader_keeping_up_with_a_fast_writer_gets_every_change_in_order() {
+    const WRITES: u32 = 50_000;
+    let b = Arc::new(with_vehicle());
+    let w = b.watch(Filter::all()).unwrap();
+    let reader = thread::spawn(move || {
+        let mut values = Vec::new();
+        while values.len() < WRITES as usize {
+            let c = w.recv_timeout(Duration::from_secs(10)).expect("a change");
+            for item in c.items {
+                if let ChangeItem::Write { packet, .. } = item {
+                    values.push(packet.value);
+                }
+            }
+        }
+        (values, w.try_recv())
+    });
+    for i in 0..WRITES {
+        b.write("v", "speed", f64::from(i % 40)).unwrap();
+    }
+    let (values, more) = reader.join().unwrap();
+    let expected: Vec<slate_model::Value> = (0..WRITES)
+        .map(|i| slate_model::Value::Real(f64::from(i % 40)))
+        .collect();
+    assert!(values == expected, "changes lost, repeated or out of order");
+    assert_eq!(more, None);
+}
