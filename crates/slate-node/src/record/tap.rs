@@ -28,6 +28,11 @@ use crate::view::View;
 const POLL: Duration = Duration::from_millis(20);
 /// How often the plan circuits are asked for new steps.
 const CIRCUITS_EVERY: Duration = Duration::from_millis(100);
+/// The board's references left by the changes recorded are dropped together once there
+/// are this many (or when no change comes): a recorder that keeps up takes its changes
+/// a few at a time, and dropping them as it goes would pass the reference counts' cache
+/// lines back and forth with the writer (see [`Names`]).
+const BURY_AT: usize = 2048;
 /// Changes handled between two looks at everything else, so a busy board does not
 /// starve the events, the flushes and the stop.
 const BURST: usize = 4096;
@@ -57,9 +62,9 @@ pub struct Tap {
     buf: Vec<u8>,
     /// The recorder's own copies of the names and sources of the changes it records.
     names: Names,
-    /// What the changes of a burst leave to drop: their names (the board's own
-    /// allocations) and the packets the mirror replaced, dropped together at the end of
-    /// the burst (see [`Names`]).
+    /// What the changes recorded leave to drop: their names (the board's own
+    /// allocations) and the packets the mirror replaced, dropped together (see
+    /// [`BURY_AT`]).
     dead_names: Vec<Arc<str>>,
     dead_packets: Vec<Packet>,
     /// The revision of the last snapshot: changes up to it are in it, and are skipped.
@@ -146,12 +151,20 @@ impl Tap {
             self.watch.recv_timeout(POLL)
         };
         let Some(first) = first else {
+            self.bury();
             return Ok(());
         };
         let result = self.burst(first, max);
+        if self.dead_names.len() >= BURY_AT {
+            self.bury();
+        }
+        result
+    }
+
+    /// Drops the board's references the changes left, all at once (see [`Names`]).
+    fn bury(&mut self) {
         self.dead_names.clear();
         self.dead_packets.clear();
-        result
     }
 
     fn burst(&mut self, first: Change, max: usize) -> Result<(), RecordError> {
@@ -580,9 +593,9 @@ impl Mirrored {
 /// change (an atomic increment of each one's reference count), and the recorder, on the
 /// other core, would read them, clone them into its mirror and drop them, one change at
 /// a time. Each such access moves the cache line of the count from one core to the other
-/// and back, several times per write: that, more than the recorder's own work, is what
-/// slowed the writer (docs/performance.md). The recorder now only moves the board's
-/// references, and drops them all together at the end of a burst.
+/// and back, several times per write: a cost the writer pays in its own processor time
+/// (`node_write_recording_cpu_ns`, docs/performance.md). The recorder now only moves the
+/// board's references, and drops them together, a couple of thousand at a time.
 #[derive(Default)]
 struct Names {
     /// By the address and length of the board's text: the board's reference (kept, so
