@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use super::hook::{ChangeHook, TouchKind, Touched};
 use super::state::{Entity, Origin, State, Stored};
-use super::watch::{ChangeItem, Watcher};
+use super::watch::{Change, ChangeItem, Watcher};
 use smallvec::SmallVec;
 
 use crate::active::FnRef;
@@ -59,9 +59,8 @@ pub(crate) struct Txn<'s> {
     revision: u64,
     stamp: Timestamp,
     undo: Option<Vec<Undo>>,
-    /// Per watcher (by index), the items it is to be told (a write's one item inline:
-    /// a change costs the writer no allocation of its own).
-    notes: SmallVec<[SmallVec<[ChangeItem; 1]>; 4]>,
+    /// Per watcher (by index), the items it is to be told.
+    notes: SmallVec<[Vec<ChangeItem>; 4]>,
     fired: Vec<Fired>,
     touched: SmallVec<[Touched; 4]>,
 }
@@ -234,7 +233,7 @@ impl<'s> Txn<'s> {
         for (i, w) in watchers.iter().enumerate() {
             if !(foreign && w.spec.own_writes) && w.spec.matches(state, id, attr) {
                 if self.notes.len() < watchers.len() {
-                    self.notes.resize_with(watchers.len(), SmallVec::new);
+                    self.notes.resize_with(watchers.len(), Vec::new);
                 }
                 if let Some(before) = last.replace(i) {
                     self.notes[before].push(item.clone());
@@ -260,7 +259,7 @@ impl<'s> Txn<'s> {
         inner.state.revision = revision;
         let mut dead = Vec::new();
         for (i, items) in notes.into_iter().enumerate() {
-            if !items.is_empty() && !inner.watchers[i].offer(revision, items) {
+            if !items.is_empty() && !inner.watchers[i].offer(Change { revision, items }) {
                 dead.push(i);
             }
         }

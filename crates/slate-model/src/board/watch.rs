@@ -1,10 +1,10 @@
 //! Watching a board: change notifications, revision cursors and board events.
 
-use std::collections::VecDeque;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, TrySendError};
 use parking_lot::{Condvar, Mutex};
 
 use super::state::State;
@@ -276,87 +276,43 @@ impl Cursor {
 
 /// A subscription to a board's changes. Iterating blocks for the next change; dropping
 /// the watch unsubscribes.
-///
-/// Writers hand changes over in batches: a commit appends its items to the watch's queue
-/// (no allocation once the queue has grown, and a wake-up only when the reader sleeps),
-/// and the reader takes everything waiting at once, then hands it out change by change.
-/// A reader that finds nothing looks again for a microsecond or so before it sleeps, so
-/// a busy board's writers seldom pay a wake-up; a sleeping reader is woken by the very
-/// write that gives it something (no timer, no added latency).
 #[derive(Debug)]
 pub struct Watch {
-    shared: Arc<Shared>,
-    /// The batch the reader took last, handed out change by change.
-    taken: Mutex<Batch>,
+    rx: Receiver<Change>,
     cursor: Cursor,
+    /// Changes a bounded watch had no room for (always 0 for an unbounded one).
+    dropped: Arc<AtomicU64>,
 }
 
 impl Watch {
     /// The next change, waiting as long as it takes (`None` once the board is gone).
     pub fn recv(&self) -> Option<Change> {
-        self.take(Wait::Forever)
+        self.rx
+            .recv()
+            .ok()
+            .inspect(|c| self.cursor.advance(c.revision))
     }
 
     /// The next change, waiting at most `timeout`.
     pub fn recv_timeout(&self, timeout: Duration) -> Option<Change> {
-        self.take(Wait::Until(Instant::now() + timeout))
+        match self.rx.recv_timeout(timeout) {
+            Ok(c) => {
+                self.cursor.advance(c.revision);
+                Some(c)
+            }
+            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => None,
+        }
     }
 
     /// The next change if one is waiting.
     pub fn try_recv(&self) -> Option<Change> {
-        self.take(Wait::No)
-    }
-
-    /// Hands out the next change of the batch taken, else takes the next batch.
-    fn take(&self, wait: Wait) -> Option<Change> {
-        let mut taken = self.taken.lock();
-        if taken.changes.is_empty() {
-            let shared = &*self.shared;
-            let mut queue = shared.queue.lock();
-            let mut looked = false;
-            while queue.waiting.changes.is_empty() {
-                if queue.closed {
-                    return None;
-                }
-                let deadline = match wait {
-                    Wait::No => return None,
-                    Wait::Forever => None,
-                    Wait::Until(deadline) => Some(deadline),
-                };
-                // Awake, the reader costs a writer no system call: it looks again a few
-                // times before it sleeps (the next change of a busy board is usually a
-                // microsecond away), then sleeps until a writer wakes it.
-                if !looked {
-                    looked = true;
-                    drop(queue);
-                    let posted = shared.look_again(deadline);
-                    queue = shared.queue.lock();
-                    if posted {
-                        continue;
-                    }
-                }
-                queue.sleeping = true;
-                let timed_out = match deadline {
-                    None => {
-                        shared.ready.wait(&mut queue);
-                        false
-                    }
-                    Some(deadline) => shared.ready.wait_until(&mut queue, deadline).timed_out(),
-                };
-                queue.sleeping = false;
-                if timed_out && queue.waiting.changes.is_empty() {
-                    return None;
-                }
+        match self.rx.try_recv() {
+            Ok(c) => {
+                self.cursor.advance(c.revision);
+                Some(c)
             }
-            // The emptied buffers go back to the writers, who fill them again without
-            // allocating.
-            std::mem::swap(&mut queue.waiting, &mut *taken);
-            shared.posted.store(false, Ordering::Relaxed);
+            Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
         }
-        let (revision, n) = taken.changes.pop_front()?;
-        let items = taken.items.drain(..n).collect();
-        self.cursor.advance(revision);
-        Some(Change { revision, items })
     }
 
     /// A cursor a writer can wait on until this watch's reader has seen its write.
@@ -366,23 +322,13 @@ impl Watch {
 
     /// Changes waiting to be received.
     pub fn pending(&self) -> usize {
-        let taken = self.taken.lock().changes.len();
-        taken + self.shared.queue.lock().waiting.changes.len()
+        self.rx.len()
     }
 
     /// Changes not delivered because a bounded watch was full (see
     /// [`Board::watch_bounded`](crate::Board::watch_bounded)).
     pub fn dropped(&self) -> u64 {
-        self.shared.dropped.load(Ordering::Relaxed)
-    }
-}
-
-impl Drop for Watch {
-    fn drop(&mut self) {
-        // The writers see it at their next change and forget the watcher.
-        let mut queue = self.shared.queue.lock();
-        queue.closed = true;
-        queue.waiting = Batch::default();
+        self.dropped.load(Ordering::Relaxed)
     }
 }
 
@@ -392,69 +338,6 @@ impl Iterator for Watch {
         self.recv()
     }
 }
-
-/// How long [`Watch::take`] waits for a batch.
-#[derive(Clone, Copy)]
-enum Wait {
-    No,
-    Forever,
-    Until(Instant),
-}
-
-/// Changes, as their items in order and, per change, its revision and how many items it
-/// holds: one buffer for all, not one allocation per change.
-#[derive(Debug, Default)]
-struct Batch {
-    items: VecDeque<ChangeItem>,
-    changes: VecDeque<(u64, usize)>,
-}
-
-/// What waits for the reader.
-#[derive(Debug, Default)]
-struct Queue {
-    waiting: Batch,
-    /// The reader waits on [`Shared::ready`]: the next change wakes it.
-    sleeping: bool,
-    /// The reader or the board is gone.
-    closed: bool,
-}
-
-/// What a watch's writers (the board) and its reader share.
-#[derive(Debug)]
-struct Shared {
-    queue: Mutex<Queue>,
-    ready: Condvar,
-    /// Something waits in `queue`: what the reader looks at before it sleeps, without
-    /// taking the lock (set by the writers, cleared by the reader when it takes a batch).
-    posted: AtomicBool,
-    /// At most this many changes wait in `queue` (the reader's batch taken aside).
-    capacity: Option<usize>,
-    /// Changes a bounded watch had no room for (always 0 for an unbounded one).
-    dropped: AtomicU64,
-}
-
-impl Shared {
-    /// Looks for a change posted, spinning a little (255 pause instructions in all: a
-    /// microsecond to a few, depending on the processor, about what a writer's wake-up
-    /// of a sleeping reader costs), until `deadline` at the latest: true if one was.
-    fn look_again(&self, deadline: Option<Instant>) -> bool {
-        for step in 0..SPINS {
-            if self.posted.load(Ordering::Acquire) {
-                return true;
-            }
-            if deadline.is_some_and(|d| Instant::now() >= d) {
-                return false;
-            }
-            for _ in 0..1u32 << step {
-                std::hint::spin_loop();
-            }
-        }
-        self.posted.load(Ordering::Acquire)
-    }
-}
-
-/// Looks of [`Shared::look_again`], each spinning twice as long as the one before.
-const SPINS: u32 = 8;
 
 /// A filter with its names resolved.
 #[derive(Debug)]
@@ -491,62 +374,45 @@ impl Spec {
 
 pub(crate) struct Watcher {
     pub spec: Spec,
-    shared: Arc<Shared>,
+    tx: Sender<Change>,
+    dropped: Arc<AtomicU64>,
 }
 
 impl Watcher {
-    /// Hands a change (the `items` of `revision`) to the reader without ever waiting: a
-    /// full bounded watch drops it and counts it. False once the reader is gone (the
-    /// watcher is then removed).
-    pub fn offer(&self, revision: u64, items: impl IntoIterator<Item = ChangeItem>) -> bool {
-        let shared = &*self.shared;
-        let mut queue = shared.queue.lock();
-        if queue.closed {
-            return false;
+    /// Hands a change to the reader without ever waiting: a full bounded watch drops it
+    /// and counts it. False once the reader is gone (the watcher is then removed).
+    pub fn offer(&self, change: Change) -> bool {
+        match self.tx.try_send(change) {
+            Ok(()) => true,
+            Err(TrySendError::Full(_)) => {
+                self.dropped.fetch_add(1, Ordering::Relaxed);
+                true
+            }
+            Err(TrySendError::Disconnected(_)) => false,
         }
-        let waiting = &mut queue.waiting;
-        if shared.capacity.is_some_and(|n| waiting.changes.len() >= n) {
-            shared.dropped.fetch_add(1, Ordering::Relaxed);
-            return true;
-        }
-        let before = waiting.items.len();
-        waiting.items.extend(items);
-        let n = waiting.items.len() - before;
-        waiting.changes.push_back((revision, n));
-        // Written once per batch, not per change: the reader reads it while it looks.
-        if !shared.posted.load(Ordering::Relaxed) {
-            shared.posted.store(true, Ordering::Release);
-        }
-        if std::mem::take(&mut queue.sleeping) {
-            drop(queue);
-            shared.ready.notify_one();
-        }
-        true
-    }
-}
-
-impl Drop for Watcher {
-    /// The board is gone: a waiting reader gets what is left, then `None`.
-    fn drop(&mut self) {
-        self.shared.queue.lock().closed = true;
-        self.shared.ready.notify_all();
     }
 }
 
 /// Creates a watcher and the watch its reader holds; `capacity` bounds the changes
 /// waiting (`None`: unbounded).
 pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch) {
-    let shared = Arc::new(Shared {
-        queue: Mutex::new(Queue::default()),
-        ready: Condvar::new(),
-        posted: AtomicBool::new(false),
-        capacity,
-        dropped: AtomicU64::new(0),
-    });
-    let watch = Watch {
-        shared: shared.clone(),
-        taken: Mutex::new(Batch::default()),
-        cursor: Cursor::default(),
+    let (tx, rx) = match capacity {
+        Some(n) => crossbeam_channel::bounded(n),
+        None => crossbeam_channel::unbounded(),
     };
-    (Watcher { spec, shared }, watch)
+    let dropped = Arc::new(AtomicU64::new(0));
+    let watcher = Watcher {
+        spec,
+        tx,
+        dropped: dropped.clone(),
+    };
+    let cursor = Cursor::default();
+    (
+        watcher,
+        Watch {
+            rx,
+            cursor,
+            dropped,
+        },
+    )
 }
