@@ -56,12 +56,6 @@ impl<'a> PacketMessage<'a> {
             revision,
         }
     }
-
-    /// The same message with `source` for the packet's source (the same text: the
-    /// recorder's own copy of it, see `tap::Names`).
-    pub fn with_source(self, source: &'a str) -> Self {
-        PacketMessage { source, ..self }
-    }
 }
 
 /// `{ATTR: VALUE}`.

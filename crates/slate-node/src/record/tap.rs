@@ -8,7 +8,6 @@ use std::time::{Duration, Instant};
 
 use crossbeam_channel::Receiver;
 use parking_lot::Mutex;
-use rustc_hash::FxHashMap;
 use serde_json::{Value as Json, json};
 use slate_ici::{MODULE_CLASS, PlanCircuits, Transport};
 use slate_model::{
@@ -28,11 +27,6 @@ use crate::view::View;
 const POLL: Duration = Duration::from_millis(20);
 /// How often the plan circuits are asked for new steps.
 const CIRCUITS_EVERY: Duration = Duration::from_millis(100);
-/// The board's references left by the changes recorded are dropped together once there
-/// are this many (or when no change comes): a recorder that keeps up takes its changes
-/// a few at a time, and dropping them as it goes would pass the reference counts' cache
-/// lines back and forth with the writer (see [`Names`]).
-const BURY_AT: usize = 2048;
 /// Changes handled between two looks at everything else, so a busy board does not
 /// starve the events, the flushes and the stop.
 const BURST: usize = 4096;
@@ -60,13 +54,6 @@ pub struct Tap {
     /// A packet's topic and JSON, reused from one packet to the next.
     topic: String,
     buf: Vec<u8>,
-    /// The recorder's own copies of the names and sources of the changes it records.
-    names: Names,
-    /// What the changes recorded leave to drop: their names (the board's own
-    /// allocations) and the packets the mirror replaced, dropped together (see
-    /// [`BURY_AT`]).
-    dead_names: Vec<Arc<str>>,
-    dead_packets: Vec<Packet>,
     /// The revision of the last snapshot: changes up to it are in it, and are skipped.
     snapshot_revision: u64,
     flushed: Instant,
@@ -102,9 +89,6 @@ impl Tap {
             stats,
             topic: String::new(),
             buf: Vec::new(),
-            names: Names::default(),
-            dead_names: Vec::new(),
-            dead_packets: Vec::new(),
             snapshot_revision: 0,
             flushed: now,
             counted: now,
@@ -151,23 +135,8 @@ impl Tap {
             self.watch.recv_timeout(POLL)
         };
         let Some(first) = first else {
-            self.bury();
             return Ok(());
         };
-        let result = self.burst(first, max);
-        if self.dead_names.len() >= BURY_AT {
-            self.bury();
-        }
-        result
-    }
-
-    /// Drops the board's references the changes left, all at once (see [`Names`]).
-    fn bury(&mut self) {
-        self.dead_names.clear();
-        self.dead_packets.clear();
-    }
-
-    fn burst(&mut self, first: Change, max: usize) -> Result<(), RecordError> {
         self.change(first)?;
         for _ in 1..max {
             let Some(change) = self.watch.try_recv() else {
@@ -239,8 +208,7 @@ impl Tap {
         for (object, m) in objects {
             self.exists(&object, &m)?;
             for (attr, (packet, revision)) in &m.values {
-                let message = message::PacketMessage::new(&object, attr, packet, *revision);
-                self.write_packet(&m.channel, message, packet)?;
+                self.write_packet(&object, &m.channel, attr, packet, *revision)?;
             }
         }
         Ok(())
@@ -268,7 +236,7 @@ impl Tap {
             let values = snap
                 .own_values(id)
                 .into_iter()
-                .map(|(a, p, r)| (self.names.own(&a), (p, r)))
+                .map(|(a, p, r)| (a, (p, r)))
                 .collect();
             let m = if info.is_class {
                 Mirrored::class(info.name.clone())
@@ -278,9 +246,7 @@ impl Tap {
             if !self.wanted(&info.name, &m.channel) {
                 continue;
             }
-            let m = self.names.mirrored(m);
-            self.mirror
-                .insert(self.names.own(&info.name), Mirrored { values, ..m });
+            self.mirror.insert(info.name, Mirrored { values, ..m });
         }
         snap.revision()
     }
@@ -295,11 +261,7 @@ impl Tap {
                     object,
                     attr,
                     packet,
-                } => {
-                    let result = self.packet(&object, &attr, packet, change.revision);
-                    self.dead_names.extend([object, attr]);
-                    result?;
-                }
+                } => self.packet(&object, &attr, &packet, change.revision)?,
                 ChangeItem::Create { object, class } => self.created("create", object, class)?,
                 ChangeItem::Delete { object, class } => self.created("delete", object, class)?,
             }
@@ -325,8 +287,7 @@ impl Tap {
                 j["context"] = json!(context);
                 j["owner"] = json!(owner);
             }
-            let m = self.names.mirrored(m);
-            self.mirror.insert(self.names.own(&object), m);
+            self.mirror.insert(object, m);
         } else {
             self.mirror.remove(&object);
             self.alive.remove(&object);
@@ -336,50 +297,35 @@ impl Tap {
     }
 
     /// A packet on its class's channel (and on the liveliness channel, for a module's
-    /// `alive`). The names and the source are read from the recorder's own copies, and
-    /// the packet is moved into the mirror (see [`Names`]).
+    /// `alive`).
     fn packet(
         &mut self,
         object: &Arc<str>,
         attr: &Arc<str>,
-        packet: Packet,
+        packet: &Packet,
         revision: u64,
     ) -> Result<(), RecordError> {
-        let object = self.names.own(object);
-        let attr = self.names.own(attr);
-        let channel = self.channel_of_object(&object);
-        if !self.wanted(&object, &channel) {
-            self.dead_packets.push(packet);
+        let channel = self.channel_of_object(object);
+        if !self.wanted(object, &channel) {
             return Ok(());
         }
-        let source = self.names.own_source(&packet.source);
-        let message = message::PacketMessage::new(&object, &attr, &packet, revision);
-        self.write_packet(&channel, message.with_source(&source), &packet)?;
-        if &*channel == MODULE_CLASS && &*attr == "alive" {
-            self.liveliness(&object, &packet.value)?;
+        if let Some(m) = self.mirror.get_mut(object) {
+            m.values.insert(attr.clone(), (packet.clone(), revision));
         }
-        if let Some(m) = self.mirror.get_mut(&object) {
-            match m.values.get_mut(&attr) {
-                Some(slot) => {
-                    let (old, _) = std::mem::replace(slot, (packet, revision));
-                    self.dead_packets.push(old);
-                }
-                None => {
-                    m.values.insert(attr, (packet, revision));
-                }
-            }
-        } else {
-            self.dead_packets.push(packet);
+        self.write_packet(object, &channel, attr, packet, revision)?;
+        if &*channel == MODULE_CLASS && &**attr == "alive" {
+            self.liveliness(object, &packet.value)?;
         }
         Ok(())
     }
 
-    /// Writes `message`, the message of `packet`, on the channel of `channel`.
     fn write_packet(
         &mut self,
+        object: &str,
         channel: &Arc<str>,
-        message: message::PacketMessage,
+        attr: &str,
         packet: &Packet,
+        revision: u64,
     ) -> Result<(), RecordError> {
         if !self.classes.contains_key(&**channel) {
             self.refresh_classes()?;
@@ -388,6 +334,7 @@ impl Tap {
         self.topic.push_str(CLASS_PREFIX);
         self.topic.push_str(channel);
         self.buf.clear();
+        let message = message::PacketMessage::new(object, attr, packet, revision);
         if serde_json::to_writer(&mut self.buf, &message).is_err() {
             return Ok(()); // a packet always serialises: its strings are UTF-8, its reals finite
         }
@@ -427,7 +374,6 @@ impl Tap {
             Some(info) => Mirrored::object(&info),
             None => Mirrored::class(slate_model::THING.into()),
         };
-        let m = self.names.mirrored(m);
         let channel = m.channel.clone();
         self.mirror.insert(object.clone(), m);
         channel
@@ -585,92 +531,6 @@ impl Mirrored {
     }
 }
 
-/// The recorder's own copies of the names (objects, attributes) and sources of the
-/// changes it records, looked up by the address of the board's: the recorder reads and
-/// counts references to its copies, not to the board's.
-///
-/// Why: the writer clones the board's object name, attribute name and source into every
-/// change (an atomic increment of each one's reference count), and the recorder, on the
-/// other core, would read them, clone them into its mirror and drop them, one change at
-/// a time. Each such access moves the cache line of the count from one core to the other
-/// and back, several times per write: a cost the writer pays in its own processor time
-/// (`node_write_recording_cpu_ns`, docs/performance.md). The recorder now only moves the
-/// board's references, and drops them together, a couple of thousand at a time.
-#[derive(Default)]
-struct Names {
-    /// By the address and length of the board's text: the board's reference (kept, so
-    /// the address is not reused for another text while it is here) and the copy.
-    names: FxHashMap<(usize, usize), (Arc<str>, Arc<str>)>,
-    sources: FxHashMap<(usize, usize), (slate_model::Address, Arc<str>)>,
-}
-
-/// Copies kept at most, of names and of sources each; past it they are forgotten and
-/// copied again when seen (objects come and go: what is kept stays bounded).
-const NAMES_KEPT: usize = 1 << 16;
-
-impl Names {
-    fn own(&mut self, name: &Arc<str>) -> Arc<str> {
-        let key = (name.as_ptr() as usize, name.len());
-        if let Some((_, own)) = self.names.get(&key) {
-            return own.clone();
-        }
-        if self.names.len() >= NAMES_KEPT {
-            self.names.clear();
-        }
-        let own: Arc<str> = Arc::from(&**name);
-        self.names.insert(key, (name.clone(), own.clone()));
-        own
-    }
-
-    /// `m` with its channel's name the recorder's own copy.
-    fn mirrored(&mut self, m: Mirrored) -> Mirrored {
-        Mirrored {
-            channel: self.own(&m.channel),
-            ..m
-        }
-    }
-
-    fn own_source(&mut self, source: &slate_model::Address) -> Arc<str> {
-        let text = source.as_str();
-        let key = (text.as_ptr() as usize, text.len());
-        if let Some((_, own)) = self.sources.get(&key) {
-            return own.clone();
-        }
-        if self.sources.len() >= NAMES_KEPT {
-            self.sources.clear();
-        }
-        let own: Arc<str> = Arc::from(text);
-        self.sources.insert(key, (source.clone(), own.clone()));
-        own
-    }
-}
-
 fn nanos(d: Duration) -> u64 {
     u64::try_from(d.as_nanos()).unwrap_or(u64::MAX)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn names_are_copied_once_per_allocation_and_stay_bounded() {
-        let mut names = Names::default();
-        let board: Arc<str> = Arc::from("gsr");
-        let own = names.own(&board);
-        assert_eq!(&*own, "gsr");
-        assert!(!Arc::ptr_eq(&own, &board), "a copy, not the board's");
-        assert!(Arc::ptr_eq(&names.own(&board), &own), "the same copy again");
-        let other: Arc<str> = Arc::from("gsr");
-        assert!(!Arc::ptr_eq(&names.own(&other), &own), "another allocation");
-        let address = slate_model::Address::new("team/r1/nav").unwrap();
-        assert_eq!(&*names.own_source(&address), "team/r1/nav");
-        let many: Vec<Arc<str>> = (0..NAMES_KEPT + 10)
-            .map(|i| Arc::from(i.to_string()))
-            .collect();
-        for (i, n) in many.iter().enumerate() {
-            assert_eq!(*names.own(n), *i.to_string());
-        }
-        assert!(names.names.len() <= NAMES_KEPT);
-    }
 }
