@@ -70,7 +70,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
         "node_write_recording_cpu_ns",
         cpu,
         "node_write_cpu_ns",
-        Some(1.25),
+        None,
     );
     let recorder_cpu = recorder
         .as_deref()
@@ -116,7 +116,9 @@ fn handed_off(board: &slate_model::Board, op: impl FnOnce() -> f64) -> anyhow::R
 }
 
 /// The processor time of the calling thread so far, in nanoseconds (Linux's
-/// `/proc/thread-self/schedstat`; `None` elsewhere).
+/// `/proc/thread-self/schedstat`; `None` elsewhere). The kernel brings a running thread's
+/// count up to date at each scheduler tick (4 ms at most): over a measurement of a second
+/// that is half a percent.
 fn thread_cpu_ns() -> Option<u64> {
     schedstat(std::path::Path::new("/proc/thread-self/schedstat"))
 }
@@ -157,8 +159,6 @@ pub const TIMED_FIELDS: &[&str] = &[
     "node_write_ns",
     "node_write_handoff_ns",
     "node_write_recording_ns",
-    "node_write_cpu_ns",
-    "node_write_recording_cpu_ns",
 ];
 
 #[cfg(test)]
@@ -170,7 +170,15 @@ mod tests {
         let j = run(&crate::TINY, &mut |_| {}).unwrap().json();
         crate::assert_fields(&j, TIMED_FIELDS, |x| x > 0.0);
         assert!(j["recorded_messages"].as_u64() > Some(0), "{j}");
-        assert!(j["recorder_cpu_ns_per_message"].as_f64() > Some(0.0), "{j}");
+        // Processor times are reported; in a run this short they may not have moved (the
+        // kernel brings a running thread's count up to date at each scheduler tick).
+        for f in [
+            "node_write_cpu_ns",
+            "node_write_recording_cpu_ns",
+            "recorder_cpu_ns_per_message",
+        ] {
+            assert!(j[f].as_f64() >= Some(0.0), "{f}: {j}");
+        }
         // Every write recorded or counted as dropped (and the file's first packet, the
         // value gsr had when it began).
         let accounted =
