@@ -31,12 +31,28 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     let key = node.board().key("gsr", "speed")?;
     let mut values = crate::Cycle::new(0.0, 49.0);
     let written = std::cell::Cell::new(0u64);
+    let calls = std::cell::Cell::new(0u64);
     let mut write = || {
         let ok = black_box(node.board().write_key(key, values.next_value())).is_ok();
         written.set(written.get() + u64::from(ok));
+        calls.set(calls.get() + 1);
+    };
+    // The writer thread's own processor time per write, beside the wall time: what a
+    // writer with a core of its own would pay (the time it is not scheduled, while the
+    // recorder or another process has the processor, is not in it).
+    let on_cpu = |f: &mut dyn FnMut() -> f64| {
+        let (cpu, n) = (thread_cpu_ns(), calls.get());
+        let ns = f();
+        let cpu = thread_cpu_ns().zip(cpu).map(|(b, a)| b.saturating_sub(a));
+        let per = cpu.map_or(0.0, |c| c as f64 / (calls.get() - n).max(1) as f64);
+        (ns, per)
     };
     progress("node writes, not recording");
-    r.add("node_write_ns", measure(cfg, &mut write));
+    // The node's first writes set things up (the ICI's first reports): not measured.
+    (0..10_000).for_each(|_| write());
+    let (ns, cpu) = on_cpu(&mut || measure(cfg, &mut write));
+    r.add("node_write_ns", ns);
+    r.add("node_write_cpu_ns", cpu);
     progress("node writes, a bounded watch drained by a thread that discards");
     let ns = handed_off(node.board(), || measure(cfg, &mut write))?;
     r.compare("node_write_handoff_ns", ns, "node_write_ns", None);
@@ -46,8 +62,22 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     node.start_recording(RecordConfig::new(&path))?;
     progress("node writes, recording");
     let before = written.get();
-    let ns = measure(cfg, &mut write);
+    let recorder = thread_named("slate-recorder");
+    let recorder_cpu = recorder.as_deref().and_then(thread_cpu_ns_of);
+    let (ns, cpu) = on_cpu(&mut || measure(cfg, &mut write));
     r.compare("node_write_recording_ns", ns, "node_write_ns", Some(1.25));
+    r.compare(
+        "node_write_recording_cpu_ns",
+        cpu,
+        "node_write_cpu_ns",
+        None,
+    );
+    let recorder_cpu = recorder
+        .as_deref()
+        .and_then(thread_cpu_ns_of)
+        .zip(recorder_cpu)
+        .map_or(0, |(b, a)| b.saturating_sub(a));
+    let recorded = node.recording().unwrap_or_default().messages;
     let written = written.get() - before;
     let stats = node.stop_recording()?.unwrap_or_default();
     node.close();
@@ -60,6 +90,8 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     r.fact("recorded_bytes", json!(stats.bytes));
     r.fact("dropped_changes", json!(stats.dropped));
     r.fact("recording_failed", json!(stats.failed));
+    let per_message = recorder_cpu as f64 / recorded.max(1) as f64;
+    r.fact("recorder_cpu_ns_per_message", json!(per_message.round()));
     let per = stats.bytes as f64 / stats.messages.max(1) as f64;
     r.fact("bytes_per_message", json!((per * 10.0).round() / 10.0));
     Ok(r)
@@ -83,6 +115,42 @@ fn handed_off(board: &slate_model::Board, op: impl FnOnce() -> f64) -> anyhow::R
     })
 }
 
+/// The processor time of the calling thread so far, in nanoseconds (Linux's
+/// `/proc/thread-self/schedstat`; `None` elsewhere). The kernel brings a running thread's
+/// count up to date at each scheduler tick (4 ms at most): over a measurement of a second
+/// that is half a percent.
+fn thread_cpu_ns() -> Option<u64> {
+    schedstat(std::path::Path::new("/proc/thread-self/schedstat"))
+}
+
+/// The processor time of one of this process's threads (its `/proc/self/task/TID`).
+fn thread_cpu_ns_of(task: &std::path::Path) -> Option<u64> {
+    schedstat(&task.join("schedstat"))
+}
+
+fn schedstat(path: &std::path::Path) -> Option<u64> {
+    let text = std::fs::read_to_string(path).ok()?;
+    text.split_whitespace().next()?.parse().ok()
+}
+
+/// The `/proc/self/task/TID` of this process's thread named `name`, waiting up to a
+/// second for it (a new thread names itself once it runs).
+fn thread_named(name: &str) -> Option<std::path::PathBuf> {
+    let find = || {
+        std::fs::read_dir("/proc/self/task")
+            .ok()?
+            .flatten()
+            .map(|e| e.path())
+            .find(|task| std::fs::read_to_string(task.join("comm")).is_ok_and(|c| c.trim() == name))
+    };
+    (0..1000).find_map(|_| {
+        find().or_else(|| {
+            std::thread::sleep(Duration::from_millis(1));
+            None
+        })
+    })
+}
+
 /// The channel of the bench's packets (`gsr` is a `Vehicle`).
 const PACKETS: &str = "/slate/class/Vehicle";
 
@@ -102,6 +170,15 @@ mod tests {
         let j = run(&crate::TINY, &mut |_| {}).unwrap().json();
         crate::assert_fields(&j, TIMED_FIELDS, |x| x > 0.0);
         assert!(j["recorded_messages"].as_u64() > Some(0), "{j}");
+        // Processor times are reported; in a run this short they may not have moved (the
+        // kernel brings a running thread's count up to date at each scheduler tick).
+        for f in [
+            "node_write_cpu_ns",
+            "node_write_recording_cpu_ns",
+            "recorder_cpu_ns_per_message",
+        ] {
+            assert!(j[f].as_f64() >= Some(0.0), "{f}: {j}");
+        }
         // Every write recorded or counted as dropped (and the file's first packet, the
         // value gsr had when it began).
         let accounted =

@@ -151,3 +151,122 @@ fn a_bounded_watch_drops_and_counts_what_does_not_fit_and_never_blocks_the_write
     let unbounded = b.watch(Filter::all()).unwrap();
     assert_eq!(unbounded.dropped(), 0);
 }
+
+/// A reader blocked on `recv` gets what is left, then `None`, once the board is gone.
+#[test]
+fn a_waiting_reader_gets_what_is_left_then_none_when_the_board_is_dropped() {
+    let b = with_vehicle();
+    let w = b.watch(Filter::all()).unwrap();
+    b.write("v", "speed", 1.0).unwrap();
+    let reader = thread::spawn(move || {
+        let first = w.recv().map(|c| writes(&c));
+        let second = w.recv().map(|c| writes(&c));
+        (first, second)
+    });
+    thread::sleep(Duration::from_millis(50));
+    drop(b);
+    let (first, second) = reader.join().unwrap();
+    assert_eq!(first, Some(vec!["v.speed".to_owned()]));
+    assert_eq!(second, None);
+}
+
+/// Two writers and a reader that waits, each on its own thread: every change arrives once,
+/// in revision order, or is counted as dropped; no wake-up is lost (the reader would
+/// wait for ever).
+#[test]
+fn changes_from_two_writer_threads_all_reach_a_waiting_reader_in_revision_order() {
+    const WRITES: u64 = 20_000;
+    for capacity in [None, Some(64)] {
+        let b = Arc::new(board());
+        b.create("Gsr", "g").unwrap();
+        b.create("Gsr", "h").unwrap();
+        let w = match capacity {
+            None => b.watch(Filter::all()).unwrap(),
+            Some(n) => b.watch_bounded(Filter::all(), n).unwrap(),
+        };
+        let writers: Vec<_> = ["g", "h"]
+            .into_iter()
+            .map(|name| {
+                let b = b.clone();
+                thread::spawn(move || {
+                    for i in 0..WRITES {
+                        b.write(name, "speed", (i % 40) as f64).unwrap();
+                    }
+                })
+            })
+            .collect();
+        let total = 2 * WRITES;
+        let (mut seen, mut last) = (0, 0);
+        while seen + w.dropped() < total {
+            let c = w
+                .recv_timeout(Duration::from_secs(10))
+                .expect("a change within 10 s");
+            assert!(c.revision > last, "{} after {last}", c.revision);
+            last = c.revision;
+            seen += 1;
+        }
+        writers.into_iter().for_each(|t| t.join().unwrap());
+        assert_eq!(w.try_recv(), None, "nothing beyond the writes");
+        assert_eq!(seen + w.dropped(), total, "capacity {capacity:?}");
+        if capacity.is_none() {
+            assert_eq!(w.dropped(), 0);
+        }
+    }
+}
+
+/// A reader asleep in `recv` (no timeout: nothing wakes it but a writer) gets each change
+/// as it is written: the writer waits until the reader has seen its write before the
+/// next, so the reader is asleep again each time. A lost wake-up would leave the writer
+/// waiting.
+#[test]
+fn a_reader_asleep_in_recv_is_woken_by_each_write() {
+    let b = Arc::new(with_vehicle());
+    let w = b.watch(Filter::all()).unwrap();
+    let cursor = w.cursor();
+    let reader = thread::spawn(move || {
+        (0..20)
+            .map(|_| w.recv().map(|c| c.revision))
+            .collect::<Vec<_>>()
+    });
+    let mut revs = Vec::new();
+    for i in 0..20 {
+        thread::sleep(Duration::from_millis(5));
+        let rev = b.write("v", "speed", f64::from(i)).unwrap();
+        assert!(
+            cursor.wait_for(rev, Duration::from_secs(10)),
+            "the reader did not get write {i}"
+        );
+        revs.push(Some(rev));
+    }
+    assert_eq!(reader.join().unwrap(), revs);
+}
+
+/// A reader that keeps up with a writer writing flat out gets every change once, in
+/// order, each with its own items.
+#[test]
+fn a_reader_keeping_up_with_a_fast_writer_gets_every_change_in_order() {
+    const WRITES: u32 = 50_000;
+    let b = Arc::new(with_vehicle());
+    let w = b.watch(Filter::all()).unwrap();
+    let reader = thread::spawn(move || {
+        let mut values = Vec::new();
+        while values.len() < WRITES as usize {
+            let c = w.recv_timeout(Duration::from_secs(10)).expect("a change");
+            for item in c.items {
+                if let ChangeItem::Write { packet, .. } = item {
+                    values.push(packet.value);
+                }
+            }
+        }
+        (values, w.try_recv())
+    });
+    for i in 0..WRITES {
+        b.write("v", "speed", f64::from(i % 40)).unwrap();
+    }
+    let (values, more) = reader.join().unwrap();
+    let expected: Vec<slate_model::Value> = (0..WRITES)
+        .map(|i| slate_model::Value::Real(f64::from(i % 40)))
+        .collect();
+    assert!(values == expected, "changes lost, repeated or out of order");
+    assert_eq!(more, None);
+}
