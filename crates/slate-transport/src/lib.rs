@@ -54,4 +54,4 @@ mod transport;
 pub use sim::{
     Channel, LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport,
 };
-pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};
+pub use transport::{Flow, Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};

@@ -15,7 +15,7 @@ use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
 use super::state::State;
-use crate::{LinkKind, MsgKind};
+use crate::{Flow, LinkKind, MsgKind};
 
 /// Whether an item goes on a link kind.
 enum Wanted {
@@ -460,6 +460,7 @@ impl State {
     /// Encodes and publishes one report; a batch that does not encode is split until
     /// the faulty packet is isolated and dropped.
     fn emit_report(&mut self, link: LinkKind, items: &[Reported]) {
+        let flow = self.flow_of(items.iter().map(|r| r.0));
         let Some(out) = self.out.get_mut(&link) else {
             return;
         };
@@ -470,7 +471,7 @@ impl State {
             Ok(bytes) => {
                 out.seq += 1;
                 self.stats.reports.items_sent += items.len() as u64;
-                self.publish(link, MsgKind::Report, &bytes);
+                self.publish_with(link, MsgKind::Report, &bytes, flow);
             }
             Err(e) if items.len() > 1 => {
                 let (a, b) = items.split_at(items.len() / 2);
@@ -479,6 +480,18 @@ impl State {
                 self.emit_report(link, b);
             }
             Err(e) => self.encode_failed(&items[0], &e),
+        }
+    }
+
+    /// [`Flow::Every`] if one of the subjects is of a class whose every update is sent
+    /// ([`IciConfig::lossless`](crate::IciConfig::lossless)), else [`Flow::Latest`].
+    pub(super) fn flow_of<'a>(&self, mut subjects: impl Iterator<Item = &'a Subject>) -> Flow {
+        let lossless = &self.config.lossless;
+        if !lossless.is_empty() && subjects.any(|s| lossless.contains(&s.lineage, s.object.context))
+        {
+            Flow::Every
+        } else {
+            Flow::Latest
         }
     }
 
