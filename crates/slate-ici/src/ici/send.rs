@@ -471,6 +471,11 @@ impl State {
             Ok(bytes) => {
                 out.seq += 1;
                 self.stats.reports.items_sent += items.len() as u64;
+                // Names a report announces are not announced again: lost, they would
+                // leave the lossless reports that use them undecodable until a
+                // catch-up (and their updates lost).
+                let announced = out.encoder.announced() && !self.config.lossless.is_empty();
+                let flow = if announced { Flow::Every } else { flow };
                 self.publish_with(link, MsgKind::Report, &bytes, flow);
             }
             Err(e) if items.len() > 1 => {

@@ -84,7 +84,16 @@ fn a_lossless_class_is_published_with_flow_every_and_passes_the_links_filter() {
     team.run(0.5);
     board.create("Event", "ev").unwrap();
     board.create("Gauge", "tank").unwrap();
-    team.run(0.1);
+    // The first reports announce the names (and go with `Flow::Every` for it, whatever
+    // their class); then the robot link's second passes.
+    board.write("ev", "seq", 0.0).unwrap();
+    board.write("tank", "level", 0.0).unwrap();
+    team.run(1.1);
+    assert_eq!(
+        *flows.reports.lock(),
+        [Flow::Every, Flow::Every],
+        "the reports that announce names"
+    );
     flows.reports.lock().clear();
     for i in 1..=10 {
         board.write("ev", "seq", f64::from(i)).unwrap();
