@@ -103,8 +103,20 @@ type Values<'a> = SmallVec<[Reported<'a>; 8]>;
 impl State {
     /// Takes every change committed since the last call and sends what is due.
     pub fn drain_changes(&mut self) {
+        self.drain_changes_to(u64::MAX);
+    }
+
+    /// Takes the changes committed since the last call up to board revision `revision`
+    /// and sends what is due; a later change waits for the next call (`next_change`).
+    /// A catch-up answer drains up to the revision its state was read at, so that the
+    /// reports of every write it holds go before it, and none of a write after it.
+    pub fn drain_changes_to(&mut self, revision: u64) {
         let mut items = std::mem::take(&mut self.spare_items);
-        while let Some(change) = self.watch.try_recv() {
+        while let Some(change) = self.next_change.take().or_else(|| self.watch.try_recv()) {
+            if change.revision > revision {
+                self.next_change = Some(change);
+                break;
+            }
             for item in change.items {
                 self.collect(item, &mut items);
             }

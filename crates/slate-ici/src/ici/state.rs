@@ -10,7 +10,7 @@ use std::time::Duration;
 use rustc_hash::FxHashMap;
 
 use slate_model::memo::NameMemo;
-use slate_model::{Address, Board, Context, MergePolicy, Packet, Timestamp, Watch};
+use slate_model::{Address, Board, Change, Context, MergePolicy, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder, ObjectEntry};
 
 use super::classes::{Catalog, ClassSet, Lineage};
@@ -261,6 +261,9 @@ pub(crate) struct State {
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
     pub watch: Watch,
+    /// A change taken from `watch` past the revision a drain stopped at
+    /// (`drain_changes_to`): the next drain starts with it.
+    pub next_change: Option<Change>,
     pub stats: IciStats,
     /// Physical time of the operation in progress.
     pub now: Duration,
@@ -328,6 +331,7 @@ impl State {
             catch_up_from: Duration::ZERO,
             dead: BTreeSet::new(),
             watch,
+            next_change: None,
             stats: IciStats::default(),
             now,
             ops: Vec::new(),
