@@ -447,7 +447,9 @@ const DIRECT_GAP: Duration = Duration::from_micros(50);
 /// The delivery thread's work and the direct path's state ([`Inner::hand_over`]).
 #[derive(Debug, Default)]
 struct Gate {
-    /// Deliveries queued or being handled by the delivery thread.
+    /// Deliveries queued or being handled by the delivery thread (it counts one down
+    /// only once its handler returned): while one is, a report heard now must not
+    /// overtake it on Zenoh's thread.
     queued: usize,
     /// A report is being handed over on a Zenoh thread.
     direct: bool,
@@ -470,11 +472,24 @@ impl Gate {
     }
 }
 
+/// A report being handed over on Zenoh's thread: its end is noted when it is dropped,
+/// even by a handler that panics, so that later reports are not all sent through the
+/// queue for want of it.
+struct DirectTurn<'a>(&'a Mutex<Gate>);
+
+impl Drop for DirectTurn<'_> {
+    fn drop(&mut self) {
+        let mut gate = self.0.lock();
+        gate.direct = false;
+        gate.direct_ended = Some(Instant::now());
+    }
+}
+
 /// Starts the delivery thread: it runs the handler for what Zenoh's callbacks heard
 /// (but an isolated report, [`Inner::hand_over`]), so that a slow handler (a board
-/// whose active functions are slow) does not hold Zenoh's receive threads, whose backlog (in TCP and Zenoh's buffers) would otherwise be
-/// drained in full before a catch-up answer behind it. It ends when the transport
-/// closes.
+/// whose active functions are slow) does not hold Zenoh's receive threads, whose
+/// backlog (in TCP and Zenoh's buffers) would otherwise be drained in full before a
+/// catch-up answer behind it. It ends when the transport closes.
 fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
     let (tx, rx) = mpsc::sync_channel::<Delivery>(INBOX_CAPACITY);
     let thread = std::thread::Builder::new()
@@ -556,10 +571,8 @@ impl Inner {
     /// dropped, not held in Zenoh's and TCP's buffers ([`Gate::enter_direct`]).
     fn hand_over(&self, d: Delivery, droppable: bool, direct: bool) {
         if direct && self.gate.lock().enter_direct(Instant::now()) {
+            let _turn = DirectTurn(&self.gate);
             self.deliver(d);
-            let mut gate = self.gate.lock();
-            gate.direct = false;
-            gate.direct_ended = Some(Instant::now());
             return;
         }
         let Some(tx) = self.inbox.lock().as_ref().map(|(tx, _)| tx.clone()) else {
@@ -1032,6 +1045,23 @@ mod tests {
         assert!(!gate.enter_direct(later), "something queued goes first");
         gate.queued = 0;
         assert!(gate.enter_direct(later));
+    }
+
+    #[test]
+    fn a_direct_hand_over_that_panics_still_ends() {
+        let gate = Mutex::new(Gate::default());
+        let t0 = Instant::now();
+        assert!(gate.lock().enter_direct(t0));
+        let panicked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let _turn = DirectTurn(&gate);
+            panic!("a handler's bug");
+        }));
+        assert!(panicked.is_err());
+        let later = Instant::now() + DIRECT_GAP;
+        assert!(
+            gate.lock().enter_direct(later),
+            "the next report may go direct"
+        );
     }
 
     #[test]
