@@ -49,6 +49,8 @@
 #[cfg(feature = "testing")]
 pub mod conformance;
 mod sim;
+#[cfg(feature = "testing")]
+pub mod tap;
 mod transport;
 
 pub use sim::{

@@ -6,55 +6,11 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use parking_lot::Mutex;
-use slate_ici::{
-    ClassSet, Flow, Handler, Ici, LinkKind, LinkPolicy, LinkReport, LinkStats, MsgKind, SendError,
-    Transport,
-};
+use slate_ici::{ClassSet, Flow, Ici, LinkKind, LinkPolicy, LinkReport, MsgKind};
 use slate_model::{Address, AttrDecl, ClassDef, ReportPolicy, ValueType};
+use slate_transport::tap::Tapped;
 
 use crate::support::{Team, open};
-
-/// Passes everything on, noting the flow of each report published.
-struct Flows {
-    inner: Arc<dyn Transport>,
-    reports: Mutex<Vec<Flow>>,
-}
-
-impl Transport for Flows {
-    fn address(&self) -> &Address {
-        self.inner.address()
-    }
-    fn set_handler(&self, handler: Arc<dyn Handler>) {
-        self.inner.set_handler(handler)
-    }
-    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.publish_with(link, kind, payload, Flow::Latest)
-    }
-    fn publish_with(
-        &self,
-        link: LinkKind,
-        kind: MsgKind,
-        payload: &[u8],
-        flow: Flow,
-    ) -> Result<(), SendError> {
-        if kind == MsgKind::Report {
-            self.reports.lock().push(flow);
-        }
-        self.inner.publish_with(link, kind, payload, flow)
-    }
-    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.inner.send(to, kind, payload)
-    }
-    fn peers(&self) -> Vec<Address> {
-        self.inner.peers()
-    }
-    fn stats(&self) -> LinkStats {
-        self.inner.stats()
-    }
-    fn close(&self) {
-        self.inner.close()
-    }
-}
 
 #[test]
 fn a_lossless_class_is_published_with_flow_every_and_passes_the_links_filter() {
@@ -65,12 +21,17 @@ fn a_lossless_class_is_published_with_flow_every_and_passes_the_links_filter() {
     ];
     let mut team = Team::new(3);
     let board = team.board_at(&Address::new("t/r1/writer").unwrap(), &defs);
-    let flows = Arc::new(Flows {
-        inner: team.net.join(board.address()),
-        reports: Mutex::new(Vec::new()),
+    // The flow of each report published.
+    let flows = Arc::new(Mutex::new(Vec::new()));
+    let noted = flows.clone();
+    let tapped = Tapped::new(team.net.join(board.address()), move |_, kind, flow| {
+        if kind == MsgKind::Report {
+            noted.lock().push(flow);
+        }
+        true
     });
     let config = open().lossless(ClassSet::none().class("Event"));
-    let ici = Ici::new(board.clone(), flows.clone(), config).unwrap();
+    let ici = Ici::new(board.clone(), Arc::new(tapped), config).unwrap();
     // The robot link holds both attributes to one report a second.
     let every_second = LinkReport::Policy(ReportPolicy {
         min_interval: Some(Duration::from_secs(1)),
@@ -90,17 +51,17 @@ fn a_lossless_class_is_published_with_flow_every_and_passes_the_links_filter() {
     board.write("tank", "level", 0.0).unwrap();
     team.run(1.1);
     assert_eq!(
-        *flows.reports.lock(),
+        *flows.lock(),
         [Flow::Every, Flow::Every],
         "the reports that announce names"
     );
-    flows.reports.lock().clear();
+    flows.lock().clear();
     for i in 1..=10 {
         board.write("ev", "seq", f64::from(i)).unwrap();
         board.write("tank", "level", f64::from(i)).unwrap();
         team.run(0.02);
     }
-    let reports = flows.reports.lock().clone();
+    let reports = flows.lock().clone();
     let every = reports.iter().filter(|f| **f == Flow::Every).count();
     let latest = reports.iter().filter(|f| **f == Flow::Latest).count();
     assert_eq!(every, 10, "every event, each its own report: {reports:?}");

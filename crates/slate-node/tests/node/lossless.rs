@@ -7,11 +7,10 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use slate_ici::{
-    ClassSet, Flow, Handler, Ici, IciConfig, LinkKind, LinkStats, MsgKind, SendError, Transport,
-};
+use slate_ici::{ClassSet, Flow, Ici, IciConfig, MsgKind, Transport};
 use slate_model::{Address, AttrDecl, Board, ChangeItem, ClassDef, Filter, ValueType};
 use slate_testing::{eventually, free_port};
+use slate_transport::tap::Tapped;
 use slate_zenoh::{ZenohConfig, ZenohTransport};
 
 fn classes() -> Vec<ClassDef> {
@@ -19,55 +18,6 @@ fn classes() -> Vec<ClassDef> {
         ClassDef::new("Event").attr(AttrDecl::new("seq", ValueType::Real)),
         ClassDef::new("Gauge").attr(AttrDecl::new("level", ValueType::Real)),
     ]
-}
-
-/// Drops one report in three published best effort ([`Flow::Latest`]), as Zenoh does on
-/// a congested link, and passes every other message on.
-struct Congested {
-    inner: Arc<ZenohTransport>,
-    latest: AtomicU64,
-}
-
-impl Transport for Congested {
-    fn address(&self) -> &Address {
-        self.inner.address()
-    }
-    fn set_handler(&self, handler: Arc<dyn Handler>) {
-        self.inner.set_handler(handler)
-    }
-    fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.publish_with(link, kind, payload, Flow::Latest)
-    }
-    fn publish_with(
-        &self,
-        link: LinkKind,
-        kind: MsgKind,
-        payload: &[u8],
-        flow: Flow,
-    ) -> Result<(), SendError> {
-        let dropped = kind == MsgKind::Report
-            && flow == Flow::Latest
-            && self
-                .latest
-                .fetch_add(1, Ordering::Relaxed)
-                .is_multiple_of(3);
-        if dropped {
-            return Ok(());
-        }
-        self.inner.publish_with(link, kind, payload, flow)
-    }
-    fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.inner.send(to, kind, payload)
-    }
-    fn peers(&self) -> Vec<Address> {
-        self.inner.peers()
-    }
-    fn stats(&self) -> LinkStats {
-        self.inner.stats()
-    }
-    fn close(&self) {
-        self.inner.close()
-    }
 }
 
 /// A module: its ICI, the Zenoh transport under it, and a thread running its timers.
@@ -87,10 +37,13 @@ impl Module {
         }
         let zenoh = ZenohTransport::open(address, &zenoh).expect("opens");
         let transport: Arc<dyn Transport> = if congested {
-            Arc::new(Congested {
-                inner: zenoh.clone(),
-                latest: AtomicU64::new(0),
-            })
+            // One report in three published best effort is lost, as Zenoh drops them
+            // on a congested link.
+            let latest = AtomicU64::new(0);
+            Arc::new(Tapped::new(zenoh.clone(), move |_, kind, flow| {
+                let report = kind == MsgKind::Report && flow == Flow::Latest;
+                !(report && latest.fetch_add(1, Ordering::Relaxed).is_multiple_of(3))
+            }))
         } else {
             zenoh.clone()
         };
