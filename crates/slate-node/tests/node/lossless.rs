@@ -3,72 +3,22 @@
 //! and catch-ups close the gaps they leave.
 
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::thread::JoinHandle;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
-use slate_ici::{ClassSet, Flow, Ici, IciConfig, MsgKind, Transport};
-use slate_model::{Address, AttrDecl, Board, ChangeItem, ClassDef, Filter, ValueType};
+use slate_ici::{ClassSet, Flow, IciConfig, MsgKind};
+use slate_model::{Address, AttrDecl, ChangeItem, ClassDef, Filter, ValueType};
 use slate_testing::{eventually, free_port};
 use slate_transport::tap::Tapped;
-use slate_zenoh::{ZenohConfig, ZenohTransport};
+use slate_zenoh::ZenohConfig;
+
+use crate::support::ZenohModule;
 
 fn classes() -> Vec<ClassDef> {
     vec![
         ClassDef::new("Event").attr(AttrDecl::new("seq", ValueType::Real)),
         ClassDef::new("Gauge").attr(AttrDecl::new("level", ValueType::Real)),
     ]
-}
-
-/// A module: its ICI, the Zenoh transport under it, and a thread running its timers.
-struct Module {
-    ici: Arc<Ici>,
-    zenoh: Arc<ZenohTransport>,
-    stop: Arc<AtomicBool>,
-    ticker: Option<JoinHandle<()>>,
-}
-
-impl Module {
-    fn open(address: &str, zenoh: ZenohConfig, config: IciConfig, congested: bool) -> Module {
-        let address = Address::new(address).unwrap();
-        let board = Arc::new(Board::builder().address(address.clone()).build());
-        for class in classes() {
-            board.define(class).unwrap();
-        }
-        let zenoh = ZenohTransport::open(address, &zenoh).expect("opens");
-        let transport: Arc<dyn Transport> = if congested {
-            // One report in three published best effort is lost, as Zenoh drops them
-            // on a congested link.
-            let latest = AtomicU64::new(0);
-            Arc::new(Tapped::new(zenoh.clone(), move |_, kind, flow| {
-                let report = kind == MsgKind::Report && flow == Flow::Latest;
-                !(report && latest.fetch_add(1, Ordering::Relaxed).is_multiple_of(3))
-            }))
-        } else {
-            zenoh.clone()
-        };
-        let ici = Arc::new(Ici::new(board, transport, config).unwrap());
-        let stop = Arc::new(AtomicBool::new(false));
-        let ticker = Some(crate::support::ticker(&ici, &stop));
-        Module {
-            ici,
-            zenoh,
-            stop,
-            ticker,
-        }
-    }
-
-    fn board(&self) -> &Arc<Board> {
-        self.ici.board()
-    }
-
-    fn close(mut self) {
-        self.stop.store(true, Ordering::Release);
-        if let Some(t) = self.ticker.take() {
-            let _ = t.join();
-        }
-        self.zenoh.close();
-    }
 }
 
 #[test]
@@ -87,23 +37,33 @@ fn every_event_arrives_in_order_while_catch_ups_close_the_gaps_of_the_other_clas
     let port = free_port();
     let endpoint = vec![format!("tcp/127.0.0.1:{port}")];
     let open = IciConfig::default().export(ClassSet::all());
-    let writer = Module::open(
-        "t/r1/writer",
-        ZenohConfig {
+    let writer = ZenohModule::open(
+        &Address::new("t/r1/writer").unwrap(),
+        &classes(),
+        &ZenohConfig {
             listen: endpoint.clone(),
             ..ZenohConfig::default()
         },
         open.clone().lossless(ClassSet::none().class("Event")),
-        true,
+        |zenoh| {
+            // One report in three published best effort is lost, as Zenoh drops them
+            // on a congested link.
+            let latest = AtomicU64::new(0);
+            Arc::new(Tapped::new(zenoh, move |_, kind, flow| {
+                let report = kind == MsgKind::Report && flow == Flow::Latest;
+                !(report && latest.fetch_add(1, Ordering::Relaxed).is_multiple_of(3))
+            }))
+        },
     );
-    let receiver = Module::open(
-        "t/r1/receiver",
-        ZenohConfig {
+    let receiver = ZenohModule::open(
+        &Address::new("t/r1/receiver").unwrap(),
+        &classes(),
+        &ZenohConfig {
             connect: endpoint,
             ..ZenohConfig::default()
         },
         open,
-        false,
+        |zenoh| zenoh,
     );
     let board = writer.board();
     board.create("Event", "ev").unwrap();
