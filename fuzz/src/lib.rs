@@ -8,7 +8,9 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use slate_ici::{Ici, IciConfig, LinkKind, MsgKind, SimNet, SimTransport, TeamProtocol, Transport};
+use slate_ici::{
+    Ici, IciConfig, LinkKind, MsgKind, SimConfig, SimNet, SimTransport, TeamProtocol, Transport,
+};
 use slate_model::{Address, Board};
 
 /// The module under test.
@@ -104,9 +106,16 @@ pub struct Harness {
 }
 
 impl Harness {
-    /// A fresh network (seed 1) with the module started and its peers joined.
+    /// A fresh network (seed 1) with the module started and its peers joined. The
+    /// network's clock moves in steps of up to [`STEP`], not the simulator's 10 ms: the
+    /// module's timers fire at most a step late, and an input's run costs a quarter of
+    /// the ticks.
     pub fn new() -> Option<Harness> {
-        let net = SimNet::new(1);
+        let sim = SimConfig {
+            step: STEP,
+            ..SimConfig::default()
+        };
+        let net = SimNet::with_config(1, sim);
         let me = address(ME)?;
         let ici = Ici::new(board(&net, &me)?, net.join(&me), config()).ok()?;
         let peers = PEERS
