@@ -76,8 +76,7 @@ impl Flags {
 }
 
 /// Writes a report body: position `seq`, then `items`. Interns (and announces) what it
-/// names in `dict`; the caller commits or rolls back the dictionary. Returns whether it
-/// announced anything.
+/// names in `dict`; the caller commits or rolls back the dictionary.
 pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     w: &mut BitWriter,
     seq: u64,
@@ -85,7 +84,7 @@ pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
-) -> Result<bool, EncodeError> {
+) -> Result<(), EncodeError> {
     let mut ann = Announce::default();
     let entries = resolve_all(items, dict, me, schema, &mut ann)?;
     let base = entries.iter().map(|e| e.packet.timestamp).min();
@@ -101,7 +100,7 @@ pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     if let (Some(base), Some(epoch)) = (base, epoch) {
         write_entries(w, &entries, flags, base, epoch);
     }
-    Ok(!ann.is_empty())
+    Ok(())
 }
 
 /// A report's entries: an occasional report holds one or two, inline.
