@@ -612,21 +612,19 @@ impl State {
         writer: &Address,
         me: &Address,
     ) -> Option<(Option<Arc<str>>, Refusal)> {
-        let (e, class) = self.decl_class(id)?;
-        let open = writer == me || self.authority.is_empty();
-        if !open && let Some(refusal) = self.unauthorised(id, None, writer) {
+        let (_, class) = self.decl_class(id)?;
+        if writer != me
+            && let Some(refusal) = self.unauthorised(id, None, writer)
+        {
             return Some((None, refusal));
         }
         class
             .decls
-            .iter()
-            .filter_map(|(attr, d)| {
-                let refusal = match not_owner(e, &d.decl, writer) {
-                    Some(owner) => Refusal::NotOwner(owner.clone()),
-                    None if open => return None,
-                    None => self.unauthorised(id, Some(&self.attr_name(*attr)), writer)?,
-                };
-                Some((self.attr_name(*attr), refusal))
+            .keys()
+            .filter_map(|&attr| {
+                let key = Key { object: id, attr };
+                let refusal = self.write_refusal(key, writer, me).ok()??;
+                Some((self.attr_name(attr), refusal))
             })
             .min_by(|a, b| a.0.cmp(&b.0))
             .map(|(attr, refusal)| (Some(attr), refusal))

@@ -38,6 +38,12 @@ impl TokenBucket {
         }
     }
 
+    /// A full bucket at `now` for a gateway of `protocol`: its `rate_bps`, one frame
+    /// (`mtu`) deep.
+    pub fn of(protocol: &crate::TeamProtocol, now: Duration) -> TokenBucket {
+        TokenBucket::new(protocol.rate_bps, protocol.mtu, now)
+    }
+
     /// May data go at `now` (no debt left)?
     pub fn ready(&mut self, now: Duration) -> bool {
         self.refill(now);

@@ -120,9 +120,9 @@ impl State {
             return;
         };
         protocol.rate_bps = rate_bps;
-        let mtu = protocol.mtu;
+        let bucket = TokenBucket::of(protocol, self.now);
         if let Some(gw) = self.team.gateway.as_mut() {
-            gw.bucket = TokenBucket::new(rate_bps, mtu, self.now);
+            gw.bucket = bucket;
         }
     }
 
@@ -266,7 +266,7 @@ impl State {
         let mut gateway = Gateway::new(tag, epoch, framer, limits);
         gateway.repairs = RepairScheduler::new(super::repair::repair_timing(protocol));
         gateway.queue = TxQueue::new(protocol.history_bytes);
-        gateway.bucket = TokenBucket::new(protocol.rate_bps, protocol.mtu, self.now);
+        gateway.bucket = TokenBucket::of(protocol, self.now);
         // The hello opens the stream; the idle heartbeat counts from it.
         (gateway.last_sent, gateway.last_full) = (self.now, self.now);
         self.team.gateway = Some(gateway);
