@@ -9,6 +9,7 @@
 //! greet it and catch it up.
 
 use std::sync::{Arc, Weak, mpsc};
+use std::time::{Duration, Instant};
 
 use parking_lot::Mutex;
 use slate_model::Address;
@@ -22,6 +23,12 @@ pub(crate) const MAX_QUEUED_BYTES: usize = 16 << 20;
 
 /// Most messages queued for one peer.
 pub(crate) const MAX_QUEUED: usize = 4096;
+
+/// Longest wait for the route to a peer's inbox before the first send to it.
+const ROUTE_WAIT: Duration = Duration::from_secs(3);
+
+/// How often the route is looked for meanwhile.
+const ROUTE_POLL: Duration = Duration::from_millis(5);
 
 /// What is queued for one peer, and whether it was found unable to keep up.
 #[derive(Debug, Default)]
@@ -114,17 +121,43 @@ struct Worker {
 
 impl Worker {
     /// Puts each queued payload in turn (blocking while Zenoh's link is congested), until
-    /// the outbox is dropped.
+    /// the outbox is dropped. The first waits for the peer's inbox to be routed.
     fn run(self, rx: mpsc::Receiver<Vec<u8>>) {
+        let mut routed = false;
         for payload in rx {
             if self.queue.lock().gone {
                 return;
+            }
+            if !routed {
+                self.await_route();
+                routed = true;
             }
             let len = payload.len();
             if let Err(e) = self.publisher.put(payload).wait() {
                 tracing::debug!(to = %self.peer, error = %e, "send failed");
             }
             self.taken(len);
+        }
+    }
+
+    /// Waits, at most [`ROUTE_WAIT`], until Zenoh routes the publisher to a subscriber:
+    /// the peer's inbox. Zenoh drops a put that matches no subscriber, and a peer's
+    /// inbox is declared to this session some time after the peer is seen: its liveliness
+    /// token can arrive first, and so can its publications, on a link just opened or
+    /// opened again (a direct send made then, a plan or a greeting, was lost for good).
+    /// Without a route by then, the put goes anyway (and later ones do not wait).
+    fn await_route(&self) {
+        let deadline = Instant::now() + ROUTE_WAIT;
+        loop {
+            let matched = self.publisher.matching_status().wait();
+            if matched.map_or(true, |m| m.matching()) {
+                return;
+            }
+            if Instant::now() >= deadline || self.queue.lock().gone {
+                tracing::debug!(to = %self.peer, "no route to the peer's inbox: sent anyway");
+                return;
+            }
+            std::thread::sleep(ROUTE_POLL);
         }
     }
 

@@ -171,3 +171,26 @@ fn modules_joined_only_by_udp_endpoints_exchange_publications_and_sends() {
     a.transport.close();
     b.transport.close();
 }
+
+/// A send to a module whose inbox this session does not route to yet (the module is
+/// starting, or its link was just opened again and its declarations are on the way)
+/// waits for the route instead of vanishing: Zenoh drops a put that matches no
+/// subscriber, and a plan sent so was lost for good over a link that retransmits.
+#[test]
+fn a_send_made_before_the_addressee_is_routed_arrives_once_it_is() {
+    let mut net = Loopback::default();
+    let a = endpoint(&mut net, "t/r1/a");
+    let b_address = Address::new("t/r2/b").unwrap();
+    a.transport
+        .send(&b_address, MsgKind::Plan, b"sent early")
+        .unwrap();
+    thread::sleep(Duration::from_millis(300));
+    let b = endpoint(&mut net, "t/r2/b");
+    assert!(
+        net.run_until(&mut || b.inbox.len() == 1),
+        "the send waited for b's inbox"
+    );
+    assert_eq!(payloads(&b), vec![b"sent early".to_vec()]);
+    a.transport.close();
+    b.transport.close();
+}

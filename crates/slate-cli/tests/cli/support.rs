@@ -15,6 +15,10 @@ const COMMAND_LIMIT: Duration = Duration::from_secs(30);
 fn command() -> Command {
     let mut c = Command::new(env!("CARGO_BIN_EXE_slate"));
     c.env_remove("RUST_LOG");
+    // A run chasing a rare failure can ask every process for more (like `info,zenoh=debug`).
+    if let Ok(filter) = std::env::var("SLATE_TEST_LOG") {
+        c.env("RUST_LOG", filter);
+    }
     c
 }
 
