@@ -450,13 +450,10 @@ impl Inner {
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
         let now = self.now();
-        let (acks, msg) = self.origin.lock().open(
-            circuit,
-            (&name, text),
-            to,
-            origin,
-            self.lossy.then_some(now),
-        );
+        let (acks, msg) =
+            self.origin
+                .lock()
+                .open(circuit, (&name, text), to, origin, now, self.lossy);
         if let Err(e) = self.transmit(to, msg) {
             self.origin.lock().forget(circuit);
             return Err(e.into());
@@ -474,7 +471,7 @@ impl Inner {
         let to = self
             .origin
             .lock()
-            .request_cancel(circuit, self.lossy.then_some(now))?;
+            .request_cancel(circuit, now, self.lossy)?;
         self.transmit(&to, Message::PlanCancel { circuit })?;
         Ok(())
     }
