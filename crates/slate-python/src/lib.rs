@@ -38,6 +38,7 @@ use pyo3::prelude::*;
 /// The native part of the `slate` package.
 #[pymodule]
 fn _slate(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    log_if_asked();
     errors::register(m)?;
     m.add_class::<board::PyBoard>()?;
     m.add_class::<batch::PyBatch>()?;
@@ -74,4 +75,30 @@ fn _slate(m: &Bound<'_, PyModule>) -> PyResult<()> {
     };
     m.add("BUILD_PROFILE", profile)?;
     Ok(())
+}
+
+/// With `SLATE_LOG` set (a filter like `info` or `warn,slate_ici=debug`), the library's
+/// logs go to stderr, as a `slate node`'s do: what its ICI and Zenoh say, for a process
+/// that misbehaves. A filter that does not parse is said once on stderr and ignored.
+fn log_if_asked() {
+    use tracing_subscriber::layer::SubscriberExt;
+    use tracing_subscriber::util::SubscriberInitExt;
+    let Some(spec) = std::env::var("SLATE_LOG")
+        .ok()
+        .filter(|s| !s.trim().is_empty())
+    else {
+        return;
+    };
+    match spec.parse::<tracing_subscriber::filter::Targets>() {
+        Ok(filter) => {
+            let fmt = tracing_subscriber::fmt::layer()
+                .with_writer(std::io::stderr)
+                .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()));
+            let _ = tracing_subscriber::registry()
+                .with(filter)
+                .with(fmt)
+                .try_init();
+        }
+        Err(e) => eprintln!("slate: SLATE_LOG {spec:?} is not a log filter ({e}); no logs"),
+    }
 }
