@@ -99,6 +99,13 @@ impl Outbox {
         Ok(())
     }
 
+    /// Waits until the thread has handed Zenoh everything queued, or `deadline`.
+    pub fn wait_empty(&self, deadline: Instant) {
+        while self.queue.lock().len > 0 && Instant::now() < deadline {
+            std::thread::sleep(ROUTE_POLL);
+        }
+    }
+
     /// Is the peer reported down for not keeping up?
     pub fn congested(&self) -> bool {
         self.queue.lock().congested
@@ -131,6 +138,9 @@ impl Worker {
             if !routed {
                 self.await_route();
                 routed = true;
+                if self.queue.lock().gone {
+                    return;
+                }
             }
             let len = payload.len();
             if let Err(e) = self.publisher.put(payload).wait() {

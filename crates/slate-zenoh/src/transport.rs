@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Weak, mpsc};
 use std::thread::JoinHandle;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use parking_lot::{Mutex, RwLock};
 use rustc_hash::FxHashMap;
@@ -222,6 +222,9 @@ const MULTICAST_SCOUTING: &str = "scouting/multicast/enabled";
 /// by then (slow or gone) may miss what it publishes meanwhile, which the ICI repairs as
 /// it does any loss.
 const LISTEN_BARRIER_TIMEOUT: Duration = Duration::from_secs(2);
+
+/// Longest wait, when the transport closes, for its outboxes to hand Zenoh what they hold.
+const CLOSE_FLUSH: Duration = Duration::from_millis(500);
 
 /// Key expressions whose source is remembered, at most (a few per peer are used).
 const MAX_SOURCES: usize = 4096;
@@ -864,6 +867,17 @@ impl Transport for ZenohTransport {
                 let _ = thread.join();
             }
         }
+        // What the outboxes hold goes first (for a while), and nothing after the token is
+        // withdrawn: a peer that heard a message after this module's down would take it
+        // for alive again, until its timeout (a plan's origin then waited that long to
+        // hear `destination lost`).
+        let flushed_by = Instant::now() + CLOSE_FLUSH;
+        for outbox in self.inner.outboxes.lock().values() {
+            outbox.wait_empty(flushed_by);
+        }
+        self.inner.publishers.lock().clear();
+        // An outbox's thread stuck in a congested put ends when Zenoh gives up on it.
+        self.inner.outboxes.lock().clear();
         if let Some(token) = self.inner.token.lock().take() {
             let _ = token.undeclare().wait();
         }
@@ -883,9 +897,6 @@ impl Transport for ZenohTransport {
         if let Some(barrier) = self.inner.barrier.lock().take() {
             let _ = barrier.undeclare().wait();
         }
-        self.inner.publishers.lock().clear();
-        // An outbox's thread stuck in a congested put ends when Zenoh gives up on it.
-        self.inner.outboxes.lock().clear();
         let declared = std::mem::take(&mut *self.inner.declared.lock());
         drop(declared);
         let _ = self.inner.session.close().wait();

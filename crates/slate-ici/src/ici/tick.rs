@@ -26,6 +26,13 @@ pub(crate) fn down_believed_after(heartbeat: Duration) -> Duration {
     heartbeat * 9 / 4
 }
 
+/// How long after a transport's down a message from the module is still taken as sent
+/// before it (a quarter of a heartbeat gap: the delivery allowance of
+/// [`down_believed_after`]); one heard later shows the down false.
+pub(crate) fn down_overtaken_by(heartbeat: Duration) -> Duration {
+    heartbeat / 4
+}
+
 /// A team link on which a module has said nothing but heartbeats for this many periods
 /// is idle: its heartbeats go this many periods apart (1 s grows to 4 s), and receivers
 /// stretch the wait before believing its down by as much and its timeout to at least
@@ -254,12 +261,14 @@ impl State {
     }
 
     /// The first instant at which the transport's down is believed ([`Self::down_believed`]),
-    /// if it said `p` went down and nothing was heard from it since.
+    /// if it said `p` went down and nothing was heard from it since, but what came within
+    /// [`down_overtaken_by`] of the down: a module's last messages, sent before it withdrew
+    /// its token, can arrive just after its down (Zenoh sends declarations ahead of data).
     fn down_deadline(&self, p: &Peer) -> Option<Duration> {
-        let after = down_believed_after(self.expected_gap(p));
+        let gap = self.expected_gap(p);
         p.down_at
-            .filter(|at| p.last_heard <= *at)
-            .map(|_| p.last_heard.saturating_add(after))
+            .filter(|at| p.last_heard <= at.saturating_add(down_overtaken_by(gap)))
+            .map(|_| p.last_heard.saturating_add(down_believed_after(gap)))
     }
 
     /// No earlier than this instant may `p` be found dead if it stays silent.

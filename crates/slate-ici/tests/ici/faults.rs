@@ -215,6 +215,41 @@ fn a_transport_down_of_a_module_silent_for_two_heartbeat_periods_is_believed() {
 }
 
 #[test]
+fn a_last_message_that_arrives_just_after_the_down_does_not_undo_it() {
+    // A module that closes sends its last messages, then withdraws its token; Zenoh sends
+    // declarations ahead of data, so the down can arrive first and the last messages a
+    // few milliseconds after it. Taken as "heard after the down", they held the module
+    // alive until its timeout (a plan's origin waited that long for `destination lost`).
+    let config = SimConfig {
+        lease: secs(1000.0),
+        ..SimConfig::default()
+    };
+    let team = Team::grid(38, config, 2, 1);
+    team.run(1.0);
+    let (watcher, victim) = (addr("t/r0/m0"), addr("t/r1/m0"));
+    let victims = &team
+        .members
+        .iter()
+        .find(|m| m.address == victim)
+        .unwrap()
+        .board;
+    team.net.false_down(&watcher, &victim);
+    victims
+        .create_with(NewObject::new("Rock", "last_words").context(Context::Surroundings))
+        .unwrap();
+    team.run(0.05);
+    assert!(
+        team.board("t/r0/m0").snapshot().exists("last_words"),
+        "its report arrived, after the down"
+    );
+    team.net.kill(&victim);
+    let name = module_object_name(&victim);
+    let alive = || team.board("t/r0/m0").read(&name, "alive").unwrap().value;
+    team.run(2.6); // 2.25 heartbeat periods after it was last heard; its timeout is 5 s
+    assert_eq!(alive(), Value::Bool(false));
+}
+
+#[test]
 fn a_transport_down_of_a_module_that_missed_one_heartbeat_kills_nothing() {
     // At 30 % loss a heartbeat is often lost; a transport's down that comes then (Zenoh
     // withdrew a token) is not news while the module is heard again within two periods.
