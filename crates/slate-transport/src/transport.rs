@@ -57,8 +57,8 @@ impl fmt::Display for LinkKind {
 /// priorities or reliability) and for statistics.
 ///
 /// The first nine are slate-wire messages (header version 1); the next three are the
-/// ICI's own frames (header version 0, see `docs/ici.md`); the eleven after them are the
-/// team protocol's frames (header version 0 kinds 4-12, and versions 2 and 3 for team data
+/// ICI's own frames (header version 0, see `docs/ici.md`); the twelve after them are the
+/// team protocol's frames (header version 0 kinds 4-13, and versions 2 and 3 for team data
 /// and repair frames, see `docs/team-protocol.md` section 2.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[non_exhaustive]
@@ -111,13 +111,16 @@ pub enum MsgKind {
     TeamInterest,
     /// Inner positions covered by a repair by difference (`0x0C`).
     Fill,
+    /// What a gateway heard on the team link, handed to a member that does not listen
+    /// there (`0x0D`).
+    Forward,
     /// Bytes that are none of the above.
     Unknown,
 }
 
 impl MsgKind {
     /// Every kind.
-    pub const ALL: [MsgKind; 24] = [
+    pub const ALL: [MsgKind; 25] = [
         MsgKind::Report,
         MsgKind::Names,
         MsgKind::Classes,
@@ -141,6 +144,7 @@ impl MsgKind {
         MsgKind::StateRequest,
         MsgKind::TeamInterest,
         MsgKind::Fill,
+        MsgKind::Forward,
         MsgKind::Unknown,
     ];
 
@@ -154,7 +158,7 @@ impl MsgKind {
         let index = match (first >> 4, first & 0xf) {
             (1, k @ 1..=9) => k - 1,
             (0, k @ 1..=3) => k + 8,
-            (0, k @ 4..=12) => k + 10,
+            (0, k @ 4..=13) => k + 10,
             (2, _) => 12,
             (3, 0xf) => 13,
             _ => return MsgKind::Unknown,
@@ -203,6 +207,7 @@ impl MsgKind {
             MsgKind::StateRequest => "state_request",
             MsgKind::TeamInterest => "team_interest",
             MsgKind::Fill => "fill",
+            MsgKind::Forward => "forward",
             MsgKind::Unknown => "unknown",
         }
     }
