@@ -415,7 +415,7 @@ mod tests {
             [0x10],
             [0x1a],
             [0x00],
-            [0x0d],
+            [0x0e],
             [0x30],
             [0x3e],
             [0x40],
@@ -431,10 +431,10 @@ mod tests {
     fn expected_kind(header: u8) -> MsgKind {
         let old = [MsgKind::Hello, MsgKind::Lifecycle, MsgKind::ObjectList];
         let wire = &MsgKind::ALL[..9];
-        let team = &MsgKind::ALL[14..23];
+        let team = &MsgKind::ALL[14..24];
         match header {
             0x01..=0x03 => old[usize::from(header - 1)],
-            0x04..=0x0c => team[usize::from(header - 4)],
+            0x04..=0x0d => team[usize::from(header - 4)],
             0x11..=0x19 => wire[usize::from(header - 0x11)],
             0x20..=0x2f => MsgKind::TeamFrame,
             0x3f => MsgKind::TeamRepair,
@@ -469,6 +469,7 @@ mod tests {
             (0x0a, "state_request"),
             (0x0b, "team_interest"),
             (0x0c, "fill"),
+            (0x0d, "forward"),
         ];
         assert_names(&named);
     }
