@@ -76,10 +76,22 @@ impl Role {
         // after the default 3 s would only queue more answers.
         config.catch_up_retry = Duration::from_secs(10);
         if speakers == Speakers::Robots {
-            let protocol = team_protocol(link, gateways).priority(Some(self.gateway_priority()));
+            let mut protocol =
+                team_protocol(link, gateways).priority(Some(self.gateway_priority()));
+            if link.medium == TeamMedium::Acoustic && self.models_only_its_robot() {
+                // On the shared channel every listener's NACKs take airtime: a module
+                // that models only its own robot hears the team through its gateway.
+                protocol.listen = slate_ici::Listen::Never;
+            }
             config = config.team_protocol(Some(protocol));
         }
         config
+    }
+
+    /// Does its interest hold its own robot's objects only (the sensing and motion
+    /// modules), so that nothing another robot says is for it?
+    fn models_only_its_robot(self) -> bool {
+        matches!(self, Role::Nav | Role::Prox | Role::Vision | Role::Loco)
     }
 
     /// Its place in its robot's gateway election (lowest first): the execution

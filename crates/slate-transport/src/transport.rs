@@ -57,8 +57,8 @@ impl fmt::Display for LinkKind {
 /// priorities or reliability) and for statistics.
 ///
 /// The first nine are slate-wire messages (header version 1); the next three are the
-/// ICI's own frames (header version 0, see `docs/ici.md`); the eleven after them are the
-/// team protocol's frames (header version 0 kinds 4-12, and versions 2 and 3 for team data
+/// ICI's own frames (header version 0, see `docs/ici.md`); the twelve after them are the
+/// team protocol's frames (header version 0 kinds 4-13, and versions 2 and 3 for team data
 /// and repair frames, see `docs/team-protocol.md` section 2.2).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[non_exhaustive]
@@ -111,13 +111,16 @@ pub enum MsgKind {
     TeamInterest,
     /// Inner positions covered by a repair by difference (`0x0C`).
     Fill,
+    /// What a gateway heard on the team link, handed to a member that does not listen
+    /// there (`0x0D`).
+    Forward,
     /// Bytes that are none of the above.
     Unknown,
 }
 
 impl MsgKind {
     /// Every kind.
-    pub const ALL: [MsgKind; 24] = [
+    pub const ALL: [MsgKind; 25] = [
         MsgKind::Report,
         MsgKind::Names,
         MsgKind::Classes,
@@ -141,6 +144,7 @@ impl MsgKind {
         MsgKind::StateRequest,
         MsgKind::TeamInterest,
         MsgKind::Fill,
+        MsgKind::Forward,
         MsgKind::Unknown,
     ];
 
@@ -154,7 +158,7 @@ impl MsgKind {
         let index = match (first >> 4, first & 0xf) {
             (1, k @ 1..=9) => k - 1,
             (0, k @ 1..=3) => k + 8,
-            (0, k @ 4..=12) => k + 10,
+            (0, k @ 4..=13) => k + 10,
             (2, _) => 12,
             (3, 0xf) => 13,
             _ => return MsgKind::Unknown,
@@ -203,6 +207,7 @@ impl MsgKind {
             MsgKind::StateRequest => "state_request",
             MsgKind::TeamInterest => "team_interest",
             MsgKind::Fill => "fill",
+            MsgKind::Forward => "forward",
             MsgKind::Unknown => "unknown",
         }
     }
@@ -410,7 +415,7 @@ mod tests {
             [0x10],
             [0x1a],
             [0x00],
-            [0x0d],
+            [0x0e],
             [0x30],
             [0x3e],
             [0x40],
@@ -426,10 +431,10 @@ mod tests {
     fn expected_kind(header: u8) -> MsgKind {
         let old = [MsgKind::Hello, MsgKind::Lifecycle, MsgKind::ObjectList];
         let wire = &MsgKind::ALL[..9];
-        let team = &MsgKind::ALL[14..23];
+        let team = &MsgKind::ALL[14..24];
         match header {
             0x01..=0x03 => old[usize::from(header - 1)],
-            0x04..=0x0c => team[usize::from(header - 4)],
+            0x04..=0x0d => team[usize::from(header - 4)],
             0x11..=0x19 => wire[usize::from(header - 0x11)],
             0x20..=0x2f => MsgKind::TeamFrame,
             0x3f => MsgKind::TeamRepair,
@@ -464,6 +469,7 @@ mod tests {
             (0x0a, "state_request"),
             (0x0b, "team_interest"),
             (0x0c, "fill"),
+            (0x0d, "forward"),
         ];
         assert_names(&named);
     }

@@ -129,6 +129,9 @@ pub struct TeamStats {
     pub repaired: u64,
     /// Pending messages dropped because no gateway came in time.
     pub pending_dropped: u64,
+    /// What this gateway heard on the team link and handed to mates that do not listen
+    /// there (`Forward`s sent, one per mate).
+    pub forwarded: u64,
     /// Uplinks received by a module that is not gateway (dropped).
     pub uplinks_misrouted: u64,
     /// Frames parked because their robot's hello was not heard yet.

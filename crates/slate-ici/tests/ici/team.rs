@@ -333,7 +333,7 @@ fn a_changed_interest_is_said_in_the_robot_hello_not_to_each_team_peer() {
 }
 
 #[test]
-fn a_module_that_never_listens_gets_no_team_frames_until_it_is_gateway() {
+fn a_module_that_never_listens_gets_the_team_through_its_gateway_until_it_is_gateway() {
     let deaf = |priority: u8| {
         let mut protocol = TeamProtocol::radio().priority(Some(priority));
         protocol.listen = slate_ici::Listen::Never;
@@ -360,6 +360,10 @@ fn a_module_that_never_listens_gets_no_team_frames_until_it_is_gateway() {
     };
     assert!(frames(&team, "t/r1/m0") > 0);
     assert_eq!(frames(&team, "t/r1/m1"), 0, "it does not listen");
+    let forwarded = team.member("t/r1/m0").ici.stats().team.forwarded;
+    assert!(forwarded > 0, "its gateway forwarded what it heard");
+    let rock = team.board("t/r1/m1").info("rock_r0");
+    assert!(rock.is_some(), "it got the rock through its gateway");
     team.net.kill(&addr("t/r1/m0"));
     team.members.retain(|m| m.address != addr("t/r1/m0"));
     team.run(2.0);
@@ -542,9 +546,19 @@ fn acoustic_config(module: usize) -> IciConfig {
     open().team_protocol(Some(protocol))
 }
 
+/// Who listens to the team link in [`acoustic_work_converges`].
+#[derive(Clone, Copy, PartialEq)]
+enum Listeners {
+    /// Every module (the preset's `Listen::Auto`), with the default 1 s team heartbeat.
+    All,
+    /// Each robot's gateway only (`Listen::Never` for the others), with the demo's
+    /// 20 s team heartbeat and 90 s timeout.
+    Gateways,
+}
+
 /// 3 robots × 3 modules with the acoustic preset on `link`: after the random work the
-/// boards agree within 900 s.
-fn acoustic_work_converges(link: LinkConfig) {
+/// boards agree within 900 s. Returns the team.
+fn acoustic_work_converges(link: LinkConfig, listeners: Listeners) -> Team {
     let mut team = Team::with(
         90,
         SimConfig {
@@ -555,12 +569,20 @@ fn acoustic_work_converges(link: LinkConfig) {
     );
     for r in 0..3 {
         for m in 0..3 {
-            team.add(&format!("t/r{r}/m{m}"), acoustic_config(m));
+            let mut c = acoustic_config(m);
+            if listeners == Listeners::Gateways {
+                c = c.liveliness(LinkKind::Team, secs(20.0), secs(90.0));
+                if m > 0 {
+                    c.team_protocol.as_mut().unwrap().listen = Listen::Never;
+                }
+            }
+            team.add(&format!("t/r{r}/m{m}"), c);
         }
     }
     team.run(0.5);
     workload(&team, &mut Rng::new(90), 30, 0.05);
     team.assert_converges(900);
+    team
 }
 
 /// One shared channel of 32-byte frames at 9600 bit/s (the acoustic channel's shape, a
@@ -575,12 +597,15 @@ fn shared_frames() -> LinkConfig {
 
 #[test]
 fn the_acoustic_preset_converges_on_a_shared_channel_of_32_byte_frames() {
-    acoustic_work_converges(shared_frames());
+    let _ = acoustic_work_converges(shared_frames(), Listeners::All);
 }
 
 #[test]
 fn the_acoustic_preset_converges_at_20_percent_loss_on_whole_messages() {
-    acoustic_work_converges(LinkConfig::clean().delay(secs(0.02)).loss(0.2));
+    let _ = acoustic_work_converges(
+        LinkConfig::clean().delay(secs(0.02)).loss(0.2),
+        Listeners::All,
+    );
 }
 
 /// Finding of session 13: with both (a shared channel of 32-byte frames and 20 % loss
@@ -595,10 +620,33 @@ fn the_acoustic_preset_converges_at_20_percent_loss_on_whole_messages() {
 /// Session 14: state asks no longer go every 3 s (`answer_interval + repair_wait`), but
 /// here all nine modules listen, each NACKing for itself, with a 1 s team heartbeat: more
 /// than 32-byte frames at this rate carry. With one listener per robot and a 20 s
-/// heartbeat the traffic falls to about a fifth, and what is left is a class's attribute
-/// that a member that does not listen never gets from its gateway (docs/demo.md).
+/// heartbeat it converges (session 15, the test below), once the gateway forwards what
+/// it hears to the members that do not listen.
 #[test]
 #[ignore = "finding: the acoustic preset does not converge on a lossy shared framed channel (docs/demo.md, the narrow channel)"]
 fn the_acoustic_preset_converges_on_a_lossy_shared_channel_of_32_byte_frames() {
-    acoustic_work_converges(shared_frames().loss(0.2));
+    let _ = acoustic_work_converges(shared_frames().loss(0.2), Listeners::All);
+}
+
+/// One listener per robot on the lossy shared framed channel (a 20 s team heartbeat):
+/// the members that do not listen get the other robots' streams from their gateway
+/// (`Forward`), and leave the NACKs to it. Before the gateway forwarded, they got
+/// nothing of the other robots but the class values of robot-link catch-ups: 140
+/// disagreements after 900 s.
+#[test]
+fn one_listener_per_robot_converges_on_a_lossy_shared_channel_of_32_byte_frames() {
+    let team = acoustic_work_converges(shared_frames().loss(0.2), Listeners::Gateways);
+    let stats = team.net.stats();
+    let members: Vec<String> = stats
+        .radios
+        .iter()
+        .filter(|((_, link), radio)| *link == LinkKind::Team && radio.msgs > 0)
+        .map(|((from, _), _)| from.to_string())
+        .filter(|from| !from.ends_with("/m0"))
+        .collect();
+    assert_eq!(
+        members,
+        Vec::<String>::new(),
+        "members sent on the team link"
+    );
 }

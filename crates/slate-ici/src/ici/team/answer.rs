@@ -70,7 +70,13 @@ impl State {
 
     /// Adds member `index` to gateway `gateway`'s pending ask, which keeps its due time
     /// (or gets `gap_grace` plus a back-off, as a frame NACK does).
-    fn merge_state_ask(&mut self, gateway: &Address, index: u8, names: bool, classes: bool) {
+    pub(super) fn merge_state_ask(
+        &mut self,
+        gateway: &Address,
+        index: u8,
+        names: bool,
+        classes: bool,
+    ) {
         let Some(p) = self.config.team_protocol.clone() else {
             return;
         };
@@ -308,6 +314,7 @@ impl State {
     fn team_answer(&mut self, req: StateRequest) {
         self.team.answering.answered = Some(self.now);
         self.stats.team.state_answers += 1;
+        tracing::debug!(me = %self.me, at = ?self.now, robots = ?req.robots, "state answer");
         self.answer_state(Audience::Team(&req.robots), req.names, req.classes);
     }
 

@@ -1,10 +1,10 @@
 //! The team protocol's frames and their byte layouts (docs/team-protocol.md, section
 //! 2.2): on the team link the robot stream's data frames (`TeamFrame`) and repairs
 //! (`TeamRepair`), the robot hello and heartbeat, `Nack` and `Gone`; on the robot link
-//! `Uplink`, `Want`, `StateRequest` and `TeamInterest`; and `Fill`, an inner message of a
-//! repair by difference. Also the stream tag that names one epoch of a robot stream.
+//! `Uplink`, `Want`, `StateRequest`, `TeamInterest` and `Forward`; and `Fill`, an inner
+//! message of a repair by difference. Also the stream tag that names one epoch of a robot stream.
 //!
-//! Header byte: version 0 (kinds 4-12) for the control frames, version 2 for data frames
+//! Header byte: version 0 (kinds 4-13) for the control frames, version 2 for data frames
 //! (the low nibble is the member index of a single-part frame, 15 for multi part), 0x3F
 //! for repairs. Fields use the ICI frames' varints and strings (`ici/frame.rs`). Decoding
 //! checks every length against the bytes left, bounds every count, refuses trailing
@@ -27,6 +27,7 @@ const WANT: u8 = 0x09;
 const STATE_REQUEST: u8 = 0x0A;
 const TEAM_INTEREST: u8 = 0x0B;
 const FILL: u8 = 0x0C;
+const FORWARD: u8 = 0x0D;
 /// Header version 2: a data frame; the low nibble is the member index, or `MULTI_PART`.
 const DATA: u8 = 0x20;
 const MULTI_PART: u8 = 0x2F;
@@ -359,6 +360,15 @@ pub(crate) struct Uplink {
     pub message: Vec<u8>,
 }
 
+/// What a gateway heard on the team link, handed over the robot link to a member that
+/// does not listen there (2.1): the sender on the team link, and its bytes as heard.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) struct Forward {
+    pub from: Address,
+    /// A team-link frame (never a `Forward`: the receiver refuses one inside another).
+    pub message: Vec<u8>,
+}
+
 /// A gateway's request to a member for its current state, on behalf of robots.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub(crate) struct StateRequest {
@@ -399,6 +409,7 @@ pub(crate) enum TeamMsg {
     StateRequest(StateRequest),
     Interest(TeamInterest),
     Fill(Fill),
+    Forward(Forward),
 }
 
 // ----- writing -----
@@ -430,6 +441,7 @@ impl TeamMsg {
             TeamMsg::StateRequest(s) => write_state_request(&mut w, s),
             TeamMsg::Interest(i) => write_interest(&mut w, i),
             TeamMsg::Fill(f) => write_fill(&mut w, f),
+            TeamMsg::Forward(f) => write_forward(&mut w, f),
         }
         w.0
     }
@@ -614,6 +626,12 @@ fn write_uplink(w: &mut Writer, u: &Uplink) {
     w.0.extend_from_slice(&u.message);
 }
 
+fn write_forward(w: &mut Writer, f: &Forward) {
+    w.0.push(FORWARD);
+    w.str(f.from.as_str());
+    w.0.extend_from_slice(&f.message);
+}
+
 fn write_state_request(w: &mut Writer, s: &StateRequest) {
     w.0.push(STATE_REQUEST);
     w.0.push(state_flags(s.names, s.classes));
@@ -662,6 +680,7 @@ fn read_msg(r: &mut Reader<'_>) -> Result<TeamMsg> {
         STATE_REQUEST => TeamMsg::StateRequest(read_state_request(r)?),
         TEAM_INTEREST => TeamMsg::Interest(read_interest(r)?),
         FILL => TeamMsg::Fill(read_fill(r)?),
+        FORWARD => TeamMsg::Forward(read_forward(r)?),
         other => return Err(TeamFrameError::NotTeam(other)),
     })
 }
@@ -1008,6 +1027,15 @@ fn read_uplink(r: &mut Reader<'_>) -> Result<Uplink> {
     })
 }
 
+fn read_forward(r: &mut Reader<'_>) -> Result<Forward> {
+    let from = read_address(r)?;
+    let message = rest(r).to_vec();
+    if message.is_empty() {
+        return Err(TeamFrameError::Bad("forward without a message"));
+    }
+    Ok(Forward { from, message })
+}
+
 fn read_address(r: &mut Reader<'_>) -> Result<Address> {
     let text = r.text()?;
     Address::new(text).map_err(|_| TeamFrameError::Bad("destination address"))
@@ -1230,6 +1258,10 @@ mod tests {
                 exports: ClassSet::none().class_in("Target", &[Context::System]),
             }),
             TeamMsg::Fill(Fill { from: 3, to: 9 }),
+            TeamMsg::Forward(Forward {
+                from: addr("demo/r2/exec"),
+                message: vec![0x21, 0x07, 0x05, 0x14, 1],
+            }),
         ]
     }
 
@@ -1238,6 +1270,7 @@ mod tests {
     fn counted(msg: &TeamMsg) -> bool {
         match msg {
             TeamMsg::Frame(_) | TeamMsg::Uplink(_) | TeamMsg::Heartbeat(_) => false,
+            TeamMsg::Forward(_) => false,
             TeamMsg::Repair(r) => matches!(r.content, RepairContent::Replay(_)),
             _ => true,
         }
@@ -1261,7 +1294,7 @@ mod tests {
         let hello = ["robot_hello"];
         let heartbeat = ["robot_heartbeat"; 2];
         let control = ["nack", "gone", "uplink", "uplink", "want", "state_request"];
-        let rest = ["team_interest", "fill"];
+        let rest = ["team_interest", "fill", "forward"];
         let expected = [&frame[..], &repair, &hello, &heartbeat, &control, &rest].concat();
         assert_eq!(kinds, expected);
     }
@@ -1460,7 +1493,7 @@ mod tests {
 
     #[test]
     fn other_headers_are_not_team_frames() {
-        for header in [0x00, 0x01, 0x03, 0x0D, 0x11, 0x30, 0x3E, 0x40, 0xFF] {
+        for header in [0x00, 0x01, 0x03, 0x0E, 0x11, 0x30, 0x3E, 0x40, 0xFF] {
             assert_eq!(decode(&[header, 0]), Err(TeamFrameError::NotTeam(header)));
         }
     }

@@ -398,8 +398,13 @@ impl Missing {
     }
 
     /// Runs every range's cycle up to `now`, adding the ranges NACKed now to `fired`.
-    /// True if a range ran out of rounds: the stream is given up.
+    /// True if a range ran out of rounds, or the ranges past their grace are more than
+    /// the timing's bounds: the stream is given up.
     fn tick(&mut self, now: Duration, draw: &mut Rearm<'_>, fired: &mut Spans) -> bool {
+        let (ranges, positions) = self.matured(now);
+        if ranges > draw.timing.max_ranges || positions > draw.timing.max_nack_frames {
+            return true;
+        }
         for (first, p) in self.by_first.iter_mut() {
             match p.advance(now, draw) {
                 Step::Idle => {}
@@ -444,6 +449,18 @@ impl Missing {
         self.by_first = merged;
     }
 
+    /// The ranges, and their positions, that are past their grace at `now`: due to be
+    /// NACKed, or in a round. Younger holes may still be filled by reordering.
+    fn matured(&self, now: Duration) -> (usize, u64) {
+        let old = self.by_first.iter().filter(|(_, p)| match p.phase {
+            Phase::Backoff { due } => due <= now,
+            Phase::Awaiting { .. } => true,
+        });
+        old.fold((0, 0), |(n, sum), (f, p)| {
+            (n + 1, sum.saturating_add(p.range(*f).n()))
+        })
+    }
+
     fn positions(&self) -> u64 {
         self.by_first
             .iter()
@@ -459,11 +476,16 @@ impl Missing {
     }
 }
 
+/// How many times the timing's bounds (`max_ranges`, `max_nack_frames`) a stream may
+/// hold while its holes are within their grace.
+const HOLD_FACTOR: usize = 4;
+
 /// A receiver's NACK scheduler: which positions of which robot streams it lacks, when
 /// to NACK them, and when to give up for a state request.
 ///
-/// Bounds: per stream at most `max_ranges` ranges and `max_nack_frames` positions
-/// (past either, the stream asks for state and is dropped); the number of streams is
+/// Bounds: per stream at most `max_ranges` ranges and `max_nack_frames` positions past
+/// their grace, and `HOLD_FACTOR` times as many in all (past either, the stream asks
+/// for state and is dropped); the number of streams is
 /// that of the caller's robot streams with a gap (at most one per tag). The outbox holds
 /// at most one range set and one state request per stream.
 #[derive(Debug)]
@@ -608,15 +630,19 @@ impl NackScheduler {
         }
     }
 
-    /// Drops a stream left with nothing missing, and gives up one past the bounds.
+    /// Drops a stream left with nothing missing, and gives up one past the memory
+    /// bounds (`HOLD_FACTOR` times the timing's). The timing's own bounds apply once
+    /// the holes are past their grace (`Missing::tick`): holes a burst of reordered
+    /// frames opens for a moment are no reason to ask for state.
     fn enforce_bounds(&mut self, tag: StreamTag) {
         let Some(stream) = self.streams.get(&tag) else {
             return;
         };
+        let factor = HOLD_FACTOR as u64;
         if stream.by_first.is_empty() {
             self.streams.remove(&tag);
-        } else if stream.by_first.len() > self.timing.max_ranges
-            || stream.positions() > self.timing.max_nack_frames
+        } else if stream.by_first.len() > self.timing.max_ranges.saturating_mul(HOLD_FACTOR)
+            || stream.positions() > self.timing.max_nack_frames.saturating_mul(factor)
         {
             self.ask_state(tag);
         }
@@ -1078,6 +1104,23 @@ mod tests {
         assert_eq!(s.poll(), None);
     }
 
+    /// A burst of frames reordered on the way (the demo's deck: the console's 66 frames
+    /// within 40 ms of jitter) opens more holes than the cap for a moment; they are
+    /// filled within the grace, so nothing is NACKed and no state is asked. Before, the
+    /// cap was applied as the holes opened: every module of every robot asked for the
+    /// console's whole state at start.
+    #[test]
+    fn holes_that_reordering_fills_within_the_grace_ask_for_nothing() {
+        let mut s = NackScheduler::new(NackTiming::acoustic(), Rng::new(16));
+        let holes = NackTiming::acoustic().max_ranges as u64 + 3;
+        (1..=holes).for_each(|i| s.gap_found(TAG, r(2 * i, 2 * i), ms(i)));
+        s.gap_found(TAG, r(100, 180), ms(20));
+        assert_eq!(s.poll(), None, "not while reordering may fill them");
+        (1..=holes).for_each(|i| s.received(TAG, r(2 * i, 2 * i)));
+        s.received(TAG, r(100, 180));
+        assert_eq!(run_until(&mut s, ms(120_000)), vec![]);
+    }
+
     #[test]
     fn more_pending_ranges_than_the_cap_ask_for_state() {
         let mut s = receiver(13);
@@ -1086,9 +1129,22 @@ mod tests {
         assert_eq!(s.poll(), None, "at the cap");
         assert_eq!(s.missing(TAG).len() as u64, cap);
         s.gap_found(TAG, r(2 * cap + 2, 2 * cap + 2), ms(0));
+        assert_eq!(s.poll(), None, "within the grace");
+        s.tick(ms(400));
         let through = 2 * cap + 2;
         assert_eq!(s.poll(), Some(NackAction::AskState { tag: TAG, through }));
         assert!(s.missing(TAG).is_empty() && s.next_due().is_none());
+    }
+
+    #[test]
+    fn holes_past_the_memory_bound_ask_for_state_at_once() {
+        let mut s = receiver(17);
+        let most = (NackTiming::radio().max_ranges * HOLD_FACTOR) as u64;
+        (1..=most).for_each(|i| s.gap_found(TAG, r(2 * i, 2 * i), ms(0)));
+        assert_eq!(s.poll(), None, "at the bound");
+        s.gap_found(TAG, r(2 * most + 2, 2 * most + 2), ms(0));
+        let through = 2 * most + 2;
+        assert_eq!(s.poll(), Some(NackAction::AskState { tag: TAG, through }));
     }
 
     #[test]
@@ -1103,6 +1159,7 @@ mod tests {
         s.gap_found(TAG, r(2, 2), ms(0));
         s.gap_found(TAG, r(4, 6), ms(0));
         s.received(TAG, r(5, 5));
+        s.tick(ms(400));
         assert_eq!(
             s.poll(),
             Some(NackAction::AskState {
@@ -1113,11 +1170,13 @@ mod tests {
     }
 
     #[test]
-    fn a_gap_wider_than_max_nack_frames_asks_for_state_at_once() {
+    fn a_gap_wider_than_max_nack_frames_asks_for_state_once_past_its_grace() {
         let mut s = receiver(15);
         s.gap_found(TAG, r(10, 73), ms(0));
         assert_eq!(s.poll(), None, "64 positions are NACKed");
         s.gap_found(TAG, r(74, 74), ms(0));
+        assert_eq!(s.poll(), None, "within the grace");
+        s.tick(ms(400));
         assert_eq!(
             s.poll(),
             Some(NackAction::AskState {

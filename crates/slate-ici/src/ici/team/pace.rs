@@ -24,7 +24,11 @@ pub(crate) struct TokenBucket {
     depth: i64,
     bits: i64,
     at: Duration,
+    /// Bit-nanoseconds earned and not yet a whole bit (below `NANOS_PER_SEC`).
+    carry: u128,
 }
+
+const NANOS_PER_SEC: u128 = 1_000_000_000;
 
 impl TokenBucket {
     /// A full bucket at `now` earning `rate_bps`, holding at most `depth_bytes`.
@@ -35,6 +39,7 @@ impl TokenBucket {
             depth,
             bits: depth,
             at: now,
+            carry: 0,
         }
     }
 
@@ -57,12 +62,19 @@ impl TokenBucket {
         self.bits = self.bits.saturating_sub(bits);
     }
 
+    /// Earns the bits of the time since the last call. The fraction of a bit left over
+    /// is carried to the next call (at 70 bit/s a 10 ms tick earns 0.7 bits: rounded
+    /// down every tick, a bucket asked that often never earned anything).
     fn refill(&mut self, now: Duration) {
         let elapsed = now.saturating_sub(self.at);
         self.at = self.at.max(now);
-        let earned = elapsed.as_nanos() * u128::from(self.rate_bps) / 1_000_000_000;
-        let earned = i64::try_from(earned).unwrap_or(i64::MAX);
-        self.bits = self.bits.saturating_add(earned).min(self.depth);
+        let credit = elapsed.as_nanos() * u128::from(self.rate_bps) + self.carry;
+        self.carry = credit % NANOS_PER_SEC;
+        let earned = i64::try_from(credit / NANOS_PER_SEC).unwrap_or(i64::MAX);
+        self.bits = self.bits.saturating_add(earned);
+        if self.bits >= self.depth {
+            (self.bits, self.carry) = (self.depth, 0);
+        }
     }
 }
 
@@ -216,6 +228,18 @@ mod tests {
         assert!(b.ready(ms(10_000)));
         b.spend(101, ms(10_000));
         assert!(!b.ready(ms(10_000)), "no more than 100 B were held");
+    }
+
+    /// A gateway asks its bucket every tick (10 ms in the simulator). At the acoustic
+    /// share of 70 bit/s a tick earns 0.7 bits: rounded down each time, the bucket never
+    /// earned anything, and a gateway in debt never sent again (no repair, no data: the
+    /// demo's robots went silent at sea).
+    #[test]
+    fn a_slow_bucket_asked_often_earns_its_rate() {
+        let mut b = TokenBucket::new(70, 32, ms(0));
+        b.spend(32 + 7, ms(0));
+        let ready_at = (1..=2_000).map(|t| ms(t * 10)).find(|t| b.ready(*t));
+        assert_eq!(ready_at, Some(ms(800)), "56 bits of debt at 70 bit/s");
     }
 
     #[test]

@@ -13,7 +13,7 @@ use std::collections::VecDeque;
 use slate_model::Address;
 
 use super::frame::{
-    MAX_MEMBERS, PartOf, RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamMsg,
+    Forward, MAX_MEMBERS, PartOf, RobotHeartbeat, RobotHello, StreamTag, TeamFrame, TeamMsg,
 };
 use super::outer::{Change, Fragment, Heard, Outer};
 use super::repair::ANY_TAG;
@@ -74,6 +74,7 @@ pub(crate) fn is_team_kind(kind: MsgKind) -> bool {
             | StateRequest
             | TeamInterest
             | Fill
+            | Forward
     )
 }
 
@@ -94,7 +95,15 @@ impl State {
                 return tracing::debug!(from = %from, error = %e, "team frame refused");
             }
         };
+        self.on_team_msg(from, msg, bytes);
+    }
+
+    /// A decoded team protocol frame from `from` (`bytes`, as it came).
+    fn on_team_msg(&mut self, from: &Address, msg: TeamMsg, bytes: &[u8]) {
         let team_link = LinkKind::between(&self.me, from) == LinkKind::Team;
+        if team_link {
+            self.forward_to_deaf_mates(from, &msg, bytes);
+        }
         match msg {
             TeamMsg::Frame(f) if team_link => self.on_team_frame(from, f),
             TeamMsg::Hello(h) if team_link => self.on_robot_hello(from, h),
@@ -105,8 +114,67 @@ impl State {
             TeamMsg::Nack(n) if team_link => self.on_nack(from, n),
             TeamMsg::StateRequest(r) if !team_link => self.on_state_request(r),
             TeamMsg::Gone(g) if team_link => self.on_gone(from, g),
-            // Want, Fill: step 13.
+            TeamMsg::Forward(f) if !team_link => self.on_forward(from, f),
+            TeamMsg::Want(w) if !team_link => self.on_want(from, w),
+            // Fill: step 13.
             _ => self.stats.team.refused += 1,
+        }
+    }
+
+    /// A gateway hands what it heard of the other robots' streams (frames, repairs,
+    /// hellos, heartbeats, `Gone`) to each live mate whose hello says it does not listen
+    /// to the team link, over the robot link: such a member receives the streams as a listener does
+    /// (2.1), with the gateway's ears. NACKs are not handed on: a member that does not
+    /// listen leaves the repairs to its gateway, which lacks what it lacks.
+    fn forward_to_deaf_mates(&mut self, from: &Address, msg: &TeamMsg, bytes: &[u8]) {
+        let stream = matches!(
+            msg,
+            TeamMsg::Frame(_)
+                | TeamMsg::Repair(_)
+                | TeamMsg::Hello(_)
+                | TeamMsg::Heartbeat(_)
+                | TeamMsg::Gone(_)
+        );
+        if !stream || self.team.gateway.is_none() {
+            return;
+        }
+        let deaf: Vec<Address> = self
+            .mates()
+            .filter(|(_, p)| p.incarnation.is_some() && !p.listener && p.alive == Some(true))
+            .map(|(a, _)| a.clone())
+            .collect();
+        for mate in &deaf {
+            self.forward_to(mate, from, bytes);
+        }
+    }
+
+    /// Hands `mate` what gateway `heard_from` said on the team link.
+    pub(super) fn forward_to(&mut self, mate: &Address, heard_from: &Address, bytes: &[u8]) {
+        let forward = TeamMsg::Forward(Forward {
+            from: heard_from.clone(),
+            message: bytes.to_vec(),
+        });
+        self.stats.team.forwarded += 1;
+        self.send_to(mate, MsgKind::Forward, &forward.encode());
+    }
+
+    /// What a mate (our gateway) heard on the team link from `f.from`: handled as if
+    /// heard there, unless this module listens itself (it heard it then) or `f.from`
+    /// is no other robot's.
+    fn on_forward(&mut self, from: &Address, f: Forward) {
+        let other_robot = LinkKind::between(&self.me, &f.from) == LinkKind::Team;
+        if !other_robot || self.team.listening != Some(false) {
+            tracing::debug!(from = %from, heard_from = %f.from, "forward dropped");
+            return self.stats.team.refused += 1;
+        }
+        // Not counted as team traffic: it came over the robot link (as a `Forward`).
+        // A `Forward` inside is refused there: `f.from` is on the team link.
+        match TeamMsg::decode(&f.message) {
+            Ok(msg) => self.on_team_msg(&f.from, msg, &f.message),
+            Err(e) => {
+                self.stats.team.refused += 1;
+                tracing::debug!(from = %from, error = %e, "forwarded team frame refused");
+            }
         }
     }
 
@@ -178,7 +246,7 @@ impl State {
     /// asks the members' state (2.6, case b; today's catch-up until step 11).
     pub(super) fn stream_changed(&mut self, from: &Address, change: Change) {
         if let Some((first, n)) = change.revealed {
-            tracing::trace!(gateway = %from, first, n, "robot stream gap");
+            tracing::trace!(me = %self.me, at = ?self.now, gateway = %from, first, n, "robot stream gap");
             self.team_gap(from, first, n);
         }
         if change.ask_state {

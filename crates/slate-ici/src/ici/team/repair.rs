@@ -9,8 +9,10 @@
 //!   and answers once, by broadcast: `TeamRepair` replays from its history, split at
 //!   the MTU, and `Gone` for what the history no longer holds.
 //!
-//! Every listener NACKs for itself (no `Want` to the gateway, no foreign cache): the
-//! suppression bounds the cost to about one NACK per loss, whoever lost it.
+//! Every listener NACKs for itself (no foreign cache): the suppression bounds the cost
+//! to about one NACK per loss, whoever lost it. A member that does not listen hears the
+//! streams through its gateway (`Forward`) and NACKs no frames: it lacks what its gateway
+//! lacks. Its state and hello asks go to the gateway as a `Want`.
 
 use std::time::Duration;
 
@@ -18,7 +20,8 @@ use slate_model::Address;
 use slate_transport::Rng;
 
 use super::frame::{
-    Gone, Nack, NackEntry, Part, RepairContent, Span, StreamTag, TeamFrame, TeamMsg, TeamRepair,
+    Gone, MAX_MEMBERS, Nack, NackEntry, Part, RepairContent, Span, StreamTag, TeamFrame, TeamMsg,
+    TeamRepair,
 };
 use super::nack::{MissingRange, NackAction, NackScheduler, NackTiming, RepairTiming, SeqRange};
 use crate::MsgKind;
@@ -246,18 +249,78 @@ impl State {
         while let Some(action) = self.team.nacks.as_mut().and_then(NackScheduler::poll) {
             match action {
                 NackAction::Nack(missing) => entries.extend(missing.iter().map(frames_entry)),
-                NackAction::AskState { tag, through } => self.ask_stream_state(tag, through),
+                NackAction::AskState { tag, through } => {
+                    tracing::debug!(me = %self.me, at = ?now, tag = tag.0, through, "NACKs gave up: state asked");
+                    self.ask_stream_state(tag, through)
+                }
             }
+        }
+        if !entries.is_empty() {
+            tracing::debug!(me = %self.me, at = ?now, ?entries, "NACK");
         }
         self.publish_nacks(entries);
     }
 
     fn publish_nacks(&mut self, entries: Vec<NackEntry>) {
+        if self.team.listening == Some(false) {
+            return self.want(entries);
+        }
         for chunk in entries.chunks(ENTRIES_PER_NACK) {
             let nack = Nack {
                 entries: chunk.to_vec(),
             };
             self.publish_team_msg(MsgKind::Nack, &TeamMsg::Nack(nack));
+        }
+    }
+
+    /// A member that does not listen tells its gateway what it asks of the other robots
+    /// (`Want`): its state asks (a member's inner gap, names it lacks) and hello asks.
+    /// Frame NACKs are left out: the frames it lacks are the ones its gateway lacks (it
+    /// got what the gateway heard), and the gateway NACKs those itself.
+    fn want(&mut self, entries: Vec<NackEntry>) {
+        let asks: Vec<NackEntry> = entries
+            .into_iter()
+            .map(|e| NackEntry { frames: None, ..e })
+            .filter(|e| e.hello || e.state.is_some())
+            .collect();
+        let Some(gateway) = self.gateway().filter(|g| *g != self.me) else {
+            return;
+        };
+        for chunk in asks.chunks(ENTRIES_PER_NACK) {
+            let want = TeamMsg::Want(Nack {
+                entries: chunk.to_vec(),
+            });
+            self.send_to(&gateway, MsgKind::Want, &want.encode());
+        }
+    }
+
+    /// A mate's `Want` (as gateway): its state asks join ours, which go on the team link
+    /// with our NACKs; a hello it lacks is forwarded to it again from what we hold.
+    pub(super) fn on_want(&mut self, from: &Address, want: Nack) {
+        if self.team.gateway.is_none() {
+            return self.stats.team.uplinks_misrouted += 1;
+        }
+        for entry in want.entries {
+            let speakers = self.team.speakers.iter();
+            let of_tag = speakers.filter(|(_, s)| {
+                s.hello
+                    .as_ref()
+                    .is_some_and(|h| h.tag == entry.tag || entry.tag == ANY_TAG)
+            });
+            let found: Vec<(Address, TeamMsg)> = of_tag
+                .filter_map(|(g, s)| Some((g.clone(), TeamMsg::Hello(s.hello.clone()?))))
+                .collect();
+            for (gateway, hello) in found {
+                if entry.hello {
+                    self.forward_to(from, &gateway, &hello.encode());
+                }
+                let Some(ask) = entry.state.filter(|_| entry.tag != ANY_TAG) else {
+                    continue;
+                };
+                for index in (0..MAX_MEMBERS).filter(|i| ask.members & 1 << i != 0) {
+                    self.merge_state_ask(&gateway, index, ask.names, ask.classes);
+                }
+            }
         }
     }
 
@@ -477,6 +540,7 @@ impl State {
         }
         let head = gw.framer.position();
         if let Some(range) = entry.frames.and_then(range_of) {
+            tracing::debug!(me = %self.me, at = ?now, ?range, head, "NACK heard for our stream");
             gw.repairs.nack_heard(range, head, now);
         }
     }
@@ -490,6 +554,9 @@ impl State {
             return;
         };
         if !gw.bucket.ready(now) {
+            if gw.repairs.next_due().is_some_and(|t| t <= now) {
+                tracing::trace!(me = %self.me, at = ?now, "repair waits for the bucket");
+            }
             return;
         }
         let Some(ranges) = gw.repairs.poll(now) else {
@@ -518,6 +585,7 @@ impl State {
         if let Some(gone) = gone {
             self.publish_team_msg(MsgKind::Gone, &TeamMsg::Gone(gone));
         }
+        tracing::debug!(me = %self.me, at = ?now, ?range, gone = ?lookup.gone, "repair");
         for repair in replays(tag, bodies_of(&lookup.held), mtu) {
             self.publish_team_msg(MsgKind::TeamRepair, &TeamMsg::Repair(repair));
         }
