@@ -420,7 +420,12 @@ fn assert_fields(j: &Value, fields: &[&str], holds: fn(f64) -> bool) {
 /// Median nanoseconds per call of `op` (each call is one operation).
 pub fn measure(cfg: &Config, mut op: impl FnMut()) -> f64 {
     let target = Duration::from_millis(cfg.sample_ms);
-    let iters = calibrate(target, &mut op);
+    // The most of three calibrations: on a busy machine one pass that lost the processor
+    // for milliseconds would otherwise make every sample a few iterations long.
+    let iters = (0..3)
+        .map(|_| calibrate(target, &mut op))
+        .max()
+        .unwrap_or(1);
     let per_op: Vec<f64> = (0..cfg.samples)
         .map(|_| {
             let start = Instant::now();

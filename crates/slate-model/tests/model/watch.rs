@@ -270,3 +270,24 @@ fn a_reader_keeping_up_with_a_fast_writer_gets_every_change_in_order() {
     assert!(values == expected, "changes lost, repeated or out of order");
     assert_eq!(more, None);
 }
+
+#[test]
+fn a_change_of_one_write_holds_a_list_of_exactly_one() {
+    // A longer list (four items, the first growth of a `Vec`) is a block of about 400
+    // bytes; freed by the reader in its own thread, blocks that large let the heap shrink,
+    // and the writer faulted fresh pages in at every few writes (docs/performance.md).
+    let b = board();
+    b.create("Gsr", "g").unwrap();
+    let one = b.watch(Filter::all()).unwrap();
+    let other = b.watch(Filter::all()).unwrap();
+    b.write("g", "speed", 1.0).unwrap();
+    for w in [&one, &other] {
+        let change = w.try_recv().unwrap();
+        assert_eq!(writes(&change), ["g.speed"]);
+        assert_eq!(change.items.capacity(), 1);
+    }
+    let mut batch = b.batch();
+    batch.write("g", "speed", 2.0).write("g", "mode", "go");
+    batch.commit().unwrap();
+    assert_eq!(drain(&one), ["g.speed", "g.mode"]);
+}
