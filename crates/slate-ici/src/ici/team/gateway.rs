@@ -210,6 +210,11 @@ pub(crate) struct Gateway {
     pub queue: TxQueue,
     /// What the radio may carry: data waits while it is in debt.
     pub bucket: TokenBucket,
+    /// What repairs may carry, at the same rate: a repair does not wait for `bucket`
+    /// (it is charged to it, and the data waits), but repairs alone never go faster
+    /// than the link's rate, however many NACKs ask for them (a member NACKing in a
+    /// loop cannot make the gateway send more than that).
+    pub repair_bucket: TokenBucket,
     /// The inner positions of the messages in the open frame, taken when it goes out:
     /// a receiver is never told of a position it cannot have heard yet.
     told: Vec<(u8, Option<u64>)>,
@@ -240,10 +245,17 @@ impl Gateway {
             repairs: RepairScheduler::new(RepairTiming::radio()),
             queue: TxQueue::new(usize::MAX),
             bucket: TokenBucket::new(0, 0, Duration::ZERO),
+            repair_bucket: TokenBucket::new(0, 0, Duration::ZERO),
             told: Vec::new(),
             held_asks: BTreeMap::new(),
             held_since: None,
         }
+    }
+
+    /// Paces the radio at `protocol`'s rate from `now`: both buckets full.
+    pub fn pace(&mut self, protocol: &crate::TeamProtocol, now: Duration) {
+        self.bucket = TokenBucket::of(protocol, now);
+        self.repair_bucket = TokenBucket::of(protocol, now);
     }
 
     /// Every member's last inner position, by index (what a `Gone` tells).

@@ -556,6 +556,9 @@ impl State {
         let Some(gw) = self.team.gateway.as_mut() else {
             return;
         };
+        if !gw.repair_bucket.ready(now) {
+            return; // NACKs heard meanwhile join the repair
+        }
         let Some(ranges) = gw.repairs.poll(now) else {
             return;
         };
@@ -579,12 +582,20 @@ impl State {
             span: Span { from, n },
             positions: gw.inner_positions(),
         });
+        let mut bytes = 0;
         if let Some(gone) = gone {
-            self.publish_team_msg(MsgKind::Gone, &TeamMsg::Gone(gone));
+            bytes += self
+                .publish_team_msg(MsgKind::Gone, &TeamMsg::Gone(gone))
+                .len();
         }
         tracing::debug!(me = %self.me, at = ?now, ?range, gone = ?lookup.gone, "repair");
         for repair in replays(tag, bodies_of(&lookup.held), mtu) {
-            self.publish_team_msg(MsgKind::TeamRepair, &TeamMsg::Repair(repair));
+            bytes += self
+                .publish_team_msg(MsgKind::TeamRepair, &TeamMsg::Repair(repair))
+                .len();
+        }
+        if let Some(gw) = self.team.gateway.as_mut() {
+            gw.repair_bucket.spend(bytes, now);
         }
     }
 }
@@ -798,6 +809,26 @@ mod tests {
             1,
             "held off: repaired lately"
         );
+    }
+
+    /// Repairs do not wait for the data's bucket, but they have one of their own at the
+    /// link's rate: a member NACKing the same frames in a loop (a hostile one, or one
+    /// that cannot hear) gets no more repair bytes than the link carries.
+    #[test]
+    fn a_member_nacking_in_a_loop_gets_no_more_repairs_than_the_link_carries() {
+        let (_net, mut st) = state();
+        gateway_of_three(&mut st, Duration::from_secs(60));
+        let gw = st.team.gateway.as_mut().unwrap();
+        // A byte a second, a byte deep: the first repair's bytes take longer to earn
+        // than the loop lasts.
+        gw.repair_bucket = TokenBucket::new(8, 1, START);
+        let timing = repair_timing(&TeamProtocol::radio());
+        for round in 1..=20u32 {
+            st.on_team(&addr("t/r1/g"), &nack(StreamTag(77), 1, 3));
+            st.now = START + (timing.repair_gather + timing.repair_holdoff) * round;
+            st.repair_tick();
+        }
+        assert_eq!(sent(&st, MsgKind::TeamRepair), 1);
     }
 
     /// Seed 7 of the acoustic demo (session 15): the console framed a 401-byte state

@@ -20,7 +20,7 @@ use super::frame::{
 use super::gateway::{Framer, Gateway, Seen};
 use super::history::HistoryLimits;
 use super::nack::RepairScheduler;
-use super::pace::{Held, Queued, TokenBucket, TxQueue};
+use super::pace::{Held, Queued, TxQueue};
 use crate::ici::Listen;
 use crate::ici::classes::{ClassSet, context_bit};
 use crate::ici::state::State;
@@ -120,9 +120,8 @@ impl State {
             return;
         };
         protocol.rate_bps = rate_bps;
-        let bucket = TokenBucket::of(protocol, self.now);
         if let Some(gw) = self.team.gateway.as_mut() {
-            gw.bucket = bucket;
+            gw.pace(protocol, self.now);
         }
     }
 
@@ -266,7 +265,7 @@ impl State {
         let mut gateway = Gateway::new(tag, epoch, framer, limits);
         gateway.repairs = RepairScheduler::new(super::repair::repair_timing(protocol));
         gateway.queue = TxQueue::new(protocol.history_bytes);
-        gateway.bucket = TokenBucket::of(protocol, self.now);
+        gateway.pace(protocol, self.now);
         // The hello opens the stream; the idle heartbeat counts from it.
         (gateway.last_sent, gateway.last_full) = (self.now, self.now);
         self.team.gateway = Some(gateway);
