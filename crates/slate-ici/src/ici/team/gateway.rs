@@ -252,10 +252,14 @@ impl Gateway {
         }
     }
 
-    /// Paces the radio at `protocol`'s rate from `now`: both buckets full.
+    /// Paces the radio at `protocol`'s rate from `now`: both buckets full. The repairs'
+    /// is as deep as a receiver's round (`repair_wait` at the rate, at least a frame):
+    /// the repairs of one round may go together, and no more than the link carries.
     pub fn pace(&mut self, protocol: &crate::TeamProtocol, now: Duration) {
         self.bucket = TokenBucket::of(protocol, now);
-        self.repair_bucket = TokenBucket::of(protocol, now);
+        let round = protocol.repair_wait.as_secs_f64() * f64::from(protocol.rate_bps) / 8.0;
+        let depth = protocol.mtu.max(round as usize);
+        self.repair_bucket = TokenBucket::new(protocol.rate_bps, depth, now);
     }
 
     /// Every member's last inner position, by index (what a `Gone` tells).
