@@ -27,8 +27,8 @@ pub(crate) const MAX_QUEUED: usize = 4096;
 /// Longest wait for the route to a peer's inbox before the first send to it.
 const ROUTE_WAIT: Duration = Duration::from_secs(3);
 
-/// How often the route is looked for meanwhile.
-const ROUTE_POLL: Duration = Duration::from_millis(5);
+/// How often a wait here (for the route, for an empty queue) looks again.
+const POLL: Duration = Duration::from_millis(5);
 
 /// What is queued for one peer, and whether it was found unable to keep up.
 #[derive(Debug, Default)]
@@ -102,7 +102,7 @@ impl Outbox {
     /// Waits until the thread has handed Zenoh everything queued, or `deadline`.
     pub fn wait_empty(&self, deadline: Instant) {
         while self.queue.lock().len > 0 && Instant::now() < deadline {
-            std::thread::sleep(ROUTE_POLL);
+            std::thread::sleep(POLL);
         }
     }
 
@@ -130,17 +130,11 @@ impl Worker {
     /// Puts each queued payload in turn (blocking while Zenoh's link is congested), until
     /// the outbox is dropped. The first waits for the peer's inbox to be routed.
     fn run(self, rx: mpsc::Receiver<Vec<u8>>) {
-        let mut routed = false;
-        for payload in rx {
+        let Ok(first) = rx.recv() else { return };
+        self.await_route();
+        for payload in std::iter::once(first).chain(rx) {
             if self.queue.lock().gone {
                 return;
-            }
-            if !routed {
-                self.await_route();
-                routed = true;
-                if self.queue.lock().gone {
-                    return;
-                }
             }
             let len = payload.len();
             if let Err(e) = self.publisher.put(payload).wait() {
@@ -167,7 +161,7 @@ impl Worker {
                 tracing::debug!(to = %self.peer, "no route to the peer's inbox: sent anyway");
                 return;
             }
-            std::thread::sleep(ROUTE_POLL);
+            std::thread::sleep(POLL);
         }
     }
 

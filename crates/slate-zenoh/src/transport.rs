@@ -871,13 +871,16 @@ impl Transport for ZenohTransport {
         // withdrawn: a peer that heard a message after this module's down would take it
         // for alive again, until its timeout (a plan's origin then waited that long to
         // hear `destination lost`).
+        // Taken out of the map first: no lock is held while they drain. Dropped, an
+        // outbox sends nothing more (a thread stuck in a congested put ends when Zenoh
+        // gives up on it).
+        let outboxes = std::mem::take(&mut *self.inner.outboxes.lock());
         let flushed_by = Instant::now() + CLOSE_FLUSH;
-        for outbox in self.inner.outboxes.lock().values() {
+        for outbox in outboxes.values() {
             outbox.wait_empty(flushed_by);
         }
+        drop(outboxes);
         self.inner.publishers.lock().clear();
-        // An outbox's thread stuck in a congested put ends when Zenoh gives up on it.
-        self.inner.outboxes.lock().clear();
         if let Some(token) = self.inner.token.lock().take() {
             let _ = token.undeclare().wait();
         }

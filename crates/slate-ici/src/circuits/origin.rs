@@ -32,9 +32,9 @@ const MAX_RESEND_WAIT: Duration = Duration::from_secs(8);
 
 /// Copies of a plan sent (or sent to a destination back), over a link that retransmits:
 /// one, after [`MAX_RESEND_WAIT`], for a first message lost on its way in (a destination
-/// restarting, or Zenoh without a route to its inbox yet). More would only race an answer queued behind a slow link: on the demo's
-/// 9600 bit/s radio a run's plans went from 5.8 kB to 43 kB so, each copy also answered
-/// with every step again.
+/// restarting, or Zenoh without a route to its inbox yet). More would only race an answer
+/// queued behind a slow link: on the demo's 9600 bit/s radio a run's plans went from
+/// 5.8 kB to 43 kB so, each copy also answered with every step again.
 const RETRANSMITTED_COPIES: u32 = 1;
 
 /// The circuits this module opened.
