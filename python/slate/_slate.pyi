@@ -580,13 +580,18 @@ class Node:
         mode: Literal["peer", "router", "client"] = "peer",
         interest: Sequence[str] | None = None,
         export: Sequence[str] | None = None,
+        lossless: Sequence[str] | None = None,
         dashboard: str | None = None,
         record: str | os.PathLike[str] | None = None,
         state: str | os.PathLike[str] | None = None,
         plans_from: Sequence[str] | None = None,
         writes: Mapping[str, Sequence[str]] | None = None,
     ) -> Node:
-        """`record=`: record the board to this MCAP file from the start
+        """`lossless=`: classes whose every update this node's receivers get, in
+        order, as `lossless` in a node's config: a receiver that cannot keep up slows
+        this node's writes of them down instead of losing updates (default: none; every
+        other class is sent best effort, a slow receiver getting the latest state).
+        `record=`: record the board to this MCAP file from the start
         (docs/recording.md). `state=`: keep the board in this directory and restore it
         first, before the node joins the team (docs/design.md, "A restart with its
         board"); load the board's files before making the node, or their objects clash

@@ -69,6 +69,6 @@ pub use ici::{
     module_object_name,
 };
 pub use slate_transport::{
-    Channel, Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng, SendError,
-    SimConfig, SimNet, SimStats, SimTransport, Traffic, Transport,
+    Channel, Flow, Handler, LinkConfig, LinkCounter, LinkKind, LinkStats, MsgKind, Radio, Rng,
+    SendError, SimConfig, SimNet, SimStats, SimTransport, Traffic, Transport,
 };

@@ -27,6 +27,9 @@ mod interest;
 mod limits;
 #[path = "ici/links.rs"]
 mod links;
+// Lossless classes: published with `Flow::Every`, past the links' filters.
+#[path = "ici/lossless.rs"]
+mod lossless;
 // Merge policies across boards: owned, confident, fused.
 #[path = "ici/merge.rs"]
 mod merge;

@@ -101,6 +101,7 @@ const TOP: &[&str] = &[
     "files",
     "interest",
     "export",
+    "lossless",
     "dashboard",
     "dashboard_token",
     "foxglove",
@@ -226,6 +227,9 @@ impl NodeConfig {
         }
         if let Some(list) = top.strings("export", CLASSES)? {
             config.ici.export = read_class_set(&top, "export", &list)?;
+        }
+        if let Some(list) = top.strings("lossless", CLASSES)? {
+            config.ici.lossless = read_class_set(&top, "lossless", &list)?;
         }
         config.dashboard = dashboard(&mut top)?;
         config.dashboard_token = dashboard_token(&mut top)?;
@@ -804,6 +808,7 @@ mod tests {
             files = ["world.slate", "/abs/plans.slate"]
             interest = ["Vehicle", "Obstacle:surroundings,system"]
             export = ["Vehicle:self"]
+            lossless = ["Event"]
             dashboard = "127.0.0.1:8080"
             dashboard_token = "0123456789abcdef0123"
             zenoh_config = "zenoh.json5"
@@ -851,6 +856,7 @@ mod tests {
             c.ici.export,
             ClassSet::none().class_in("Vehicle", &[Context::Self_])
         );
+        assert_eq!(c.ici.lossless, ClassSet::none().class("Event"));
         assert_eq!(c.dashboard, Some("127.0.0.1:8080".parse().unwrap()));
         assert_eq!(c.dashboard_token.as_deref(), Some("0123456789abcdef0123"));
         assert_eq!(c.security, Some(PathBuf::from("/etc/slate/team-keys")));
@@ -942,6 +948,7 @@ mod tests {
         assert_eq!(c.ici.team_report_every, Some(TEAM_REPORT_EVERY));
         assert!(c.ici.interest.is_all());
         assert!(c.ici.export.is_empty());
+        assert!(c.ici.lossless.is_empty());
     }
 
     #[test]

@@ -15,6 +15,9 @@ mod foxglove;
 // A node hands the `link` blocks of the files it loads to its ICI.
 #[path = "node/links.rs"]
 mod links;
+// A lossless class over real Zenoh: every update, in order, while catch-ups close gaps.
+#[path = "node/lossless.rs"]
+mod lossless;
 // Recording a board in MCAP, read back with the mcap crate.
 #[path = "node/record.rs"]
 mod record;

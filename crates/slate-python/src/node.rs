@@ -134,7 +134,7 @@ fn write_rules(rules: BTreeMap<String, Vec<String>>) -> PyResult<Vec<slate_node:
 #[pymethods]
 impl PyNode {
     #[new]
-    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, dashboard=None, record=None, state=None, plans_from=None, writes=None))]
+    #[pyo3(signature = (address, board=None, *, connect=None, listen=None, mode="peer", interest=None, export=None, lossless=None, dashboard=None, record=None, state=None, plans_from=None, writes=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -145,6 +145,7 @@ impl PyNode {
         mode: &str,
         interest: Option<Vec<String>>,
         export: Option<Vec<String>>,
+        lossless: Option<Vec<String>>,
         dashboard: Option<&str>,
         record: Option<PathBuf>,
         state: Option<PathBuf>,
@@ -164,7 +165,8 @@ impl PyNode {
         )?;
         let ici = slate_node::default_ici()
             .interest(classes("interest", interest, slate_ici::ClassSet::all())?)
-            .export(classes("export", export, slate_ici::ClassSet::none())?);
+            .export(classes("export", export, slate_ici::ClassSet::none())?)
+            .lossless(classes("lossless", lossless, slate_ici::ClassSet::none())?);
         let dashboard: Option<SocketAddr> = dashboard
             .map(|d| {
                 d.parse().map_err(|_| {

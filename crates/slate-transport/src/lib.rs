@@ -49,9 +49,11 @@
 #[cfg(feature = "testing")]
 pub mod conformance;
 mod sim;
+#[cfg(feature = "testing")]
+pub mod tap;
 mod transport;
 
 pub use sim::{
     Channel, LinkConfig, LinkCounter, Radio, Rng, SimConfig, SimNet, SimStats, SimTransport,
 };
-pub use transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};
+pub use transport::{Flow, Handler, LinkKind, LinkStats, MsgKind, SendError, Traffic, Transport};

@@ -329,6 +329,20 @@ pub enum SendError {
     },
 }
 
+/// What a publication does when a receiver cannot keep up with its publisher
+/// ([`Transport::publish_with`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Flow {
+    /// Dropped rather than waited for: a receiver that falls behind loses publications
+    /// and gets the latest state later, by catch-up (what [`Transport::publish`] does).
+    #[default]
+    Latest,
+    /// Every publication, in order, to each live peer on the link that reads: a
+    /// publisher faster than its slowest receiver is slowed (the call waits for room),
+    /// its messages are not dropped. For a class that needs every update (events).
+    Every,
+}
+
 /// Receives what a transport delivers. Called from the transport's threads (or the
 /// simulator's step loop); it must not block for long.
 pub trait Handler: Send + Sync {
@@ -344,6 +358,8 @@ pub trait Handler: Send + Sync {
 /// Contract (checked by the `conformance` suite, built with the `testing` feature):
 /// - [`publish`](Transport::publish) is best effort: a message reaches each live peer on
 ///   that kind of link once, or not at all, or twice, in any order.
+///   [`publish_with`](Transport::publish_with) and [`Flow::Every`] ask a transport that
+///   can for every message in order, the publisher waiting for slow receivers.
 /// - [`send`](Transport::send) is reliable: messages to one peer arrive once and in order
 ///   while the peer stays reachable; a peer that goes down may miss some. It never
 ///   blocks on a slow peer: sends to each peer are queued (bounded); a peer whose queue
@@ -364,6 +380,28 @@ pub trait Transport: Send + Sync {
 
     /// Sends to every live peer on `link` (best effort).
     fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError>;
+
+    /// Publishes on `link` as [`publish`](Transport::publish) does, with `flow` saying
+    /// whether a receiver that cannot keep up loses the message ([`Flow::Latest`]) or
+    /// slows this call down ([`Flow::Every`]: the call may wait while a peer's link or
+    /// its handler is congested). Only publications are concerned: sends are reliable
+    /// anyway.
+    ///
+    /// This default ignores `flow` and publishes best effort, for transports that
+    /// cannot hold a publisher back: the simulator's (its links lose what their loss
+    /// model says, and virtual time never makes a writer wait), and wrappers that do not
+    /// forward it. slate-zenoh honours it (congestion control `Block`, and a receive
+    /// queue that waits for room instead of dropping).
+    fn publish_with(
+        &self,
+        link: LinkKind,
+        kind: MsgKind,
+        payload: &[u8],
+        flow: Flow,
+    ) -> Result<(), SendError> {
+        let _ = flow;
+        self.publish(link, kind, payload)
+    }
 
     /// Sends to one peer, reliably and in order.
     fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError>;

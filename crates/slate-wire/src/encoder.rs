@@ -31,6 +31,8 @@ use crate::{
 pub struct Encoder {
     address: Address,
     dict: Dictionary,
+    /// The last message encoded announced entries ([`Encoder::announced`]).
+    announced: bool,
 }
 
 impl Encoder {
@@ -40,6 +42,7 @@ impl Encoder {
         Encoder {
             address,
             dict: Dictionary::default(),
+            announced: false,
         }
     }
 
@@ -51,6 +54,14 @@ impl Encoder {
     /// The timestamp epoch, once chosen (whole seconds; timestamps travel relative to it).
     pub fn epoch(&self) -> Option<Timestamp> {
         self.dict.epoch()
+    }
+
+    /// Did the last message encoded announce entries (names, classes, the epoch)? A
+    /// receiver that misses it cannot decode the later messages that use them until it
+    /// catches up with `needs_names`: a sender for which no message may be lost sends
+    /// this one so that it cannot be.
+    pub fn announced(&self) -> bool {
+        self.announced
     }
 
     /// Announces everything again from the next message on (ids and the epoch stay the
@@ -77,7 +88,8 @@ impl Encoder {
     ) -> Result<Vec<u8>, EncodeError> {
         self.message(Kind::Report, |enc, w| {
             let items = items.iter();
-            write_report(w, seq, items, &mut enc.dict, &enc.address, schema)
+            enc.announced = write_report(w, seq, items, &mut enc.dict, &enc.address, schema)?;
+            Ok(())
         })
     }
 
@@ -88,6 +100,7 @@ impl Encoder {
         kind: Kind,
         body: impl FnOnce(&mut Self, &mut BitWriter) -> Result<(), EncodeError>,
     ) -> Result<Vec<u8>, EncodeError> {
+        self.announced = false;
         let mut w = BitWriter::new();
         w.bits(VERSION.into(), 4);
         w.bits(kind as u64, 4);
@@ -100,6 +113,7 @@ impl Encoder {
             }
             Err(e) => {
                 self.dict.rollback();
+                self.announced = false;
                 Err(e)
             }
         }
@@ -114,9 +128,12 @@ impl Encoder {
         match msg {
             Message::Report(r) | Message::CatchUpAnswer(r) => {
                 let (items, me) = (r.items.iter(), &self.address);
-                write_report(w, r.seq, items, &mut self.dict, me, schema)?;
+                self.announced = write_report(w, r.seq, items, &mut self.dict, me, schema)?;
             }
-            Message::Names(names) => self.write_names(w, names, schema)?,
+            Message::Names(names) => {
+                self.write_names(w, names, schema)?;
+                self.announced = true;
+            }
             Message::Classes(defs) => {
                 check_classes(defs)?;
                 write_classes(w, defs);

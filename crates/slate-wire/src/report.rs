@@ -76,7 +76,8 @@ impl Flags {
 }
 
 /// Writes a report body: position `seq`, then `items`. Interns (and announces) what it
-/// names in `dict`; the caller commits or rolls back the dictionary.
+/// names in `dict`; the caller commits or rolls back the dictionary. Returns whether it
+/// announced anything.
 pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     w: &mut BitWriter,
     seq: u64,
@@ -84,7 +85,7 @@ pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     dict: &mut Dictionary,
     me: &Address,
     schema: &Schema,
-) -> Result<(), EncodeError> {
+) -> Result<bool, EncodeError> {
     let mut ann = Announce::default();
     let entries = resolve_all(items, dict, me, schema, &mut ann)?;
     let base = entries.iter().map(|e| e.packet.timestamp).min();
@@ -100,7 +101,7 @@ pub(crate) fn write_report<'a, A: AssertionParts + 'a>(
     if let (Some(base), Some(epoch)) = (base, epoch) {
         write_entries(w, &entries, flags, base, epoch);
     }
-    Ok(())
+    Ok(!ann.is_empty())
 }
 
 /// A report's entries: an occasional report holds one or two, inline.

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use parking_lot::{Mutex, RwLock};
 use rustc_hash::FxHashMap;
 use slate_model::Address;
-use slate_transport::{Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
+use slate_transport::{Flow, Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
 use zenoh::Wait;
 use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;
@@ -232,8 +232,9 @@ const MAX_SOURCES: usize = 4096;
 /// Where a message goes.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 enum Dest {
-    /// Published on a link kind.
-    Publication(LinkKind),
+    /// Published on a link kind, dropped when congested ([`Flow::Latest`]) or waited for
+    /// ([`Flow::Every`]).
+    Publication(LinkKind, Flow),
     /// Sent to one module's inbox.
     Direct(Address),
 }
@@ -274,6 +275,9 @@ pub(crate) struct Inner {
     token: Mutex<Option<LivelinessToken>>,
     /// The queue to the delivery thread ([`spawn_inbox`]) and that thread.
     inbox: Mutex<Option<InboxThread>>,
+    /// What the delivery thread has to do, and whether a report is being handed over on
+    /// Zenoh's thread ([`Inner::hand_over`]).
+    gate: Mutex<Gate>,
     /// Publications dropped because the delivery thread was [`INBOX_CAPACITY`] behind.
     behind_dropped: AtomicU64,
     /// Some of its endpoints are `udp/`: sends may be lost without retransmission.
@@ -307,6 +311,7 @@ impl ZenohTransport {
             sources: Mutex::new(FxHashMap::default()),
             token: Mutex::new(None),
             inbox: Mutex::new(None),
+            gate: Mutex::new(Gate::default()),
             behind_dropped: AtomicU64::new(0),
             datagrams: config
                 .listen
@@ -437,11 +442,57 @@ enum Delivery {
 /// The queue to the delivery thread, and the thread.
 type InboxThread = (mpsc::SyncSender<Delivery>, JoinHandle<()>);
 
-/// Starts the delivery thread: it runs the handler for what Zenoh's callbacks heard, so
-/// that a slow handler (a board whose active functions are slow) never holds Zenoh's
-/// receive threads, whose backlog (in TCP and Zenoh's buffers) would otherwise be
-/// drained in full before a catch-up answer behind it. It ends when the transport
-/// closes.
+/// A report heard less than this after the last one handed over on Zenoh's thread
+/// ended goes through the delivery thread: Zenoh is likely draining a backlog (a batch,
+/// or bytes that piled up in TCP meanwhile), which the handler must not hold.
+const DIRECT_GAP: Duration = Duration::from_micros(50);
+
+/// The delivery thread's work and the direct path's state ([`Inner::hand_over`]).
+#[derive(Debug, Default)]
+struct Gate {
+    /// Deliveries queued or being handled by the delivery thread (it counts one down
+    /// only once its handler returned): while one is, a report heard now must not
+    /// overtake it on Zenoh's thread.
+    queued: usize,
+    /// A report is being handed over on a Zenoh thread.
+    direct: bool,
+    /// When the last direct hand-over ended.
+    direct_ended: Option<Instant>,
+}
+
+impl Gate {
+    /// May a report be handed over on Zenoh's thread now? Only when the delivery thread
+    /// is idle with nothing queued (so nothing heard before it is still waiting: order
+    /// holds), no other is being handed over directly, and the last one did not end just
+    /// now.
+    fn enter_direct(&mut self, now: Instant) -> bool {
+        let idle = self.queued == 0 && !self.direct;
+        if idle && self.direct_ended.is_none_or(|t| now - t >= DIRECT_GAP) {
+            self.direct = true;
+            return true;
+        }
+        false
+    }
+}
+
+/// A report being handed over on Zenoh's thread: its end is noted when it is dropped,
+/// even by a handler that panics, so that later reports are not all sent through the
+/// queue for want of it.
+struct DirectTurn<'a>(&'a Mutex<Gate>);
+
+impl Drop for DirectTurn<'_> {
+    fn drop(&mut self) {
+        let mut gate = self.0.lock();
+        gate.direct = false;
+        gate.direct_ended = Some(Instant::now());
+    }
+}
+
+/// Starts the delivery thread: it runs the handler for what Zenoh's callbacks heard
+/// (but an isolated report, [`Inner::hand_over`]), so that a slow handler (a board
+/// whose active functions are slow) does not hold Zenoh's receive threads, whose
+/// backlog (in TCP and Zenoh's buffers) would otherwise be drained in full before a
+/// catch-up answer behind it. It ends when the transport closes.
 fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
     let (tx, rx) = mpsc::sync_channel::<Delivery>(INBOX_CAPACITY);
     let thread = std::thread::Builder::new()
@@ -450,6 +501,7 @@ fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
             for d in rx {
                 let Some(inner) = inner.upgrade() else { return };
                 inner.deliver(d);
+                inner.gate.lock().queued -= 1;
             }
         })?;
     Ok((tx, thread))
@@ -495,28 +547,56 @@ impl Inner {
             self.heard_on_team(&from);
         }
         let payload = s.payload().to_bytes();
-        self.stats
-            .lock()
-            .received(link, MsgKind::of(&payload), payload.len());
+        let kind = MsgKind::of(&payload);
+        self.stats.lock().received(link, kind, payload.len());
+        // A publication its publisher sent with `Flow::Every` (Zenoh carries the
+        // congestion control with each message) waits for room like a direct send: the
+        // wait holds this Zenoh thread, so the link backs up to the publisher, whose
+        // blocking put slows it down.
+        let droppable = publication && s.congestion_control() == CongestionControl::Drop;
         if self.handler.read().is_some() {
-            self.hand_over(Delivery::Message(from, payload.into()), publication);
+            let direct = publication && kind == MsgKind::Report;
+            self.hand_over(Delivery::Message(from, payload.into()), droppable, direct);
         }
     }
 
     /// Queues `d` for the delivery thread. A publication finds the queue full when the
     /// handler is [`INBOX_CAPACITY`] messages behind: it is dropped (best effort, like
     /// Zenoh's own congestion drop: the ICI sees the gap and catches up with the
-    /// latest state). A direct send or a peer event waits for room, as it did when the
-    /// handler ran on Zenoh's thread.
-    fn hand_over(&self, d: Delivery, droppable: bool) {
+    /// latest state). A direct send, a publication of [`Flow::Every`] or a peer event
+    /// waits for room, as it did when the handler ran on Zenoh's thread.
+    ///
+    /// A report (`direct`) heard while the delivery thread is idle is handed to the
+    /// handler on this (Zenoh's) thread instead: a thread's wake-up less on the path of
+    /// an occasional update (docs/performance.md, *Side by side with the peers*). Only
+    /// while nothing is queued, so order holds; and not right after another, so a
+    /// backlog is drained through the queue, where what the handler cannot take is
+    /// dropped, not held in Zenoh's and TCP's buffers ([`Gate::enter_direct`]).
+    fn hand_over(&self, d: Delivery, droppable: bool, direct: bool) {
+        if direct && self.gate.lock().enter_direct(Instant::now()) {
+            let _turn = DirectTurn(&self.gate);
+            self.deliver(d);
+            return;
+        }
         let Some(tx) = self.inbox.lock().as_ref().map(|(tx, _)| tx.clone()) else {
             return;
         };
-        if !droppable {
-            let _ = tx.send(d);
-        } else if let Err(mpsc::TrySendError::Full(_)) = tx.try_send(d) {
-            let n = self.behind_dropped.fetch_add(1, Ordering::Relaxed) + 1;
-            tracing::debug!(dropped = n, "handler behind: publication dropped");
+        self.gate.lock().queued += 1;
+        let sent = if droppable {
+            match tx.try_send(d) {
+                Ok(()) => true,
+                Err(mpsc::TrySendError::Full(_)) => {
+                    let n = self.behind_dropped.fetch_add(1, Ordering::Relaxed) + 1;
+                    tracing::debug!(dropped = n, "handler behind: publication dropped");
+                    false
+                }
+                Err(mpsc::TrySendError::Disconnected(_)) => false,
+            }
+        } else {
+            tx.send(d).is_ok()
+        };
+        if !sent {
+            self.gate.lock().queued -= 1;
         }
     }
 
@@ -572,7 +652,7 @@ impl Inner {
         }
         // Through the delivery queue, behind the messages heard before it.
         if changed && !reported_down && self.handler.read().is_some() {
-            self.hand_over(Delivery::Peer(peer, up), false);
+            self.hand_over(Delivery::Peer(peer, up), false, false);
         }
     }
 
@@ -723,10 +803,17 @@ impl Inner {
         }
     }
 
-    /// Publishes on `link` (Zenoh drops it if the link is congested).
-    fn put(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
+    /// Publishes on `link`: Zenoh drops it if the link is congested ([`Flow::Latest`]),
+    /// or waits for room ([`Flow::Every`]).
+    fn put(
+        &self,
+        link: LinkKind,
+        kind: MsgKind,
+        payload: &[u8],
+        flow: Flow,
+    ) -> Result<(), SendError> {
         self.check(payload)?;
-        let publisher = self.publisher(Dest::Publication(link))?;
+        let publisher = self.publisher(Dest::Publication(link, flow))?;
         publisher
             .put(payload.to_vec())
             .wait()
@@ -784,15 +871,19 @@ impl Inner {
 
     /// The publisher of `dest`, declared on first use: direct sends (reliable) block
     /// when the link is congested (in their outbox's thread, never the caller's),
-    /// publications drop (the ICI catches up from the current state).
+    /// publications drop (the ICI catches up from the current state), except those of
+    /// [`Flow::Every`], which block in the caller's thread.
     fn publisher(&self, dest: Dest) -> Result<Arc<Publisher<'static>>, SendError> {
         if let Some(p) = self.publishers.lock().get(&dest) {
             return Ok(p.clone());
         }
         let (key, congestion) = match &dest {
-            Dest::Publication(link) => (
+            Dest::Publication(link, flow) => (
                 keys::publication(&self.address, *link),
-                CongestionControl::Drop,
+                match flow {
+                    Flow::Latest => CongestionControl::Drop,
+                    Flow::Every => CongestionControl::Block,
+                },
             ),
             Dest::Direct(to) => (keys::direct(to, &self.address), CongestionControl::Block),
         };
@@ -824,7 +915,21 @@ impl Transport for ZenohTransport {
     }
 
     fn publish(&self, link: LinkKind, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
-        self.inner.put(link, kind, payload)
+        self.inner.put(link, kind, payload, Flow::Latest)
+    }
+
+    /// Honoured: [`Flow::Every`] publishes with Zenoh's congestion control `Block` (a put
+    /// waits while the link's queue is full, up to Zenoh's `wait_before_close`, 5 s,
+    /// after which Zenoh closes the link), and receivers wait for room in their queue to
+    /// the handler instead of dropping it.
+    fn publish_with(
+        &self,
+        link: LinkKind,
+        kind: MsgKind,
+        payload: &[u8],
+        flow: Flow,
+    ) -> Result<(), SendError> {
+        self.inner.put(link, kind, payload, flow)
     }
 
     fn send(&self, to: &Address, kind: MsgKind, payload: &[u8]) -> Result<(), SendError> {
@@ -937,6 +1042,40 @@ mod tests {
     #[test]
     fn zenoh_tcp_links_are_built_to_close_without_lingering() {
         assert_eq!(option_env!("TCP_LINGER_TIMEOUT"), Some("0"));
+    }
+
+    #[test]
+    fn a_report_is_handed_over_on_zenohs_thread_only_when_nothing_waits_or_just_went() {
+        let t0 = Instant::now();
+        let mut gate = Gate::default();
+        assert!(gate.enter_direct(t0), "idle");
+        assert!(!gate.enter_direct(t0), "another is being handed over");
+        gate.direct = false;
+        gate.direct_ended = Some(t0);
+        let soon = t0 + DIRECT_GAP / 2;
+        assert!(!gate.enter_direct(soon), "right after the last: a backlog");
+        let later = t0 + DIRECT_GAP;
+        gate.queued = 1;
+        assert!(!gate.enter_direct(later), "something queued goes first");
+        gate.queued = 0;
+        assert!(gate.enter_direct(later));
+    }
+
+    #[test]
+    fn a_direct_hand_over_that_panics_still_ends() {
+        let gate = Mutex::new(Gate::default());
+        let t0 = Instant::now();
+        assert!(gate.lock().enter_direct(t0));
+        let panicked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let _turn = DirectTurn(&gate);
+            panic!("a handler's bug");
+        }));
+        assert!(panicked.is_err());
+        let later = Instant::now() + DIRECT_GAP;
+        assert!(
+            gate.lock().enter_direct(later),
+            "the next report may go direct"
+        );
     }
 
     #[test]

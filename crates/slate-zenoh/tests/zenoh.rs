@@ -194,3 +194,76 @@ fn a_send_made_before_the_addressee_is_routed_arrives_once_it_is() {
     a.transport.close();
     b.transport.close();
 }
+
+/// A handler that takes 50 µs per message (a slow board), counting what it got.
+#[derive(Default)]
+struct Slow {
+    got: std::sync::Mutex<Vec<u32>>,
+}
+
+impl slate_transport::Handler for Slow {
+    fn message(&self, _from: &Address, payload: &[u8]) {
+        let started = Instant::now();
+        while started.elapsed() < Duration::from_micros(50) {
+            std::hint::spin_loop();
+        }
+        let n = u32::from_le_bytes(payload[1..5].try_into().unwrap());
+        self.got.lock().unwrap().push(n);
+    }
+
+    fn peer(&self, _peer: &Address, _up: bool) {}
+}
+
+/// A writer publishing as fast as it can to a receiver whose handler is slower: with
+/// `Flow::Every` every message arrives, in order (the writer is slowed down); with the
+/// default `Flow::Latest` the receiver's queue drops some, and counts them.
+#[test]
+fn every_publication_of_flow_every_reaches_a_slow_handler_in_order_and_latest_ones_are_dropped() {
+    const N: u32 = 20_000;
+    for flow in [slate_transport::Flow::Every, slate_transport::Flow::Latest] {
+        let mut net = Loopback::default();
+        let writer = net.join(&Address::new("t/r1/writer").unwrap());
+        let receiver = net.join(&Address::new("t/r1/receiver").unwrap());
+        let slow = Arc::new(Slow::default());
+        receiver.set_handler(slow.clone());
+        assert!(net.run_until(&mut || writer.peers().len() == 1 && receiver.peers().len() == 1));
+        net.settle();
+        for n in 0..N {
+            let mut payload = vec![0x11];
+            payload.extend(n.to_le_bytes());
+            writer
+                .publish_with(LinkKind::Robot, MsgKind::Report, &payload, flow)
+                .unwrap();
+        }
+        let last = |s: &Slow| s.got.lock().unwrap().last() == Some(&(N - 1));
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while Instant::now() < deadline && !last(&slow) {
+            thread::sleep(Duration::from_millis(20));
+        }
+        net.settle();
+        let got = slow.got.lock().unwrap().clone();
+        let dropped = receiver.stats().behind_dropped;
+        match flow {
+            slate_transport::Flow::Every => {
+                let misplaced = (0..N).zip(&got).find(|(n, g)| n != *g);
+                assert!(
+                    got.len() == N as usize && misplaced.is_none(),
+                    "{flow:?}: {} of {N} arrived, first out of place {misplaced:?}",
+                    got.len()
+                );
+                assert_eq!(dropped, 0);
+            }
+            _ => {
+                assert!(
+                    got.len() < N as usize,
+                    "{flow:?}: all {} arrived",
+                    got.len()
+                );
+                assert!(dropped > 0, "{flow:?}");
+                assert!(got.windows(2).all(|w| w[0] < w[1]), "in order, with holes");
+            }
+        }
+        writer.close();
+        receiver.close();
+    }
+}

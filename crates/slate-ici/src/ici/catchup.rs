@@ -226,6 +226,13 @@ impl State {
         self.stats.catch_up.answered += 1;
         self.refresh_catalog();
         let link = to.link(&self.me);
+        let (items, objects, revision) = self.current_state(to, link);
+        // The writes the state holds that are not reported yet are reported now, ahead
+        // of the answer, whose position then covers them: were they reported after it,
+        // above its position, a receiver would refuse them as older than what the
+        // answer brought, and lose every update of a lossless class in between. (Before
+        // the names are announced again: the answer must carry them, not a report.)
+        self.drain_changes_to(revision);
         if names && let Some(out) = self.out.get_mut(&link) {
             out.encoder.reset_announcements();
         }
@@ -233,7 +240,6 @@ impl State {
             self.send_classes(to);
         }
         let seq = self.out.get(&link).map_or(0, |o| o.seq);
-        let (items, objects) = self.current_state(to, link);
         for chunk in items.chunks(self.config.max_report_items.max(1)) {
             self.send_answer(to, seq, chunk);
         }
@@ -312,10 +318,15 @@ impl State {
         }
     }
 
-    /// What `to` is to hold of this board: packets, and the objects this board owns.
+    /// What `to` is to hold of this board: packets, and the objects this board owns,
+    /// and the board revision they were read at.
     /// A team answer is filtered by the union of the remote robots' interests (all,
     /// until it is known), so its object list is right for every receiver's sweep.
-    fn current_state(&self, to: Audience<'_>, link: LinkKind) -> (Vec<Assertion>, Vec<Listed>) {
+    fn current_state(
+        &self,
+        to: Audience<'_>,
+        link: LinkKind,
+    ) -> (Vec<Assertion>, Vec<Listed>, u64) {
         let interest = match to {
             Audience::Peer(peer) => self.peers.get(peer).and_then(|p| p.interest.clone()),
             Audience::Team(_) => self.team_remote_interest(),
@@ -323,6 +334,7 @@ impl State {
         let interest = interest.unwrap_or_else(ClassSet::all);
         let (mut items, mut objects) = (Vec::new(), Vec::new());
         let snap = self.board.snapshot();
+        let revision = snap.revision();
         for id in snap.objects() {
             let Some(info) = snap.info(id) else { continue };
             let entry = ObjectEntry::from(&info);
@@ -351,7 +363,7 @@ impl State {
                 });
             }
         }
-        (items, objects)
+        (items, objects, revision)
     }
 
     /// Does a catch-up answer to `to` carry this packet? This module's own, all packets

@@ -34,6 +34,14 @@ pub struct IciConfig {
     /// the robot link carries everything its receivers are interested in. Default:
     /// nothing.
     pub export: ClassSet,
+    /// What this module's receivers must get every update of, not only the latest
+    /// state (events, counts, a log): reports of these classes (by class and context on
+    /// this board) are published with [`Flow::Every`](crate::Flow), so a receiver that
+    /// cannot keep up slows this module's writes down instead of losing them, and the
+    /// links' report filters do not hold them back (a link's `never` still keeps them
+    /// off it; a class's own `report` options still apply).
+    /// Default: nothing. docs/ici.md, *A class that needs every update*.
+    pub lossless: ClassSet,
     /// Liveliness on the robot link (default: heartbeat 250 ms, timeout 1 s).
     pub robot: Liveliness,
     /// Liveliness on the team link (default: heartbeat 1 s, timeout 5 s).
@@ -215,6 +223,7 @@ impl Default for IciConfig {
         IciConfig {
             interest: ClassSet::all(),
             export: ClassSet::none(),
+            lossless: ClassSet::none(),
             robot: Liveliness {
                 heartbeat: Duration::from_millis(250),
                 timeout: Duration::from_secs(1),
@@ -253,6 +262,12 @@ impl IciConfig {
     /// Sets the export policy.
     pub fn export(mut self, export: ClassSet) -> Self {
         self.export = export;
+        self
+    }
+
+    /// Sets the classes whose every update is sent ([`IciConfig::lossless`]).
+    pub fn lossless(mut self, lossless: ClassSet) -> Self {
+        self.lossless = lossless;
         self
     }
 

@@ -177,7 +177,11 @@ impl State {
             .then_some(self.config.team_report_every)
             .flatten();
         let State {
-            filters, me, stats, ..
+            filters,
+            me,
+            stats,
+            config,
+            ..
         } = self;
         let Some(filters) = filters.link_every(link, every) else {
             return;
@@ -193,6 +197,10 @@ impl State {
             let key = (s.object.name.clone(), s.attr.clone());
             match filters.offer(&s.lineage, key, p.clone(), now, quiet) {
                 LinkVerdict::Send => true,
+                // Every update of a lossless class goes: the link's filter would hold
+                // some back (its trailing edge then sends the last one again, which
+                // receivers already hold). `never` still keeps it off the link.
+                LinkVerdict::Held if config.lossless.contains(&s.lineage, s.object.context) => true,
                 LinkVerdict::Held => {
                     held += 1;
                     false

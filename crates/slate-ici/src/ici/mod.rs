@@ -11,6 +11,7 @@ mod limits;
 mod link;
 mod module;
 mod ops;
+mod outgoing;
 mod quantise;
 mod recv;
 mod send;
@@ -135,6 +136,8 @@ struct Shared {
     ticker: Arc<Ticker>,
     /// The link policies set (`set_link_policy`), taken after the state lock.
     links: Mutex<link::Links>,
+    /// Publications made once the state lock is released (the state's own).
+    outgoing: Arc<outgoing::Outgoing>,
 }
 
 impl Ici {
@@ -157,6 +160,7 @@ impl Ici {
         let watch = board.watch(Filter::all().own_writes_only())?;
         let links = Mutex::new(link::Links::new(&config));
         let state = State::new(board.clone(), transport.clone(), config, watch);
+        let outgoing = state.outgoing.clone();
         let shared = Arc::new_cyclic(|me: &Weak<Shared>| Shared {
             board: board.clone(),
             transport: transport.clone(),
@@ -167,6 +171,7 @@ impl Ici {
             plan_handler: RwLock::new(None),
             ticker: Arc::new(Ticker(me.clone())),
             links,
+            outgoing,
         });
         shared.with_state(State::adopt_own_objects);
         shared.connect();
@@ -347,13 +352,15 @@ impl Shared {
     /// Runs `f` on the state, then applies the board ops it queued and hands out the
     /// plan events, with the state lock released.
     fn with_state<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
-        let (result, queued, plans) = {
+        let (result, queued, plans, every) = {
             let mut st = self.state.lock();
             st.now = self.board.clock().physical();
             let result = f(&mut st);
             let queued = self.enqueue(&mut st);
-            (result, queued, std::mem::take(&mut st.plans))
+            let every = std::mem::take(&mut st.queued_every);
+            (result, queued, std::mem::take(&mut st.plans), every)
         };
+        self.outgoing.flush(&*self.transport, every);
         if queued {
             self.run_queue();
         }
@@ -395,7 +402,9 @@ impl Shared {
             st.drain_changes();
             let queued = self.enqueue(&mut st);
             let plans = std::mem::take(&mut st.plans);
+            let every = std::mem::take(&mut st.queued_every);
             drop(st);
+            self.outgoing.flush(&*self.transport, every);
             if queued {
                 self.run_queue();
             }

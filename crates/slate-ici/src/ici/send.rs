@@ -15,7 +15,7 @@ use super::frame::{Frame, Lifecycle, Listed};
 use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
 use super::state::State;
-use crate::{LinkKind, MsgKind};
+use crate::{Flow, LinkKind, MsgKind};
 
 /// Whether an item goes on a link kind.
 enum Wanted {
@@ -103,8 +103,20 @@ type Values<'a> = SmallVec<[Reported<'a>; 8]>;
 impl State {
     /// Takes every change committed since the last call and sends what is due.
     pub fn drain_changes(&mut self) {
+        self.drain_changes_to(u64::MAX);
+    }
+
+    /// Takes the changes committed since the last call up to board revision `revision`
+    /// and sends what is due; a later change waits for the next call (`next_change`).
+    /// A catch-up answer drains up to the revision its state was read at, so that the
+    /// reports of every write it holds go before it, and none of a write after it.
+    pub fn drain_changes_to(&mut self, revision: u64) {
         let mut items = std::mem::take(&mut self.spare_items);
-        while let Some(change) = self.watch.try_recv() {
+        while let Some(change) = self.next_change.take().or_else(|| self.watch.try_recv()) {
+            if change.revision > revision {
+                self.next_change = Some(change);
+                break;
+            }
             for item in change.items {
                 self.collect(item, &mut items);
             }
@@ -460,6 +472,7 @@ impl State {
     /// Encodes and publishes one report; a batch that does not encode is split until
     /// the faulty packet is isolated and dropped.
     fn emit_report(&mut self, link: LinkKind, items: &[Reported]) {
+        let flow = self.flow_of(items.iter().map(|r| r.0));
         let Some(out) = self.out.get_mut(&link) else {
             return;
         };
@@ -470,7 +483,12 @@ impl State {
             Ok(bytes) => {
                 out.seq += 1;
                 self.stats.reports.items_sent += items.len() as u64;
-                self.publish(link, MsgKind::Report, &bytes);
+                // Names a report announces are not announced again: lost, they would
+                // leave the lossless reports that use them undecodable until a
+                // catch-up (and their updates lost).
+                let announced = out.encoder.announced() && !self.config.lossless.is_empty();
+                let flow = if announced { Flow::Every } else { flow };
+                self.publish_with(link, MsgKind::Report, &bytes, flow);
             }
             Err(e) if items.len() > 1 => {
                 let (a, b) = items.split_at(items.len() / 2);
@@ -479,6 +497,18 @@ impl State {
                 self.emit_report(link, b);
             }
             Err(e) => self.encode_failed(&items[0], &e),
+        }
+    }
+
+    /// [`Flow::Every`] if one of the subjects is of a class whose every update is sent
+    /// ([`IciConfig::lossless`](crate::IciConfig::lossless)), else [`Flow::Latest`].
+    pub(super) fn flow_of<'a>(&self, mut subjects: impl Iterator<Item = &'a Subject>) -> Flow {
+        let lossless = &self.config.lossless;
+        if !lossless.is_empty() && subjects.any(|s| lossless.contains(&s.lineage, s.object.context))
+        {
+            Flow::Every
+        } else {
+            Flow::Latest
         }
     }
 

@@ -10,7 +10,7 @@ use std::time::Duration;
 use rustc_hash::FxHashMap;
 
 use slate_model::memo::NameMemo;
-use slate_model::{Address, Board, Context, MergePolicy, Packet, Timestamp, Watch};
+use slate_model::{Address, Board, Change, Context, MergePolicy, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder, ObjectEntry};
 
 use super::classes::{Catalog, ClassSet, Lineage};
@@ -21,7 +21,7 @@ use super::module::MODULE_CLASS;
 use super::ops::BoardOp;
 use super::stats::IciStats;
 use super::stream::Inbound;
-use crate::{LinkKind, MsgKind, Transport};
+use crate::{Flow, LinkKind, MsgKind, Transport};
 
 /// What merging a received packet of an object's attribute needs, found on its first
 /// packet (this board models the object, holds it in the same class, and has the
@@ -261,6 +261,9 @@ pub(crate) struct State {
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
     pub watch: Watch,
+    /// A change taken from `watch` past the revision a drain stopped at
+    /// (`drain_changes_to`): the next drain starts with it.
+    pub next_change: Option<Change>,
     pub stats: IciStats,
     /// Physical time of the operation in progress.
     pub now: Duration,
@@ -272,6 +275,11 @@ pub(crate) struct State {
     pub spare_items: Vec<super::send::Item>,
     /// The team protocol's state (empty while `config.team_protocol` is `None`).
     pub team: super::team::TeamState,
+    /// Publications made once the lock is released (`outgoing.rs`).
+    pub outgoing: Arc<super::outgoing::Outgoing>,
+    /// A lossless publication was queued: the thread holding the lock makes it, and
+    /// waits for it, once it lets go.
+    pub queued_every: bool,
 }
 
 impl State {
@@ -323,12 +331,15 @@ impl State {
             catch_up_from: Duration::ZERO,
             dead: BTreeSet::new(),
             watch,
+            next_change: None,
             stats: IciStats::default(),
             now,
             ops: Vec::new(),
             plans: Vec::new(),
             spare_items: Vec::new(),
             team: super::team::TeamState::new(),
+            outgoing: Arc::default(),
+            queued_every: false,
         }
     }
 
@@ -425,11 +436,18 @@ impl State {
         me.into_iter().chain(mates).min().map(|(_, a)| a.clone())
     }
 
-    /// Sends one message reliably to `to`, counting it.
+    /// Sends one message reliably to `to`, counting it. While a lossless publication
+    /// waits, the send queues behind it (`outgoing.rs`): a catch-up answer must not
+    /// overtake the reports its position covers.
     pub fn send_to(&mut self, to: &Address, kind: MsgKind, bytes: &[u8]) {
         let link = LinkKind::between(&self.me, to);
         self.team_aired(link, bytes.len());
         self.said(link);
+        if self.outgoing.must_queue(Flow::Latest) {
+            self.outgoing.push_send(to, kind, bytes);
+            self.stats.sent(link, kind, bytes.len());
+            return;
+        }
         match self.transport.send(to, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),
             Err(e) => {
@@ -442,17 +460,37 @@ impl State {
     /// Publishes one message on `link`, counting it. With the team protocol on, a team
     /// message goes to the robot's gateway instead (`team_out`).
     pub fn publish(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
+        self.publish_with(link, kind, bytes, Flow::Latest);
+    }
+
+    /// [`State::publish`] with a [`Flow`]. A team message handed to the gateway goes
+    /// in the robot's numbered stream, which the gateway repairs but does not hold its
+    /// writers back for: `flow` does not travel there (docs/ici.md, *A class that needs
+    /// every update*).
+    pub fn publish_with(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8], flow: Flow) {
         if link == LinkKind::Team && self.config.team_protocol.is_some() {
             return self.team_out(bytes);
         }
-        self.publish_now(link, kind, bytes);
+        self.publish_now_with(link, kind, bytes, flow);
     }
 
     /// Publishes one message on `link` as it is, counting it.
     pub fn publish_now(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8]) {
+        self.publish_now_with(link, kind, bytes, Flow::Latest);
+    }
+
+    /// A lossless publication, and any made while one waits, is queued and made once the
+    /// lock is released (`outgoing.rs`); it is counted as sent when queued.
+    fn publish_now_with(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8], flow: Flow) {
         self.team_aired(link, bytes.len());
         if kind != MsgKind::Heartbeat {
             self.said(link);
+        }
+        if self.outgoing.must_queue(flow) {
+            self.outgoing.push(link, kind, bytes, flow);
+            self.queued_every |= flow == Flow::Every;
+            self.stats.sent(link, kind, bytes.len());
+            return;
         }
         match self.transport.publish(link, kind, bytes) {
             Ok(()) => self.stats.sent(link, kind, bytes.len()),

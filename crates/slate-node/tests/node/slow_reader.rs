@@ -11,11 +11,13 @@ use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
 use parking_lot::Mutex;
-use slate_ici::{ClassSet, Handler, Ici, IciConfig, MsgKind, PlanHandler, Transport};
-use slate_model::{Address, AttrDecl, Board, ClassDef, Value, ValueType};
+use slate_ici::{ClassSet, Handler, IciConfig, MsgKind, PlanHandler, Transport};
+use slate_model::{Address, AttrDecl, ClassDef, Value, ValueType};
 use slate_testing::free_port;
 use slate_wire::{CatchUpRequest, Encoder, Message, Schema};
 use slate_zenoh::{ZenohConfig, ZenohTransport};
+
+use crate::support::ZenohModule;
 
 fn classes() -> Vec<ClassDef> {
     vec![
@@ -111,46 +113,6 @@ fn pump(
     })
 }
 
-/// A module with a board and an ICI whose timers a thread runs, as a node does.
-struct Module {
-    ici: Arc<Ici>,
-    transport: Arc<ZenohTransport>,
-    stop: Arc<AtomicBool>,
-    ticker: Option<JoinHandle<()>>,
-}
-
-impl Module {
-    fn open(address: &Address, config: &ZenohConfig) -> Module {
-        let board = Arc::new(Board::builder().address(address.clone()).build());
-        for class in classes() {
-            board.define(class).unwrap();
-        }
-        let transport = ZenohTransport::open(address.clone(), config).expect("opens");
-        let ici_config = IciConfig::default().export(ClassSet::all());
-        let ici = Arc::new(Ici::new(board, transport.clone(), ici_config).unwrap());
-        let stop = Arc::new(AtomicBool::new(false));
-        let ticker = crate::support::ticker(&ici, &stop);
-        Module {
-            ici,
-            transport,
-            stop,
-            ticker: Some(ticker),
-        }
-    }
-
-    fn board(&self) -> &Arc<Board> {
-        self.ici.board()
-    }
-
-    fn close(mut self) {
-        self.stop.store(true, Ordering::Release);
-        if let Some(t) = self.ticker.take() {
-            let _ = t.join();
-        }
-        self.transport.close();
-    }
-}
-
 /// Records the modules an ICI judged dead.
 #[derive(Default)]
 struct Deaths(Mutex<Vec<Address>>);
@@ -195,7 +157,12 @@ fn a_peer_that_never_reads_does_not_stall_a_node_for_the_others() {
         connect: vec![format!("tcp/127.0.0.1:{port}")],
         ..ZenohConfig::default()
     };
-    let node = Module::open(&Address::new("t/r1/node").unwrap(), &listen(node_port));
+    let open = |address: &str, zenoh: &ZenohConfig| {
+        let address = Address::new(address).unwrap();
+        let config = IciConfig::default().export(ClassSet::all());
+        ZenohModule::open(&address, &classes(), zenoh, config, |z| z)
+    };
+    let node = open("t/r1/node", &listen(node_port));
     let deaths = Arc::new(Deaths::default());
     node.ici.set_plan_handler(deaths.clone());
     // Enough state that answering a catch-up takes about a megabyte.
@@ -205,7 +172,7 @@ fn a_peer_that_never_reads_does_not_stall_a_node_for_the_others() {
         node.board().create("Doc", &name).unwrap();
         node.board().write(&name, "text", text.as_str()).unwrap();
     }
-    let other = Module::open(&Address::new("t/r1/other").unwrap(), &connect(node_port));
+    let other = open("t/r1/other", &connect(node_port));
     let proxy = Proxy::start(proxy_port, node_port);
     let slow_address = Address::new("t/r1/slow").unwrap();
     let slow = ZenohTransport::open(slow_address.clone(), &connect(proxy_port)).unwrap();

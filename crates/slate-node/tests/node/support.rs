@@ -1,10 +1,15 @@
 //! A team of nodes on one simulated network.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
 use std::time::Duration;
 
-use slate_ici::{ClassSet, IciConfig, SimNet};
+use slate_ici::{ClassSet, Ici, IciConfig, SimNet, Transport};
+use slate_model::{Address, Board, ClassDef};
 use slate_node::{Node, NodeBuilder};
 pub use slate_testing::{WORLD, addr};
+use slate_zenoh::{ZenohConfig, ZenohTransport};
 
 /// A node on `net`, on its clock, that loads [`WORLD`] then `extra` (if any); the
 /// caller adds the rest and starts it.
@@ -63,4 +68,53 @@ pub fn ticker(
             std::thread::sleep(Duration::from_millis(10));
         }
     })
+}
+
+/// A module over a real Zenoh session: a board with `classes`, an ICI, and a thread
+/// running its timers, as a node does.
+pub struct ZenohModule {
+    pub ici: Arc<Ici>,
+    pub transport: Arc<ZenohTransport>,
+    stop: Arc<AtomicBool>,
+    ticker: Option<JoinHandle<()>>,
+}
+
+impl ZenohModule {
+    /// Opens the module at `address`; its ICI runs on what `wrap` makes of the Zenoh
+    /// transport (the transport itself, or a test's wrapper of it).
+    pub fn open(
+        address: &Address,
+        classes: &[ClassDef],
+        zenoh: &ZenohConfig,
+        config: IciConfig,
+        wrap: impl FnOnce(Arc<ZenohTransport>) -> Arc<dyn Transport>,
+    ) -> ZenohModule {
+        let board = Arc::new(Board::builder().address(address.clone()).build());
+        for class in classes {
+            board.define(class.clone()).unwrap();
+        }
+        let transport = ZenohTransport::open(address.clone(), zenoh).expect("opens");
+        let ici = Arc::new(Ici::new(board, wrap(transport.clone()), config).unwrap());
+        let stop = Arc::new(AtomicBool::new(false));
+        let ticker = Some(ticker(&ici, &stop));
+        ZenohModule {
+            ici,
+            transport,
+            stop,
+            ticker,
+        }
+    }
+
+    pub fn board(&self) -> &Arc<Board> {
+        self.ici.board()
+    }
+
+    /// Stops the timers' thread and closes the session.
+    pub fn close(mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(t) = self.ticker.take() {
+            let _ = t.join();
+        }
+        self.transport.close();
+    }
 }

@@ -116,6 +116,39 @@ fn names_are_announced_once_and_again_after_a_reset() {
 }
 
 #[test]
+fn the_encoder_says_which_message_announced_names() {
+    let schema = schema();
+    let mut encoder = Encoder::new(nav());
+    let encode = |e: &mut Encoder, msg: &Message| e.encode(msg, &schema).unwrap();
+    encode(&mut encoder, &Message::Report(pose(1)));
+    assert!(
+        encoder.announced(),
+        "the first report names what it reports"
+    );
+    encode(&mut encoder, &Message::Report(pose(2)));
+    assert!(!encoder.announced(), "the same names again");
+    let heartbeat = Message::Heartbeat(Heartbeat::default());
+    encoder.reset_announcements();
+    encode(&mut encoder, &heartbeat);
+    assert!(!encoder.announced(), "a heartbeat names nothing");
+    encode(&mut encoder, &Message::Report(pose(3)));
+    assert!(encoder.announced(), "after a reset");
+    let unknown = report(
+        4,
+        vec![assertion(
+            &robot(),
+            "no_such_attr",
+            packet(1.0, 0.1, 0.9, at(3_600_000_000, 0)),
+        )],
+    );
+    assert!(encoder.encode(&Message::Report(unknown), &schema).is_err());
+    assert!(
+        !encoder.announced(),
+        "a message that did not encode announced nothing"
+    );
+}
+
+#[test]
 fn a_receiver_that_missed_the_names_catches_up() {
     let schema = schema();
     let (mut source, _lost, second) = two_poses(&schema);
