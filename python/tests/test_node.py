@@ -261,11 +261,6 @@ def test_a_lost_destination_is_not_the_last_acknowledgement(
     run_with_timeout(check)
 
 
-@pytest.mark.skip(
-    reason="flaky (3 failures in 13 runs): the restarted destination catches up the origin's "
-    "objects but the plan, sent again with back-off, does not reach it within 20 s; cause "
-    "not found yet (issue 16, finding 3)"
-)
 def test_acknowledgements_go_on_after_the_destination_restarts(
     pair: tuple[slate.Node, slate.Node],
 ) -> None:

@@ -506,6 +506,7 @@ impl State {
         if list.complete {
             self.sweep(from, &list);
         }
+        self.release_plans(from);
     }
 
     /// Deletes the objects `from` owns that this board models but the list does not

@@ -16,6 +16,10 @@ use super::state::{Known, Origin, State};
 use super::stream::Inbound;
 use crate::{LinkKind, MsgKind};
 
+/// Plan messages held per sender while this board catches up with it, at most
+/// (`hold_plan`).
+const MAX_HELD_PLANS: usize = 16;
+
 impl State {
     /// A message from `from`. Team frames and repairs are counted by inner kind when
     /// they are decoded (`on_team`), so the messages inside them count once.
@@ -114,10 +118,59 @@ impl State {
             Message::CatchUpRequest(req) => self.on_request(from, req),
             Message::Heartbeat(h) => self.on_heartbeat(from, h),
             Message::Names(_) => {}
+            plan @ (Message::Plan(_) | Message::PlanCancel { .. }) if self.holds_plans_of(from) => {
+                self.hold_plan(from, plan);
+            }
             plan @ (Message::Plan(_) | Message::PlanAck(_) | Message::PlanCancel { .. }) => {
                 self.plans
                     .push(super::PlanEvent::Message(from.clone(), plan));
             }
+        }
+    }
+
+    /// Must a plan from `from` wait for this board to catch up with it? A plan may name
+    /// its sender's objects, which a board learns by catching up with the sender: one
+    /// that arrives first (sent as this module appeared, or sent again to it after a
+    /// restart, both just before the sender answers its catch-up) would be rejected for
+    /// a name it was about to know. So it waits, in order with the sender's other plan
+    /// messages, until the catch-up completes, or at most the link's timeout (then it
+    /// goes as it is). Only where catch-up is per pair: with the team protocol on, a team
+    /// peer's state comes through its robot's stream.
+    fn holds_plans_of(&self, from: &Address) -> bool {
+        let link = LinkKind::between(&self.me, from);
+        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+            return false;
+        }
+        let now = self.now;
+        self.peers
+            .get(from)
+            .is_some_and(|p| !p.caught_up && p.hold_plans_until.is_none_or(|until| now < until))
+    }
+
+    fn hold_plan(&mut self, from: &Address, plan: Message) {
+        let now = self.now;
+        let timeout = self.config.link(LinkKind::between(&self.me, from)).timeout;
+        let p = self.peer(from);
+        p.hold_plans_until.get_or_insert(now + timeout);
+        p.held_plans.push(plan);
+        let full = p.held_plans.len() >= MAX_HELD_PLANS;
+        self.stats.catch_up.plans_held += 1;
+        self.plans_held_from = self.plans_held_from.min(now + timeout);
+        if full {
+            // A sender of that many plans at once is not waiting for its state to
+            // arrive: they go (to the plans' own bounded queue) rather than pile up here.
+            self.release_plans(from);
+        }
+    }
+
+    /// Lets `from`'s held plan messages go, in the order they came.
+    pub(super) fn release_plans(&mut self, from: &Address) {
+        let Some(p) = self.peers.get_mut(from) else {
+            return;
+        };
+        for plan in std::mem::take(&mut p.held_plans) {
+            self.plans
+                .push(super::PlanEvent::Message(from.clone(), plan));
         }
     }
 
@@ -271,6 +324,7 @@ impl State {
         p.newest = None;
         p.catch_up = None;
         p.caught_up = false;
+        p.hold_plans_until = None;
         self.stats.liveliness.restarts += 1;
         self.decoder.forget(from);
         self.forget_origins(from);

@@ -11,7 +11,7 @@ use rustc_hash::FxHashMap;
 
 use slate_model::memo::NameMemo;
 use slate_model::{Address, Board, Change, Context, MergePolicy, Packet, Timestamp, Watch};
-use slate_wire::{Decoder, Encoder, ObjectEntry};
+use slate_wire::{Decoder, Encoder, Message, ObjectEntry};
 
 use super::classes::{Catalog, ClassSet, Lineage};
 use super::config::IciConfig;
@@ -88,6 +88,10 @@ pub(crate) struct Peer {
     pub failed: bool,
     /// A catch-up with it has completed since it (re)started.
     pub caught_up: bool,
+    /// Its plan messages (plans, cancellations) that arrived before that catch-up did,
+    /// in order, and until when they may wait for it (`recv.rs`, `hold_plan`).
+    pub held_plans: Vec<Message>,
+    pub hold_plans_until: Option<Duration>,
     /// When this module last sent it a hello (not a reply) that it has not answered
     /// yet, and how many times it said it again; `None` once answered.
     pub hello_unanswered: Option<(Duration, u32)>,
@@ -127,6 +131,8 @@ impl Peer {
             catch_up: None,
             failed: false,
             caught_up: false,
+            held_plans: Vec::new(),
+            hold_plans_until: None,
             hello_unanswered: None,
             newest: None,
             observer: false,
@@ -258,6 +264,9 @@ pub(crate) struct State {
     /// Nothing of `State::catch_up_timers` is due before this instant; never later than
     /// the earliest [`State::catch_up_due`] of any peer.
     pub catch_up_from: Duration,
+    /// No peer's held plans are due to go unheld before this instant
+    /// (`State::held_plan_timers`).
+    pub plans_held_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
     pub watch: Watch,
@@ -329,6 +338,7 @@ impl State {
             next_heartbeat: LinkKind::ALL.into_iter().map(|l| (l, now)).collect(),
             timeouts_from: Duration::ZERO,
             catch_up_from: Duration::ZERO,
+            plans_held_from: Duration::MAX,
             dead: BTreeSet::new(),
             watch,
             next_change: None,

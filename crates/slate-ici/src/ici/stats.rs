@@ -274,6 +274,12 @@ pub struct CatchUpStats {
     pub over_budget: u64,
     /// Class definitions sent on request.
     pub classes_sent: u64,
+    /// Plans (and cancellations) that arrived from a module this board had not caught up
+    /// with yet, held until it had (a plan may name the sender's objects).
+    pub plans_held: u64,
+    /// Of those, plans let through unheld after the wait's limit (the link's timeout),
+    /// the catch-up still not complete.
+    pub plans_hold_expired: u64,
 }
 
 /// Liveliness.

@@ -64,6 +64,7 @@ impl State {
         self.timeouts();
         self.forget_dead();
         self.catch_up_timers();
+        self.held_plan_timers();
         self.deferred_answers();
         self.hello_timers();
     }
@@ -88,6 +89,33 @@ impl State {
             self.stats.liveliness.hellos_resent += 1;
             self.hello(&peer, false);
             self.peer(&peer).hello_unanswered = Some((now, tries + 1));
+        }
+    }
+
+    /// Lets go the plans held for a catch-up that did not complete within the link's
+    /// timeout (`recv.rs`, `holds_plans_of`): they are loaded as they are.
+    fn held_plan_timers(&mut self) {
+        let now = self.now;
+        if now < self.plans_held_from {
+            return;
+        }
+        let mut next = Duration::MAX;
+        let mut expired = Vec::new();
+        for (a, p) in &self.peers {
+            let Some(until) = p.hold_plans_until.filter(|_| !p.held_plans.is_empty()) else {
+                continue;
+            };
+            match until <= now {
+                true => expired.push(a.clone()),
+                false => next = next.min(until),
+            }
+        }
+        self.plans_held_from = next;
+        for peer in expired {
+            let held = self.peers[&peer].held_plans.len() as u64;
+            self.stats.catch_up.plans_hold_expired += held;
+            tracing::debug!(me = %self.me, %peer, held, "plans held for a catch-up that did not come: loaded as they are");
+            self.release_plans(&peer);
         }
     }
 

@@ -1275,3 +1275,33 @@ fn a_received_plan_cannot_write_what_the_boards_rules_do_not_let_its_origin_writ
     net.run_for(secs(0.5));
     assert_eq!(cell.board.read("vault", "level").unwrap().value, 7.0.into());
 }
+
+/// A plan that names its origin's object, sent as its destination appears (or comes
+/// back after a restart, when the origin sends its open circuits' plans again), reaches
+/// the destination before the origin's state does: the destination learns `part` only
+/// by catching up with the origin. Loaded at once, it was rejected ("unknown name part")
+/// though nothing was wrong with it; it waits for that catch-up instead.
+#[test]
+fn a_plan_sent_as_its_destination_appears_waits_there_for_the_origins_state() {
+    let classes =
+        "class Part { temp: real = 0.0; level: real in 0 .. 500 = 0.0; done: bool = false; }";
+    let net = SimNet::new(81);
+    let origin = module(
+        &net,
+        "t/r1/planner",
+        &format!("{classes} object part : Part;"),
+    );
+    net.run_for(secs(0.5));
+    let cell = module(&net, "t/r2/cell", classes);
+    net.run_for(secs(0.01));
+    let h = origin.circuits.send(&addr("t/r2/cell"), WELD).unwrap();
+    let got = steps_of(&net, &h, 3, 10.0);
+    assert_eq!(
+        got,
+        [PlanStep::Received, PlanStep::Accepted, PlanStep::Initiated]
+    );
+    assert!(cell.board.info("part").is_some());
+    origin.board.write("part", "temp", 150.0).unwrap();
+    let fired = steps_of(&net, &h, 1, 5.0);
+    assert!(triggered(true)(&fired[0]), "{fired:?}");
+}
