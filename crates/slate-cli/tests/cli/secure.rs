@@ -452,10 +452,14 @@ fn a_plan_from_a_module_without_authority_is_rejected_with_a_reason() {
             })
         })
     };
+    let cam = team.node("t/r1/cam");
     assert!(
         refused("t/r1/cam"),
-        "{:?}\n{}",
+        "loco's events: {:?}\ncam's rock.range: {:?}, plans: {}, summary: {}\n{}",
         event_texts(loco),
+        cam.value("rock", "range"),
+        cam.snapshot()["plans"],
+        cam.snapshot()["summary"],
         team.logs()
     );
 
