@@ -438,6 +438,9 @@ impl Tap {
         if defs.iter().all(|d| self.classes.get(&d.name) == Some(d)) {
             return Ok(());
         }
+        // Packets waiting were written under the definitions recorded so far: they go on
+        // the channels of those.
+        self.send_batch()?;
         self.tree = Classes::of(&self.board);
         let redefined = defs
             .iter()
