@@ -679,9 +679,10 @@ _RecordedValue = None | bool | int | float | str | list[float]
 @final
 class Recording:
     """An MCAP recording of a board (docs/recording.md), read into memory. Iterating
-    yields every message in the file's order; a file cut off by a crash is read up to its
-    last complete chunk. Raises OSError if the file cannot be read, ValueError if it is
-    not an MCAP recording."""
+    yields every packet and event in the file's order (a class channel's message yields
+    each packet it holds); a file cut off by a crash is read up to its last complete
+    chunk. Files recorded with one packet a message read the same. Raises OSError if the
+    file cannot be read, ValueError if it is not an MCAP recording."""
 
     def __new__(cls, path: str | os.PathLike[str]) -> Recording: ...
     @property
@@ -693,7 +694,8 @@ class Recording:
     def complete(self) -> bool:
         """False when the file was cut off (no footer: a crash)."""
     def __iter__(self) -> Iterator[RecordedPacket | RecordedEvent]: ...
-    def __len__(self) -> int: ...
+    def __len__(self) -> int:
+        """The packets and events."""
     def packets(self) -> Iterator[RecordedPacket]:
         """The packets only."""
     def events(self) -> Iterator[RecordedEvent]:
@@ -713,7 +715,8 @@ class RecordedPacket:
 
     @property
     def time(self) -> float:
-        """When the recording board handled it, seconds since the Unix epoch."""
+        """When the recording board handled the message that holds it (its first
+        packet's turn), seconds since the Unix epoch."""
     @property
     def object(self) -> str: ...
     @property

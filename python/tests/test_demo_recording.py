@@ -47,6 +47,7 @@ class Read:
     schemas: dict[str, tuple[str, str, dict[str, Any]]] = field(default_factory=dict)
     encodings: set[str] = field(default_factory=set)
     counts: Counter[str] = field(default_factory=Counter)
+    # A class channel's message is a list of packets (`{"packets": [...]}`): each of them.
     messages: dict[str, list[dict[str, Any]]] = field(default_factory=dict)
 
 
@@ -65,7 +66,12 @@ def read_mcap(path: Path) -> Read:
             read.schemas[topic] = (schema.name, schema.encoding, json.loads(schema.data))
             read.encodings.add(channel.message_encoding)
             read.counts[topic] += 1
-            read.messages.setdefault(topic, []).append(json.loads(message.data))
+            data = json.loads(message.data)
+            if topic.startswith("/slate/class/"):
+                assert len(data["packets"]) >= 1, data
+                read.messages.setdefault(topic, []).extend(data["packets"])
+            else:
+                read.messages.setdefault(topic, []).append(data)
     return read
 
 
@@ -132,7 +138,8 @@ def test_every_channel_has_its_schema_and_a_class_channel_types_its_attributes(
         cls = topic.removeprefix("/slate/class/")
         name, encoding, schema = read.schemas[topic]
         assert (name, encoding) == (cls, "jsonschema")
-        assert set(schema["properties"]["values"]["properties"]) == attrs_of(classes, cls)
+        packet = schema["properties"]["packets"]["items"]
+        assert set(packet["properties"]["values"]["properties"]) == attrs_of(classes, cls)
         for m in read.messages[topic]:
             assert set(m["values"]) == {m["attr"]} <= attrs_of(classes, cls), m
 

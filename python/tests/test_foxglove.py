@@ -148,9 +148,16 @@ def protobuf_class(channel: dict[str, Any]) -> Any:
     return message_factory.GetMessageClass(pool.FindMessageTypeByName(channel["schemaName"]))
 
 
+def only_packet(payload: bytes) -> dict[str, Any]:
+    """The packet of a class channel's message: a list of packets, here of one."""
+    packets = json.loads(payload)["packets"]
+    assert len(packets) == 1, packets
+    return dict(packets[0])
+
+
 def json_packet(attr: str, value: object) -> Callable[[bytes], bool]:
     def wanted(payload: bytes) -> bool:
-        packet = json.loads(payload)
+        packet = only_packet(payload)
         return bool(packet.get("attr") == attr and packet["values"].get(attr) == value)
 
     return wanted
@@ -167,7 +174,8 @@ def test_a_python_foxglove_client_gets_the_channels_schemas_and_the_writes_of_a_
 
         vehicle = client.channels["/slate/class/Vehicle"]
         assert (vehicle["encoding"], vehicle["schemaName"], vehicle["schemaEncoding"]) == ("json", "Vehicle", "jsonschema")
-        values = json.loads(vehicle["schema"])["properties"]["values"]["properties"]
+        packet_schema = json.loads(vehicle["schema"])["properties"]["packets"]["items"]
+        values = packet_schema["properties"]["values"]["properties"]
         assert values["speed"]["type"] == ["number", "null"], values
         assert values["mode"]["type"] == ["string", "null"], values
         assert values["position"]["maxItems"] == 2, values
@@ -178,7 +186,7 @@ def test_a_python_foxglove_client_gets_the_channels_schemas_and_the_writes_of_a_
         client.subscribe(1, "/slate/class/Vehicle")
         first = client.payloads(1, json_packet("mode", "survey"))
         assert first is not None, "gsr.mode's latest packet on subscribe"
-        assert json.loads(first)["object"] == "gsr"
+        assert only_packet(first)["object"] == "gsr"
 
         # A module of another robot writes through the node: the client gets its packets.
         board = slate.Board(address="t/r2/loco")
@@ -191,7 +199,7 @@ def test_a_python_foxglove_client_gets_the_channels_schemas_and_the_writes_of_a_
             board.write("gsr", "mode", "manual")
             written = client.payloads(1, json_packet("mode", "manual"))
             assert written is not None, f"no packet of gsr.mode = manual\n{server.log.read_text()}"
-            packet = json.loads(written)
+            packet = only_packet(written)
             assert (packet["object"], packet["source"]) == ("gsr", "t/r2/loco"), packet
 
             # The scene: its protobuf messages decode with the advertised schema.

@@ -77,7 +77,7 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
         .and_then(thread_cpu_ns_of)
         .zip(recorder_cpu)
         .map_or(0, |(b, a)| b.saturating_sub(a));
-    let recorded = node.recording().unwrap_or_default().messages;
+    let recorded = node.recording().unwrap_or_default();
     let written = written.get() - before;
     let stats = node.stop_recording()?.unwrap_or_default();
     node.close();
@@ -85,15 +85,16 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     let _ = std::fs::remove_dir_all(&dir);
     r.fact("recorded_messages", json!(stats.messages));
     r.fact("written_while_recording", json!(written));
-    let packets = stats.by_topic.get(PACKETS).copied().unwrap_or(0);
-    r.fact("recorded_packets", json!(packets));
+    r.fact("recorded_packets", json!(stats.packets));
+    let on_channel = stats.by_topic.get(PACKETS).copied().unwrap_or(0);
+    r.fact("packet_messages", json!(on_channel));
     r.fact("recorded_bytes", json!(stats.bytes));
     r.fact("dropped_changes", json!(stats.dropped));
     r.fact("recording_failed", json!(stats.failed));
-    let per_message = recorder_cpu as f64 / recorded.max(1) as f64;
-    r.fact("recorder_cpu_ns_per_message", json!(per_message.round()));
-    let per = stats.bytes as f64 / stats.messages.max(1) as f64;
-    r.fact("bytes_per_message", json!((per * 10.0).round() / 10.0));
+    let per_packet = recorder_cpu as f64 / recorded.packets.max(1) as f64;
+    r.fact("recorder_cpu_ns_per_packet", json!(per_packet.round()));
+    let per = stats.bytes as f64 / stats.packets.max(1) as f64;
+    r.fact("bytes_per_packet", json!((per * 10.0).round() / 10.0));
     Ok(r)
 }
 
@@ -151,7 +152,8 @@ fn thread_named(name: &str) -> Option<std::path::PathBuf> {
     })
 }
 
-/// The channel of the bench's packets (`gsr` is a `Vehicle`).
+/// The channel of the bench's packets (`gsr` is a `Vehicle`): one message holds the
+/// packets written while the recorder gathered them.
 const PACKETS: &str = "/slate/class/Vehicle";
 
 /// Every timed field of the JSON object.
@@ -175,7 +177,7 @@ mod tests {
         for f in [
             "node_write_cpu_ns",
             "node_write_recording_cpu_ns",
-            "recorder_cpu_ns_per_message",
+            "recorder_cpu_ns_per_packet",
         ] {
             assert!(j[f].as_f64() >= Some(0.0), "{f}: {j}");
         }

@@ -2,8 +2,8 @@
 //! `docs/foxglove.md`): the board live in Foxglove, beside a team's ROS topics.
 //!
 //! One channel per class, `/slate/class/CLASS`, with the JSON schema and the JSON messages
-//! a recording has (`record::class_schema`, the recorder's packet message): each packet
-//! written to an object of the class is one message. Objects with a `position` vector are
+//! a recording has (`record::class_batch_schema`, a list of packets): each packet written
+//! to an object of the class is one message, a list of that one packet. Objects with a `position` vector are
 //! also drawn on `/slate/scene` (a `foxglove.SceneUpdate`: one cube per object, named after
 //! it). Channels are advertised for every class the board has when the server starts, and
 //! for a class defined later at its first packet.
@@ -36,7 +36,7 @@ use foxglove::{
 use slate_model::{Board, ChangeItem, Filter, Packet, Watch};
 
 use crate::inspect::Classes;
-use crate::record::{PacketMessage, class_schema, topic};
+use crate::record::{PacketMessage, class_batch_schema, topic};
 
 /// Changes that may wait for the Foxglove thread before writers drop them.
 const QUEUE: usize = 1 << 14;
@@ -209,7 +209,7 @@ impl Feed {
             return Some(c.clone());
         }
         classes.defs().find(|d| *d.name == **class)?;
-        let schema = serde_json::to_vec(&class_schema(classes, class)).ok()?;
+        let schema = serde_json::to_vec(&class_batch_schema(classes, class)).ok()?;
         let built = ChannelBuilder::new(format!("{}{class}", topic::CLASS_PREFIX))
             .message_encoding("json")
             .schema(Schema::new(&**class, "jsonschema", schema))
@@ -245,10 +245,8 @@ impl Feed {
             },
         };
         self.buf.clear();
-        let message = PacketMessage::new(object, attr, packet, revision);
-        if serde_json::to_writer(&mut self.buf, &message).is_ok() {
-            channel.log_with_meta(&self.buf, meta(packet));
-        }
+        PacketMessage::new(object, attr, packet, revision).write_alone(&mut self.buf);
+        channel.log_with_meta(&self.buf, meta(packet));
         if attr == "position" && !info.is_class {
             self.scene(object, packet);
         }
@@ -289,10 +287,8 @@ impl ServerListener for Latest {
             let mut buf = Vec::new();
             for (object, attr, packet, revision) in self.values_of(class) {
                 buf.clear();
-                let message = PacketMessage::new(&object, &attr, &packet, revision);
-                if serde_json::to_writer(&mut buf, &message).is_ok() {
-                    raw.log_with_meta_to_sink(&buf, meta(&packet), sink);
-                }
+                PacketMessage::new(&object, &attr, &packet, revision).write_alone(&mut buf);
+                raw.log_with_meta_to_sink(&buf, meta(&packet), sink);
             }
         }
     }

@@ -53,7 +53,8 @@ impl PyRecording {
         })
     }
 
-    /// Every message, in the file's order: packets and events.
+    /// Every packet and event, in the file's order (a class channel's message yields
+    /// each packet it holds).
     fn __iter__(&self) -> RecordingIter {
         self.iter(Only::All)
     }
@@ -68,7 +69,7 @@ impl PyRecording {
         self.iter(Only::Events)
     }
 
-    /// The number of messages (packets and events).
+    /// The number of packets and events.
     fn __len__(&self) -> usize {
         self.messages.len()
     }
@@ -143,7 +144,8 @@ fn to_python(py: Python<'_>, j: &Json) -> PyResult<Py<PyAny>> {
 /// source.
 #[pyclass(module = "slate", name = "RecordedPacket", frozen, get_all)]
 pub(crate) struct RecordedPacket {
-    /// When the recording board handled it (seconds since the Unix epoch).
+    /// When the recording board handled the message that holds it (seconds since the
+    /// Unix epoch).
     time: f64,
     /// The object (or class, for a class-level write).
     object: String,

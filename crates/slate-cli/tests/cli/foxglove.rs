@@ -142,7 +142,8 @@ fn a_foxglove_client_gets_a_channel_per_class_with_its_schema_and_the_packets_wr
     assert_eq!(vehicle["schemaName"], "Vehicle");
     assert_eq!(vehicle["schemaEncoding"], "jsonschema");
     let schema: Json = serde_json::from_str(vehicle["schema"].as_str().unwrap()).unwrap();
-    let values = &schema["properties"]["values"]["properties"];
+    // A list of packets, as a recording's class channel has.
+    let values = &schema["properties"]["packets"]["items"]["properties"]["values"]["properties"];
     assert_eq!(
         values["speed"]["type"],
         json!(["number", "null"]),
@@ -158,9 +159,15 @@ fn a_foxglove_client_gets_a_channel_per_class_with_its_schema_and_the_packets_wr
     client.subscribe(2, scene["id"].as_u64().unwrap());
     team.ok(&["put", "gsr.mode", "manual"]);
     let payload = client.data(1, Duration::from_secs(10), |p| {
-        serde_json::from_slice::<Json>(p).is_ok_and(|j| j["attr"] == "mode")
+        serde_json::from_slice::<Json>(p).is_ok_and(|j| j["packets"][0]["attr"] == "mode")
     });
-    let packet: Json = serde_json::from_slice(&payload.expect("the packet of gsr.mode")).unwrap();
+    let message: Json = serde_json::from_slice(&payload.expect("the packet of gsr.mode")).unwrap();
+    assert_eq!(
+        message["packets"].as_array().map(Vec::len),
+        Some(1),
+        "{message}"
+    );
+    let packet = &message["packets"][0];
     assert_eq!(packet["object"], "gsr", "{packet}");
     assert_eq!(packet["values"]["mode"], "manual", "{packet}");
     assert!(packet["source"].as_str().unwrap().starts_with("t/r1/cli-"));
@@ -197,9 +204,10 @@ fn a_foxglove_client_gets_the_latest_values_when_it_subscribes() {
     let scene = channel(&channels, "/slate/scene")["id"].as_u64().unwrap();
     client.subscribe(1, vehicle);
     let payload = client.data(1, Duration::from_secs(10), |p| {
-        serde_json::from_slice::<Json>(p).is_ok_and(|j| j["attr"] == "mode")
+        serde_json::from_slice::<Json>(p).is_ok_and(|j| j["packets"][0]["attr"] == "mode")
     });
-    let packet: Json = serde_json::from_slice(&payload.expect("gsr.mode on subscribe")).unwrap();
+    let message: Json = serde_json::from_slice(&payload.expect("gsr.mode on subscribe")).unwrap();
+    let packet = &message["packets"][0];
     assert_eq!(packet["object"], "gsr", "{packet}");
     assert_eq!(packet["values"]["mode"], "survey", "{packet}");
     client.subscribe(2, scene);

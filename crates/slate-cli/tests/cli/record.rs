@@ -12,7 +12,8 @@ use serde_json::{Value as Json, json};
 use crate::support::{Team, eventually, show, temp_dir, wait_output};
 
 /// The JSON of every message on `topic` in `bytes` (a finished file, or one cut off: read
-/// to the last complete record).
+/// to the last complete record); a class channel's message is a list of packets
+/// (`{"packets": [...]}`): each of them.
 fn on(bytes: &[u8], topic: &str) -> Vec<Json> {
     let Ok(stream) = mcap::MessageStream::new_with_options(bytes, Options::IgnoreEndMagic.into())
     else {
@@ -21,7 +22,13 @@ fn on(bytes: &[u8], topic: &str) -> Vec<Json> {
     stream
         .map_while(Result::ok)
         .filter(|m| m.channel.topic == topic)
-        .map(|m| serde_json::from_slice(&m.data).unwrap())
+        .flat_map(|m| {
+            let j: Json = serde_json::from_slice(&m.data).unwrap();
+            match j["packets"].as_array() {
+                Some(packets) if topic.starts_with("/slate/class/") => packets.clone(),
+                _ => vec![j],
+            }
+        })
         .collect()
 }
 

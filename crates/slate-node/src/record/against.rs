@@ -87,7 +87,7 @@ pub struct PlanTest {
     /// What the plans of the same names did in the recorded run (the recording's
     /// `/slate/plans` messages), in order.
     pub recorded: Vec<Firing>,
-    /// Messages replayed.
+    /// Messages replayed (a class channel's message counts each packet it holds).
     pub messages: u64,
     /// Messages the board refused (as `slate play` counts them).
     pub refused: u64,

@@ -28,7 +28,7 @@ pub use file::{MESSAGE_ENCODING, METADATA, PROFILE, SCHEMA_ENCODING, rotated_pat
 pub(crate) use message::PacketMessage;
 pub use replay::{Raw, RawMessage, Recording, ReplayError, Step, Timed, board_state, class_def};
 pub(crate) use replay::{declared_type, packet_meta, value_of};
-pub use schema::class_schema;
+pub use schema::{class_batch_schema, class_schema};
 
 use crate::view::View;
 
@@ -52,7 +52,7 @@ pub mod topic {
     /// The recorder's own counters at the same interval (`slate.RecorderStats`).
     pub const RECORDER: &str = "/slate/recorder";
     /// Packets of objects of class `C` (and class-level writes to `C`) are on
-    /// `/slate/class/C`, with the schema named `C`.
+    /// `/slate/class/C`, with the schema named `C`: one or more packets a message.
     pub const CLASS_PREFIX: &str = "/slate/class/";
 }
 
@@ -137,6 +137,8 @@ pub enum RecordError {
 pub struct RecordStats {
     /// Messages written, in every file.
     pub messages: u64,
+    /// Packets recorded, in every file (a class channel's message holds one or more).
+    pub packets: u64,
     /// Bytes written, in every file.
     pub bytes: u64,
     /// Changes dropped because the recorder was a whole queue behind.

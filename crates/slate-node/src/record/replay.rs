@@ -184,19 +184,22 @@ impl Recording {
     }
 }
 
-/// One message of a recording as the file holds it.
+/// One message of a recording, a class channel's message split into its packets.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RawMessage {
     /// Its channel's topic (`/slate/class/Vehicle`, `/slate/objects`...).
     pub topic: String,
-    /// When the recording board handled it, in nanoseconds since the Unix epoch.
+    /// When the recording board handled it, in nanoseconds since the Unix epoch (a
+    /// packet: the time of the message that holds it).
     pub log_time: u64,
-    /// Its JSON, as bytes.
+    /// Its JSON, as bytes (a packet: its own, as an item of the message's `packets`).
     pub data: Vec<u8>,
 }
 
-/// A recording's messages as the file holds them, for readers that want the JSON of
-/// each (Python's `slate.Recording`) rather than what it did to the board.
+/// A recording's messages as the file holds them, a class channel's message split into
+/// its packets, for readers that want the JSON of each (Python's `slate.Recording`)
+/// rather than what it did to the board. Files recorded before class channels held lists
+/// of packets (one packet a message, no `packets`) read the same.
 #[derive(Clone, Debug, Default)]
 pub struct Raw {
     /// The recording board's address, if the file says it.
@@ -234,14 +237,43 @@ impl Raw {
                 raw.complete = false;
                 break;
             };
+            let topic = &m.channel.topic;
+            if topic.starts_with(topic::CLASS_PREFIX)
+                && let Some(packets) = packets(&m.data)
+            {
+                raw.messages
+                    .extend(packets.into_iter().map(|data| RawMessage {
+                        topic: topic.clone(),
+                        log_time: m.log_time,
+                        data,
+                    }));
+                continue;
+            }
             raw.messages.push(RawMessage {
-                topic: m.channel.topic.clone(),
+                topic: topic.clone(),
                 log_time: m.log_time,
                 data: m.data.into_owned(),
             });
         }
         Ok(raw)
     }
+}
+
+/// The packets of a class channel's message, each as its JSON; `None` for a message of
+/// one packet (a file recorded before messages held lists) or not JSON.
+fn packets(data: &[u8]) -> Option<Vec<Vec<u8>>> {
+    let Ok(Json::Object(mut j)) = serde_json::from_slice(data) else {
+        return None;
+    };
+    let Some(Json::Array(packets)) = j.remove("packets") else {
+        return None;
+    };
+    Some(
+        packets
+            .iter()
+            .map(|p| serde_json::to_vec(p).unwrap_or_default())
+            .collect(),
+    )
 }
 
 /// The `address` of the file's `slate` metadata record.
@@ -444,4 +476,71 @@ pub fn board_state(board: &Board) -> Json {
         out.insert(info.name.to_string(), j);
     }
     Json::Object(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use super::*;
+
+    /// A file with one message on the `Vehicle` channel per entry of `data`.
+    fn file_of(path: &Path, data: &[&str]) {
+        let mut w = mcap::Writer::new(std::io::BufWriter::new(
+            std::fs::File::create(path).unwrap(),
+        ))
+        .unwrap();
+        let schema = w.add_schema("Vehicle", "jsonschema", b"{}").unwrap();
+        let channel = w
+            .add_channel(schema, "/slate/class/Vehicle", "json", &BTreeMap::new())
+            .unwrap();
+        for (i, d) in data.iter().enumerate() {
+            let header = mcap::records::MessageHeader {
+                channel_id: channel,
+                sequence: i as u32,
+                log_time: 1_000 + i as u64,
+                publish_time: 1_000 + i as u64,
+            };
+            w.write_to_known_channel(&header, d.as_bytes()).unwrap();
+        }
+        w.finish().unwrap();
+    }
+
+    fn packet(speed: f64) -> String {
+        format!(
+            r#"{{"object":"gsr","attr":"speed","values":{{"speed":{speed}}},"accuracy":0.0,"confidence":1.0,"hlc":{},"time":1.0,"source":"t/r1/nav","revision":3}}"#,
+            (speed as u64 + 1) << 16
+        )
+    }
+
+    #[test]
+    fn a_class_message_reads_as_its_packets_and_an_older_files_one_packet_as_one() {
+        let dir = slate_testing::temp_dir("replay-batches");
+        let path = dir.join("mixed.mcap");
+        let batch = format!(r#"{{"packets":[{},{}]}}"#, packet(2.0), packet(3.0));
+        // The first message as files were recorded before session 16: one packet.
+        file_of(&path, &[&packet(1.0), &batch]);
+        let raw = Raw::read(&path).unwrap();
+        let speeds: Vec<(u64, Option<f64>)> = raw
+            .messages
+            .iter()
+            .map(|m| {
+                let j: Json = serde_json::from_slice(&m.data).unwrap();
+                (m.log_time, j["values"]["speed"].as_f64())
+            })
+            .collect();
+        assert_eq!(
+            speeds,
+            [(1_000, Some(1.0)), (1_001, Some(2.0)), (1_001, Some(3.0))]
+        );
+        let steps = Recording::read(&path).unwrap().steps;
+        let values: Vec<Option<f64>> = steps
+            .iter()
+            .filter_map(|t| match &t.step {
+                Step::Packet { value, .. } => Some(value.as_f64()),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(values, [Some(1.0), Some(2.0), Some(3.0)]);
+    }
 }

@@ -10,10 +10,32 @@ use crate::inspect::Classes;
 /// The dialect every schema declares.
 const DIALECT: &str = "https://json-schema.org/draft/2020-12/schema";
 
-/// The schema of a class channel's messages: one packet each, its value under
-/// `values.ATTR` (the attribute's declared type, `null` for a value cleared), beside the
-/// object, the attribute's name and the packet's accuracy, confidence, stamp and source.
-/// A class the tree does not know gets the fields without typed values.
+/// The schema of a recording's class channel: `{"packets": [PACKET, ...]}`, the packets
+/// of the class written one after another (in the order of the changes), each as
+/// [`class_schema`] types it.
+pub fn class_batch_schema(classes: &Classes, class: &str) -> Json {
+    let mut packet = class_schema(classes, class);
+    if let Some(p) = packet.as_object_mut() {
+        p.remove("$schema");
+        p.remove("title");
+    }
+    json!({
+        "$schema": DIALECT,
+        "title": class,
+        "description": format!("packets written to objects of the slate class {class}, in order; each packet's value is under values.ATTR"),
+        "type": "object",
+        "properties": {
+            "packets": {"type": "array", "items": packet, "minItems": 1},
+        },
+        "required": ["packets"],
+    })
+}
+
+/// The schema of one packet of a class (a live Foxglove channel's message, an item of a
+/// recording's): its value under `values.ATTR` (the attribute's declared type, `null`
+/// for a value cleared), beside the object, the attribute's name and the packet's
+/// accuracy, confidence, stamp and source. A class the tree does not know gets the
+/// fields without typed values.
 pub fn class_schema(classes: &Classes, class: &str) -> Json {
     let values: serde_json::Map<String, Json> = classes
         .attributes(class)
@@ -203,9 +225,10 @@ pub fn link_stats() -> Json {
 pub fn recorder_stats() -> Json {
     fixed(
         "slate.RecorderStats",
-        "messages and bytes written so far, changes dropped because the recorder fell behind",
+        "messages, packets and bytes written so far, changes dropped because the recorder fell behind",
         &[
             ("messages", "integer"),
+            ("packets", "integer"),
             ("bytes", "integer"),
             ("dropped", "integer"),
             ("files", "integer"),
@@ -275,6 +298,18 @@ mod tests {
         let mut names: Vec<&str> = values.keys().map(String::as_str).collect();
         names.sort_unstable();
         assert_eq!(names, ["mode", "speed"]);
+    }
+
+    #[test]
+    fn a_recorded_class_channel_holds_a_list_of_packets_of_the_class() {
+        let batch = class_batch_schema(&classes(), "Ugv");
+        assert_eq!(batch["title"], "Ugv");
+        assert_eq!(batch["required"], json!(["packets"]));
+        let item = &batch["properties"]["packets"]["items"];
+        let mut packet = class_schema(&classes(), "Ugv");
+        packet.as_object_mut().unwrap().remove("$schema");
+        packet.as_object_mut().unwrap().remove("title");
+        assert_eq!(item, &packet);
     }
 
     #[test]

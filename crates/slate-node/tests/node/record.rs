@@ -72,11 +72,16 @@ fn read_file(path: &Path) -> Vec<Read> {
     messages
 }
 
+/// The JSON of every message on `topic`; a class channel's message is a list of packets
+/// (`{"packets": [...]}`): each of them.
 fn on(messages: &[Read], topic: &str) -> Vec<Json> {
     messages
         .iter()
         .filter(|m| m.topic == topic)
-        .map(|m| m.json.clone())
+        .flat_map(|m| match m.json["packets"].as_array() {
+            Some(packets) if topic.starts_with(topic::CLASS_PREFIX) => packets.clone(),
+            _ => vec![m.json.clone()],
+        })
         .collect()
 }
 
@@ -111,6 +116,13 @@ fn a_boards_writes_become_packets_on_their_class_channel() {
     assert_eq!(stats.messages, messages.len() as u64);
     assert_eq!(stats.dropped, 0);
     assert_eq!(speeds(&messages), [1.0, 2.5, 4.0]);
+    // A class channel's message is a list of the packets the recorder found waiting.
+    let packets: usize = messages
+        .iter()
+        .filter(|m| m.topic.starts_with(topic::CLASS_PREFIX))
+        .map(|m| m.json["packets"].as_array().map_or(0, Vec::len))
+        .sum();
+    assert_eq!(stats.packets, packets as u64);
     let packet = on(&messages, "/slate/class/Vehicle")
         .into_iter()
         .find(|j| j["values"]["speed"] == json!(2.5))
@@ -471,7 +483,10 @@ fn a_class_redefined_while_recording_gets_a_channel_with_its_new_schema() {
         .filter(|m| m.channel.topic == "/slate/class/Probe")
         .map(|m| {
             let schema = m.channel.schema.as_ref().unwrap();
-            serde_json::from_slice::<Json>(&schema.data).unwrap()["properties"]["values"]["properties"]["level"]["type"].clone()
+            let schema = serde_json::from_slice::<Json>(&schema.data).unwrap();
+            schema["properties"]["packets"]["items"]["properties"]["values"]["properties"]["level"]
+                ["type"]
+                .clone()
         })
         .collect();
     schemas.dedup();
