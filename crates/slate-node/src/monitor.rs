@@ -11,7 +11,8 @@ use crossbeam_channel::{Receiver, Sender};
 use parking_lot::Mutex;
 use slate_ici::{ClassSet, Ici, MODULE_CLASS, RefusedPlan};
 use slate_model::{
-    Address, Board, BoardEvent, ChangeItem, ClockListener, Every, EveryPer, Filter, Value, Watch,
+    Address, Board, BoardEvent, ChangeItem, ClockListener, Every, EveryPer, Filter, Query, Value,
+    Watch,
 };
 use slate_plans::{Engine, PLAN_CLASS, PlanEvent, PlanState};
 
@@ -132,6 +133,7 @@ impl Monitor {
             undecodable: Mutex::new((0, Every::new(NEWS_EVERY))),
             board: Arc::downgrade(board),
         };
+        sources.peers_met_already(board, &log);
         if board.clock().is_manual() {
             let ticked = Arc::new(Ticked { sources, log });
             let listener: Arc<dyn ClockListener> = ticked.clone();
@@ -238,6 +240,44 @@ impl Sources {
         }
     }
 
+    /// The peers the ICI met before this monitor watched their `Module` objects (it
+    /// starts with the node, and hears its first peers at once): told of as the others.
+    fn peers_met_already(&self, board: &Board, log: &EventLog) {
+        let ids = board.query(&Query::class(MODULE_CLASS)).unwrap_or_default();
+        for object in ids.into_iter().filter_map(|id| board.name_of(id)) {
+            if let Ok(alive) = board.read(&object, "alive") {
+                self.module_alive(board, log, &object, alive.value);
+            }
+        }
+    }
+
+    /// A `Module` object's `alive` written: `peer X up` or `down` when it changed.
+    fn module_alive(&self, board: &Board, log: &EventLog, object: &str, alive: Value) {
+        let changed =
+            self.alive.lock().insert(object.to_owned(), alive.clone()) != Some(alive.clone());
+        if !changed {
+            return;
+        }
+        let peer = match board.read(object, "address").map(|p| p.value) {
+            Ok(Value::Str(s)) => s.to_string(),
+            _ => object.to_owned(),
+        };
+        let up = alive == Value::Bool(true);
+        if up {
+            self.regreet
+                .lock()
+                .get_or_insert_with(|| Instant::now() + REGREET);
+        }
+        let state = if up { "up" } else { "down" };
+        if peer.contains(&format!("/{OBSERVER_PREFIX}")) {
+            // Short-lived observers (`slate get`, `slate put`...) are not news.
+            tracing::debug!("observer {peer} {state}");
+        } else {
+            let level = if up { Level::Info } else { Level::Warn };
+            log.push(board, level, format!("peer {peer} {state}"));
+        }
+    }
+
     fn drain(&self, board: &Board, log: &EventLog) {
         while let Some(change) = self.modules.as_ref().and_then(Watch::try_recv) {
             for item in change.items {
@@ -251,30 +291,8 @@ impl Sources {
                     packet,
                 } = item
                     && &*attr == "alive"
-                    && self
-                        .alive
-                        .lock()
-                        .insert(object.to_string(), packet.value.clone())
-                        != Some(packet.value.clone())
                 {
-                    let peer = match board.read(&object, "address").map(|p| p.value) {
-                        Ok(Value::Str(s)) => s.to_string(),
-                        _ => object.to_string(),
-                    };
-                    let up = packet.value == Value::Bool(true);
-                    if up {
-                        self.regreet
-                            .lock()
-                            .get_or_insert_with(|| Instant::now() + REGREET);
-                    }
-                    let state = if up { "up" } else { "down" };
-                    if peer.contains(&format!("/{OBSERVER_PREFIX}")) {
-                        // Short-lived observers (`slate get`, `slate put`...) are not news.
-                        tracing::debug!("observer {peer} {state}");
-                    } else {
-                        let level = if up { Level::Info } else { Level::Warn };
-                        log.push(board, level, format!("peer {peer} {state}"));
-                    }
+                    self.module_alive(board, log, &object, packet.value);
                 }
             }
         }

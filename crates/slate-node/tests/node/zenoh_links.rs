@@ -13,6 +13,7 @@ use std::time::Duration;
 use slate_model::Value;
 use slate_node::{Node, NodeConfig};
 use slate_testing::{eventually, free_port, temp_dir};
+use slate_transport::Transport;
 
 /// Starts a module from a TOML config written in `dir` (`world.slate` loaded).
 fn module(dir: &Path, address: &str, extra: &str) -> Node {
@@ -210,4 +211,42 @@ fn two_nodes_share_a_value_over_a_unix_socket() {
     let d = temp_dir("node-zenoh-unix");
     let socket = d.join("nav.sock");
     two_nodes_share_a_value_over(&d, &format!("unixsock-stream/{}", socket.display()));
+}
+
+/// A peer the node's transport had met before the node started (its ICI marks it alive
+/// at once, before the monitor watches the `Module` objects) is told of in the node's
+/// log like the others: a node's log lacked `peer X up` for the peers it met first.
+#[test]
+fn a_peer_met_before_the_node_started_is_in_its_log() {
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let zenoh = |listen: Vec<String>, connect: Vec<String>| slate_zenoh::ZenohConfig {
+        listen,
+        connect,
+        ..slate_zenoh::ZenohConfig::default()
+    };
+    let nav_address = slate_model::Address::new("t/r1/nav").unwrap();
+    let nav =
+        slate_zenoh::ZenohTransport::open(nav_address, &zenoh(vec![endpoint.clone()], vec![]))
+            .unwrap();
+    let loco_address = slate_model::Address::new("t/r1/loco").unwrap();
+    let loco_transport =
+        slate_zenoh::ZenohTransport::open(loco_address.clone(), &zenoh(vec![], vec![endpoint]))
+            .unwrap();
+    assert!(eventually(Duration::from_secs(10), || !loco_transport
+        .peers()
+        .is_empty()));
+    let loco = Node::builder(loco_address)
+        .transport(loco_transport)
+        .start()
+        .unwrap();
+    assert!(
+        eventually(Duration::from_secs(5), || loco
+            .events()
+            .iter()
+            .any(|e| e.text == "peer t/r1/nav up")),
+        "{:?}",
+        loco.events()
+    );
+    loco.close();
+    nav.close();
 }
