@@ -127,6 +127,15 @@ pub enum ObserveError {
         /// How long it waited, in seconds.
         seconds: f64,
     },
+    /// Nothing at the endpoints took the connection: the session did not open at all,
+    /// at once, without waiting.
+    #[error(
+        "no slate module reachable through {endpoints}: nothing there took the connection (is a module listening there? `slate node` and `slate launch` print each module's endpoint; the live verbs take one with --connect)"
+    )]
+    Unreachable {
+        /// The endpoints tried.
+        endpoints: String,
+    },
     /// Modules of several teams answered and none was chosen.
     #[error("modules of several teams answered ({teams}); choose one with --as TEAM/ROBOT/NAME")]
     SeveralTeams {

@@ -121,7 +121,7 @@ pub fn observe(options: &ObserverOptions) -> Result<Node, ObserveError> {
         .ici(ici)
         .start()
         .map_err(|e| match e {
-            StartError::Open(open) => unreachable_unless_malformed(open, options),
+            StartError::Open(open) => unreachable_unless_malformed(open, &options.connect),
             other => ObserveError::Start(other),
         })?;
     // Other observers too, so that a `put` reaches a live `watch` (an observer killed
@@ -181,14 +181,13 @@ pub fn is_observer(address: &Address) -> bool {
     address.module().starts_with(OBSERVER_PREFIX)
 }
 
-/// Why the observer's session did not open: a client that reaches no node fails to open,
-/// which says nobody answered; a malformed endpoint says so itself.
-fn unreachable_unless_malformed(e: OpenError, options: &ObserverOptions) -> ObserveError {
+/// Why a client's session did not open: a client that reaches no node fails to open at
+/// once, which says nothing is there; a malformed endpoint says so itself.
+fn unreachable_unless_malformed(e: OpenError, connect: &[String]) -> ObserveError {
     match e {
         OpenError::Endpoint(_) | OpenError::Insecure { .. } => ObserveError::Open(e),
-        _ => ObserveError::NoModules {
-            endpoints: options.connect.join(", "),
-            seconds: options.wait.as_secs_f64(),
+        _ => ObserveError::Unreachable {
+            endpoints: connect.join(", "),
         },
     }
 }
@@ -205,7 +204,7 @@ fn discover_with(
     wait: Duration,
     keys: Option<(Security, &Identity)>,
 ) -> Result<BTreeSet<Address>, ObserveError> {
-    let probe = open_probe(connect, wait, keys)?;
+    let probe = open_probe(connect, keys)?;
     let found = alive_within(&probe, wait);
     probe.close();
     if found.is_empty() {
@@ -265,22 +264,15 @@ fn probe_address(operator: Option<&Identity>) -> Address {
 
 /// A bare Zenoh client of the nodes at `connect` (secured when `keys` are given), for
 /// queries (liveliness, counters). A client that reaches no node fails to open, which
-/// says nobody answered; a malformed endpoint says so itself. (`wait` is how long the
-/// caller was to wait, for the error.)
+/// says nothing is there; a malformed endpoint says so itself.
 pub(crate) fn open_probe(
     connect: &[String],
-    wait: Duration,
     keys: Option<(Security, &Identity)>,
 ) -> Result<Arc<ZenohTransport>, ObserveError> {
     let (security, operator) = keys.unzip();
     let config = zenoh_config(connect, security);
-    ZenohTransport::open(probe_address(operator), &config).map_err(|e| match e {
-        OpenError::Endpoint(_) | OpenError::Insecure { .. } => ObserveError::Open(e),
-        _ => ObserveError::NoModules {
-            endpoints: connect.join(", "),
-            seconds: wait.as_secs_f64(),
-        },
-    })
+    ZenohTransport::open(probe_address(operator), &config)
+        .map_err(|e| unreachable_unless_malformed(e, connect))
 }
 
 /// One liveliness query for every slate module of every team.

@@ -342,7 +342,7 @@ impl StatsProbe {
         let key = stats_key(filter)?;
         let security = operator_security(operator)?;
         let keys = security.zip(operator.map(|k| &k.identity));
-        let probe = open_probe(connect, wait, keys)?;
+        let probe = open_probe(connect, keys)?;
         Ok(StatsProbe {
             probe,
             key,

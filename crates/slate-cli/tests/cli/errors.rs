@@ -36,6 +36,9 @@ fn no_node_to_talk_to_is_one_line() {
     let endpoint = format!("tcp/127.0.0.1:{}", free_port());
     let out = slate(&["get", "gsr", "--connect", &endpoint, "--wait", "1"]);
     one_line_error(&out, 2, "no slate module reachable through");
+    // It failed at once: it does not claim to have waited.
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("nothing there took the connection"), "{err}");
 }
 
 #[test]
