@@ -269,6 +269,10 @@ pub(crate) struct State {
     pub plans_held_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
+    /// A timer run by the tick in progress acted, after timers that read what it
+    /// changed had run: the next tick comes at the clock's next move
+    /// (`State::next_tick`).
+    pub tick_again: bool,
     pub watch: Watch,
     /// A change taken from `watch` past the revision a drain stopped at
     /// (`drain_changes_to`): the next drain starts with it.
@@ -340,6 +344,7 @@ impl State {
             catch_up_from: Duration::ZERO,
             plans_held_from: Duration::MAX,
             dead: BTreeSet::new(),
+            tick_again: false,
             watch,
             next_change: None,
             stats: IciStats::default(),
