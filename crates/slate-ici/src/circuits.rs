@@ -457,10 +457,9 @@ impl Inner {
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
         let now = self.now();
-        let (acks, msg) =
-            self.origin
-                .lock()
-                .open(circuit, (&name, text), to, origin, now, self.lossy);
+        let (acks, msg) = self
+            .origin()
+            .open(circuit, (&name, text), to, origin, now, self.lossy);
         if let Err(e) = self.transmit(to, msg) {
             self.origin().forget(circuit);
             return Err(e.into());
@@ -475,10 +474,7 @@ impl Inner {
 
     fn cancel(self: &Arc<Self>, circuit: u64) -> Result<(), SendPlanError> {
         let now = self.now();
-        let to = self
-            .origin
-            .lock()
-            .request_cancel(circuit, now, self.lossy)?;
+        let to = self.origin().request_cancel(circuit, now, self.lossy)?;
         self.transmit(&to, Message::PlanCancel { circuit })?;
         Ok(())
     }

@@ -593,10 +593,7 @@ impl Inner {
 
     /// The origin cancels the plan of a circuit.
     pub(super) fn on_cancel(self: &Arc<Self>, from: &Address, circuit: u64) {
-        let name = self
-            .destination
-            .lock()
-            .cancel_target(&(from.clone(), circuit));
+        let name = self.destination().cancel_target(&(from.clone(), circuit));
         if let Some(name) = name {
             self.engine.cancel(&name);
             self.drain();

@@ -91,7 +91,7 @@ impl State {
             .min()
             .unwrap_or(never)
             .min(self.timeouts_from)
-            .min(self.catch_up_from)
+            .min(self.catch_up_next_tick())
             .min(self.plans_held_from)
             .min(self.team_next_tick());
         let after = self.config.forget_dead;
@@ -120,6 +120,16 @@ impl State {
             }
         }
         next
+    }
+
+    /// When [`Self::catch_up_timers`] next acts if nothing reaches this module: a gap
+    /// that waits for its robot's stream (`catch_up_from` is past while one does) waits
+    /// for a message that repairs that stream, and that message ticks the module.
+    fn catch_up_next_tick(&self) -> Duration {
+        match self.catch_up_from > self.now {
+            true => self.catch_up_from,
+            false => self.catch_up_unheld_from,
+        }
     }
 
     /// Says hello again to the peers that have not answered: a message sent before the
@@ -434,9 +444,15 @@ impl State {
         // A member's inner gap waits while its robot stream is being repaired.
         let gapped = self.team_gapped_robots();
         let mut due = Vec::new();
-        let mut next = Duration::MAX;
+        let (mut next, mut unheld) = (Duration::MAX, Duration::MAX);
         for (a, p) in self.peers.iter_mut() {
-            let retry = catch_up_retry(&self.config, &self.me, a);
+            if p.catch_up.is_none() && p.stream.gap_since().is_none() {
+                continue; // nothing is or becomes due for it (`catch_up_due`)
+            }
+            let retry = match p.catch_up {
+                Some(_) => catch_up_retry(&self.config, &self.me, a),
+                None => Duration::ZERO, // not read
+            };
             match p.catch_up {
                 Some(_) if !p.up => p.catch_up = None,
                 Some(mut r) if now.saturating_sub(r.since) >= retry => {
@@ -455,10 +471,13 @@ impl State {
             }
             if let Some(at) = catch_up_due(p, retry, grace) {
                 next = next.min(at);
+                if p.catch_up.is_some() || !gapped.holds(a) {
+                    unheld = unheld.min(at);
+                }
             }
         }
-        // The sends below lower it for the requests they make.
-        self.catch_up_from = next;
+        // The sends below lower both for the requests they make.
+        (self.catch_up_from, self.catch_up_unheld_from) = (next, unheld);
         self.tick_again |= !due.is_empty();
         for (a, retried) in due {
             match retried {
@@ -595,6 +614,7 @@ impl State {
             .and_then(|p| catch_up_due(p, retry, grace))
         {
             self.catch_up_from = self.catch_up_from.min(at);
+            self.catch_up_unheld_from = self.catch_up_unheld_from.min(at);
         }
     }
 }

@@ -393,8 +393,12 @@ impl State {
             next = election;
         }
         if !self.team.undecoded.is_empty() {
-            // Retried at every tick until their robot's stream has no gap left.
-            return Duration::ZERO;
+            // Retried once their robot's stream has no gap left: a message that repairs
+            // it ticks the module, but a timer of this tick may have closed a gap too.
+            let gapped = self.team_gapped_robots();
+            if self.team.undecoded.iter().any(|u| !gapped.holds(&u.from)) {
+                return Duration::ZERO;
+            }
         }
         let team_timeout = self.config.team.timeout;
         for s in self.team.speakers.values() {
