@@ -531,7 +531,7 @@ impl ClockListener for Ticker {
     /// Runs the timers, unless none is due before the clock's next move: every module
     /// of a simulated team hears every move of the shared clock (one per event), and
     /// running all of their timers at each was the simulator's largest cost, growing
-    /// with the square of the team (docs/team-protocol.md, 7).
+    /// with the cube of the team (docs/team-protocol.md, 7.1).
     fn advanced(&self, now: Duration) {
         if let Some(shared) = self.0.upgrade() {
             let now = u64::try_from(now.as_nanos()).unwrap_or(u64::MAX);
