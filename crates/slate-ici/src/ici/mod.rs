@@ -509,6 +509,7 @@ impl Drop for Shared {
 
 /// Runs the ICI's timers, then the link filters' (`link.rs`).
 fn tick_all(st: &mut State) {
+    st.stats.timer_runs += 1;
     st.tick();
     st.link_filter_timers();
 }
