@@ -8,6 +8,7 @@
 //! each change take to reach every board?).
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
 
 use slate_model::{Address, Board, Value};
 
@@ -17,15 +18,22 @@ use crate::team::Team;
 /// The classes every board of the team view models.
 pub const TEAM_CLASSES: [&str; 4] = ["Robot", "Target", "Waypoint", "Mission"];
 
-/// (object, attribute) → (value, source), on one board.
-type View = BTreeMap<(String, String), (Value, Address)>;
+/// (object, attribute): an object itself is `(name, "")`.
+type Key = (Arc<str>, Arc<str>);
+
+/// Key → (value, source), on one board.
+type View = BTreeMap<Key, (Value, Address)>;
 
 /// The boards of the team view and what each holds.
 fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
+    let robot_dead = |m: &&Module| {
+        let robot = team.robots.iter().position(|r| *r == m.robot);
+        robot.is_some_and(|i| team.dead[i])
+    };
     let dead: BTreeSet<Address> = team
         .modules
         .iter()
-        .filter(|m| !team.alive_modules().any(|a| a.address() == m.address()))
+        .filter(robot_dead)
         .map(Module::stands_for)
         .collect();
     let mut boards = vec![team.console()];
@@ -42,19 +50,17 @@ fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
 /// Stored values of the team classes; an object shows as `(name, "")` with its owner.
 fn view(board: &Board) -> View {
     let snap = board.snapshot();
+    let itself: Arc<str> = Arc::from("");
     let mut out = View::new();
     for class in TEAM_CLASSES {
         for id in snap.instances(class).unwrap_or_default() {
             let Some(info) = snap.info(id) else { continue };
             out.insert(
-                (info.name.to_string(), String::new()),
+                (info.name.clone(), itself.clone()),
                 (Value::Bool(true), info.owner),
             );
             for (attr, p, _) in snap.own_values(id) {
-                out.insert(
-                    (info.name.to_string(), attr.to_string()),
-                    (p.value, p.source),
-                );
+                out.insert((info.name.clone(), attr), (p.value, p.source));
             }
         }
     }
@@ -64,50 +70,90 @@ fn view(board: &Board) -> View {
 /// The keys on which the views differ. Skipped: a key a dead module wrote (or, for an
 /// object, owns) on any board, and every key of an object some board lacks while another
 /// holds it from a dead owner (the dead module's last word reached only some boards).
-fn differing(
-    views: &[(String, View)],
-    dead: &BTreeSet<Address>,
-) -> BTreeMap<(String, String), String> {
-    let keys: BTreeSet<&(String, String)> = views.iter().flat_map(|(_, v)| v.keys()).collect();
-    let from_dead = |key: &(String, String)| {
-        views
-            .iter()
-            .any(|(_, v)| v.get(key).is_some_and(|(_, s)| dead.contains(s)))
+///
+/// Each view is walked once beside the first (both sorted): the team view has a board
+/// per robot and its objects grow with the team too, and a lookup of every key on every
+/// board for every other board was the demo's largest cost at 16 robots.
+fn differing(views: &[(String, View)], dead: &BTreeSet<Address>) -> BTreeMap<Key, String> {
+    let Some(((first, base), _)) = views.split_first() else {
+        return BTreeMap::new();
     };
-    let orphans: BTreeSet<&String> = keys
-        .iter()
-        .filter(|k| {
-            k.1.is_empty() && from_dead(k) && views.iter().any(|(_, v)| !v.contains_key(*k))
-        })
-        .map(|k| &k.0)
-        .collect();
-    let mut out = BTreeMap::new();
-    for key in keys {
-        if orphans.contains(&key.0) || from_dead(key) {
-            continue;
-        }
-        let held: Vec<Option<&Value>> = views
-            .iter()
-            .map(|(_, v)| v.get(key).map(|h| &h.0))
-            .collect();
-        if let Some(k) = held.iter().position(|h| *h != held[0]) {
-            let show = |h: Option<&Value>| h.map_or("nothing".to_owned(), ToString::to_string);
-            let what = if key.1.is_empty() {
-                key.0.clone()
-            } else {
-                format!("{}.{}", key.0, key.1)
-            };
-            let text = format!(
-                "{what}: {} holds {}, {} holds {}",
-                views[0].0,
-                show(held[0]),
-                views[k].0,
-                show(held[k])
-            );
-            out.insert(key.clone(), text);
+    // Per key, the first board whose value differs from the first board's.
+    let mut differs: BTreeMap<&Key, usize> = BTreeMap::new();
+    for (k, (_, view)) in views.iter().enumerate().skip(1) {
+        for key in unequal(base, view) {
+            differs.entry(key).or_insert(k);
         }
     }
+    let from_dead: BTreeSet<&Key> = match dead.is_empty() {
+        true => BTreeSet::new(),
+        false => (views.iter().flat_map(|(_, v)| v.iter()))
+            .filter(|(_, (_, source))| dead.contains(source))
+            .map(|(key, _)| key)
+            .collect(),
+    };
+    // An object's key differs only where some board lacks it (its value is `true`).
+    let orphans: BTreeSet<&Arc<str>> = (differs.keys())
+        .filter(|key| key.1.is_empty() && from_dead.contains(*key))
+        .map(|key| &key.0)
+        .collect();
+    let mut out = BTreeMap::new();
+    for (key, k) in differs {
+        if orphans.contains(&key.0) || from_dead.contains(key) {
+            continue;
+        }
+        let show = |v: &View| v.get(key).map_or("nothing".to_owned(), |h| h.0.to_string());
+        let what = if key.1.is_empty() {
+            key.0.to_string()
+        } else {
+            format!("{}.{}", key.0, key.1)
+        };
+        let (other, view) = &views[k];
+        let text = format!(
+            "{what}: {first} holds {}, {other} holds {}",
+            show(base),
+            show(view)
+        );
+        out.insert(key.clone(), text);
+    }
     out
+}
+
+/// The keys `a` and `b` do not hold alike (one lacks it, or their values differ), in
+/// order: one walk of both.
+fn unequal<'a>(a: &'a View, b: &'a View) -> Vec<&'a Key> {
+    let (mut a, mut b) = (a.iter().peekable(), b.iter().peekable());
+    let mut out = Vec::new();
+    loop {
+        match (a.peek(), b.peek()) {
+            (None, None) => return out,
+            (Some((ka, _)), None) => {
+                out.push(*ka);
+                a.next();
+            }
+            (None, Some((kb, _))) => {
+                out.push(*kb);
+                b.next();
+            }
+            (Some((ka, va)), Some((kb, vb))) => match ka.cmp(kb) {
+                std::cmp::Ordering::Less => {
+                    out.push(*ka);
+                    a.next();
+                }
+                std::cmp::Ordering::Greater => {
+                    out.push(*kb);
+                    b.next();
+                }
+                std::cmp::Ordering::Equal => {
+                    if va.0 != vb.0 {
+                        out.push(*ka);
+                    }
+                    a.next();
+                    b.next();
+                }
+            },
+        }
+    }
 }
 
 /// The first disagreement between the team-view boards, or `None` if they agree.
@@ -120,7 +166,7 @@ pub fn disagreement(team: &Team) -> Option<String> {
 /// the boards start to differ on it and closes when they agree again.
 #[derive(Clone, Debug, Default)]
 pub struct Propagation {
-    open: BTreeMap<(String, String), f64>,
+    open: BTreeMap<Key, f64>,
     /// Seconds each closed difference lasted.
     pub delays: Vec<f64>,
 }
@@ -130,7 +176,7 @@ impl Propagation {
     pub fn observe(&mut self, team: &Team, t: f64) {
         let (views, dead) = views(team);
         let now = differing(&views, &dead);
-        let closed: Vec<(String, String)> = self
+        let closed: Vec<Key> = self
             .open
             .keys()
             .filter(|k| !now.contains_key(*k))
@@ -152,5 +198,99 @@ impl Propagation {
         d.sort_by(f64::total_cmp);
         let i = ((d.len() as f64 - 1.0) * q.clamp(0.0, 1.0)).round() as usize;
         d.get(i).copied()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The comparison as it was first written: every key of every board looked up on
+    /// every board. `differing` must say exactly what it says.
+    fn differing_by_lookups(
+        views: &[(String, View)],
+        dead: &BTreeSet<Address>,
+    ) -> BTreeMap<Key, String> {
+        let keys: BTreeSet<&Key> = views.iter().flat_map(|(_, v)| v.keys()).collect();
+        let from_dead = |key: &Key| {
+            (views.iter()).any(|(_, v)| v.get(key).is_some_and(|(_, s)| dead.contains(s)))
+        };
+        let orphans: BTreeSet<&Arc<str>> = (keys.iter())
+            .filter(|k| {
+                k.1.is_empty() && from_dead(k) && views.iter().any(|(_, v)| !v.contains_key(*k))
+            })
+            .map(|k| &k.0)
+            .collect();
+        let mut out = BTreeMap::new();
+        for key in keys {
+            if orphans.contains(&key.0) || from_dead(key) {
+                continue;
+            }
+            let held: Vec<Option<&Value>> = views
+                .iter()
+                .map(|(_, v)| v.get(key).map(|h| &h.0))
+                .collect();
+            if let Some(k) = held.iter().position(|h| *h != held[0]) {
+                let show = |h: Option<&Value>| h.map_or("nothing".to_owned(), ToString::to_string);
+                let what = if key.1.is_empty() {
+                    key.0.to_string()
+                } else {
+                    format!("{}.{}", key.0, key.1)
+                };
+                let text = format!(
+                    "{what}: {} holds {}, {} holds {}",
+                    views[0].0,
+                    show(held[0]),
+                    views[k].0,
+                    show(held[k])
+                );
+                out.insert(key.clone(), text);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn one_walk_per_board_finds_what_a_lookup_of_every_key_finds() {
+        let sources =
+            ["team/r1/exec", "team/r2/exec", "team/r3/exec"].map(|a| Address::new(a).unwrap());
+        let dead: BTreeSet<Address> = [sources[2].clone()].into();
+        let mut seed = 7u64;
+        let mut draw = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let mut differences = 0;
+        for _ in 0..500 {
+            let boards = 1 + draw(4) as usize;
+            let views: Vec<(String, View)> = (0..boards)
+                .map(|b| {
+                    let mut view = View::new();
+                    for object in ["t1", "t2", "w1"] {
+                        for attr in ["", "found_by", "visited"] {
+                            if draw(4) == 0 {
+                                continue;
+                            }
+                            let value = match attr {
+                                "" => Value::Bool(true),
+                                _ => Value::Int(draw(2) as i64),
+                            };
+                            let source = sources[draw(3) as usize].clone();
+                            view.insert((object.into(), attr.into()), (value, source));
+                        }
+                    }
+                    (format!("board{b}"), view)
+                })
+                .collect();
+            let expected = differing_by_lookups(&views, &dead);
+            differences += expected.len();
+            assert_eq!(differing(&views, &dead), expected, "{views:?}");
+        }
+        assert!(
+            differences > 100,
+            "the draws must make differences: {differences}"
+        );
     }
 }

@@ -251,8 +251,14 @@ pub(crate) struct Inner {
     engine: Engine,
     me: Address,
     next_circuit: AtomicU64,
+    /// Taken through [`Inner::origin`] (but by the timers).
     origin: Mutex<Origin>,
+    /// Taken through [`Inner::destination`] (but by the timers).
     destination: Mutex<Destination>,
+    /// On a manual clock, the clock's time (nanoseconds) before which the timers have
+    /// nothing to do, as the last run of them left the circuits; 0 once anything else
+    /// took the origin or the destination since.
+    wake: AtomicU64,
     outgoing: Receiver<Outgoing>,
     events: Receiver<PlanEvent>,
     /// Held by the one thread draining the engine's channels.
@@ -300,6 +306,7 @@ impl PlanCircuits {
             next_circuit: AtomicU64::new(1),
             origin: Mutex::new(Origin::default()),
             destination: Mutex::new(Destination::default()),
+            wake: AtomicU64::new(0),
             outgoing: engine.outgoing(),
             events: engine.events(),
             draining: Mutex::new(()),
@@ -342,12 +349,12 @@ impl PlanCircuits {
 
     /// Circuits this module opened (plans it sent), with every step heard so far.
     pub fn sent(&self) -> Vec<CircuitStatus> {
-        self.inner.origin.lock().status()
+        self.inner.origin().status()
     }
 
     /// Circuits others opened to this module (plans it runs for them).
     pub fn received(&self) -> Vec<CircuitStatus> {
-        self.inner.destination.lock().status()
+        self.inner.destination().status()
     }
 
     /// How many plans this module received, accepted and rejected.
@@ -450,12 +457,11 @@ impl Inner {
             .map_err(|rendered| SendPlanError::NotOnePlan { rendered })?;
         let circuit = self.next_circuit.fetch_add(1, Ordering::Relaxed);
         let now = self.now();
-        let (acks, msg) =
-            self.origin
-                .lock()
-                .open(circuit, (&name, text), to, origin, now, self.lossy);
+        let (acks, msg) = self
+            .origin()
+            .open(circuit, (&name, text), to, origin, now, self.lossy);
         if let Err(e) = self.transmit(to, msg) {
-            self.origin.lock().forget(circuit);
+            self.origin().forget(circuit);
             return Err(e.into());
         }
         Ok(PlanHandle {
@@ -468,10 +474,7 @@ impl Inner {
 
     fn cancel(self: &Arc<Self>, circuit: u64) -> Result<(), SendPlanError> {
         let now = self.now();
-        let to = self
-            .origin
-            .lock()
-            .request_cancel(circuit, now, self.lossy)?;
+        let to = self.origin().request_cancel(circuit, now, self.lossy)?;
         self.transmit(&to, Message::PlanCancel { circuit })?;
         Ok(())
     }
@@ -532,7 +535,7 @@ impl Inner {
             Message::Plan(plan) => self.on_plan(from, plan),
             Message::PlanAck(ack) => {
                 let now = self.now();
-                self.origin.lock().ack(from, ack, now);
+                self.origin().ack(from, ack, now);
             }
             Message::PlanCancel { circuit } => self.on_cancel(from, circuit),
             other => tracing::debug!(from = %from, ?other, "not a plan message"),
@@ -543,15 +546,51 @@ impl Inner {
     /// with their steps) or died (open circuits to it lose their destination).
     fn on_peer(self: &Arc<Self>, peer: &Address, alive: bool) {
         if !alive {
-            self.origin.lock().lost(peer);
+            self.origin().lost(peer);
             return;
         }
         let now = self.now();
-        let resend = self.origin.lock().resume(peer, now, self.lossy);
+        let resend = self.origin().resume(peer, now, self.lossy);
         self.count_resent(resend.len());
         for msg in resend {
             self.transmit_logged(peer, msg);
         }
+    }
+
+    /// The circuits this module opened, for anything but their timers.
+    fn origin(&self) -> parking_lot::MutexGuard<'_, Origin> {
+        self.wake.store(0, Ordering::SeqCst);
+        self.origin.lock()
+    }
+
+    /// The circuits opened to this module, for anything but their timers.
+    pub(crate) fn destination(&self) -> parking_lot::MutexGuard<'_, Destination> {
+        self.wake.store(0, Ordering::SeqCst);
+        self.destination.lock()
+    }
+
+    /// Runs the timers, unless none is due before the manual clock's next move (every
+    /// module of a simulated team hears every move: the console's circuits, one per
+    /// plan it sent, were walked at each).
+    fn tick_if_due(self: &Arc<Self>, now: Duration) {
+        let at = u64::try_from(now.as_nanos()).unwrap_or(u64::MAX);
+        if at < self.wake.load(Ordering::SeqCst) {
+            return;
+        }
+        // Anything that takes the origin or the destination meanwhile (a plan sent to
+        // this module itself) leaves 0: the next move runs the timers again.
+        self.wake.store(u64::MAX, Ordering::SeqCst);
+        self.tick();
+        let next = {
+            let origin = self.origin.lock().next_due();
+            let destination = self.destination.lock().next_repeat();
+            origin.into_iter().chain(destination).min()
+        };
+        let next = next.map_or(u64::MAX, |t| {
+            u64::try_from(t.as_nanos()).unwrap_or(u64::MAX)
+        });
+        let untouched = u64::MAX;
+        let _ = (self.wake).compare_exchange(untouched, next, Ordering::SeqCst, Ordering::SeqCst);
     }
 
     /// Timers: unanswered plans go again, circuits whose acks have a gap ask for them
@@ -667,10 +706,10 @@ impl ChangeHook for Hook {
 }
 
 impl ClockListener for Hook {
-    fn advanced(&self, _: Duration) {
+    fn advanced(&self, now: Duration) {
         if let Some(inner) = self.0.upgrade() {
             inner.drain();
-            inner.tick();
+            inner.tick_if_due(now);
         }
     }
 }

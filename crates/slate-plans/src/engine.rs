@@ -159,6 +159,9 @@ pub(crate) struct Shared {
     queue: Mutex<Vec<Work>>,
     pub outbox: Outbox,
     wake: (Mutex<Option<u64>>, Condvar),
+    /// The earliest plan timer (microseconds of the board's clock; `u64::MAX`: none): a
+    /// manual clock's move before it has nothing for the engine to do.
+    next_timer: AtomicU64,
     /// Plans declared in loaded files, for `send NAME` (its own lock: rules read it while
     /// the engine runs).
     texts: Mutex<HashMap<String, String>>,
@@ -211,6 +214,7 @@ impl Engine {
             queue: Mutex::new(Vec::new()),
             outbox: Outbox::default(),
             wake: (Mutex::new(None), Condvar::new()),
+            next_timer: AtomicU64::new(u64::MAX),
             texts: Mutex::new(HashMap::new()),
             derived: Mutex::new(HashMap::new()),
             evaluations: AtomicU64::new(0),
@@ -495,7 +499,14 @@ fn add_once(plans: &mut SmallVec<[usize; 8]>, p: usize) {
 }
 
 impl ClockListener for Shared {
-    fn advanced(&self, _now: Duration) {
+    /// Runs the plans whose timers are due, and what was left queued. Every board of a
+    /// simulated team hears every move of the shared clock (one per event): a move
+    /// before the earliest timer, with nothing queued, is skipped.
+    fn advanced(&self, now: Duration) {
+        let idle = micros(now) < self.next_timer.load(Ordering::SeqCst);
+        if idle && self.queue.lock().is_empty() {
+            return;
+        }
         if let Some(board) = self.board.upgrade() {
             self.push(Work::Due, &board);
         }
@@ -563,7 +574,7 @@ impl Shared {
         loop {
             let work = std::mem::take(&mut *self.queue.lock());
             if work.is_empty() {
-                return;
+                break;
             }
             let mut plans = SmallVec::new();
             for w in work {
@@ -571,9 +582,14 @@ impl Shared {
             }
             budget = self.evaluate_all(st, plans, board, budget);
             if budget == 0 {
-                return;
+                break;
             }
         }
+        let next = st
+            .timers
+            .peek()
+            .map_or(u64::MAX, |Reverse((due, _, _))| *due);
+        self.next_timer.store(next, Ordering::SeqCst);
     }
 
     /// Evaluates plans within a budget of evaluations; returns what is left of it.
@@ -631,6 +647,7 @@ impl Shared {
         rt.timer_gen += 1;
         let due = micros(Duration::try_from_secs_f64(at.max(0.0)).unwrap_or(Duration::MAX));
         st.timers.push(Reverse((due, idx, rt.timer_gen)));
+        self.next_timer.fetch_min(due, Ordering::SeqCst);
         let mut next = self.wake.0.lock();
         if next.is_none_or(|n| due < n) {
             *next = Some(due);

@@ -306,6 +306,11 @@ impl Destination {
     }
 
     /// The last steps due again at `now`, to whom.
+    /// When the next last step is repeated, if one is to be.
+    pub(super) fn next_repeat(&self) -> Option<Duration> {
+        self.repeats.iter().map(|r| r.due).min()
+    }
+
     fn repeats_due(&mut self, now: Duration) -> Vec<(Address, PlanAck)> {
         let mut out = Vec::new();
         for r in self.repeats.iter_mut().filter(|r| r.due <= now) {
@@ -390,7 +395,7 @@ impl Inner {
         }
         let checked = self
             .check(&plan)
-            .and_then(|()| self.destination.lock().claim(&key, &plan.name));
+            .and_then(|()| self.destination().claim(&key, &plan.name));
         let outcome = checked.and_then(|()| {
             let file = format!("{from}/{}.slate", plan.name);
             self.engine.run_as(&plan.name, Some(&plan.origin));
@@ -453,7 +458,7 @@ impl Inner {
     /// acknowledged `Received`.
     fn open(self: &Arc<Self>, from: &Address, plan: &Plan) -> Option<Key> {
         let key = (from.clone(), plan.circuit);
-        let again = self.destination.lock().resend(&key, plan);
+        let again = self.destination().resend(&key, plan);
         if let Some(acks) = again {
             self.counters.answered_again.fetch_add(1, Ordering::Relaxed);
             for ack in acks {
@@ -461,7 +466,7 @@ impl Inner {
             }
             return None;
         }
-        let received = self.destination.lock().begin(&key, plan);
+        let received = self.destination().begin(&key, plan);
         self.counters.received.fetch_add(1, Ordering::Relaxed);
         self.transmit_logged(from, Message::PlanAck(received));
         Some(key)
@@ -470,7 +475,7 @@ impl Inner {
     fn rejected(self: &Arc<Self>, key: &Key, name: &str, reason: String) {
         self.counters.rejected.fetch_add(1, Ordering::Relaxed);
         tracing::debug!(from = %key.0, plan = %name, %reason, "plan rejected");
-        let ack = self.destination.lock().reject(key, reason);
+        let ack = self.destination().reject(key, reason);
         if let Some(ack) = ack {
             self.send_ack(&key.0, ack);
         }
@@ -481,7 +486,7 @@ impl Inner {
         if let Err(e) = self.engine.set_origin(name, key.0.as_str()) {
             tracing::debug!(plan = %name, error = %e, "plan origin not written");
         }
-        let (acks, cancel) = self.destination.lock().accept(key);
+        let (acks, cancel) = self.destination().accept(key);
         for ack in acks {
             self.send_ack(&key.0, ack);
         }
@@ -534,7 +539,7 @@ impl Inner {
     /// The plans received that still run, each with the origin it runs for and where it
     /// is (the engine is asked before the origins are locked: one lock at a time).
     pub(super) fn held(&self) -> Vec<HeldPlan> {
-        let running = self.destination.lock().running();
+        let running = self.destination().running();
         let running: Vec<_> = running
             .into_iter()
             .filter_map(|r| Some((self.engine.progress(&r.1)?, r)))
@@ -571,11 +576,11 @@ impl Inner {
         authority.map_or(Ok(()), Err)?;
         self.check(&wire)?;
         let key = (plan.from.clone(), plan.circuit);
-        self.destination.lock().reopen(&key, &plan)?;
+        self.destination().reopen(&key, &plan)?;
         let file = format!("{}/{}.slate", plan.from, plan.name);
         self.engine.resume(&plan.name, plan.progress);
         if let Err(e) = self.engine.load(&file, &plan.text) {
-            self.destination.lock().forget(&key);
+            self.destination().forget(&key);
             return Err(e.rendered);
         }
         self.runs_for.lock().insert(plan.name.clone(), plan.origin);
@@ -588,10 +593,7 @@ impl Inner {
 
     /// The origin cancels the plan of a circuit.
     pub(super) fn on_cancel(self: &Arc<Self>, from: &Address, circuit: u64) {
-        let name = self
-            .destination
-            .lock()
-            .cancel_target(&(from.clone(), circuit));
+        let name = self.destination().cancel_target(&(from.clone(), circuit));
         if let Some(name) = name {
             self.engine.cancel(&name);
             self.drain();
@@ -603,7 +605,7 @@ impl Inner {
         let Some((name, step)) = step_of(event) else {
             return;
         };
-        let ack = self.destination.lock().event(&name, step);
+        let ack = self.destination().event(&name, step);
         if let Some((origin, ack)) = ack {
             self.send_ack(&origin, ack);
         }
@@ -613,7 +615,7 @@ impl Inner {
     fn send_ack(self: &Arc<Self>, to: &Address, ack: PlanAck) {
         if *to != self.me && self.lossy {
             let now = self.now();
-            self.destination.lock().repeat_if_last(to, &ack, now);
+            self.destination().repeat_if_last(to, &ack, now);
         }
         self.transmit_logged(to, Message::PlanAck(ack));
     }

@@ -136,6 +136,18 @@ impl Sent {
     /// The messages to send again if the answer is overdue: the plan (a destination that
     /// has it answers with its steps, one that has not loads it), then the cancellation
     /// asked for. Each copy doubles the wait; after [`MAX_RESENDS`] the origin stops.
+    /// When [`overdue`](Self::overdue) or [`gap_due`](Self::gap_due) next has
+    /// something to do, if anything.
+    fn next_due(&self) -> Option<Duration> {
+        let resend = (self.waiting_since)
+            .filter(|_| self.is_open())
+            .map(|since| since.saturating_add(self.wait));
+        let ask = self
+            .gap_since
+            .map(|since| since.saturating_add(ACK_GAP_GRACE));
+        resend.into_iter().chain(ask).min()
+    }
+
     fn overdue(&mut self, circuit: u64, now: Duration) -> Vec<Message> {
         let Some(since) = self.waiting_since.filter(|_| self.is_open()) else {
             return Vec::new();
@@ -334,6 +346,11 @@ impl Origin {
             out.extend(copies.map(|msg| (to.clone(), msg)));
         }
         out
+    }
+
+    /// The earliest time [`due`](Self::due) has something to do, if any.
+    pub fn next_due(&self) -> Option<Duration> {
+        self.circuits.values().filter_map(Sent::next_due).min()
     }
 
     /// Every circuit, oldest first.

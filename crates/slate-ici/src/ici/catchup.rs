@@ -176,6 +176,17 @@ impl State {
             .is_some_and(|t| self.now.saturating_sub(t) < interval)
     }
 
+    /// The earliest instant at which `p`'s deferred answer may go
+    /// ([`Self::deferred_answers`]): once its interval has passed (now, if it has and its
+    /// answer bytes still wait to be paid off).
+    pub(crate) fn deferred_answer_due(&self, p: &Peer) -> std::time::Duration {
+        let interval = self.config.link(p.link).heartbeat;
+        match p.answered {
+            Some(t) if self.answered_lately(p) => t + interval,
+            _ => std::time::Duration::ZERO,
+        }
+    }
+
     /// Answers the requests that waited for their peer's interval to pass.
     pub fn deferred_answers(&mut self) {
         let due: Vec<Address> = self
@@ -185,6 +196,7 @@ impl State {
             .map(|(a, _)| a.clone())
             .collect();
         let now = self.now;
+        self.tick_again |= !due.is_empty();
         for peer in due {
             let p = self.peer(&peer);
             let req = p.deferred.take();

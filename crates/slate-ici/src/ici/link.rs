@@ -229,6 +229,7 @@ impl State {
             let item = self.value_item(&key.0, &key.1, packet);
             released.entry(link).or_default().extend(item);
         }
+        self.tick_again |= !released.is_empty();
         for (link, items) in released {
             let wanted: Vec<&Item> = items.iter().filter(|i| self.wanted_on(link, i)).collect();
             self.emit(link, &wanted);

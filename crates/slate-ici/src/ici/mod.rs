@@ -23,7 +23,7 @@ mod tick;
 mod window;
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
@@ -134,6 +134,11 @@ struct Shared {
     queue: Mutex<VecDeque<BoardOp>>,
     plan_handler: RwLock<Option<Arc<dyn PlanHandler>>>,
     ticker: Arc<Ticker>,
+    /// On a manual clock, the clock's time (nanoseconds) before which the timers have
+    /// nothing to do ([`State::next_tick`]), as the last tick left the state; 0 once
+    /// anything else touched the state since (a message, a peer's up or down, a board
+    /// change, a call), so the next move of the clock runs them as before.
+    wake: AtomicU64,
     /// The link policies set (`set_link_policy`), taken after the state lock.
     links: Mutex<link::Links>,
     /// Publications made once the state lock is released (the state's own).
@@ -170,6 +175,7 @@ impl Ici {
             queue: Mutex::new(VecDeque::new()),
             plan_handler: RwLock::new(None),
             ticker: Arc::new(Ticker(me.clone())),
+            wake: AtomicU64::new(0),
             links,
             outgoing,
         });
@@ -330,6 +336,7 @@ impl Ici {
         self.shared.transport.send(to, kind, &bytes)?;
         let link = LinkKind::between(self.address(), to);
         let mut st = self.shared.state.lock();
+        self.shared.touched();
         st.team_aired(link, bytes.len());
         st.said(link);
         st.stats.sent(link, kind, bytes.len());
@@ -352,10 +359,22 @@ impl Shared {
     /// Runs `f` on the state, then applies the board ops it queued and hands out the
     /// plan events, with the state lock released.
     fn with_state<R>(&self, f: impl FnOnce(&mut State) -> R) -> R {
+        self.with_state_until(f, |_| Duration::ZERO)
+    }
+
+    /// [`with_state`](Self::with_state), then the clock's time before which the timers
+    /// have nothing to do is `wake(state)` (after `f`, with the lock held).
+    fn with_state_until<R>(
+        &self,
+        f: impl FnOnce(&mut State) -> R,
+        wake: impl FnOnce(&State) -> Duration,
+    ) -> R {
         let (result, queued, plans, every) = {
             let mut st = self.state.lock();
             st.now = self.board.clock().physical();
             let result = f(&mut st);
+            let at = u64::try_from(wake(&st).as_nanos()).unwrap_or(u64::MAX);
+            self.wake.store(at, Ordering::SeqCst);
             let queued = self.enqueue(&mut st);
             let every = std::mem::take(&mut st.queued_every);
             (result, queued, std::mem::take(&mut st.plans), every)
@@ -398,6 +417,7 @@ impl Shared {
                 return;
             };
             self.changes.store(false, Ordering::SeqCst);
+            self.touched();
             st.now = self.board.clock().physical();
             st.drain_changes();
             let queued = self.enqueue(&mut st);
@@ -450,11 +470,18 @@ impl Shared {
                 ops::apply(&self.board, &self.state, op, &mut tally);
             }
             tally.flush(&self.state);
+            self.touched();
             drop(guard);
             if self.queue.lock().is_empty() {
                 return;
             }
         }
+    }
+
+    /// Something other than a tick changed the state: the timers run at the clock's
+    /// next move.
+    fn touched(&self) {
+        self.wake.store(0, Ordering::SeqCst);
     }
 
     fn deliver(&self, events: Vec<PlanEvent>) {
@@ -482,6 +509,7 @@ impl Drop for Shared {
 
 /// Runs the ICI's timers, then the link filters' (`link.rs`).
 fn tick_all(st: &mut State) {
+    st.stats.timer_runs += 1;
     st.tick();
     st.link_filter_timers();
 }
@@ -501,9 +529,17 @@ impl slate_model::ChangeHook for Doorbell {
 struct Ticker(Weak<Shared>);
 
 impl ClockListener for Ticker {
-    fn advanced(&self, _: Duration) {
+    /// Runs the timers, unless none is due before the clock's next move: every module
+    /// of a simulated team hears every move of the shared clock (one per event), and
+    /// running all of their timers at each was the simulator's largest cost, growing
+    /// with the cube of the team (docs/team-protocol.md, 7.1).
+    fn advanced(&self, now: Duration) {
         if let Some(shared) = self.0.upgrade() {
-            shared.with_state(tick_all);
+            let now = u64::try_from(now.as_nanos()).unwrap_or(u64::MAX);
+            if now < shared.wake.load(Ordering::SeqCst) {
+                return;
+            }
+            shared.with_state_until(tick_all, State::next_tick);
         }
     }
 }

@@ -267,8 +267,16 @@ pub(crate) struct State {
     /// No peer's held plans are due to go unheld before this instant
     /// (`State::held_plan_timers`).
     pub plans_held_from: Duration,
+    /// As `catch_up_from`, without the peers whose gap waits for their robot's stream to
+    /// be repaired (`State::catch_up_timers` looks at them again when a message has
+    /// changed that stream). Never later than `catch_up_from` for the others.
+    pub catch_up_unheld_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
+    /// A timer run by the tick in progress acted, after timers that read what it
+    /// changed had run: the next tick comes at the clock's next move
+    /// (`State::next_tick`).
+    pub tick_again: bool,
     pub watch: Watch,
     /// A change taken from `watch` past the revision a drain stopped at
     /// (`drain_changes_to`): the next drain starts with it.
@@ -339,7 +347,9 @@ impl State {
             timeouts_from: Duration::ZERO,
             catch_up_from: Duration::ZERO,
             plans_held_from: Duration::MAX,
+            catch_up_unheld_from: Duration::ZERO,
             dead: BTreeSet::new(),
+            tick_again: false,
             watch,
             next_change: None,
             stats: IciStats::default(),

@@ -24,6 +24,9 @@ pub struct IciStats {
     pub liveliness: LivelinessStats,
     /// The team protocol (docs/team-protocol.md): all zero with it off.
     pub team: TeamStats,
+    /// How many times the timers ran: each `Ici::tick`, or on a manual clock each move
+    /// at which one was due or something had reached the module since they last ran.
+    pub timer_runs: u64,
 }
 
 impl IciStats {

@@ -58,6 +58,7 @@ fn idle_gap(link: LinkKind, period: Duration, idle: bool) -> Duration {
 impl State {
     /// Runs whatever is due at `self.now`.
     pub fn tick(&mut self) {
+        self.tick_again = false;
         self.filter_timers();
         self.heartbeats();
         self.team_tick();
@@ -67,6 +68,68 @@ impl State {
         self.held_plan_timers();
         self.deferred_answers();
         self.hello_timers();
+    }
+
+    /// The earliest instant at which [`tick`](Self::tick) (and the link filters'
+    /// timers) may have something to do, if nothing reaches this module before: no
+    /// message, no peer's up or down, no change of its board, no call. A tick before it
+    /// changes nothing, so a manual clock's move before it need not run the timers
+    /// (`Ticker`). Each timer's own due time, or now when one just acted on what a
+    /// timer before it in the tick reads (`tick_again`) or cannot say when it will act.
+    pub(crate) fn next_tick(&self) -> Duration {
+        if self.tick_again {
+            return Duration::ZERO;
+        }
+        let never = Duration::MAX;
+        let heartbeat = LinkKind::ALL.into_iter().map(|link| {
+            let next = self.next_heartbeat.get(&link);
+            next.copied().unwrap_or(Duration::ZERO)
+        });
+        let filters = [self.filters.next_due(), self.filters.next_link_due()];
+        let mut next = heartbeat
+            .chain(filters.into_iter().map(|t| t.unwrap_or(never)))
+            .min()
+            .unwrap_or(never)
+            .min(self.timeouts_from)
+            .min(self.catch_up_next_tick())
+            .min(self.plans_held_from)
+            .min(self.team_next_tick());
+        let after = self.config.forget_dead;
+        for p in self.dead.iter().filter_map(|a| self.peers.get(a)) {
+            let gone = if p.up {
+                self.silent_deadline(p)
+            } else {
+                Duration::ZERO
+            };
+            let forgotten = match p.observer {
+                true => Duration::ZERO,
+                false => p
+                    .last_heard
+                    .saturating_add(after)
+                    .saturating_add(Duration::from_nanos(1)),
+            };
+            next = next.min(gone.max(forgotten));
+        }
+        for p in self.peers.values() {
+            if let (true, Some((sent, tries))) = (p.up, p.hello_unanswered) {
+                let wait = self.config.link(p.link).heartbeat * (1 << tries.min(3));
+                next = next.min(sent.saturating_add(wait));
+            }
+            if p.deferred.is_some() {
+                next = next.min(self.deferred_answer_due(p));
+            }
+        }
+        next
+    }
+
+    /// When [`Self::catch_up_timers`] next acts if nothing reaches this module: a gap
+    /// that waits for its robot's stream (`catch_up_from` is past while one does) waits
+    /// for a message that repairs that stream, and that message ticks the module.
+    fn catch_up_next_tick(&self) -> Duration {
+        match self.catch_up_from > self.now {
+            true => self.catch_up_from,
+            false => self.catch_up_unheld_from,
+        }
     }
 
     /// Says hello again to the peers that have not answered: a message sent before the
@@ -85,6 +148,7 @@ impl State {
                 (now.saturating_sub(sent) >= wait).then(|| (a.clone(), tries))
             })
             .collect();
+        self.tick_again |= !unanswered.is_empty();
         for (peer, tries) in unanswered {
             self.stats.liveliness.hellos_resent += 1;
             self.hello(&peer, false);
@@ -111,6 +175,7 @@ impl State {
             }
         }
         self.plans_held_from = next;
+        self.tick_again |= !expired.is_empty();
         for peer in expired {
             let held = self.peers[&peer].held_plans.len() as u64;
             self.stats.catch_up.plans_hold_expired += held;
@@ -323,6 +388,7 @@ impl State {
             }
         }
         self.timeouts_from = next;
+        self.tick_again |= !dead.is_empty();
         for peer in dead {
             self.lost(&peer);
         }
@@ -345,6 +411,7 @@ impl State {
             .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
             .map(|(a, _)| a.clone())
             .collect();
+        self.tick_again |= !gone.is_empty();
         for peer in gone {
             self.decoder.forget(&peer);
             self.dead.remove(&peer);
@@ -377,9 +444,15 @@ impl State {
         // A member's inner gap waits while its robot stream is being repaired.
         let gapped = self.team_gapped_robots();
         let mut due = Vec::new();
-        let mut next = Duration::MAX;
+        let (mut next, mut unheld) = (Duration::MAX, Duration::MAX);
         for (a, p) in self.peers.iter_mut() {
-            let retry = catch_up_retry(&self.config, &self.me, a);
+            if p.catch_up.is_none() && p.stream.gap_since().is_none() {
+                continue; // nothing is or becomes due for it (`catch_up_due`)
+            }
+            let retry = match p.catch_up {
+                Some(_) => catch_up_retry(&self.config, &self.me, a),
+                None => Duration::ZERO, // not read
+            };
             match p.catch_up {
                 Some(_) if !p.up => p.catch_up = None,
                 Some(mut r) if now.saturating_sub(r.since) >= retry => {
@@ -398,10 +471,14 @@ impl State {
             }
             if let Some(at) = catch_up_due(p, retry, grace) {
                 next = next.min(at);
+                if p.catch_up.is_some() || !gapped.holds(a) {
+                    unheld = unheld.min(at);
+                }
             }
         }
-        // The sends below lower it for the requests they make.
-        self.catch_up_from = next;
+        // The sends below lower both for the requests they make.
+        (self.catch_up_from, self.catch_up_unheld_from) = (next, unheld);
+        self.tick_again |= !due.is_empty();
         for (a, retried) in due {
             match retried {
                 Some(r) => {
@@ -537,6 +614,7 @@ impl State {
             .and_then(|p| catch_up_due(p, retry, grace))
         {
             self.catch_up_from = self.catch_up_from.min(at);
+            self.catch_up_unheld_from = self.catch_up_unheld_from.min(at);
         }
     }
 }

@@ -327,3 +327,25 @@ fn sonar_conflict(seed: u64) -> (Team, ClassDef) {
     team.add_with("t/r2/nav", open(), &classes_and(&b));
     (team, b)
 }
+
+/// The simulator moves its clock at every event, and at least every 10 ms: every module
+/// hears every move. An idle module's timers run only when one is due or a message
+/// reached it, and still keep it and its peers alive (docs/team-protocol.md, 7.1).
+#[test]
+fn an_idle_modules_timers_run_when_due_not_at_every_move_of_the_clock() {
+    let team = pair();
+    let before: Vec<slate_ici::IciStats> = team.members.iter().map(|m| m.ici.stats()).collect();
+    team.run(10.0);
+    for (m, before) in team.members.iter().zip(before) {
+        let now = m.ici.stats();
+        let runs = now.timer_runs - before.timer_runs;
+        let beats = now.liveliness.heartbeats_sent - before.liveliness.heartbeats_sent;
+        assert!(
+            runs < 500,
+            "{}: timers ran {runs} times in 1 000 moves",
+            m.address
+        );
+        assert!(beats >= 2, "{}: {beats} heartbeats in 10 s", m.address);
+        assert_eq!(m.ici.alive_peers().len(), 2, "{}", m.address);
+    }
+}

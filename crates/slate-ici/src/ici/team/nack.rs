@@ -584,6 +584,11 @@ impl NackScheduler {
         self.streams.values().filter_map(Missing::next_due).min()
     }
 
+    /// Has a `tick` fired something not polled yet?
+    pub fn has_output(&self) -> bool {
+        !self.nack_out.is_empty() || !self.state_out.is_empty()
+    }
+
     /// The next action to carry out: state requests first, then one `Nack` holding
     /// every entry fired since the last poll.
     pub fn poll(&mut self) -> Option<NackAction> {

@@ -55,6 +55,19 @@ impl TokenBucket {
         self.rate_bps == 0 || self.bits >= 0
     }
 
+    /// The earliest time at which [`ready`](Self::ready) holds if nothing is spent
+    /// meanwhile (its last refill's time, if it holds already).
+    pub fn ready_at(&self) -> Duration {
+        if self.rate_bps == 0 || self.bits >= 0 {
+            return self.at;
+        }
+        // Bit-nanoseconds still to earn; the carry is below a whole bit's.
+        let owed = u128::from(self.bits.unsigned_abs()) * NANOS_PER_SEC - self.carry;
+        let nanos = owed.div_ceil(u128::from(self.rate_bps));
+        let wait = Duration::from_nanos(u64::try_from(nanos).unwrap_or(u64::MAX));
+        self.at.saturating_add(wait)
+    }
+
     /// Charges `bytes` sent at `now`.
     pub fn spend(&mut self, bytes: usize, now: Duration) {
         self.refill(now);
@@ -240,6 +253,23 @@ mod tests {
         b.spend(32 + 7, ms(0));
         let ready_at = (1..=2_000).map(|t| ms(t * 10)).find(|t| b.ready(*t));
         assert_eq!(ready_at, Some(ms(800)), "56 bits of debt at 70 bit/s");
+    }
+
+    /// The simulator runs a gateway's timers only from the instant its bucket says it
+    /// is ready: one nanosecond later than the truth and data waits a clock move more,
+    /// earlier and nothing is lost.
+    #[test]
+    fn a_bucket_says_the_first_instant_it_is_ready() {
+        let mut b = TokenBucket::new(70, 32, ms(0));
+        b.spend(32 + 7, ms(3));
+        b.ready(ms(5)); // a refill that leaves a carry
+        let at = b.ready_at();
+        assert_eq!(at, ms(803), "56 bits of debt at 70 bit/s from 3 ms");
+        assert!(!b.clone().ready(at - Duration::from_nanos(1)));
+        assert!(b.clone().ready(at));
+        let mut full = TokenBucket::new(70, 32, ms(9));
+        assert_eq!(full.ready_at(), ms(9));
+        assert!(full.ready(ms(9)));
     }
 
     #[test]

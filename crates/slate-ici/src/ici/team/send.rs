@@ -11,6 +11,7 @@
 //! policy stands for the robot's).
 
 use std::sync::Arc;
+use std::time::Duration;
 
 use slate_model::{Address, Context};
 
@@ -236,6 +237,7 @@ impl State {
         if chosen == self.team.elected {
             return;
         }
+        self.tick_again = true;
         let mine = chosen.as_ref() == Some(&self.me);
         if self.team.gateway.is_some() && !mine {
             self.resign();
@@ -370,6 +372,101 @@ impl State {
         self.robot_hello_if_due();
         self.robot_heartbeat_if_due();
         self.team_interest_if_changed();
+    }
+
+    /// The earliest instant at which [`team_tick`](Self::team_tick) may have something
+    /// to do, if nothing reaches this module before (see `State::next_tick`). What
+    /// depends on the state alone (the election, the gateway's view of its members,
+    /// whether to listen) settles in the tick that sees it change, and what changes it
+    /// between ticks reaches the module from outside or is a timer that asks for the
+    /// next tick itself (`State::tick_again`).
+    pub(crate) fn team_next_tick(&self) -> Duration {
+        let Some(protocol) = &self.config.team_protocol else {
+            return Duration::MAX;
+        };
+        let Some(started) = self.team.started else {
+            return Duration::ZERO;
+        };
+        let mut next = Duration::MAX;
+        let election = started.saturating_add(self.config.robot.heartbeat);
+        if self.now < election {
+            next = election;
+        }
+        if !self.team.undecoded.is_empty() {
+            // Retried once their robot's stream has no gap left: a message that repairs
+            // it ticks the module, but a timer of this tick may have closed a gap too.
+            let gapped = self.team_gapped_robots();
+            if self.team.undecoded.iter().any(|u| !gapped.holds(&u.from)) {
+                return Duration::ZERO;
+            }
+        }
+        let team_timeout = self.config.team.timeout;
+        for s in self.team.speakers.values() {
+            if let Some(ask) = &s.hello_ask {
+                // The ask fires at its due time, or is dropped once the robot is silent
+                // past the timeout.
+                let silent = s.last_heard.saturating_add(team_timeout);
+                next = next
+                    .min(ask.due)
+                    .min(silent.saturating_add(Duration::from_nanos(1)));
+            }
+            if let Some(ask) = s.state_ask.as_ref().filter(|_| s.hello.is_some()) {
+                next = next.min(ask.due);
+            }
+        }
+        if let Some(nacks) = &self.team.nacks {
+            if nacks.has_output() {
+                return Duration::ZERO;
+            }
+            next = next.min(nacks.next_due().unwrap_or(Duration::MAX));
+        }
+        let answering = &self.team.answering;
+        if answering.deferred.is_some() {
+            let interval = protocol.answer_interval;
+            next = next.min(answering.answered.map_or(Duration::ZERO, |t| t + interval));
+        }
+        let Some(gw) = &self.team.gateway else {
+            return next;
+        };
+        if let Some(closes) = gw.repairs.next_due() {
+            next = next.min(closes.max(gw.repair_bucket.ready_at()));
+        }
+        let data = gw.bucket.ready_at();
+        let framed = match gw.queue.is_empty() {
+            true => gw.framer.next_due(),
+            false => Some(Duration::ZERO),
+        };
+        if let Some(at) = framed {
+            next = next.min(at.max(data));
+        }
+        if !gw.held_asks.is_empty() {
+            let waited = gw
+                .held_since
+                .map_or(Duration::MAX, |t| t + protocol.answer_interval);
+            let emptied = match gw.queue.is_empty() {
+                true => Duration::ZERO,
+                false => data,
+            };
+            next = next.min(waited).min(emptied);
+        }
+        if gw.hello_due {
+            let spaced = gw
+                .hello_sent
+                .map_or(Duration::ZERO, |t| t + protocol.hello_min_interval);
+            next = next.min(spaced);
+        }
+        let idle = self.config.team.heartbeat;
+        next = next.min(match gw.heartbeat_due {
+            true => Duration::ZERO,
+            false => gw.last_sent.saturating_add(idle),
+        });
+        if protocol.full_every > 0 {
+            next = next.min(gw.last_full.saturating_add(idle * protocol.full_every));
+        }
+        if self.team.interest_dirty {
+            return Duration::ZERO;
+        }
+        next
     }
 
     fn robot_hello_if_due(&mut self) {
