@@ -158,9 +158,12 @@ pub(crate) struct Shared {
     state: Mutex<State>,
     queue: Mutex<Vec<Work>>,
     pub outbox: Outbox,
-    wake: (Mutex<Option<u64>>, Condvar),
-    /// The earliest plan timer (microseconds of the board's clock; `u64::MAX`: none): a
-    /// manual clock's move before it has nothing for the engine to do.
+    /// Wakes the system clock's timer thread when a timer sooner than the one it waits
+    /// for is set ([`timer_loop`]).
+    wake: (Mutex<()>, Condvar),
+    /// The earliest plan timer (microseconds of the board's clock; `u64::MAX`: none),
+    /// set after each run of the engine: a manual clock's move before it has nothing
+    /// for the engine to do, and the system clock's timer thread sleeps until it.
     next_timer: AtomicU64,
     /// Plans declared in loaded files, for `send NAME` (its own lock: rules read it while
     /// the engine runs).
@@ -168,6 +171,8 @@ pub(crate) struct Shared {
     /// Derived attributes of loaded files and what they read.
     pub(crate) derived: Mutex<crate::load::DerivedDeps>,
     evaluations: AtomicU64,
+    /// Times the system clock's timer thread found a deadline passed and ran the plans.
+    timer_wakes: AtomicU64,
     /// Plans installed (the hook does nothing while there are none).
     installed: AtomicUsize,
     /// The `link` blocks of every file loaded, merged per link.
@@ -213,11 +218,12 @@ impl Engine {
             state: Mutex::new(State::default()),
             queue: Mutex::new(Vec::new()),
             outbox: Outbox::default(),
-            wake: (Mutex::new(None), Condvar::new()),
+            wake: (Mutex::new(()), Condvar::new()),
             next_timer: AtomicU64::new(u64::MAX),
             texts: Mutex::new(HashMap::new()),
             derived: Mutex::new(HashMap::new()),
             evaluations: AtomicU64::new(0),
+            timer_wakes: AtomicU64::new(0),
             installed: AtomicUsize::new(0),
             links: Mutex::new(BTreeMap::new()),
             origins: crate::authority::Origins::default(),
@@ -288,6 +294,12 @@ impl Engine {
     /// small: a write evaluates only the plans that read what it changed).
     pub fn evaluations(&self) -> u64 {
         self.shared.evaluations.load(Ordering::Relaxed)
+    }
+
+    /// How many times the timer thread ([`Engine::run_timers`]) found a deadline passed
+    /// and ran the plans due.
+    pub fn timer_wakes(&self) -> u64 {
+        self.shared.timer_wakes.load(Ordering::Relaxed)
     }
 
     /// Cancels a plan; it never acts again. Returns false if there is no such plan.
@@ -520,19 +532,22 @@ fn timer_loop(weak: &Weak<Shared>) {
             return;
         };
         let now = micros(board.clock().physical());
-        let next = *shared.wake.0.lock();
-        match next {
-            Some(due) if due <= now => shared.push(Work::Due, &board),
-            _ => {
-                let wait = next
-                    .map_or(Duration::from_millis(200), |d| {
-                        Duration::from_micros(d - now)
-                    })
-                    .min(Duration::from_millis(200));
-                let mut guard = shared.wake.0.lock();
-                shared.wake.1.wait_for(&mut guard, wait);
+        // Read under the lock a sooner timer notifies under, so none is missed.
+        let mut guard = shared.wake.0.lock();
+        let next = shared.next_timer.load(Ordering::SeqCst);
+        if next <= now {
+            drop(guard);
+            shared.timer_wakes.fetch_add(1, Ordering::Relaxed);
+            shared.push(Work::Due, &board);
+            if shared.next_timer.load(Ordering::SeqCst) <= now {
+                // Another thread runs the engine and will run the plans due: wait for
+                // it rather than queue more.
+                std::thread::sleep(Duration::from_millis(1));
             }
+            continue;
         }
+        let wait = Duration::from_micros(next - now).min(Duration::from_millis(200));
+        shared.wake.1.wait_for(&mut guard, wait);
     }
 }
 
@@ -647,10 +662,8 @@ impl Shared {
         rt.timer_gen += 1;
         let due = micros(Duration::try_from_secs_f64(at.max(0.0)).unwrap_or(Duration::MAX));
         st.timers.push(Reverse((due, idx, rt.timer_gen)));
-        self.next_timer.fetch_min(due, Ordering::SeqCst);
-        let mut next = self.wake.0.lock();
-        if next.is_none_or(|n| due < n) {
-            *next = Some(due);
+        if due < self.next_timer.fetch_min(due, Ordering::SeqCst) {
+            let _guard = self.wake.0.lock();
             self.wake.1.notify_all();
         }
     }

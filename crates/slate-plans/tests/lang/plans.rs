@@ -582,3 +582,34 @@ fn a_resumed_plan_that_had_acted_takes_its_changed_references_from_the_board() {
     level(&b, 3.6);
     assert_eq!(logged(&b), Value::Int(1));
 }
+
+/// On the system clock the engine's timer thread sleeps until the next plan deadline:
+/// once a plan's `every` timer has fired and the plan ended, nothing is due and the
+/// thread wakes at most every 200 ms. It used to keep the passed deadline as its wake-up
+/// time and loop on it, one core at 100 % for the life of the node.
+#[test]
+fn the_timer_thread_sleeps_once_nothing_is_due() {
+    let board = Arc::new(Board::builder().build());
+    let e = Engine::new(&board);
+    e.load(
+        "t.slate",
+        &format!(
+            "{SIGNALS}
+            plan p {{ trigger: trig.on; termination: log.n >= 2; every 50ms;
+                action {{ set log.n = log.n + 1; }} }}"
+        ),
+    )
+    .unwrap();
+    let _timers = e.run_timers();
+    set(&board, "trig", true);
+    let ended = |b: &Board| b.read("p", "state").unwrap().value == Value::from("terminated");
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while !ended(&board) && std::time::Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert!(ended(&board), "the every timer fired the plan to its end");
+    let before = e.timer_wakes();
+    std::thread::sleep(Duration::from_millis(500));
+    let wakes = e.timer_wakes() - before;
+    assert!(wakes <= 5, "{wakes} wake-ups in 500 ms with nothing due");
+}
