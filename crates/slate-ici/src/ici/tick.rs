@@ -94,26 +94,12 @@ impl State {
             .min(self.catch_up_next_tick())
             .min(self.plans_held_from)
             .min(self.team_next_tick());
-        let after = self.config.forget_dead;
         for p in self.dead.iter().filter_map(|a| self.peers.get(a)) {
-            let gone = if p.up {
-                self.silent_deadline(p)
-            } else {
-                Duration::ZERO
-            };
-            let forgotten = match p.observer {
-                true => Duration::ZERO,
-                false => p
-                    .last_heard
-                    .saturating_add(after)
-                    .saturating_add(Duration::from_nanos(1)),
-            };
-            next = next.min(gone.max(forgotten));
+            next = next.min(self.forget_due(p));
         }
         for p in self.peers.values() {
-            if let (true, Some((sent, tries))) = (p.up, p.hello_unanswered) {
-                let wait = self.config.link(p.link).heartbeat * (1 << tries.min(3));
-                next = next.min(sent.saturating_add(wait));
+            if let Some(due) = self.hello_due(p) {
+                next = next.min(due);
             }
             if p.deferred.is_some() {
                 next = next.min(self.deferred_answer_due(p));
@@ -141,12 +127,8 @@ impl State {
         let unanswered: Vec<(Address, u32)> = self
             .peers
             .iter()
-            .filter(|(_, p)| p.up)
-            .filter_map(|(a, p)| {
-                let (sent, tries) = p.hello_unanswered?;
-                let wait = self.config.link(p.link).heartbeat * (1 << tries.min(3));
-                (now.saturating_sub(sent) >= wait).then(|| (a.clone(), tries))
-            })
+            .filter(|(_, p)| self.hello_due(p).is_some_and(|due| now >= due))
+            .filter_map(|(a, p)| Some((a.clone(), p.hello_unanswered?.1)))
             .collect();
         self.tick_again |= !unanswered.is_empty();
         for (peer, tries) in unanswered {
@@ -401,14 +383,39 @@ impl State {
     /// transport says it is down, or it has been silent past its link's timeout (a
     /// message still in flight when it left shows it up again, and no down follows).
     /// Walks only the dead (`State::dead`), in the peers' order.
+    /// When a dead peer `p` is forgotten: once it is down or silent past its timeout,
+    /// and (but an observer, forgotten at once) `forget_dead` after it was last heard.
+    fn forget_due(&self, p: &Peer) -> Duration {
+        let gone = if p.up {
+            self.silent_deadline(p)
+        } else {
+            Duration::ZERO
+        };
+        let forgotten = match p.observer {
+            true => Duration::ZERO,
+            false => p
+                .last_heard
+                .saturating_add(self.config.forget_dead)
+                .saturating_add(Duration::from_nanos(1)),
+        };
+        gone.max(forgotten)
+    }
+
+    /// When the hello an up peer has not answered goes again: the link's heartbeat
+    /// interval after it was sent, doubled with every try up to eight times that.
+    fn hello_due(&self, p: &Peer) -> Option<Duration> {
+        let (sent, tries) = p.hello_unanswered.filter(|_| p.up)?;
+        let wait = self.config.link(p.link).heartbeat * (1 << tries.min(3));
+        Some(sent.saturating_add(wait))
+    }
+
     fn forget_dead(&mut self) {
-        let (now, after) = (self.now, self.config.forget_dead);
+        let now = self.now;
         let gone: Vec<Address> = self
             .dead
             .iter()
             .filter_map(|a| Some((a, self.peers.get(a)?)))
-            .filter(|(_, p)| !p.up || self.silent(p))
-            .filter(|(_, p)| p.observer || now.saturating_sub(p.last_heard) > after)
+            .filter(|(_, p)| now >= self.forget_due(p))
             .map(|(a, _)| a.clone())
             .collect();
         self.tick_again |= !gone.is_empty();
