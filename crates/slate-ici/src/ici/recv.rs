@@ -137,8 +137,7 @@ impl State {
     /// goes as it is). Only where catch-up is per pair: with the team protocol on, a team
     /// peer's state comes through its robot's stream.
     fn holds_plans_of(&self, from: &Address) -> bool {
-        let link = LinkKind::between(&self.me, from);
-        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+        if self.robot_speaks_on(LinkKind::between(&self.me, from)) {
             return false;
         }
         let now = self.now;

@@ -385,7 +385,7 @@ impl State {
         if !exported {
             return Wanted::NotExported;
         }
-        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+        if self.robot_speaks_on(link) {
             return if self.team_wants(item) {
                 Wanted::Yes
             } else {

@@ -300,6 +300,13 @@ pub(crate) struct State {
 }
 
 impl State {
+    /// Does this module's robot speak for it on `link` (the team link with the team
+    /// protocol on: one gateway per robot, its numbered stream, robot hellos and
+    /// heartbeats, no hello or catch-up per pair of modules)?
+    pub(crate) fn robot_speaks_on(&self, link: LinkKind) -> bool {
+        link == LinkKind::Team && self.config.team_protocol.is_some()
+    }
+
     pub fn new(
         board: Arc<Board>,
         transport: Arc<dyn Transport>,
@@ -488,7 +495,7 @@ impl State {
     /// writers back for: `flow` does not travel there (docs/ici.md, *A class that needs
     /// every update*).
     pub fn publish_with(&mut self, link: LinkKind, kind: MsgKind, bytes: &[u8], flow: Flow) {
-        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+        if self.robot_speaks_on(link) {
             return self.team_out(bytes);
         }
         self.publish_now_with(link, kind, bytes, flow);

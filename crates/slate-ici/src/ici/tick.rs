@@ -205,8 +205,7 @@ impl State {
             let next = self.now + self.heartbeat_gap(link);
             self.next_heartbeat.insert(link, next);
             // With the team protocol on, the robot heartbeat replaces the module's.
-            let robot_speaks = link == LinkKind::Team && self.config.team_protocol.is_some();
-            if robot_speaks || self.up_peers(link).is_empty() {
+            if self.robot_speaks_on(link) || self.up_peers(link).is_empty() {
                 continue;
             }
             let hb = self.heartbeat(link);
@@ -541,8 +540,7 @@ impl State {
             self.set_alive(peer, true);
             self.plans.push(super::PlanEvent::Peer(peer.clone(), true));
         }
-        let link = LinkKind::between(&self.me, peer);
-        if link == LinkKind::Team && self.config.team_protocol.is_some() {
+        if self.robot_speaks_on(LinkKind::between(&self.me, peer)) {
             // Liveliness only: no per-pair hello or catch-up on the team link (a
             // receiver that lacks the robot hello NACKs it).
             return;
@@ -554,8 +552,7 @@ impl State {
     /// Tells a peer this module's incarnation and interest, until it answers. With the
     /// team protocol on, a team peer learns them from the robot hello instead.
     pub fn send_hello(&mut self, to: &Address) {
-        let team = LinkKind::between(&self.me, to) == LinkKind::Team;
-        if team && self.config.team_protocol.is_some() {
+        if self.robot_speaks_on(LinkKind::between(&self.me, to)) {
             return self.team_hello_changed();
         }
         let now = self.now;
