@@ -1,6 +1,7 @@
 //! What plans and rules send out (reports and plans for other modules) and the progress
 //! events of plans. The ICI carries both; tests read them here.
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 
 use crossbeam_channel::{Receiver, Sender};
@@ -95,17 +96,34 @@ pub enum PlanEvent {
     },
 }
 
+/// Sends kept, at most, while nothing subscribes to them (`Outbox::send`).
+pub(crate) const MAX_UNCLAIMED: usize = 256;
+
 /// Fan-out of outgoing messages and events to their subscribers.
 #[derive(Default)]
 pub(crate) struct Outbox {
-    outgoing: Mutex<Vec<Sender<Outgoing>>>,
+    outgoing: Mutex<Subscribers>,
     events: Mutex<Vec<Sender<PlanEvent>>>,
 }
 
+/// Who takes the sends, and the sends made before anyone did.
+#[derive(Default)]
+struct Subscribers {
+    senders: Vec<Sender<Outgoing>>,
+    unclaimed: VecDeque<Outgoing>,
+    /// Unclaimed sends dropped to keep [`MAX_UNCLAIMED`].
+    dropped: u64,
+}
+
 impl Outbox {
+    /// A new subscriber of the sends; the first takes those made before it came.
     pub fn subscribe_outgoing(&self) -> Receiver<Outgoing> {
         let (tx, rx) = crossbeam_channel::unbounded();
-        self.outgoing.lock().push(tx);
+        let mut subs = self.outgoing.lock();
+        for msg in subs.unclaimed.drain(..) {
+            let _ = tx.send(msg);
+        }
+        subs.senders.push(tx);
         rx
     }
 
@@ -115,10 +133,34 @@ impl Outbox {
         rx
     }
 
+    /// Hands `msg` to every subscriber. With none, it waits for the first: plans whose
+    /// trigger holds as their node starts act before the ICI subscribes (they are loaded
+    /// first, and the first catch-up can make them true), and a `send` made then was
+    /// lost for good. At most [`MAX_UNCLAIMED`] wait (an engine no ICI ever carries
+    /// keeps its newest sends); the oldest go first, counted and logged.
     pub fn send(&self, msg: Outgoing) {
-        self.outgoing
-            .lock()
-            .retain(|tx| tx.send(msg.clone()).is_ok());
+        let mut subs = self.outgoing.lock();
+        subs.senders.retain(|tx| tx.send(msg.clone()).is_ok());
+        if !subs.senders.is_empty() {
+            return;
+        }
+        if subs.unclaimed.len() >= MAX_UNCLAIMED {
+            subs.unclaimed.pop_front();
+            subs.dropped += 1;
+            if subs.dropped == 1 {
+                tracing::warn!(
+                    kept = MAX_UNCLAIMED,
+                    "plan sends with nothing to carry them (no ICI attached): the oldest are dropped"
+                );
+            }
+        }
+        subs.unclaimed.push_back(msg);
+    }
+
+    /// Sends dropped while nothing subscribed (beyond [`MAX_UNCLAIMED`]).
+    #[cfg(test)]
+    pub fn unclaimed_dropped(&self) -> u64 {
+        self.outgoing.lock().dropped
     }
 
     /// Is anyone listening to events? (Lets the hot path skip building them.)
@@ -129,5 +171,57 @@ impl Outbox {
     pub fn event(&self, e: PlanEvent) {
         tracing::debug!(?e, "plan event");
         self.events.lock().retain(|tx| tx.send(e.clone()).is_ok());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan(n: usize) -> Outgoing {
+        Outgoing::Plan(PlanMessage {
+            origin: "push".into(),
+            name: format!("p{n}"),
+            text: format!("plan p{n} {{ }}"),
+            to: Address::new("t/r1/loco").unwrap(),
+        })
+    }
+
+    #[test]
+    fn sends_made_before_anyone_subscribed_go_to_the_first_subscriber_in_order() {
+        let outbox = Outbox::default();
+        outbox.send(plan(1));
+        outbox.send(plan(2));
+        let first = outbox.subscribe_outgoing();
+        let second = outbox.subscribe_outgoing();
+        outbox.send(plan(3));
+        assert_eq!(
+            first.try_iter().collect::<Vec<_>>(),
+            [plan(1), plan(2), plan(3)]
+        );
+        assert_eq!(second.try_iter().collect::<Vec<_>>(), [plan(3)]);
+    }
+
+    #[test]
+    fn unclaimed_sends_are_bounded_keeping_the_newest() {
+        let outbox = Outbox::default();
+        for n in 0..MAX_UNCLAIMED + 10 {
+            outbox.send(plan(n));
+        }
+        assert_eq!(outbox.unclaimed_dropped(), 10);
+        let got: Vec<_> = outbox.subscribe_outgoing().try_iter().collect();
+        assert_eq!(got.len(), MAX_UNCLAIMED);
+        assert_eq!(got[0], plan(10));
+    }
+
+    #[test]
+    fn sends_wait_again_once_every_subscriber_is_gone() {
+        let outbox = Outbox::default();
+        drop(outbox.subscribe_outgoing());
+        outbox.send(plan(1));
+        assert_eq!(
+            outbox.subscribe_outgoing().try_iter().collect::<Vec<_>>(),
+            [plan(1)]
+        );
     }
 }

@@ -306,6 +306,33 @@ fn a_follower_gets_each_event_as_it_is_logged() {
 }
 
 #[test]
+fn a_send_that_fires_as_its_node_starts_reaches_its_destination() {
+    // A plan whose trigger holds when its node starts (here at once, from the node's
+    // own object; on a live team, as the first catch-up brings what it waits for) runs
+    // its action before the node is up. Its `send plan` went to no one: the plan
+    // circuits subscribed to the engine's sends after the plans were loaded and the
+    // ICI had started, and a send made before that was lost for good (the secured CLI
+    // test `a_plan_from_a_module_without_authority_...` failed so, about one run in 30).
+    let net = SimNet::new(7);
+    let loco = start(&net, "t/r1/loco", "object gsr : Vehicle context self;");
+    net.run_for(Duration::from_millis(500));
+    let push = r#"object rock : Obstacle { range = 7.5; }
+plan push { trigger: any o: Obstacle where o.range > 5.0; action {
+    send plan steer { action { set gsr.mode = "manual"; } } to "t/r1/loco";
+} }"#;
+    let cam = start(&net, "t/r1/cam", push);
+    let steered = run_until(&net, 5.0, || {
+        loco.board().read("gsr", "mode").map(|p| p.value) == Ok(Value::from("manual"))
+    });
+    assert!(
+        steered,
+        "loco's mode: {:?}; cam's plans: {}",
+        loco.board().read("gsr", "mode"),
+        cam.snapshot()["plans"]
+    );
+}
+
+#[test]
 fn a_plan_from_another_robots_module_is_refused_by_default_and_logged() {
     // Issue 17, finding 2: by default a node takes plans from its robot's modules and the
     // team's operators only.
