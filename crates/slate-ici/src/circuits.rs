@@ -464,6 +464,7 @@ impl Inner {
             self.origin().forget(circuit);
             return Err(e.into());
         }
+        tracing::debug!(me = %self.me, %to, circuit, plan = %name, "plan sent");
         Ok(PlanHandle {
             circuit,
             name,

@@ -84,6 +84,7 @@ impl State {
             classes: classes || prev.is_some_and(|r| r.classes),
         };
         p.catch_up = Some(req);
+        tracing::debug!(me = %self.me, %source, names = req.names, classes = req.classes, at = ?now, "catch-up asked");
         self.catch_up_changed(source);
         self.stats.catch_up.requested += 1;
         self.send_request(source, req);
@@ -503,6 +504,7 @@ impl State {
         }
         p.stream.caught_up(list.seq, now);
         p.caught_up = true;
+        tracing::debug!(me = %self.me, %from, objects = list.objects.len(), at = ?now, "caught up");
         self.catch_up_changed(from);
         self.stats.catch_up.completed += 1;
         for l in &list.objects {

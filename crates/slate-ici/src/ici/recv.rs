@@ -122,6 +122,9 @@ impl State {
                 self.hold_plan(from, plan);
             }
             plan @ (Message::Plan(_) | Message::PlanAck(_) | Message::PlanCancel { .. }) => {
+                if let Message::Plan(p) = &plan {
+                    tracing::debug!(me = %self.me, %from, circuit = p.circuit, "plan received");
+                }
                 self.plans
                     .push(super::PlanEvent::Message(from.clone(), plan));
             }
@@ -149,9 +152,11 @@ impl State {
     fn hold_plan(&mut self, from: &Address, plan: Message) {
         let now = self.now;
         let timeout = self.config.link(LinkKind::between(&self.me, from)).timeout;
+        let me = self.me.clone();
         let p = self.peer(from);
         p.hold_plans_until.get_or_insert(now + timeout);
         p.held_plans.push(plan);
+        tracing::debug!(%me, %from, held = p.held_plans.len(), at = ?now, "plan held until this board has caught up with its sender");
         let full = p.held_plans.len() >= MAX_HELD_PLANS;
         self.stats.catch_up.plans_held += 1;
         self.plans_held_from = self.plans_held_from.min(now + timeout);

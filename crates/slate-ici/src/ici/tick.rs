@@ -489,6 +489,7 @@ impl State {
             match retried {
                 Some(r) => {
                     self.stats.catch_up.retried += 1;
+                    tracing::debug!(me = %self.me, source = %a, at = ?self.now, "catch-up asked again: no answer yet");
                     self.send_request(&a, r);
                 }
                 None => {
