@@ -432,7 +432,11 @@ impl State {
     /// while (a partition, heartbeats stuck behind a radio's backlog) whose later messages
     /// use names it announced before is heard again without asking for its whole state.
     pub fn lost(&mut self, peer: &Address) {
-        tracing::debug!(me = %self.me, %peer, at = ?self.now, "module lost");
+        if let Some(p) = self.peers.get(peer) {
+            let silent = self.now.saturating_sub(p.last_heard);
+            let down_after_silence = p.down_at.map(|d| d.saturating_sub(p.last_heard));
+            tracing::debug!(me = %self.me, %peer, at = ?self.now, ?silent, ?down_after_silence, "module lost");
+        }
         self.stats.liveliness.lost += 1;
         self.set_alive(peer, false);
         self.plans.push(super::PlanEvent::Peer(peer.clone(), false));
@@ -521,6 +525,8 @@ impl State {
         p.catch_up = None;
         if !up {
             p.down_at = Some(now);
+            let silent = now.saturating_sub(p.last_heard);
+            tracing::debug!(me = %self.me, %peer, at = ?now, ?silent, "the transport says down");
             let p = &self.peers[peer];
             if p.alive == Some(true) && self.down_believed(p) {
                 self.lost(peer);
