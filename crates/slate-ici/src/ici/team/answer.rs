@@ -590,8 +590,8 @@ mod tests {
     #[test]
     fn a_held_ask_for_a_member_whose_answer_still_waits_in_the_queue_waits_for_it() {
         // 24 robots: the console released its held asks every `answer_interval` while
-        // its own answer still waited in its queue, so it queued a whole state about
-        // once a second behind a queue 74 s long.
+        // its own answer still waited in its queue, so it queued a whole state every
+        // 2 s or so (135 in a run) behind a queue 74 s long.
         let (_net, mut st) = state();
         st.team.gateway = Some(gateway_of_three(Some((1, true))));
         // Asks with names are not served by the queued answer (it may lack them).
