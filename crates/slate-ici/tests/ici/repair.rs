@@ -228,3 +228,39 @@ fn a_message_naming_what_a_lost_frame_announced_waits_for_the_repair() {
         c.team.assert_converges(30);
     }
 }
+
+/// A split brain ends: robot 1's gateway is cut off, its mate takes the role and says
+/// something, a robot loses that frame, and the old gateway comes back before the mate's
+/// stream said its position again. The mate tells the gateway it answers to now where
+/// its own messages got to (a `Mark`), and the gateway tells the team in its next full
+/// heartbeat (every 30 s): the loser finds the member's gap and asks its state. Before,
+/// the lost frame was the last of a stream nobody spoke for any more, and no board
+/// learnt of it (seed 160: not in 40 s).
+#[test]
+fn a_frame_lost_at_the_end_of_a_split_brain_reaches_every_board() {
+    for seed in 160..163 {
+        let c = counted(seed, 3, 2, &radio);
+        c.team.run(3.0);
+        c.team.net.kill(&addr("t/r1/m0"));
+        c.team.run(3.0);
+        let losers = [addr("t/r2/m0"), addr("t/r2/m1")];
+        c.team.net.drop_next_publish(&addr("t/r1/m1"), &losers);
+        let board = c.team.board("t/r1/m1");
+        let rock = NewObject::new("Rock", "rock_split").context(Context::Surroundings);
+        board.create_with(rock).unwrap();
+        board.write("rock_split", "hits", Value::Int(9)).unwrap();
+        c.team.run(0.3);
+        c.team.net.revive(&addr("t/r1/m0"));
+        c.team.run(40.0);
+        let on = |m: &str| {
+            c.team
+                .board(m)
+                .read("rock_split", "hits")
+                .ok()
+                .map(|p| p.value)
+        };
+        assert_eq!(on("t/r0/m0"), Some(Value::Int(9)), "seed {seed}: robot 0");
+        assert_eq!(on("t/r2/m0"), Some(Value::Int(9)), "seed {seed}: robot 2");
+        c.team.assert_converges(30);
+    }
+}

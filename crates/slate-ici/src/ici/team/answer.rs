@@ -13,12 +13,14 @@
 //! Observers (`IciConfig::observer`) keep today's unicast catch-up request, answered
 //! by a reliable send to them alone.
 
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 
 use slate_model::Address;
 
 use super::frame::{MAX_MEMBERS, NackEntry, StateAsk, StateRequest, StreamTag, TeamMsg};
+use super::gateway::Gateway;
 use crate::ici::catchup::Audience;
 use crate::ici::classes::ClassSet;
 use crate::ici::frame::MAX_ITEMS;
@@ -218,7 +220,10 @@ impl State {
     /// Forwards the state asks held while the queue was not empty, once it is, or once
     /// the oldest has waited `answer_interval`: on a channel slower than what the robot
     /// says (the acoustic console's) the queue never empties, and an ask held for that
-    /// would never be answered.
+    /// would never be answered. An ask for a member whose state answer still waits in
+    /// the queue waits for it to leave: a second whole state behind the first tells
+    /// nobody more than the first will, and at 24 robots the console queued one every
+    /// `answer_interval` behind a queue 74 s long (docs/team-protocol.md, 9.1).
     pub(super) fn forward_held_state_asks(&mut self) {
         let now = self.now;
         let interval = self
@@ -236,8 +241,15 @@ impl State {
         if !gw.queue.is_empty() && !waited {
             return;
         }
-        gw.held_since = None;
-        for (name, req) in std::mem::take(&mut gw.held_asks) {
+        let answer_queued = |gw: &Gateway, name: &str| {
+            (gw.index_of(name)).is_some_and(|i| gw.queue.holds_answer_of(i))
+        };
+        let (wait, go): (BTreeMap<_, _>, BTreeMap<_, _>) = std::mem::take(&mut gw.held_asks)
+            .into_iter()
+            .partition(|(name, _)| answer_queued(gw, name));
+        gw.held_since = (!wait.is_empty()).then_some(now);
+        gw.held_asks = wait;
+        for (name, req) in go {
             self.forward_state_request(&name, req);
         }
     }
@@ -573,6 +585,34 @@ mod tests {
             "m2 only: m1's answer was on its way"
         );
         assert_eq!(st.stats.team.state_asks_covered, 1);
+    }
+
+    #[test]
+    fn a_held_ask_for_a_member_whose_answer_still_waits_in_the_queue_waits_for_it() {
+        // 24 robots: the console released its held asks every `answer_interval` while
+        // its own answer still waited in its queue, so it queued a whole state every
+        // 2 s or so (135 in a run) behind a queue 74 s long.
+        let (_net, mut st) = state();
+        st.team.gateway = Some(gateway_of_three(Some((1, true))));
+        // Asks with names are not served by the queued answer (it may lack them).
+        st.on_team(&addr("t/r3/g"), &state_nack(StreamTag(77), 0b110, true));
+        let interval = TeamProtocol::radio().answer_interval;
+        st.now = START + interval;
+        st.forward_held_state_asks();
+        assert_eq!(
+            sent(&st, LinkKind::Robot, MsgKind::StateRequest),
+            1,
+            "m2 only: m1's answer still waits in the queue"
+        );
+        st.now = START + ms(2000);
+        st.pump();
+        st.forward_held_state_asks();
+        assert!(st.team.gateway.as_ref().unwrap().queue.is_empty());
+        assert_eq!(
+            sent(&st, LinkKind::Robot, MsgKind::StateRequest),
+            2,
+            "m1's ask goes once its answer left"
+        );
     }
 
     fn request(robot: &str) -> StateRequest {

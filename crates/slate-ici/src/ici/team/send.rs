@@ -239,12 +239,19 @@ impl State {
         }
         self.tick_again = true;
         let mine = chosen.as_ref() == Some(&self.me);
-        if self.team.gateway.is_some() && !mine {
+        let resigned = self.team.gateway.is_some() && !mine;
+        if resigned {
             self.resign();
         }
         self.team.elected = chosen;
         if mine {
             self.take_gateway_role();
+        } else if let Some(gateway) = self.team.elected.clone().filter(|_| resigned) {
+            // What this module said as gateway went out in its own stream, which nobody
+            // speaks for any more (a split brain that ended): the gateway now learns where
+            // its messages got to, and its full heartbeats tell the team, so that a lost
+            // tail of that stream shows as this module's gap at every receiver.
+            self.uplink(&gateway, Vec::new(), false);
         }
         if self.team.elected.is_some() {
             let held = self.team.pending.drain();
