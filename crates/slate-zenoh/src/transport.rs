@@ -7,7 +7,7 @@ use std::sync::{Arc, Weak, mpsc};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use parking_lot::{Mutex, RwLock};
+use parking_lot::{Condvar, Mutex, RwLock};
 use rustc_hash::FxHashMap;
 use slate_model::Address;
 use slate_transport::{Flow, Handler, LinkKind, LinkStats, MsgKind, SendError, Transport};
@@ -278,7 +278,10 @@ pub(crate) struct Inner {
     /// What the delivery thread has to do, and whether a report is being handed over on
     /// Zenoh's thread ([`Inner::hand_over`]).
     gate: Mutex<Gate>,
-    /// Publications dropped because the delivery thread was [`INBOX_CAPACITY`] behind.
+    /// Notified when the delivery thread took one from the queue: a send that may not be
+    /// dropped waits on it for room.
+    room: Condvar,
+    /// Publications dropped because the delivery queue was full ([`Gate::room`]).
     behind_dropped: AtomicU64,
     /// Some of its endpoints are `udp/`: sends may be lost without retransmission.
     datagrams: bool,
@@ -312,6 +315,7 @@ impl ZenohTransport {
             token: Mutex::new(None),
             inbox: Mutex::new(None),
             gate: Mutex::new(Gate::default()),
+            room: Condvar::new(),
             behind_dropped: AtomicU64::new(0),
             datagrams: config
                 .listen
@@ -426,10 +430,22 @@ enum Task {
 /// The thread that declares peers' keys and reports congestion, and how to tell it.
 type Declarer = (mpsc::Sender<(Address, Task)>, JoinHandle<()>);
 
-/// Messages heard (and peer events) waiting for the delivery thread, at most: a handler
-/// this far behind loses publications, so that what it is given is never more than
-/// this many messages old (docs/ici.md, *A receiver that falls behind*).
-pub(crate) const INBOX_CAPACITY: usize = 256;
+/// How long a message heard may wait for the delivery thread, about: the queue holds
+/// what the handler takes in this time at its measured pace ([`Gate::room`]), and a
+/// publication beyond that is dropped, so that what the handler is given is never much
+/// older than this (docs/ici.md, *A receiver that falls behind*). A bound in time, not in
+/// messages: Zenoh hands over a batch read from TCP (up to 64 KiB: thousands of reports)
+/// in one burst, which a fast handler takes in a few milliseconds but which a queue of a
+/// few hundred messages dropped most of.
+const INBOX_DELAY: Duration = Duration::from_millis(20);
+
+/// The queue holds at least this many messages, however slow the handler (and this many
+/// until its pace is measured).
+pub(crate) const INBOX_MIN: usize = 256;
+
+/// The queue holds at most this many messages, however fast the handler (a bound on its
+/// memory).
+pub(crate) const INBOX_CAPACITY: usize = 16_384;
 
 /// What the delivery thread hands to the handler.
 enum Delivery {
@@ -447,6 +463,9 @@ type InboxThread = (mpsc::SyncSender<Delivery>, JoinHandle<()>);
 /// or bytes that piled up in TCP meanwhile), which the handler must not hold.
 const DIRECT_GAP: Duration = Duration::from_micros(50);
 
+/// How often a send waiting for room in the queue checks that the transport is still open.
+const ROOM_CHECK: Duration = Duration::from_millis(100);
+
 /// The delivery thread's work and the direct path's state ([`Inner::hand_over`]).
 #[derive(Debug, Default)]
 struct Gate {
@@ -458,9 +477,34 @@ struct Gate {
     direct: bool,
     /// When the last direct hand-over ended.
     direct_ended: Option<Instant>,
+    /// The handler's time per delivery, a moving average ([`Gate::handled`]); `None`
+    /// until one was measured.
+    pace: Option<Duration>,
 }
 
 impl Gate {
+    /// How many deliveries the queue holds: what the handler takes in [`INBOX_DELAY`] at
+    /// its pace, within [`INBOX_MIN`] and [`INBOX_CAPACITY`].
+    fn room(&self) -> usize {
+        let Some(pace) = self.pace else {
+            return INBOX_MIN;
+        };
+        let n = INBOX_DELAY.as_nanos() / pace.as_nanos().max(1);
+        usize::try_from(n).map_or(INBOX_CAPACITY, |n| n.clamp(INBOX_MIN, INBOX_CAPACITY))
+    }
+
+    /// May one more delivery be queued?
+    fn admits(&self) -> bool {
+        self.queued < self.room()
+    }
+
+    /// The delivery thread handled a queued delivery in `took`: the pace moves an
+    /// eighth of the way towards it.
+    fn handled(&mut self, took: Duration) {
+        self.queued -= 1;
+        self.pace = Some(self.pace.map_or(took, |p| p - p / 8 + took / 8));
+    }
+
     /// May a report be handed over on Zenoh's thread now? Only when the delivery thread
     /// is idle with nothing queued (so nothing heard before it is still waiting: order
     /// holds), no other is being handed over directly, and the last one did not end just
@@ -500,8 +544,10 @@ fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
         .spawn(move || {
             for d in rx {
                 let Some(inner) = inner.upgrade() else { return };
+                let started = Instant::now();
                 inner.deliver(d);
-                inner.gate.lock().queued -= 1;
+                inner.gate.lock().handled(started.elapsed());
+                inner.room.notify_all();
             }
         })?;
     Ok((tx, thread))
@@ -561,10 +607,10 @@ impl Inner {
     }
 
     /// Queues `d` for the delivery thread. A publication finds the queue full when the
-    /// handler is [`INBOX_CAPACITY`] messages behind: it is dropped (best effort, like
-    /// Zenoh's own congestion drop: the ICI sees the gap and catches up with the
-    /// latest state). A direct send, a publication of [`Flow::Every`] or a peer event
-    /// waits for room, as it did when the handler ran on Zenoh's thread.
+    /// handler is [`INBOX_DELAY`] behind at its pace ([`Gate::room`]): it is dropped
+    /// (best effort, like Zenoh's own congestion drop: the ICI sees the gap and catches
+    /// up with the latest state). A direct send, a publication of [`Flow::Every`] or a
+    /// peer event waits for room, as it did when the handler ran on Zenoh's thread.
     ///
     /// A report (`direct`) heard while the delivery thread is idle is handed to the
     /// handler on this (Zenoh's) thread instead: a thread's wake-up less on the path of
@@ -578,22 +624,26 @@ impl Inner {
             self.deliver(d);
             return;
         }
-        let Some(tx) = self.inbox.lock().as_ref().map(|(tx, _)| tx.clone()) else {
-            return;
-        };
-        self.gate.lock().queued += 1;
-        let sent = if droppable {
-            match tx.try_send(d) {
-                Ok(()) => true,
-                Err(mpsc::TrySendError::Full(_)) => {
+        {
+            let mut gate = self.gate.lock();
+            while !gate.admits() {
+                if droppable {
+                    drop(gate);
                     let n = self.behind_dropped.fetch_add(1, Ordering::Relaxed) + 1;
                     tracing::debug!(dropped = n, "handler behind: publication dropped");
-                    false
+                    return;
                 }
-                Err(mpsc::TrySendError::Disconnected(_)) => false,
+                if self.closed.load(Ordering::Acquire) {
+                    return;
+                }
+                self.room.wait_for(&mut gate, ROOM_CHECK);
             }
-        } else {
-            tx.send(d).is_ok()
+            gate.queued += 1;
+        }
+        // The channel holds INBOX_CAPACITY, the most the gate admits: this never waits.
+        let sent = match &*self.inbox.lock() {
+            Some((tx, _)) => tx.try_send(d).is_ok(),
+            None => false,
         };
         if !sent {
             self.gate.lock().queued -= 1;
@@ -1059,6 +1109,32 @@ mod tests {
         assert!(!gate.enter_direct(later), "something queued goes first");
         gate.queued = 0;
         assert!(gate.enter_direct(later));
+    }
+
+    #[test]
+    fn the_queue_holds_what_the_handler_takes_in_its_delay() {
+        let mut gate = Gate::default();
+        assert_eq!(gate.room(), INBOX_MIN, "pace not measured yet");
+        // A board taking 5 µs a report: a burst of 1 600 reports from one Zenoh batch
+        // waits, where a queue of INBOX_MIN dropped most of it.
+        gate.queued = 1;
+        gate.handled(Duration::from_micros(5));
+        assert_eq!(gate.room(), 4_000);
+        gate.queued = 1_600;
+        assert!(gate.admits(), "a batch's burst is queued whole");
+        gate.queued = 4_000;
+        assert!(!gate.admits(), "20 ms behind: dropped");
+        // A slow handler (a Python function taking 1 ms): no more than before.
+        for _ in 0..100 {
+            gate.queued += 1;
+            gate.handled(Duration::from_millis(1));
+        }
+        assert_eq!(gate.room(), INBOX_MIN);
+        gate.queued = INBOX_MIN;
+        assert!(!gate.admits());
+        // A handler faster than the queue's memory bound allows for.
+        gate.pace = Some(Duration::ZERO);
+        assert_eq!(gate.room(), INBOX_CAPACITY);
     }
 
     #[test]
