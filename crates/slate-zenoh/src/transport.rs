@@ -444,7 +444,7 @@ const INBOX_DELAY: Duration = Duration::from_millis(20);
 pub(crate) const INBOX_MIN: usize = 256;
 
 /// The queue holds at most this many messages, however fast the handler (a bound on its
-/// memory).
+/// memory; the channel allocates as it fills).
 pub(crate) const INBOX_CAPACITY: usize = 16_384;
 
 /// What the delivery thread hands to the handler.
@@ -456,7 +456,7 @@ enum Delivery {
 }
 
 /// The queue to the delivery thread, and the thread.
-type InboxThread = (mpsc::SyncSender<Delivery>, JoinHandle<()>);
+type InboxThread = (mpsc::Sender<(Instant, Delivery)>, JoinHandle<()>);
 
 /// A report heard less than this after the last one handed over on Zenoh's thread
 /// ended goes through the delivery thread: Zenoh is likely draining a backlog (a batch,
@@ -480,9 +480,11 @@ struct Gate {
     direct: bool,
     /// When the last direct hand-over ended.
     direct_ended: Option<Instant>,
-    /// The handler's time per delivery, a moving average ([`Gate::handled`]); `None`
+    /// The handler's time per delivery, a moving average ([`Gate::paced`]); `None`
     /// until one was measured.
     pace: Option<Duration>,
+    /// When the delivery the delivery thread is handling was queued (`None`: idle).
+    handling: Option<Instant>,
 }
 
 impl Gate {
@@ -496,9 +498,14 @@ impl Gate {
         usize::try_from(n).map_or(INBOX_CAPACITY, |n| n.clamp(INBOX_MIN, INBOX_CAPACITY))
     }
 
-    /// May one more delivery be queued?
-    fn admits(&self) -> bool {
-        self.queued < self.room()
+    /// May one more delivery be queued at `now`? While there is [`Gate::room`], and the
+    /// delivery being handled waited at most [`INBOX_DELAY`] (or fewer than
+    /// [`INBOX_MIN`] wait): the pace is an average, and when some deliveries are much
+    /// slower than the others (a Python function on one class), a queue sized by the
+    /// average holds far more than its delay's worth of the slow ones.
+    fn admits(&self, now: Instant) -> bool {
+        let late = |t: Instant| now.saturating_duration_since(t) > INBOX_DELAY;
+        self.queued < self.room() && (self.queued < INBOX_MIN || !self.handling.is_some_and(late))
     }
 
     /// The delivery thread handled `n` queued deliveries in a row in `took`: the pace
@@ -542,7 +549,7 @@ impl Drop for DirectTurn<'_> {
 /// backlog (in TCP and Zenoh's buffers) would otherwise be drained in full before a
 /// catch-up answer behind it. It ends when the transport closes.
 fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
-    let (tx, rx) = mpsc::sync_channel::<Delivery>(INBOX_CAPACITY);
+    let (tx, rx) = mpsc::channel::<(Instant, Delivery)>();
     let thread = std::thread::Builder::new()
         .name("slate-zenoh-rx".into())
         .spawn(move || {
@@ -550,10 +557,11 @@ fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
             // timed as a whole: one clock read per run, not two per delivery.
             while let Ok(first) = rx.recv() {
                 let Some(inner) = inner.upgrade() else { return };
+                inner.gate.lock().handling = Some(first.0);
                 let started = Instant::now();
                 let mut n = 0;
                 let mut next = Some(first);
-                while let Some(d) = next {
+                while let Some((_, d)) = next {
                     inner.deliver(d);
                     n += 1;
                     next = if n < PACE_RUN {
@@ -563,6 +571,7 @@ fn spawn_inbox(inner: Weak<Inner>) -> std::io::Result<InboxThread> {
                     };
                     let mut gate = inner.gate.lock();
                     gate.queued -= 1;
+                    gate.handling = next.as_ref().map(|(queued, _)| *queued);
                     if next.is_none() {
                         gate.paced(n, started.elapsed());
                     }
@@ -645,9 +654,10 @@ impl Inner {
             self.deliver(d);
             return;
         }
+        let mut now = Instant::now();
         {
             let mut gate = self.gate.lock();
-            while !gate.admits() {
+            while !gate.admits(now) {
                 if droppable {
                     drop(gate);
                     let n = self.behind_dropped.fetch_add(1, Ordering::Relaxed) + 1;
@@ -658,12 +668,13 @@ impl Inner {
                     return;
                 }
                 self.room.wait_for(&mut gate, ROOM_CHECK);
+                now = Instant::now();
             }
             gate.queued += 1;
         }
-        // The channel holds INBOX_CAPACITY, the most the gate admits: this never waits.
+        // The gate bounds what the channel holds.
         let sent = match &*self.inbox.lock() {
-            Some((tx, _)) => tx.try_send(d).is_ok(),
+            Some((tx, _)) => tx.send((now, d)).is_ok(),
             None => false,
         };
         if !sent {
@@ -1137,6 +1148,7 @@ mod tests {
 
     #[test]
     fn the_queue_holds_what_the_handler_takes_in_its_delay() {
+        let t0 = Instant::now();
         let mut gate = Gate::default();
         assert_eq!(gate.room(), INBOX_MIN, "pace not measured yet");
         // A board taking 5 µs a report: a burst of 1 600 reports from one Zenoh batch
@@ -1144,19 +1156,44 @@ mod tests {
         gate.paced(64, Duration::from_micros(5 * 64));
         assert_eq!(gate.room(), 4_000);
         gate.queued = 1_600;
-        assert!(gate.admits(), "a batch's burst is queued whole");
+        gate.handling = Some(t0);
+        assert!(gate.admits(t0), "a batch's burst is queued whole");
         gate.queued = 4_000;
-        assert!(!gate.admits(), "20 ms behind: dropped");
+        assert!(!gate.admits(t0), "20 ms behind at its pace: dropped");
         // A slow handler (a Python function taking 1 ms): no more than before.
         for _ in 0..100 {
             gate.paced(1, Duration::from_millis(1));
         }
         assert_eq!(gate.room(), INBOX_MIN);
         gate.queued = INBOX_MIN;
-        assert!(!gate.admits());
+        assert!(!gate.admits(t0));
         // A handler faster than the queue's memory bound allows for.
         gate.pace = Some(Duration::ZERO);
         assert_eq!(gate.room(), INBOX_CAPACITY);
+    }
+
+    #[test]
+    fn a_queue_whose_head_waited_past_the_delay_admits_no_more_than_the_minimum() {
+        // Fast on average, but what is handled now waited longer than the delay (slow
+        // deliveries among fast ones): room by the pace, but no more than INBOX_MIN.
+        let t0 = Instant::now();
+        let mut gate = Gate::default();
+        gate.paced(64, Duration::from_micros(5 * 64));
+        gate.queued = 1_000;
+        gate.handling = Some(t0);
+        assert!(gate.admits(t0 + INBOX_DELAY));
+        assert!(!gate.admits(t0 + INBOX_DELAY + Duration::from_millis(1)));
+        gate.queued = INBOX_MIN - 1;
+        assert!(
+            gate.admits(t0 + Duration::from_secs(1)),
+            "the minimum always"
+        );
+        gate.queued = 1_000;
+        gate.handling = None;
+        assert!(
+            gate.admits(t0 + Duration::from_secs(1)),
+            "idle: nothing waited"
+        );
     }
 
     #[test]
