@@ -78,11 +78,14 @@ def test_a_backlog_is_taken_whole_in_order_then_the_watch_waits(board: slate.Boa
     rest = watch.drain()
     changes = [first, *middle, *rest]
     assert [c.revision for c in changes] == revisions
-    assert [c.items[0].packet.value for c in changes] == [i / 100 for i in range(1000)]
+    packets = [c.items[0].packet for c in changes]
+    assert [p.value if p is not None else None for p in packets] == [i / 100 for i in range(1000)]
     assert watch.pending == 0 and watch.get(timeout=0) is None
     board.write("gsr", "speed", 10.0)
     later = watch.get(timeout=1.0)
-    assert later is not None and later.items[0].packet.value == 10.0
+    assert later is not None
+    packet = later.items[0].packet
+    assert packet is not None and packet.value == 10.0
 
 
 def test_a_blocked_watch_releases_the_gil_for_writers(board: slate.Board) -> None:
