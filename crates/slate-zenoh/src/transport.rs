@@ -518,11 +518,10 @@ impl Gate {
     /// May a report be handed over on Zenoh's thread now? Only when the delivery thread
     /// is idle with nothing queued (so nothing heard before it is still waiting: order
     /// holds), no other is being handed over directly, and the last one did not end just
-    /// now. `now` is read only when the rest holds (a clock read costs as much as the
-    /// rest of this on some virtual machines, and a backlog never needs it).
-    fn enter_direct(&mut self, now: impl FnOnce() -> Instant) -> bool {
+    /// now.
+    fn enter_direct(&mut self, now: Instant) -> bool {
         let idle = self.queued == 0 && !self.direct;
-        if idle && self.direct_ended.is_none_or(|t| now() - t >= DIRECT_GAP) {
+        if idle && self.direct_ended.is_none_or(|t| now - t >= DIRECT_GAP) {
             self.direct = true;
             return true;
         }
@@ -637,7 +636,8 @@ impl Inner {
     }
 
     /// Queues `d` for the delivery thread. A publication finds the queue full when the
-    /// handler is [`INBOX_DELAY`] behind at its pace ([`Gate::room`]): it is dropped
+    /// handler is [`INBOX_DELAY`] behind at its pace, or what it is handling waited
+    /// longer than that ([`Gate::admits`]): it is dropped
     /// (best effort, like Zenoh's own congestion drop: the ICI sees the gap and catches
     /// up with the latest state). A direct send, a publication of [`Flow::Every`] or a
     /// peer event waits for room, as it did when the handler ran on Zenoh's thread.
@@ -649,12 +649,12 @@ impl Inner {
     /// backlog is drained through the queue, where what the handler cannot take is
     /// dropped, not held in Zenoh's and TCP's buffers ([`Gate::enter_direct`]).
     fn hand_over(&self, d: Delivery, droppable: bool, direct: bool) {
-        if direct && self.gate.lock().enter_direct(Instant::now) {
+        let mut now = Instant::now();
+        if direct && self.gate.lock().enter_direct(now) {
             let _turn = DirectTurn(&self.gate);
             self.deliver(d);
             return;
         }
-        let mut now = Instant::now();
         {
             let mut gate = self.gate.lock();
             while !gate.admits(now) {
@@ -1130,20 +1130,17 @@ mod tests {
     fn a_report_is_handed_over_on_zenohs_thread_only_when_nothing_waits_or_just_went() {
         let t0 = Instant::now();
         let mut gate = Gate::default();
-        assert!(gate.enter_direct(|| t0), "idle");
-        assert!(!gate.enter_direct(|| t0), "another is being handed over");
+        assert!(gate.enter_direct(t0), "idle");
+        assert!(!gate.enter_direct(t0), "another is being handed over");
         gate.direct = false;
         gate.direct_ended = Some(t0);
         let soon = t0 + DIRECT_GAP / 2;
-        assert!(
-            !gate.enter_direct(|| soon),
-            "right after the last: a backlog"
-        );
+        assert!(!gate.enter_direct(soon), "right after the last: a backlog");
         let later = t0 + DIRECT_GAP;
         gate.queued = 1;
-        assert!(!gate.enter_direct(|| later), "something queued goes first");
+        assert!(!gate.enter_direct(later), "something queued goes first");
         gate.queued = 0;
-        assert!(gate.enter_direct(|| later));
+        assert!(gate.enter_direct(later));
     }
 
     #[test]
@@ -1200,7 +1197,7 @@ mod tests {
     fn a_direct_hand_over_that_panics_still_ends() {
         let gate = Mutex::new(Gate::default());
         let t0 = Instant::now();
-        assert!(gate.lock().enter_direct(|| t0));
+        assert!(gate.lock().enter_direct(t0));
         let panicked = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
             let _turn = DirectTurn(&gate);
             panic!("a handler's bug");
@@ -1208,7 +1205,7 @@ mod tests {
         assert!(panicked.is_err());
         let later = Instant::now() + DIRECT_GAP;
         assert!(
-            gate.lock().enter_direct(|| later),
+            gate.lock().enter_direct(later),
             "the next report may go direct"
         );
     }
