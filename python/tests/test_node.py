@@ -3,6 +3,7 @@ acknowledgements, errors, closing."""
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Callable, Iterator
 
@@ -65,6 +66,39 @@ def test_a_write_on_one_node_is_visible_on_the_other(pair: tuple[slate.Node, sla
         # And the other way: loco writes, nav sees it.
         loco.board.write("gsr", "mode", "manual")
         assert eventually(lambda: nav.board.read("gsr", "mode").value == "manual")
+
+    run_with_timeout(check)
+
+
+def test_a_function_run_on_a_network_thread_keeps_that_threads_python_state(
+    pair: tuple[slate.Node, slate.Node],
+) -> None:
+    """An on-write function runs on the thread that merged the report (one of Zenoh's, or
+    the node's delivery thread): that thread keeps its Python state from one call to the
+    next, as a Python thread does, instead of a state made and destroyed around each call
+    (its `threading.local` data then lasted one call)."""
+    nav, loco = pair
+    local = threading.local()
+    calls: dict[int, list[int]] = {}
+
+    def count(call: slate.Call) -> None:
+        local.n = getattr(local, "n", 0) + 1
+        calls.setdefault(threading.get_ident(), []).append(local.n)
+
+    loco.board.on_write("Vehicle", "speed", count)
+
+    def check() -> None:
+        assert eventually(lambda: "gsr" in loco.board)
+        # Until one thread merged two reports (the team link sends one per 200 ms).
+        deadline = time.monotonic() + 10.0
+        i = 0
+        while time.monotonic() < deadline and max(map(len, calls.values()), default=0) < 2:
+            i += 1
+            nav.board.write("gsr", "speed", (i % 40) / 4)
+            time.sleep(0.02)
+        assert max(map(len, calls.values()), default=0) >= 2, calls
+        assert threading.get_ident() not in calls, calls
+        assert all(seq == list(range(1, len(seq) + 1)) for seq in calls.values()), calls
 
     run_with_timeout(check)
 

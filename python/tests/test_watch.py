@@ -65,6 +65,29 @@ def test_get_with_timeout_returns_none_when_nothing_comes(board: slate.Board) ->
     assert change is not None and change.items[0].attr == "speed"
 
 
+def test_a_backlog_is_taken_whole_in_order_then_the_watch_waits(board: slate.Board) -> None:
+    """Changes already waiting are taken without waiting (nor letting go of the GIL),
+    each once, in revision order, by iteration, `get` and `drain` alike; then the watch
+    waits again for the next."""
+    watch = board.watch("gsr", "speed", timeout=0.1)
+    revisions = [board.write("gsr", "speed", i / 100) for i in range(1000)]
+    assert watch.pending == 1000
+    first = watch.get(timeout=0)
+    assert first is not None
+    middle = [next(watch) for _ in range(498)]
+    rest = watch.drain()
+    changes = [first, *middle, *rest]
+    assert [c.revision for c in changes] == revisions
+    packets = [c.items[0].packet for c in changes]
+    assert [p.value if p is not None else None for p in packets] == [i / 100 for i in range(1000)]
+    assert watch.pending == 0 and watch.get(timeout=0) is None
+    board.write("gsr", "speed", 10.0)
+    later = watch.get(timeout=1.0)
+    assert later is not None
+    packet = later.items[0].packet
+    assert packet is not None and packet.value == 10.0
+
+
 def test_a_blocked_watch_releases_the_gil_for_writers(board: slate.Board) -> None:
     """The main thread waits in the watch while another Python thread writes."""
     watch = board.watch("gsr", "speed", timeout=5.0)

@@ -97,6 +97,50 @@ impl ActiveFn for PyActiveFn {
     }
 }
 
+/// Runs `f` with the GIL, on any thread. A thread Python did not start (Zenoh's receive
+/// threads, the transport's delivery thread: they merge what the network brings and run
+/// the on-write functions it triggers) keeps its Python thread state from its first call
+/// to its end, instead of one made and destroyed around every call: Python makes each
+/// new thread state a frame stack with `mmap` on its first call and unmaps it with the
+/// state, so a function run for every merged report cost two system calls, a page fault
+/// and a TLB flush of the other cores (13 µs a report, docs/performance.md, *Side by side
+/// with the peers*). The thread's Python state (its `threading.local` data) then also
+/// lasts from one call to the next, as on a Python thread. One state is left over per
+/// such thread that ends (a node's delivery thread, when the node closes): freeing it
+/// there would need the GIL while the node's `close` may hold it.
+fn attach<R>(f: impl for<'py> FnOnce(Python<'py>) -> R) -> R {
+    keep_thread_state();
+    Python::attach(f)
+}
+
+thread_local! {
+    /// Whether this thread was looked at by [`keep_thread_state`].
+    static KEPT: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Gives this thread a Python thread state that outlives each call ([`attach`]), once.
+#[allow(unsafe_code)]
+fn keep_thread_state() {
+    if KEPT.with(|k| k.replace(true)) {
+        return;
+    }
+    // SAFETY: `Py_IsInitialized` and `PyGILState_GetThisThreadState` may be called at any
+    // time. The thread has no Python state (Python never ran on it), so it does not hold
+    // the GIL: `PyGILState_Ensure` makes its state and takes the GIL, and
+    // `PyEval_SaveThread` lets go of the GIL, leaving the state with its count at one, so
+    // that later `PyGILState_Ensure`/`PyGILState_Release` pairs (pyo3's `attach`) only
+    // take and release the GIL with it.
+    unsafe {
+        if pyo3::ffi::Py_IsInitialized() == 0
+            || !pyo3::ffi::PyGILState_GetThisThreadState().is_null()
+        {
+            return;
+        }
+        let _ = pyo3::ffi::PyGILState_Ensure();
+        pyo3::ffi::PyEval_SaveThread();
+    }
+}
+
 /// Stack of the servant thread: it may run nested Python functions, so it gets what a
 /// Python thread gets by default on Linux.
 const SERVANT_STACK: usize = 8 << 20;
@@ -112,7 +156,7 @@ impl PyActiveFn {
     ) -> Result<Option<Returned>, FnError> {
         let link = Arc::new(Mutex::new(Some(Route::Direct(board, token))));
         let view = view(call, &link);
-        let result = Python::attach(|py| self.run(py, view));
+        let result = attach(|py| self.run(py, view));
         link.lock().take();
         result
     }
@@ -129,7 +173,7 @@ impl PyActiveFn {
                 .stack_size(SERVANT_STACK)
                 .spawn_scoped(s, move || serve(call, &rx))
                 .map_err(|e| FnError::Message(format!("cannot start its servant thread: {e}")))?;
-            let result = Python::attach(|py| self.run(py, view));
+            let result = attach(|py| self.run(py, view));
             // The servant ends once the last request in flight is answered.
             link.lock().take();
             result

@@ -23,13 +23,19 @@ pub(crate) fn timeout(seconds: Option<f64>) -> PyResult<Option<Duration>> {
 }
 
 /// Waits for the next item: `None` on timeout, or once `alive` says the subscription or its
-/// board is gone (checked between slices).
+/// board is gone (checked between slices). An item already waiting (`waiting`) is taken
+/// without letting go of the GIL: a reader behind its subscription takes each in one
+/// call, not a release and a re-acquisition of the GIL (and clock reads) per item.
 pub(crate) fn next<T: Send>(
     py: Python<'_>,
     timeout: Option<Duration>,
     alive: &dyn Fn() -> bool,
+    waiting: impl FnOnce() -> Option<T>,
     mut recv: impl FnMut(Duration) -> Result<T, RecvTimeoutError> + Send,
 ) -> PyResult<Option<T>> {
+    if let Some(item) = waiting() {
+        return Ok(Some(item));
+    }
     let deadline = timeout.map(|t| Instant::now() + t);
     loop {
         let slice = deadline.map_or(SLICE, |d| {
@@ -54,7 +60,13 @@ pub(crate) fn next_from<T: Send>(
     timeout: Option<Duration>,
     alive: &dyn Fn() -> bool,
 ) -> PyResult<Option<T>> {
-    next(py, timeout, alive, |slice| rx.recv_timeout(slice))
+    next(
+        py,
+        timeout,
+        alive,
+        || rx.try_recv().ok(),
+        |slice| rx.recv_timeout(slice),
+    )
 }
 
 /// The Python methods every subscription class shares (`Events`, `Watch`, `Outbox`):

@@ -42,9 +42,13 @@ impl PyWatch {
             return Ok(None);
         };
         let alive = || self.inner.lock().is_some() && self.board.strong_count() > 0;
-        let change = stream::next(py, timeout, &alive, |slice| {
-            watch.recv_timeout(slice).ok_or(RecvTimeoutError::Timeout)
-        })?;
+        let change = stream::next(
+            py,
+            timeout,
+            &alive,
+            || watch.try_recv(),
+            |slice| watch.recv_timeout(slice).ok_or(RecvTimeoutError::Timeout),
+        )?;
         change.map(|c| Change::new(py, c)).transpose()
     }
 
@@ -109,20 +113,17 @@ impl Change {
 }
 
 /// One item of a change: an attribute written, or an object created or deleted.
+///
+/// The names are the board's own shared strings (no copy per item: a watch of a busy
+/// attribute makes one item per update); each is made a Python `str` when read.
 #[pyclass(module = "slate", name = "ChangeItem", frozen)]
 pub(crate) struct PyChangeItem {
     /// `"write"`, `"create"` or `"delete"`.
     #[pyo3(get)]
     kind: &'static str,
-    /// The object (or class, for a class-level write).
-    #[pyo3(get)]
-    object: String,
-    /// The attribute written (`None` for creations and deletions).
-    #[pyo3(get)]
-    attr: Option<String>,
-    /// The class of the object created or deleted (`None` for writes).
-    #[pyo3(get)]
-    class_name: Option<String>,
+    object: Arc<str>,
+    attr: Option<Arc<str>>,
+    class_name: Option<Arc<str>>,
     packet: Option<PyPacket>,
 }
 
@@ -136,20 +137,16 @@ impl From<ChangeItem> for PyChangeItem {
             } => (
                 "write",
                 object,
-                Some(attr.to_string()),
+                Some(attr),
                 None,
                 Some(PyPacket { inner: packet }),
             ),
-            ChangeItem::Create { object, class } => {
-                ("create", object, None, Some(class.to_string()), None)
-            }
-            ChangeItem::Delete { object, class } => {
-                ("delete", object, None, Some(class.to_string()), None)
-            }
+            ChangeItem::Create { object, class } => ("create", object, None, Some(class), None),
+            ChangeItem::Delete { object, class } => ("delete", object, None, Some(class), None),
         };
         PyChangeItem {
             kind,
-            object: object.to_string(),
+            object,
             attr,
             class_name,
             packet,
@@ -159,6 +156,24 @@ impl From<ChangeItem> for PyChangeItem {
 
 #[pymethods]
 impl PyChangeItem {
+    /// The object (or class, for a class-level write).
+    #[getter]
+    fn object(&self) -> &str {
+        &self.object
+    }
+
+    /// The attribute written (`None` for creations and deletions).
+    #[getter]
+    fn attr(&self) -> Option<&str> {
+        self.attr.as_deref()
+    }
+
+    /// The class of the object created or deleted (`None` for writes).
+    #[getter]
+    fn class_name(&self) -> Option<&str> {
+        self.class_name.as_deref()
+    }
+
     /// The packet stored (`None` for creations and deletions).
     #[getter]
     fn packet(&self) -> Option<PyPacket> {
