@@ -6,7 +6,7 @@
 #   python/build.sh --no-test    build only
 #   python/build.sh -- ARGS...   pass ARGS to pytest (e.g. -- -k watch -x)
 #
-# It creates .venv at the repository root if needed (python3 >= 3.9), installs the pinned
+# It creates .venv at the repository root if needed (python3 >= 3.10), installs the pinned
 # tools of python/requirements-dev.txt, and runs `maturin develop`, which compiles
 # crates/slate-python into the workspace's target/ directory (the same one cargo uses) and
 # installs the package in editable mode: python/slate/ is imported directly, with the
@@ -42,8 +42,8 @@ done
 venv="$root/.venv"
 python="${PYTHON:-python3}"
 if [ ! -x "$venv/bin/python" ]; then
-  if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 9))' 2>/dev/null; then
-    echo "slate: Python >= 3.9 is required to build the Python package ($python)" >&2
+  if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))' 2>/dev/null; then
+    echo "slate: Python >= 3.10 is required to build the Python package ($python)" >&2
     exit 1
   fi
   echo "==> creating $venv" >&2

@@ -7,10 +7,10 @@
 #   python/install/check.sh             the dev profile, in the workspace's target directory
 #   python/install/check.sh --release   the release profile, as a user's `pip install` builds
 #
-# Needs Python >= 3.9 with venv, and PyPI (pip fetches maturin for the build). The build
+# Needs Python >= 3.10 with venv, and PyPI (pip fetches maturin for the build). The build
 # reuses the workspace's target directory (CARGO_TARGET_DIR if set, else target/), so the
 # workspace crates compiled by `cargo test` are not compiled again. The wheel is abi3
-# (one wheel for every CPython >= 3.9); the check says which tag it got.
+# (one wheel for every CPython >= 3.10); the check says which tag it got.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/../.." && pwd)"
 cd "$root"
@@ -28,8 +28,8 @@ case "${1:-}" in
 esac
 
 python="${PYTHON:-python3}"
-if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 9))' 2>/dev/null; then
-  echo "slate: Python >= 3.9 is required ($python)" >&2
+if ! "$python" -c 'import sys; sys.exit(sys.version_info < (3, 10))' 2>/dev/null; then
+  echo "slate: Python >= 3.10 is required ($python)" >&2
   exit 1
 fi
 work="$(mktemp -d "${TMPDIR:-/tmp}/slate-install.XXXXXX")"
