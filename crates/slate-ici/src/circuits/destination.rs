@@ -305,12 +305,12 @@ impl Destination {
         }
     }
 
-    /// The last steps due again at `now`, to whom.
     /// When the next last step is repeated, if one is to be.
     pub(super) fn next_repeat(&self) -> Option<Duration> {
         self.repeats.iter().map(|r| r.due).min()
     }
 
+    /// The last steps due again at `now`, to whom.
     fn repeats_due(&mut self, now: Duration) -> Vec<(Address, PlanAck)> {
         let mut out = Vec::new();
         for r in self.repeats.iter_mut().filter(|r| r.due <= now) {

@@ -133,9 +133,6 @@ impl Sent {
         }
     }
 
-    /// The messages to send again if the answer is overdue: the plan (a destination that
-    /// has it answers with its steps, one that has not loads it), then the cancellation
-    /// asked for. Each copy doubles the wait; after [`MAX_RESENDS`] the origin stops.
     /// When [`overdue`](Self::overdue) or [`gap_due`](Self::gap_due) next has
     /// something to do, if anything.
     fn next_due(&self) -> Option<Duration> {
@@ -148,6 +145,9 @@ impl Sent {
         resend.into_iter().chain(ask).min()
     }
 
+    /// The messages to send again if the answer is overdue: the plan (a destination that
+    /// has it answers with its steps, one that has not loads it), then the cancellation
+    /// asked for. Each copy doubles the wait; after [`MAX_RESENDS`] the origin stops.
     fn overdue(&mut self, circuit: u64, now: Duration) -> Vec<Message> {
         let Some(since) = self.waiting_since.filter(|_| self.is_open()) else {
             return Vec::new();

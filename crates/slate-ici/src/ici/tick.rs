@@ -375,13 +375,6 @@ impl State {
         }
     }
 
-    /// Forgets the modules dead (and gone) for longer than `forget_dead`, and observers
-    /// as soon as they are: their `Module` object is deleted and their entry
-    /// (incarnation, stream, names) dropped, so a board holds a bounded number of dead
-    /// modules however many came and went, and none that only looked. Gone: the
-    /// transport says it is down, or it has been silent past its link's timeout (a
-    /// message still in flight when it left shows it up again, and no down follows).
-    /// Walks only the dead (`State::dead`), in the peers' order.
     /// When a dead peer `p` is forgotten: once it is down or silent past its timeout,
     /// and (but an observer, forgotten at once) `forget_dead` after it was last heard.
     fn forget_due(&self, p: &Peer) -> Duration {
@@ -408,6 +401,13 @@ impl State {
         Some(sent.saturating_add(wait))
     }
 
+    /// Forgets the modules dead (and gone) for longer than `forget_dead`, and observers
+    /// as soon as they are: their `Module` object is deleted and their entry
+    /// (incarnation, stream, names) dropped, so a board holds a bounded number of dead
+    /// modules however many came and went, and none that only looked. Gone: the
+    /// transport says it is down, or it has been silent past its link's timeout (a
+    /// message still in flight when it left shows it up again, and no down follows).
+    /// Walks only the dead (`State::dead`), in the peers' order.
     fn forget_dead(&mut self) {
         let now = self.now;
         let gone: Vec<Address> = self
