@@ -32,6 +32,7 @@ use slate_model::{Address, Board, ChangeHook, ClockListener, Touched};
 use slate_plans::{Diagnostic, Diagnostics, Engine, Item, Outgoing, PlanEvent, Span, Stage};
 use slate_wire::{Message, PlanStep};
 
+use crate::wake::Wake;
 use crate::{Ici, PlanHandler, SendRawError};
 pub use authority::PlanAuthority;
 use destination::Destination;
@@ -255,10 +256,9 @@ pub(crate) struct Inner {
     origin: Mutex<Origin>,
     /// Taken through [`Inner::destination`] (but by the timers).
     destination: Mutex<Destination>,
-    /// On a manual clock, the clock's time (nanoseconds) before which the timers have
-    /// nothing to do, as the last run of them left the circuits; 0 once anything else
-    /// took the origin or the destination since.
-    wake: AtomicU64,
+    /// On a manual clock, when the timers next have something to do; touched by
+    /// anything else that takes the origin or the destination.
+    wake: Wake,
     outgoing: Receiver<Outgoing>,
     events: Receiver<PlanEvent>,
     /// Held by the one thread draining the engine's channels.
@@ -306,7 +306,7 @@ impl PlanCircuits {
             next_circuit: AtomicU64::new(1),
             origin: Mutex::new(Origin::default()),
             destination: Mutex::new(Destination::default()),
-            wake: AtomicU64::new(0),
+            wake: Wake::default(),
             outgoing: engine.outgoing(),
             events: engine.events(),
             draining: Mutex::new(()),
@@ -560,13 +560,13 @@ impl Inner {
 
     /// The circuits this module opened, for anything but their timers.
     fn origin(&self) -> parking_lot::MutexGuard<'_, Origin> {
-        self.wake.store(0, Ordering::SeqCst);
+        self.wake.touched();
         self.origin.lock()
     }
 
     /// The circuits opened to this module, for anything but their timers.
     pub(crate) fn destination(&self) -> parking_lot::MutexGuard<'_, Destination> {
-        self.wake.store(0, Ordering::SeqCst);
+        self.wake.touched();
         self.destination.lock()
     }
 
@@ -574,24 +574,19 @@ impl Inner {
     /// module of a simulated team hears every move: the console's circuits, one per
     /// plan it sent, were walked at each).
     fn tick_if_due(self: &Arc<Self>, now: Duration) {
-        let at = u64::try_from(now.as_nanos()).unwrap_or(u64::MAX);
-        if at < self.wake.load(Ordering::SeqCst) {
+        if self.wake.asleep_at(now) {
             return;
         }
         // Anything that takes the origin or the destination meanwhile (a plan sent to
-        // this module itself) leaves 0: the next move runs the timers again.
-        self.wake.store(u64::MAX, Ordering::SeqCst);
+        // this module itself) is a touch: the next move runs the timers again.
+        self.wake.running();
         self.tick();
         let next = {
             let origin = self.origin.lock().next_due();
             let destination = self.destination.lock().next_repeat();
             origin.into_iter().chain(destination).min()
         };
-        let next = next.map_or(u64::MAX, |t| {
-            u64::try_from(t.as_nanos()).unwrap_or(u64::MAX)
-        });
-        let untouched = u64::MAX;
-        let _ = (self.wake).compare_exchange(untouched, next, Ordering::SeqCst, Ordering::SeqCst);
+        self.wake.ran(next.unwrap_or(Duration::MAX));
     }
 
     /// Timers: unanswered plans go again, circuits whose acks have a gap ask for them

@@ -54,6 +54,7 @@
 mod circuits;
 mod error;
 mod ici;
+mod wake;
 
 pub use circuits::HeldPlan;
 pub use circuits::{

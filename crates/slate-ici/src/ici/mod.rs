@@ -23,7 +23,7 @@ mod tick;
 mod window;
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Weak};
 use std::time::Duration;
 
@@ -41,6 +41,7 @@ pub use stats::{
     CatchUpStats, IciStats, LivelinessStats, MergeStats, RejectStats, ReportStats, TeamStats,
 };
 
+use crate::wake::Wake;
 use crate::{LinkKind, MsgKind, SendError, Transport};
 
 /// Where plans meet the ICI: the plan engine installs one with
@@ -134,11 +135,10 @@ struct Shared {
     queue: Mutex<VecDeque<BoardOp>>,
     plan_handler: RwLock<Option<Arc<dyn PlanHandler>>>,
     ticker: Arc<Ticker>,
-    /// On a manual clock, the clock's time (nanoseconds) before which the timers have
-    /// nothing to do ([`State::next_tick`]), as the last tick left the state; 0 once
-    /// anything else touched the state since (a message, a peer's up or down, a board
-    /// change, a call), so the next move of the clock runs them as before.
-    wake: AtomicU64,
+    /// On a manual clock, when the timers next have something to do
+    /// ([`State::next_tick`]); touched by anything else that changes the state (a
+    /// message, a peer's up or down, a board change, a call).
+    wake: Wake,
     /// The link policies set (`set_link_policy`), taken after the state lock.
     links: Mutex<link::Links>,
     /// Publications made once the state lock is released (the state's own).
@@ -175,7 +175,7 @@ impl Ici {
             queue: Mutex::new(VecDeque::new()),
             plan_handler: RwLock::new(None),
             ticker: Arc::new(Ticker(me.clone())),
-            wake: AtomicU64::new(0),
+            wake: Wake::default(),
             links,
             outgoing,
         });
@@ -373,8 +373,7 @@ impl Shared {
             let mut st = self.state.lock();
             st.now = self.board.clock().physical();
             let result = f(&mut st);
-            let at = u64::try_from(wake(&st).as_nanos()).unwrap_or(u64::MAX);
-            self.wake.store(at, Ordering::SeqCst);
+            self.wake.set(wake(&st));
             let queued = self.enqueue(&mut st);
             let every = std::mem::take(&mut st.queued_every);
             (result, queued, std::mem::take(&mut st.plans), every)
@@ -481,7 +480,7 @@ impl Shared {
     /// Something other than a tick changed the state: the timers run at the clock's
     /// next move.
     fn touched(&self) {
-        self.wake.store(0, Ordering::SeqCst);
+        self.wake.touched();
     }
 
     fn deliver(&self, events: Vec<PlanEvent>) {
@@ -535,8 +534,7 @@ impl ClockListener for Ticker {
     /// with the cube of the team (docs/team-protocol.md, 7.1).
     fn advanced(&self, now: Duration) {
         if let Some(shared) = self.0.upgrade() {
-            let now = u64::try_from(now.as_nanos()).unwrap_or(u64::MAX);
-            if now < shared.wake.load(Ordering::SeqCst) {
+            if shared.wake.asleep_at(now) {
                 return;
             }
             shared.with_state_until(tick_all, State::next_tick);
