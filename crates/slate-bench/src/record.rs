@@ -98,16 +98,22 @@ pub fn run(cfg: &Config, progress: &mut dyn FnMut(&str)) -> anyhow::Result<Figur
     Ok(r)
 }
 
-/// Runs `op` while a thread drains a bounded watch of the whole board and discards what
-/// it takes: the writer's share of recording (the change built and handed over), without
-/// the recorder's own work competing for the cores.
+/// Runs `op` while a thread takes everything waiting in a gathering watch of the whole
+/// board 2 ms after a change comes, as the recorder does, and discards it: the writer's share of recording (the
+/// change built and handed over), without the recorder's own work competing for the
+/// cores.
 fn handed_off(board: &slate_model::Board, op: impl FnOnce() -> f64) -> anyhow::Result<f64> {
-    let watch = board.watch_bounded(slate_model::Filter::all(), 1 << 16)?;
+    let watch = board.watch_gathered(slate_model::Filter::all(), 1 << 16)?;
     let stop = std::sync::atomic::AtomicBool::new(false);
     std::thread::scope(|s| {
         s.spawn(|| {
+            let mut taken = Vec::new();
             while !stop.load(std::sync::atomic::Ordering::Acquire) {
-                drop(watch.recv_timeout(Duration::from_millis(10)));
+                if watch.wait(Duration::from_millis(10)) {
+                    std::thread::sleep(Duration::from_millis(2));
+                    watch.take(&mut taken);
+                    taken.clear();
+                }
             }
         });
         let ns = op();

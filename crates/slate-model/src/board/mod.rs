@@ -25,7 +25,7 @@ pub use hook::{ChangeHook, TouchKind, Touched};
 pub use snapshot::Snapshot;
 use state::{Origin, State};
 use txn::{Inner, Txn};
-pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Watch};
+pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Gather, RevisedItem, Watch};
 
 use crate::{
     Address, AttrDecl, ClassDef, Clock, Context, CreateError, DefineError, DeleteError, EveryPer,
@@ -761,6 +761,16 @@ impl Board {
     /// never hold the writers up nor grow memory, like a recorder.
     pub fn watch_bounded(&self, filter: Filter, capacity: usize) -> Result<Watch, LookupError> {
         self.subscribe(filter, Some(capacity.max(1)))
+    }
+
+    /// Like [`watch_bounded`](Board::watch_bounded), for a reader that takes every
+    /// waiting change at once ([`Gather`]): at most `capacity` items wait.
+    pub fn watch_gathered(&self, filter: Filter, capacity: usize) -> Result<Gather, LookupError> {
+        let mut inner = self.inner.write();
+        let spec = resolve_filter(&inner.state, &filter)?;
+        let (watcher, gather) = watch::gather(spec, capacity.max(1));
+        inner.watchers.push(watcher);
+        Ok(gather)
     }
 
     fn subscribe(&self, filter: Filter, capacity: Option<usize>) -> Result<Watch, LookupError> {

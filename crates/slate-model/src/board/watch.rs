@@ -374,21 +374,32 @@ impl Spec {
 
 pub(crate) struct Watcher {
     pub spec: Spec,
-    tx: Sender<Change>,
+    sink: Sink,
     dropped: Arc<AtomicU64>,
+}
+
+/// Where a watcher's changes go.
+enum Sink {
+    /// One message a change, to a [`Watch`] (`bounded` by its channel or not).
+    Channel(Sender<Change>),
+    /// Every item appended to the one buffer a [`Gather`] takes whole.
+    Buffer(Arc<Gathered>),
 }
 
 impl Watcher {
     /// Hands a change to the reader without ever waiting: a full bounded watch drops it
     /// and counts it. False once the reader is gone (the watcher is then removed).
     pub fn offer(&self, change: Change) -> bool {
-        match self.tx.try_send(change) {
-            Ok(()) => true,
-            Err(TrySendError::Full(_)) => {
-                self.dropped.fetch_add(1, Ordering::Relaxed);
-                true
-            }
-            Err(TrySendError::Disconnected(_)) => false,
+        match &self.sink {
+            Sink::Channel(tx) => match tx.try_send(change) {
+                Ok(()) => true,
+                Err(TrySendError::Full(_)) => {
+                    self.dropped.fetch_add(1, Ordering::Relaxed);
+                    true
+                }
+                Err(TrySendError::Disconnected(_)) => false,
+            },
+            Sink::Buffer(shared) => shared.offer(change, &self.dropped),
         }
     }
 }
@@ -403,7 +414,7 @@ pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch)
     let dropped = Arc::new(AtomicU64::new(0));
     let watcher = Watcher {
         spec,
-        tx,
+        sink: Sink::Channel(tx),
         dropped: dropped.clone(),
     };
     let cursor = Cursor::default();
@@ -415,4 +426,111 @@ pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch)
             dropped,
         },
     )
+}
+
+/// Creates a watcher whose items gather in one buffer of at most `capacity` items, and
+/// the [`Gather`] its reader holds.
+pub(crate) fn gather(spec: Spec, capacity: usize) -> (Watcher, Gather) {
+    let dropped = Arc::new(AtomicU64::new(0));
+    let shared = Arc::new(Gathered {
+        items: Mutex::new(Vec::new()),
+        ready: Condvar::new(),
+        capacity,
+    });
+    let watcher = Watcher {
+        spec,
+        sink: Sink::Buffer(shared.clone()),
+        dropped: dropped.clone(),
+    };
+    (watcher, Gather { shared, dropped })
+}
+
+/// One change item with the revision of the change it belongs to.
+pub type RevisedItem = (u64, ChangeItem);
+
+/// What a gathering watcher and its reader share.
+struct Gathered {
+    items: Mutex<Vec<RevisedItem>>,
+    /// Signalled when an item comes to an empty buffer (the reader waits only then).
+    ready: Condvar,
+    capacity: usize,
+}
+
+impl Gathered {
+    /// Appends a change's items to the buffer, or drops the change if they do not fit.
+    /// False once the reader is gone.
+    fn offer(self: &Arc<Self>, change: Change, dropped: &AtomicU64) -> bool {
+        if Arc::strong_count(self) == 1 {
+            return false;
+        }
+        let mut items = self.items.lock();
+        if items.len() + change.items.len() > self.capacity {
+            drop(items);
+            dropped.fetch_add(1, Ordering::Relaxed);
+            return true;
+        }
+        let was_empty = items.is_empty();
+        let revision = change.revision;
+        items.extend(change.items.into_iter().map(|item| (revision, item)));
+        drop(items);
+        if was_empty {
+            self.ready.notify_one();
+        }
+        true
+    }
+}
+
+/// A subscription to a board's changes whose reader takes everything waiting at once,
+/// item by item with each item's revision, for readers that take changes in bulk and
+/// must never hold the writers up (a recorder, a store). A writer appends a change's
+/// items to one buffer, and the reader swaps it for an empty one of its own: the buffer's
+/// blocks go back and forth, a change's own list is freed in its writer's thread, and
+/// nothing a writer allocated is freed in the reader's. At most `capacity` items wait: a change that would go past it is
+/// dropped and counted ([`Gather::dropped`]). Dropping it unsubscribes.
+pub struct Gather {
+    shared: Arc<Gathered>,
+    dropped: Arc<AtomicU64>,
+}
+
+impl Gather {
+    /// Waits up to `timeout` for an item; is one waiting?
+    pub fn wait(&self, timeout: Duration) -> bool {
+        let mut items = self.shared.items.lock();
+        if items.is_empty() {
+            self.shared.ready.wait_for(&mut items, timeout);
+        }
+        !items.is_empty()
+    }
+
+    /// Appends every waiting item to `into`, in revision order; how many. Pass the same
+    /// vector, emptied, each time: its block becomes the writers' next buffer.
+    pub fn take(&self, into: &mut Vec<RevisedItem>) -> usize {
+        let mut items = self.shared.items.lock();
+        let n = items.len();
+        if into.is_empty() {
+            std::mem::swap(&mut *items, into);
+        } else {
+            into.append(&mut items);
+        }
+        n
+    }
+
+    /// Items waiting to be taken.
+    pub fn pending(&self) -> usize {
+        self.shared.items.lock().len()
+    }
+
+    /// Changes not taken because the buffer was full.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
+    }
+}
+
+impl std::fmt::Debug for Gather {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Gather")
+            .field("pending", &self.pending())
+            .field("dropped", &self.dropped())
+            .finish()
+    }
 }

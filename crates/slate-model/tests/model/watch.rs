@@ -152,6 +152,73 @@ fn a_bounded_watch_drops_and_counts_what_does_not_fit_and_never_blocks_the_write
     assert_eq!(unbounded.dropped(), 0);
 }
 
+/// A recorder's or a store's watch: the reader takes every waiting item at once, each
+/// with its change's revision, in order; a change that does not fit whole is dropped and
+/// counted, and the writes all commit.
+#[test]
+fn a_gathered_watch_hands_over_every_waiting_item_with_its_revision_and_drops_what_does_not_fit() {
+    let b = board();
+    b.create("Gsr", "g").unwrap();
+    let w = b.watch_gathered(Filter::all(), 4).unwrap();
+    assert!(!w.wait(Duration::from_millis(1)), "nothing waits yet");
+    let first = b.write("g", "speed", 1.0).unwrap();
+    let mut batch = b.batch();
+    batch.write("g", "speed", 2.0).create("Gsr", "h");
+    let second = batch.commit().unwrap();
+    assert!(w.wait(Duration::ZERO));
+    assert_eq!(w.pending(), 3);
+    // A batch of two does not fit in the one place left: dropped whole.
+    let mut batch = b.batch();
+    batch.write("g", "speed", 3.0).write("h", "speed", 3.0);
+    batch.commit().unwrap();
+    assert_eq!(w.dropped(), 1);
+    let mut taken = Vec::new();
+    assert_eq!(w.take(&mut taken), 3);
+    let got: Vec<(u64, String)> = taken
+        .iter()
+        .map(|(revision, item)| {
+            let change = slate_model::Change {
+                revision: *revision,
+                items: vec![item.clone()],
+            };
+            (*revision, writes(&change).concat())
+        })
+        .collect();
+    assert_eq!(
+        got,
+        [
+            (first, "g.speed".to_owned()),
+            (second, "g.speed".to_owned()),
+            (second, "+h".to_owned())
+        ]
+    );
+    assert_eq!(w.pending(), 0, "taken whole");
+    b.write("g", "speed", 4.0).unwrap();
+    taken.clear();
+    assert_eq!(w.take(&mut taken), 1, "room again once taken");
+    // A reader gone: the writes go on (the board forgets it at the next change).
+    drop(w);
+    b.write("g", "speed", 5.0).unwrap();
+}
+
+/// A reader waiting on a gathered watch is woken by a writer on another thread.
+#[test]
+fn a_reader_waiting_on_a_gathered_watch_is_woken_by_a_write() {
+    let b = Arc::new(board());
+    b.create("Gsr", "g").unwrap();
+    let w = b.watch_gathered(Filter::all(), 1024).unwrap();
+    let writer = {
+        let b = b.clone();
+        thread::spawn(move || {
+            thread::sleep(Duration::from_millis(50));
+            b.write("g", "speed", 1.0).unwrap();
+        })
+    };
+    assert!(w.wait(Duration::from_secs(10)), "woken within 10 s");
+    writer.join().unwrap();
+    assert_eq!(w.take(&mut Vec::new()), 1);
+}
+
 /// A reader blocked on `recv` gets what is left, then `None`, once the board is gone.
 #[test]
 fn a_waiting_reader_gets_what_is_left_then_none_when_the_board_is_dropped() {

@@ -3,8 +3,9 @@
 //! steps, liveliness, the board's events and the links' counters.
 //!
 //! The recorder runs off the write path: the board hands each committed change to a
-//! bounded watch ([`Board::watch_bounded`](slate_model::Board::watch_bounded)) in the
-//! writer's thread, and a recorder thread drains it into the files. A writer never waits
+//! gathering watch ([`Board::watch_gathered`](slate_model::Board::watch_gathered)) in
+//! the writer's thread, and a recorder thread takes what waits in it, all at once, into
+//! the files. A writer never waits
 //! for the recorder; when the recorder falls a whole queue behind, changes are dropped
 //! and counted ([`RecordStats::dropped`], and the `/slate/recorder` channel).
 
@@ -70,7 +71,8 @@ pub struct RecordConfig {
     pub flush_every: Duration,
     /// Record the links' and the recorder's counters this often.
     pub stats_every: Duration,
-    /// Changes that may wait for the recorder before writers drop them.
+    /// Change items (packets written, objects created or deleted) that may wait for the
+    /// recorder before writers drop the changes that would go past it.
     pub queue: usize,
     /// Record only the objects named here or of these classes (their subclasses too), and
     /// class-level writes to them; empty: everything. Plans, circuits, liveliness, events
@@ -80,7 +82,7 @@ pub struct RecordConfig {
 
 impl RecordConfig {
     /// Records to `path` with the defaults: a new file every 1 GiB, chunks closed every
-    /// second, counters every second, a queue of 65 536 changes.
+    /// second, counters every second, a queue of 65 536 change items.
     pub fn new(path: impl Into<PathBuf>) -> Self {
         RecordConfig {
             path: path.into(),

@@ -12,7 +12,7 @@ use rustc_hash::FxHashMap;
 use serde_json::{Value as Json, json};
 use slate_ici::{MODULE_CLASS, PlanCircuits, Transport};
 use slate_model::{
-    Board, BoardEvent, Change, ChangeItem, ClassDef, Filter, ObjectInfo, Packet, Value, Watch,
+    Board, BoardEvent, ChangeItem, ClassDef, Filter, Gather, ObjectInfo, Packet, RevisedItem, Value,
 };
 use slate_plans::PlanEvent;
 
@@ -28,12 +28,11 @@ use crate::view::View;
 const POLL: Duration = Duration::from_millis(20);
 /// How often the plan circuits are asked for new steps.
 const CIRCUITS_EVERY: Duration = Duration::from_millis(100);
-/// Changes handled between two looks at everything else, so a busy board does not
-/// starve the events, the flushes and the stop.
-const BURST: usize = 4096;
 /// Once a change has come, how long the thread lets the next ones gather before it takes
 /// them: the packets that come meanwhile go out together, and a writer seldom finds the
-/// thread asleep on the watch (waking it is a system call in the writer's thread).
+/// thread asleep on the watch (waking it is a system call in the writer's thread). The
+/// watch holds at most the configured queue's items, so a busy board does not starve
+/// the events, the flushes and the stop.
 const GATHER: Duration = Duration::from_millis(2);
 /// The most packets one class channel's message holds, and about the most bytes of JSON.
 const BATCH_PACKETS: usize = 512;
@@ -44,7 +43,9 @@ pub struct Tap {
     board: Arc<Board>,
     circuits: Arc<PlanCircuits>,
     transport: Arc<dyn Transport>,
-    watch: Watch,
+    watch: Gather,
+    /// The items taken from the watch (its block goes back to the writers each time).
+    taken: Vec<RevisedItem>,
     board_events: Receiver<BoardEvent>,
     plan_events: Receiver<PlanEvent>,
     files: Files,
@@ -81,7 +82,7 @@ impl Tap {
         stats: Arc<Mutex<RecordStats>>,
     ) -> Result<Tap, RecordError> {
         let board = view.board.clone();
-        let watch = board.watch_bounded(Filter::all(), config.queue)?;
+        let watch = board.watch_gathered(Filter::all(), config.queue)?;
         let now = Instant::now();
         let mut tap = Tap {
             board_events: board.events(),
@@ -91,6 +92,7 @@ impl Tap {
             circuits: view.circuits.clone(),
             transport: view.transport.clone(),
             watch,
+            taken: Vec::new(),
             board,
             config,
             classes: BTreeMap::new(),
@@ -124,7 +126,7 @@ impl Tap {
         self.begin_file()?;
         loop {
             let stopping = stop.load(Ordering::Acquire);
-            self.changes(if stopping { usize::MAX } else { BURST })?;
+            self.changes(stopping)?;
             self.events()?;
             self.periodic(stopping)?;
             self.rotate_if_due()?;
@@ -138,27 +140,24 @@ impl Tap {
         }
     }
 
-    /// Handles up to `max` changes, waiting [`POLL`] for the first.
-    fn changes(&mut self, max: usize) -> Result<(), RecordError> {
-        let first = if max == usize::MAX {
-            self.watch.try_recv()
-        } else {
-            self.watch.recv_timeout(POLL)
-        };
-        let Some(first) = first else {
-            return Ok(());
-        };
-        if max != usize::MAX && self.watch.pending() < BATCH_PACKETS {
-            std::thread::sleep(GATHER);
+    /// Handles the changes waiting, waiting [`POLL`] for one (not when `stopping`).
+    fn changes(&mut self, stopping: bool) -> Result<(), RecordError> {
+        if !stopping {
+            if !self.watch.wait(POLL) {
+                return Ok(());
+            }
+            if self.watch.pending() < BATCH_PACKETS {
+                std::thread::sleep(GATHER);
+            }
         }
-        self.change(first)?;
-        for _ in 1..max {
-            let Some(change) = self.watch.try_recv() else {
-                break;
-            };
-            self.change(change)?;
-            self.rotate_if_due()?;
-        }
+        let mut taken = std::mem::take(&mut self.taken);
+        self.watch.take(&mut taken);
+        let result = taken.drain(..).try_for_each(|(revision, item)| {
+            self.item(revision, item)?;
+            self.rotate_if_due()
+        });
+        self.taken = taken;
+        result?;
         self.send_batch()
     }
 
@@ -267,22 +266,19 @@ impl Tap {
         snap.revision()
     }
 
-    fn change(&mut self, change: Change) -> Result<(), RecordError> {
-        if change.revision <= self.snapshot_revision {
+    fn item(&mut self, revision: u64, item: ChangeItem) -> Result<(), RecordError> {
+        if revision <= self.snapshot_revision {
             return Ok(());
         }
-        for item in change.items {
-            match item {
-                ChangeItem::Write {
-                    object,
-                    attr,
-                    packet,
-                } => self.packet(&object, &attr, &packet, change.revision)?,
-                ChangeItem::Create { object, class } => self.created("create", object, class)?,
-                ChangeItem::Delete { object, class } => self.created("delete", object, class)?,
-            }
+        match item {
+            ChangeItem::Write {
+                object,
+                attr,
+                packet,
+            } => self.packet(&object, &attr, &packet, revision),
+            ChangeItem::Create { object, class } => self.created("create", object, class),
+            ChangeItem::Delete { object, class } => self.created("delete", object, class),
         }
-        Ok(())
     }
 
     /// An object created or deleted. A creation checks its class's definition first: a

@@ -1,4 +1,4 @@
-//! The `slate-state` thread: drains the board's bounded watch into a pending set and
+//! The `slate-state` thread: takes what waits in the board's gathering watch into a pending set and
 //! commits it to the store when it is due.
 
 use std::collections::HashSet;
@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 
 use parking_lot::Mutex;
 use slate_ici::{HeldPlan, PlanCircuits};
-use slate_model::{Board, ClassDef, Filter, Watch};
+use slate_model::{Board, ClassDef, Filter, Gather, RevisedItem};
 
 use super::pending::Pending;
 use super::store::Store;
@@ -17,8 +17,6 @@ use super::{StateConfig, StateError, StateStats};
 
 /// How long the thread waits for a change before it looks at the clock.
 const POLL: Duration = Duration::from_millis(10);
-/// Changes folded between two looks at the clock and the stop flag.
-const BURST: usize = 4096;
 
 /// The keeper: its thread, and the counters it keeps.
 pub(crate) struct Keeper {
@@ -37,7 +35,7 @@ impl Keeper {
         config: &StateConfig,
         circuits: Option<PlanCircuits>,
     ) -> Result<Keeper, StateError> {
-        let watch = board.watch_bounded(Filter::all(), config.queue)?;
+        let watch = board.watch_gathered(Filter::all(), config.queue)?;
         let stats = Arc::new(Mutex::new(StateStats::default()));
         let mut work = Work::new(board, store, watch, config, stats.clone());
         work.circuits = circuits;
@@ -86,7 +84,9 @@ impl Drop for Keeper {
 struct Work {
     board: Arc<Board>,
     store: Store,
-    watch: Watch,
+    watch: Gather,
+    /// The items taken from the watch (its block goes back to the writers each time).
+    taken: Vec<RevisedItem>,
     commit_every: Duration,
     commit_changes: usize,
     pending: Pending,
@@ -110,7 +110,7 @@ impl Work {
     fn new(
         board: Arc<Board>,
         store: Store,
-        watch: Watch,
+        watch: Gather,
         config: &StateConfig,
         stats: Arc<Mutex<StateStats>>,
     ) -> Self {
@@ -118,6 +118,7 @@ impl Work {
             board,
             store,
             watch,
+            taken: Vec::new(),
             commit_every: config.commit_every,
             commit_changes: config.commit_changes.max(1),
             pending: Pending::default(),
@@ -146,7 +147,7 @@ impl Work {
     fn keep(&mut self, stop: &AtomicBool) -> Result<(), StateError> {
         loop {
             let stopping = stop.load(Ordering::Acquire);
-            self.drain(if stopping { usize::MAX } else { BURST });
+            self.drain(stopping);
             if self.watch.dropped() > self.dropped {
                 self.resync();
                 self.stats.lock().resyncs += 1;
@@ -160,24 +161,19 @@ impl Work {
         }
     }
 
-    /// Folds up to `max` changes in, waiting [`POLL`] for the first (none when stopping).
-    fn drain(&mut self, max: usize) {
-        let first = if max == usize::MAX {
-            self.watch.try_recv()
-        } else {
-            self.watch.recv_timeout(POLL)
-        };
-        let mut next = first;
-        let mut n = 0;
-        while let Some(change) = next {
-            if change.revision > self.snapshot_revision {
-                self.pending.fold(&self.board, change, &mut self.skipped);
+    /// Folds in what waits in the watch, waiting [`POLL`] for it (not when stopping).
+    /// The watch holds at most the configured queue's items, so the clock and the stop
+    /// flag are looked at between two takes.
+    fn drain(&mut self, stopping: bool) {
+        if !stopping && !self.watch.wait(POLL) {
+            return;
+        }
+        self.watch.take(&mut self.taken);
+        for (revision, item) in self.taken.drain(..) {
+            if revision > self.snapshot_revision {
+                self.pending
+                    .fold(&self.board, revision, item, &mut self.skipped);
             }
-            n += 1;
-            if n >= max || self.pending.changes >= self.commit_changes {
-                return;
-            }
-            next = self.watch.try_recv();
         }
     }
 

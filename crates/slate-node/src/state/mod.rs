@@ -3,8 +3,9 @@
 //! node joins its team.
 //!
 //! The keeper runs off the write path, as the recorder does: the board hands each
-//! committed change to a bounded watch ([`Board::watch_bounded`](slate_model::Board::watch_bounded))
-//! in the writer's thread; a `slate-state` thread folds the changes into one pending set
+//! committed change to a gathering watch ([`Board::watch_gathered`](slate_model::Board::watch_gathered))
+//! in the writer's thread; a `slate-state` thread takes what waits there, all at once,
+//! and folds it into one pending set
 //! (the latest packet of each attribute) and commits it to the database every
 //! [`StateConfig::commit_every`] or every [`StateConfig::commit_changes`] changes. A
 //! writer never waits for the store. When the keeper falls a whole queue behind, the
@@ -78,7 +79,8 @@ pub struct StateConfig {
     pub commit_every: Duration,
     /// Commit as soon as this many changes wait, whatever the time.
     pub commit_changes: usize,
-    /// Changes that may wait for the keeper before writers drop them (the keeper then
+    /// Change items (packets written, objects created or deleted) that may wait for the
+    /// keeper before writers drop the changes that would go past it (the keeper then
     /// saves the whole board again).
     pub queue: usize,
     /// How much each commit waits for the disk.
@@ -87,7 +89,7 @@ pub struct StateConfig {
 
 impl StateConfig {
     /// Keeps the board in `dir` with the defaults: a commit every 100 ms or every 4096
-    /// changes, each waiting for the disk, a queue of 65 536 changes.
+    /// changes, each waiting for the disk, a queue of 65 536 change items.
     pub fn new(dir: impl Into<PathBuf>) -> Self {
         StateConfig {
             dir: dir.into(),

@@ -5,7 +5,7 @@ use std::collections::{BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 
 use slate_model::{
-    Address, Board, Change, ChangeItem, ClassDef, Context, MODULE_CLASS, PLAN_CLASS, Packet,
+    Address, Board, ChangeItem, ClassDef, Context, MODULE_CLASS, PLAN_CLASS, Packet,
 };
 
 /// An object as the store keeps it.
@@ -80,26 +80,33 @@ impl Pending {
         (p, revision)
     }
 
-    /// Folds one committed change in; objects are looked up on `board` for their context
-    /// and owner (one deleted since is dropped: its deletion follows).
-    pub fn fold(&mut self, board: &Board, change: Change, skipped: &mut HashSet<Arc<str>>) {
-        self.changes += 1;
-        self.revision = self.revision.max(change.revision);
-        for item in change.items {
-            match item {
-                ChangeItem::Write {
-                    object,
-                    attr,
-                    packet,
-                } if !skipped.contains(&object) => {
-                    self.packets.insert((object, attr), packet);
-                }
-                ChangeItem::Write { .. } => {}
-                ChangeItem::Create { object, class } => {
-                    self.created(board, object, class, skipped);
-                }
-                ChangeItem::Delete { object, .. } => self.removed(object, skipped),
+    /// Folds in one item of the change committed at `revision` (items come in revision
+    /// order); objects are looked up on `board` for their context and owner (one deleted
+    /// since is dropped: its deletion follows).
+    pub fn fold(
+        &mut self,
+        board: &Board,
+        revision: u64,
+        item: ChangeItem,
+        skipped: &mut HashSet<Arc<str>>,
+    ) {
+        if revision > self.revision {
+            self.changes += 1;
+            self.revision = revision;
+        }
+        match item {
+            ChangeItem::Write {
+                object,
+                attr,
+                packet,
+            } if !skipped.contains(&object) => {
+                self.packets.insert((object, attr), packet);
             }
+            ChangeItem::Write { .. } => {}
+            ChangeItem::Create { object, class } => {
+                self.created(board, object, class, skipped);
+            }
+            ChangeItem::Delete { object, .. } => self.removed(object, skipped),
         }
     }
 

@@ -138,10 +138,14 @@ fn a_deleted_object_leaves_the_store_with_its_packets() {
     b.write("gone", "speed", 1.0).unwrap();
     b.create("Vehicle", "kept").unwrap();
     let store = save(&b, &dir);
-    let watch = b.watch(slate_model::Filter::all()).unwrap();
+    let watch = b.watch_gathered(slate_model::Filter::all(), 16).unwrap();
     b.delete("gone").unwrap();
     let mut pending = Pending::default();
-    pending.fold(&b, watch.try_recv().unwrap(), &mut HashSet::new());
+    let mut taken = Vec::new();
+    watch.take(&mut taken);
+    for (revision, item) in taken {
+        pending.fold(&b, revision, item, &mut HashSet::new());
+    }
     store.commit(&pending).unwrap();
     let saved = store.load().unwrap();
     let names: Vec<&str> = saved.objects.iter().map(|o| o.name.as_str()).collect();
