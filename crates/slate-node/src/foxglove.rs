@@ -33,12 +33,12 @@ use foxglove::{
     Channel, ChannelBuilder, Context, Encode, PartialMetadata, RawChannel, Schema, WebSocketServer,
     WebSocketServerHandle,
 };
-use slate_model::{Board, ChangeItem, Filter, Packet, Watch};
+use slate_model::{Board, ChangeItem, Filter, Gather, Packet, RevisedItem};
 
 use crate::inspect::Classes;
 use crate::record::{PacketMessage, class_batch_schema, topic};
 
-/// Changes that may wait for the Foxglove thread before writers drop them.
+/// Change items that may wait for the Foxglove thread before writers drop changes.
 const QUEUE: usize = 1 << 14;
 
 /// How long the thread waits for a change before it looks at its stop flag.
@@ -81,7 +81,7 @@ impl Foxglove {
     /// Serves `board` on `addr` (port 0: any free port, see [`Foxglove::addr`]).
     pub fn start(addr: SocketAddr, board: &Arc<Board>) -> Result<Foxglove, FoxgloveError> {
         let ctx = Context::new();
-        let watch = board.watch_bounded(Filter::all(), QUEUE)?;
+        let watch = board.watch_gathered(Filter::all(), QUEUE)?;
         let mut feed = Feed::new(&ctx, board.clone(), watch);
         feed.advertise_classes();
         let latest = Arc::new(Latest {
@@ -141,7 +141,9 @@ impl Drop for Foxglove {
 struct Feed {
     ctx: Arc<Context>,
     board: Arc<Board>,
-    watch: Watch,
+    watch: Gather,
+    /// The items taken from the watch (its block goes back to the writers each time).
+    taken: Vec<RevisedItem>,
     /// Changes dropped so far, as last logged.
     dropped: u64,
     channels: HashMap<Arc<str>, Arc<RawChannel>>,
@@ -150,12 +152,13 @@ struct Feed {
 }
 
 impl Feed {
-    fn new(ctx: &Arc<Context>, board: Arc<Board>, watch: Watch) -> Feed {
+    fn new(ctx: &Arc<Context>, board: Arc<Board>, watch: Gather) -> Feed {
         Feed {
             ctx: ctx.clone(),
             scene: ChannelBuilder::new(SCENE_TOPIC).context(ctx).build(),
             board,
             watch,
+            taken: Vec::new(),
             dropped: 0,
             channels: HashMap::new(),
             buf: Vec::new(),
@@ -173,20 +176,23 @@ impl Feed {
 
     fn run(mut self, stop: &AtomicBool) {
         while !stop.load(Ordering::Acquire) {
-            let Some(change) = self.watch.recv_timeout(POLL) else {
+            if !self.watch.wait(POLL) {
                 self.note_dropped();
                 continue;
-            };
-            for item in change.items {
+            }
+            let mut taken = std::mem::take(&mut self.taken);
+            self.watch.take(&mut taken);
+            for (revision, item) in taken.drain(..) {
                 if let ChangeItem::Write {
                     object,
                     attr,
                     packet,
                 } = item
                 {
-                    self.packet(&object, &attr, &packet, change.revision);
+                    self.packet(&object, &attr, &packet, revision);
                 }
             }
+            self.taken = taken;
         }
     }
 
