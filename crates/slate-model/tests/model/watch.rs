@@ -201,22 +201,31 @@ fn a_gathered_watch_hands_over_every_waiting_item_with_its_revision_and_drops_wh
     b.write("g", "speed", 5.0).unwrap();
 }
 
-/// A reader waiting on a gathered watch is woken by a writer on another thread.
+/// A reader asleep on an empty gathered watch (for an hour: nothing wakes it but a
+/// writer) is woken by each write: the writer waits until the reader has taken its item
+/// before the next, so the reader is asleep again each time. A lost wake-up would leave
+/// the writer waiting.
 #[test]
-fn a_reader_waiting_on_a_gathered_watch_is_woken_by_a_write() {
+fn a_reader_asleep_on_a_gathered_watch_is_woken_by_each_write() {
+    const WRITES: usize = 200;
     let b = Arc::new(board());
     b.create("Gsr", "g").unwrap();
     let w = b.watch_gathered(Filter::all(), 1024).unwrap();
-    let writer = {
-        let b = b.clone();
-        thread::spawn(move || {
-            thread::sleep(Duration::from_millis(50));
-            b.write("g", "speed", 1.0).unwrap();
-        })
-    };
-    assert!(w.wait(Duration::from_secs(10)), "woken within 10 s");
-    writer.join().unwrap();
-    assert_eq!(w.take(&mut Vec::new()), 1);
+    let (tx, rx) = crossbeam_channel::unbounded();
+    let reader = thread::spawn(move || {
+        let mut taken = Vec::new();
+        for _ in 0..WRITES {
+            while !w.wait(Duration::from_secs(3600)) {}
+            taken.clear();
+            tx.send(w.take(&mut taken)).unwrap();
+        }
+    });
+    for i in 0..WRITES {
+        b.write("g", "speed", (i % 40) as f64).unwrap();
+        let got = rx.recv_timeout(Duration::from_secs(10));
+        assert_eq!(got, Ok(1), "write {i} woke the reader");
+    }
+    reader.join().unwrap();
 }
 
 /// A reader blocked on `recv` gets what is left, then `None`, once the board is gone.
@@ -276,6 +285,47 @@ fn changes_from_two_writer_threads_all_reach_a_waiting_reader_in_revision_order(
         assert_eq!(w.try_recv(), None, "nothing beyond the writes");
         assert_eq!(seen + w.dropped(), total, "capacity {capacity:?}");
         if capacity.is_none() {
+            assert_eq!(w.dropped(), 0);
+        }
+    }
+}
+
+/// The same with a gathered watch: every item arrives once, in revision order, or its
+/// change is counted as dropped; a reader waiting on an empty buffer is always woken.
+#[test]
+fn changes_from_two_writer_threads_all_reach_a_waiting_gathered_reader_in_revision_order() {
+    const WRITES: u64 = 20_000;
+    for capacity in [1 << 20, 64] {
+        let b = Arc::new(board());
+        b.create("Gsr", "g").unwrap();
+        b.create("Gsr", "h").unwrap();
+        let w = b.watch_gathered(Filter::all(), capacity).unwrap();
+        let writers: Vec<_> = ["g", "h"]
+            .into_iter()
+            .map(|name| {
+                let b = b.clone();
+                thread::spawn(move || {
+                    for i in 0..WRITES {
+                        b.write(name, "speed", (i % 40) as f64).unwrap();
+                    }
+                })
+            })
+            .collect();
+        let total = 2 * WRITES;
+        let (mut seen, mut last, mut taken) = (0, 0, Vec::new());
+        while seen + w.dropped() < total {
+            assert!(w.wait(Duration::from_secs(10)), "an item within 10 s");
+            w.take(&mut taken);
+            for (revision, _) in taken.drain(..) {
+                assert!(revision > last, "{revision} after {last}");
+                last = revision;
+                seen += 1;
+            }
+        }
+        writers.into_iter().for_each(|t| t.join().unwrap());
+        assert_eq!(w.pending(), 0, "nothing beyond the writes");
+        assert_eq!(seen + w.dropped(), total, "capacity {capacity}");
+        if capacity > total as usize {
             assert_eq!(w.dropped(), 0);
         }
     }
