@@ -152,6 +152,21 @@ fn a_bounded_watch_drops_and_counts_what_does_not_fit_and_never_blocks_the_write
     assert_eq!(unbounded.dropped(), 0);
 }
 
+/// Two threads, each writing one of `g` and `h` `writes` times.
+fn two_writers(b: &Arc<slate_model::Board>, writes: u64) -> Vec<thread::JoinHandle<()>> {
+    ["g", "h"]
+        .into_iter()
+        .map(|name| {
+            let b = b.clone();
+            thread::spawn(move || {
+                for i in 0..writes {
+                    b.write(name, "speed", (i % 40) as f64).unwrap();
+                }
+            })
+        })
+        .collect()
+}
+
 /// A recorder's or a store's watch: the reader takes every waiting item at once, each
 /// with its change's revision, in order; a change that does not fit whole is dropped and
 /// counted, and the writes all commit.
@@ -260,17 +275,7 @@ fn changes_from_two_writer_threads_all_reach_a_waiting_reader_in_revision_order(
             None => b.watch(Filter::all()).unwrap(),
             Some(n) => b.watch_bounded(Filter::all(), n).unwrap(),
         };
-        let writers: Vec<_> = ["g", "h"]
-            .into_iter()
-            .map(|name| {
-                let b = b.clone();
-                thread::spawn(move || {
-                    for i in 0..WRITES {
-                        b.write(name, "speed", (i % 40) as f64).unwrap();
-                    }
-                })
-            })
-            .collect();
+        let writers = two_writers(&b, WRITES);
         let total = 2 * WRITES;
         let (mut seen, mut last) = (0, 0);
         while seen + w.dropped() < total {
@@ -300,17 +305,7 @@ fn changes_from_two_writer_threads_all_reach_a_waiting_gathered_reader_in_revisi
         b.create("Gsr", "g").unwrap();
         b.create("Gsr", "h").unwrap();
         let w = b.watch_gathered(Filter::all(), capacity).unwrap();
-        let writers: Vec<_> = ["g", "h"]
-            .into_iter()
-            .map(|name| {
-                let b = b.clone();
-                thread::spawn(move || {
-                    for i in 0..WRITES {
-                        b.write(name, "speed", (i % 40) as f64).unwrap();
-                    }
-                })
-            })
-            .collect();
+        let writers = two_writers(&b, WRITES);
         let total = 2 * WRITES;
         let (mut seen, mut last, mut taken) = (0, 0, Vec::new());
         while seen + w.dropped() < total {
