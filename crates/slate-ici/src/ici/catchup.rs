@@ -149,6 +149,7 @@ impl State {
                 None => req,
             });
             self.stats.catch_up.deferred += 1;
+            self.peer_timers.insert(from.clone());
             return;
         }
         self.peer(from).answered = Some(now);
@@ -191,8 +192,7 @@ impl State {
     /// Answers the requests that waited for their peer's interval to pass.
     pub fn deferred_answers(&mut self) {
         let due: Vec<Address> = self
-            .peers
-            .iter()
+            .peers_with_timers()
             .filter(|(_, p)| p.deferred.is_some() && !self.answer_waits(p))
             .map(|(a, _)| a.clone())
             .collect();
