@@ -504,18 +504,27 @@ mod tests {
         assert!(diff < Duration::from_millis(50), "{ours:?} vs {wall:?}");
     }
 
-    #[test]
-    fn listeners_hear_a_manual_clock_move_until_dropped() {
-        struct Heard(Mutex<Vec<Duration>>);
-        impl ClockListener for Heard {
-            fn advanced(&self, now: Duration) {
-                self.0.lock().push(now);
-            }
+    /// A listener that writes down the moves it hears.
+    struct Heard(Mutex<Vec<Duration>>);
+
+    impl ClockListener for Heard {
+        fn advanced(&self, now: Duration) {
+            self.0.lock().push(now);
         }
-        let clock = Clock::manual();
+    }
+
+    /// A new [`Heard`], and the weak handle a clock holds.
+    fn heard() -> (Arc<Heard>, Weak<dyn ClockListener>) {
         let heard = Arc::new(Heard(Mutex::new(Vec::new())));
         let weak: Weak<dyn ClockListener> =
             Arc::downgrade(&(heard.clone() as Arc<dyn ClockListener>));
+        (heard, weak)
+    }
+
+    #[test]
+    fn listeners_hear_a_manual_clock_move_until_dropped() {
+        let clock = Clock::manual();
+        let (heard, weak) = heard();
         clock.subscribe(weak);
         clock.advance(Duration::from_secs(1)).unwrap();
         clock.set(MANUAL_EPOCH + Duration::from_secs(5)).unwrap();
@@ -532,17 +541,9 @@ mod tests {
 
     #[test]
     fn a_waking_listener_hears_only_the_moves_at_or_past_its_wake_or_after_a_touch() {
-        struct Heard(Mutex<Vec<Duration>>);
-        impl ClockListener for Heard {
-            fn advanced(&self, now: Duration) {
-                self.0.lock().push(now);
-            }
-        }
         let clock = Clock::manual();
-        let heard = Arc::new(Heard(Mutex::new(Vec::new())));
+        let (heard, weak) = heard();
         let wake = Arc::new(Wake::default());
-        let weak: Weak<dyn ClockListener> =
-            Arc::downgrade(&(heard.clone() as Arc<dyn ClockListener>));
         clock.subscribe_waking(weak, wake.clone());
         let at = |s| MANUAL_EPOCH + Duration::from_secs(s);
         wake.set(at(3));
@@ -564,20 +565,12 @@ mod tests {
                 self.0.touched();
             }
         }
-        struct Heard(Mutex<Vec<Duration>>);
-        impl ClockListener for Heard {
-            fn advanced(&self, now: Duration) {
-                self.0.lock().push(now);
-            }
-        }
         let clock = Clock::manual();
         let wake = Arc::new(Wake::default());
         wake.set(Duration::MAX);
         let toucher: Arc<dyn ClockListener> = Arc::new(Toucher(wake.clone()));
-        let heard = Arc::new(Heard(Mutex::new(Vec::new())));
+        let (heard, weak) = heard();
         clock.subscribe(Arc::downgrade(&toucher));
-        let weak: Weak<dyn ClockListener> =
-            Arc::downgrade(&(heard.clone() as Arc<dyn ClockListener>));
         clock.subscribe_waking(weak, wake);
         clock.advance(Duration::from_secs(1)).unwrap();
         assert_eq!(*heard.0.lock(), [MANUAL_EPOCH + Duration::from_secs(1)]);
