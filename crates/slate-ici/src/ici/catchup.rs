@@ -570,6 +570,25 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_deferred_request_is_answered_once_its_interval_is_over_by_the_timers_alone() {
+        use super::super::team::test_state::{START, alone};
+        let (_net, mut st) = alone("t/r1/nav", crate::IciConfig::default());
+        let from = addr("t/r1/cam");
+        st.now = START;
+        st.peer(&from).up = true;
+        st.on_request(&from, CatchUpRequest::default());
+        st.on_request(&from, CatchUpRequest::default());
+        let stats = |st: &State| (st.stats.catch_up.answered, st.stats.catch_up.deferred);
+        assert_eq!(stats(&st), (1, 1));
+        assert!(st.peers[&from].hello_unanswered.is_none(), "no other timer");
+        let due = st.deferred_answer_due(&st.peers[&from]);
+        assert!(st.next_tick() <= due, "the timers know the answer is due");
+        st.now = due;
+        st.tick();
+        assert_eq!(stats(&st), (2, 1), "answered by the tick");
+    }
+
+    #[test]
     fn a_team_answer_relays_others_packets_on_objects_of_every_robot_asking() {
         let robots: Vec<Arc<str>> = vec!["r1".into(), "r2".into()];
         let team = Audience::Team(&robots);
