@@ -32,11 +32,11 @@ use slate_model::{Address, Board, ChangeHook, ClockListener, Touched};
 use slate_plans::{Diagnostic, Diagnostics, Engine, Item, Outgoing, PlanEvent, Span, Stage};
 use slate_wire::{Message, PlanStep};
 
-use crate::wake::Wake;
 use crate::{Ici, PlanHandler, SendRawError};
 pub use authority::PlanAuthority;
 use destination::Destination;
 use origin::Origin;
+use slate_model::Wake;
 pub use slate_model::{AddressPattern, PatternError};
 
 /// How long a gap in a circuit's acknowledgements may stay open (later steps arrived,
@@ -257,8 +257,10 @@ pub(crate) struct Inner {
     /// Taken through [`Inner::destination`] (but by the timers).
     destination: Mutex<Destination>,
     /// On a manual clock, when the timers next have something to do; touched by
-    /// anything else that takes the origin or the destination.
-    wake: Wake,
+    /// anything else that takes the origin or the destination, and by the engine after
+    /// each event and send (`events`, `outgoing`). The clock skips the `Hook` on a move
+    /// before it.
+    wake: Arc<Wake>,
     outgoing: Receiver<Outgoing>,
     events: Receiver<PlanEvent>,
     /// Held by the one thread draining the engine's channels.
@@ -275,7 +277,7 @@ pub(crate) struct Inner {
     runs_for: Mutex<HashMap<String, Address>>,
     /// Those told of each plan refused for want of authority (see
     /// [`PlanCircuits::refusals`]).
-    refusals: Mutex<Vec<Sender<RefusedPlan>>>,
+    refusals: Mutex<Vec<slate_model::WakingSender<RefusedPlan>>>,
     /// The transport loses sends without retransmitting them ([`Transport::retransmits`]):
     /// unanswered plans go again and last steps are repeated.
     ///
@@ -299,6 +301,7 @@ impl PlanCircuits {
     pub fn attach(ici: &Ici, engine: &slate_plans::Engine) -> PlanCircuits {
         let manual = ici.board().clock().is_manual();
         let (queue, queued) = crossbeam_channel::bounded(MAX_QUEUED_PLANS);
+        let wake = Arc::new(Wake::default());
         let inner = Arc::new(Inner {
             ici: ici.clone(),
             engine: engine.clone(),
@@ -306,9 +309,9 @@ impl PlanCircuits {
             next_circuit: AtomicU64::new(1),
             origin: Mutex::new(Origin::default()),
             destination: Mutex::new(Destination::default()),
-            wake: Wake::default(),
-            outgoing: engine.outgoing(),
-            events: engine.events(),
+            wake: wake.clone(),
+            outgoing: engine.outgoing_waking(wake.clone()),
+            events: engine.events_waking(wake.clone()),
             draining: Mutex::new(()),
             listener: Mutex::new(None),
             counters: Counters::default(),
@@ -324,7 +327,9 @@ impl PlanCircuits {
         board.add_hook(Arc::new(Hook(weak.clone())));
         if manual {
             let listener: Arc<dyn ClockListener> = Arc::new(Hook(weak.clone()));
-            board.clock().subscribe(Arc::downgrade(&listener));
+            board
+                .clock()
+                .subscribe_waking(Arc::downgrade(&listener), wake);
             *inner.listener.lock() = Some(listener);
         } else {
             spawn_pump(weak, inner.outgoing.clone(), inner.events.clone(), queued);
@@ -376,7 +381,18 @@ impl PlanCircuits {
     /// Every plan refused from now on for want of authority, as it is refused; a receiver
     /// that lets [`MAX_QUEUED_REFUSALS`] wait misses the newer ones (nothing waits for it).
     pub fn refusals(&self) -> Receiver<RefusedPlan> {
+        self.refusals_with(None)
+    }
+
+    /// [`PlanCircuits::refusals`], touching `wake` after each refusal: a manual clock's
+    /// listener that reads them can sleep until there is one.
+    pub fn refusals_waking(&self, wake: Arc<Wake>) -> Receiver<RefusedPlan> {
+        self.refusals_with(Some(wake))
+    }
+
+    fn refusals_with(&self, wake: Option<Arc<Wake>>) -> Receiver<RefusedPlan> {
         let (tx, rx) = crossbeam_channel::bounded(MAX_QUEUED_REFUSALS);
+        let tx = slate_model::WakingSender::new(tx, wake);
         self.inner.refusals.lock().push(tx);
         rx
     }
@@ -702,10 +718,17 @@ impl ChangeHook for Hook {
 }
 
 impl ClockListener for Hook {
+    /// Takes what the engine produced and runs the timers. The clock calls it only on a
+    /// move at or past `Inner::wake`, which the engine touches with every event and
+    /// send: every board of a simulated team hears every move of the shared clock.
     fn advanced(&self, now: Duration) {
         if let Some(inner) = self.0.upgrade() {
             inner.drain();
             inner.tick_if_due(now);
+            if !(inner.events.is_empty() && inner.outgoing.is_empty()) {
+                // Produced by another thread while the timers ran, their touch undone.
+                inner.wake.touched();
+            }
         }
     }
 }

@@ -54,7 +54,6 @@
 mod circuits;
 mod error;
 mod ici;
-mod wake;
 
 pub use circuits::HeldPlan;
 pub use circuits::{

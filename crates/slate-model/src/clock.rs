@@ -11,6 +11,8 @@ use std::fmt;
 use std::sync::{Arc, Weak};
 
 use parking_lot::Mutex;
+
+use crate::Wake;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -174,7 +176,13 @@ struct Inner {
     physical: Physical,
     last: AtomicU64,
     max_drift: Duration,
-    listeners: Mutex<Vec<Weak<dyn ClockListener>>>,
+    listeners: Mutex<Vec<Listener>>,
+}
+
+/// A listener, and when it next has something to do if it said ([`Clock::subscribe_waking`]).
+struct Listener {
+    listener: Weak<dyn ClockListener>,
+    wake: Option<Arc<Wake>>,
 }
 
 impl fmt::Debug for Inner {
@@ -348,21 +356,51 @@ impl Clock {
         n.fetch_update(Ordering::AcqRel, Ordering::Acquire, checked)
             .map_err(|_| refused)?;
         let now = self.physical();
-        let live: Vec<Arc<dyn ClockListener>> = {
-            let mut listeners = self.inner.listeners.lock();
-            listeners.retain(|l| l.strong_count() > 0);
-            listeners.iter().filter_map(Weak::upgrade).collect()
-        };
-        for l in live {
-            l.advanced(now);
+        // Each listener is looked at as its turn comes (one before it may have touched
+        // its wake); those asleep are neither called nor upgraded. Those that subscribe
+        // meanwhile wait for the next move. Only `subscribe_with` removes entries, so the
+        // indices hold without the lock.
+        let mut next = 0;
+        let mut end = None;
+        loop {
+            let listener = {
+                let listeners = self.inner.listeners.lock();
+                let end = *end.get_or_insert(listeners.len());
+                let mut found = None;
+                while found.is_none() && next < end {
+                    let l = &listeners[next];
+                    next += 1;
+                    if !l.wake.as_ref().is_some_and(|w| w.asleep_at(now)) {
+                        found = l.listener.upgrade();
+                    }
+                }
+                found
+            };
+            match listener {
+                Some(l) => l.advanced(now),
+                None => break,
+            }
         }
         Ok(())
     }
 
     /// Registers a listener, told whenever this manual clock moves (held weakly: dropping
-    /// the listener unsubscribes it).
+    /// the listener unsubscribes it). Listeners are told in the order they subscribed.
     pub fn subscribe(&self, listener: Weak<dyn ClockListener>) {
-        self.inner.listeners.lock().push(listener);
+        self.subscribe_with(listener, None);
+    }
+
+    /// Registers a listener as [`Clock::subscribe`] does, told of a move only if it is
+    /// not before `wake`'s time.
+    pub fn subscribe_waking(&self, listener: Weak<dyn ClockListener>, wake: Arc<Wake>) {
+        self.subscribe_with(listener, Some(wake));
+    }
+
+    /// Also forgets the listeners dropped (a move only skips them).
+    fn subscribe_with(&self, listener: Weak<dyn ClockListener>, wake: Option<Arc<Wake>>) {
+        let mut listeners = self.inner.listeners.lock();
+        listeners.retain(|l| l.listener.strong_count() > 0);
+        listeners.push(Listener { listener, wake });
     }
 }
 
@@ -466,18 +504,27 @@ mod tests {
         assert!(diff < Duration::from_millis(50), "{ours:?} vs {wall:?}");
     }
 
-    #[test]
-    fn listeners_hear_a_manual_clock_move_until_dropped() {
-        struct Heard(Mutex<Vec<Duration>>);
-        impl ClockListener for Heard {
-            fn advanced(&self, now: Duration) {
-                self.0.lock().push(now);
-            }
+    /// A listener that writes down the moves it hears.
+    struct Heard(Mutex<Vec<Duration>>);
+
+    impl ClockListener for Heard {
+        fn advanced(&self, now: Duration) {
+            self.0.lock().push(now);
         }
-        let clock = Clock::manual();
+    }
+
+    /// A new [`Heard`], and the weak handle a clock holds.
+    fn heard() -> (Arc<Heard>, Weak<dyn ClockListener>) {
         let heard = Arc::new(Heard(Mutex::new(Vec::new())));
         let weak: Weak<dyn ClockListener> =
             Arc::downgrade(&(heard.clone() as Arc<dyn ClockListener>));
+        (heard, weak)
+    }
+
+    #[test]
+    fn listeners_hear_a_manual_clock_move_until_dropped() {
+        let clock = Clock::manual();
+        let (heard, weak) = heard();
         clock.subscribe(weak);
         clock.advance(Duration::from_secs(1)).unwrap();
         clock.set(MANUAL_EPOCH + Duration::from_secs(5)).unwrap();
@@ -490,6 +537,51 @@ mod tests {
         );
         drop(heard);
         clock.advance(Duration::from_secs(1)).unwrap();
+    }
+
+    #[test]
+    fn a_waking_listener_hears_only_the_moves_at_or_past_its_wake_or_after_a_touch() {
+        let clock = Clock::manual();
+        let (heard, weak) = heard();
+        let wake = Arc::new(Wake::default());
+        clock.subscribe_waking(weak, wake.clone());
+        let at = |s| MANUAL_EPOCH + Duration::from_secs(s);
+        wake.set(at(3));
+        for s in 1..=4 {
+            clock.set(at(s)).unwrap();
+        }
+        wake.set(at(10));
+        clock.set(at(5)).unwrap();
+        wake.touched();
+        clock.set(at(6)).unwrap();
+        assert_eq!(*heard.0.lock(), [at(3), at(4), at(6)]);
+    }
+
+    #[test]
+    fn a_listener_touched_by_one_before_it_in_the_same_move_hears_that_move() {
+        struct Toucher(Arc<Wake>);
+        impl ClockListener for Toucher {
+            fn advanced(&self, _now: Duration) {
+                self.0.touched();
+            }
+        }
+        let clock = Clock::manual();
+        let wake = Arc::new(Wake::default());
+        wake.set(Duration::MAX);
+        let toucher: Arc<dyn ClockListener> = Arc::new(Toucher(wake.clone()));
+        let (heard, weak) = heard();
+        clock.subscribe(Arc::downgrade(&toucher));
+        clock.subscribe_waking(weak, wake);
+        clock.advance(Duration::from_secs(1)).unwrap();
+        assert_eq!(*heard.0.lock(), [MANUAL_EPOCH + Duration::from_secs(1)]);
+        drop(heard);
+        clock.advance(Duration::from_secs(1)).unwrap();
+        clock.subscribe(Arc::downgrade(&toucher));
+        assert_eq!(
+            clock.inner.listeners.lock().len(),
+            2,
+            "the dropped one forgotten"
+        );
     }
 
     #[test]

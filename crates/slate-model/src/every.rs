@@ -37,6 +37,12 @@ impl Every {
         }
         due
     }
+
+    /// The earliest time at which [`Every::due`] says yes (zero before the first).
+    pub fn next(&self) -> Duration {
+        self.last
+            .map_or(Duration::ZERO, |t| t.saturating_add(self.period))
+    }
 }
 
 /// One [`Every`] per key (a source), each counting the occasions it held back: at most

@@ -44,6 +44,7 @@ pub mod memo;
 mod packet;
 mod umbrella;
 mod value;
+mod wake;
 
 pub use active::{ActiveFn, Call, CallToken, FnError, FnRef, Trigger};
 pub use address::{Address, AddressError, Context};
@@ -73,3 +74,4 @@ pub use id::{AttrId, Key, ObjectId};
 pub use packet::{Packet, Update, ValueError, check_quality, check_value};
 pub use umbrella::Error;
 pub use value::{Value, ValueType};
+pub use wake::{Wake, WakingSender};

@@ -290,8 +290,7 @@ impl NodeBuilder {
             _ => (None, None),
         };
         let log = Arc::new(EventLog::default());
-        let refusals = circuits.refusals();
-        let monitor = Monitor::start(&board, &engine, (&ici, interest, refusals), log.clone());
+        let monitor = Monitor::start(&board, &engine, (&ici, interest, &circuits), log.clone());
         let timers = system_clock.then(|| Timers::start(ici.clone()));
         let mut view = View::new(board, engine, ici, transport, circuits, log, listen);
         view.state = keeper.as_ref().map(Keeper::shared_stats);

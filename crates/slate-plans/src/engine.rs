@@ -165,6 +165,9 @@ pub(crate) struct Shared {
     /// set after each run of the engine: a manual clock's move before it has nothing
     /// for the engine to do, and the system clock's timer thread sleeps until it.
     next_timer: AtomicU64,
+    /// On a manual clock: `next_timer` while nothing is queued, the clock's move before
+    /// which the engine is not called.
+    due: Arc<slate_model::Wake>,
     /// Plans declared in loaded files, for `send NAME` (its own lock: rules read it while
     /// the engine runs).
     texts: Mutex<HashMap<String, String>>,
@@ -220,6 +223,7 @@ impl Engine {
             outbox: Outbox::default(),
             wake: (Mutex::new(()), Condvar::new()),
             next_timer: AtomicU64::new(u64::MAX),
+            due: Arc::default(),
             texts: Mutex::new(HashMap::new()),
             derived: Mutex::new(HashMap::new()),
             evaluations: AtomicU64::new(0),
@@ -231,7 +235,10 @@ impl Engine {
         });
         board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
         let listener: Arc<dyn ClockListener> = shared.clone();
-        board.clock().subscribe(Arc::downgrade(&listener));
+        let due = shared.due.clone();
+        board
+            .clock()
+            .subscribe_waking(Arc::downgrade(&listener), due);
         Engine { shared }
     }
 
@@ -256,12 +263,23 @@ impl Engine {
 
     /// Reports and plans the engine's actions produce, for the ICI.
     pub fn outgoing(&self) -> Receiver<Outgoing> {
-        self.shared.outbox.subscribe_outgoing()
+        self.shared.outbox.subscribe_outgoing(None)
+    }
+
+    /// [`Engine::outgoing`], touching `wake` after each send: a manual clock's listener
+    /// that takes them can sleep until there is something ([`slate_model::Clock::subscribe_waking`]).
+    pub fn outgoing_waking(&self, wake: Arc<slate_model::Wake>) -> Receiver<Outgoing> {
+        self.shared.outbox.subscribe_outgoing(Some(wake))
     }
 
     /// Progress events of every plan.
     pub fn events(&self) -> Receiver<PlanEvent> {
-        self.shared.outbox.subscribe_events()
+        self.shared.outbox.subscribe_events(None)
+    }
+
+    /// [`Engine::events`], touching `wake` after each event.
+    pub fn events_waking(&self, wake: Arc<slate_model::Wake>) -> Receiver<PlanEvent> {
+        self.shared.outbox.subscribe_events(Some(wake))
     }
 
     /// The status of a plan.
@@ -568,6 +586,7 @@ impl Shared {
     /// already running the engine: then that one runs it before it lets go.
     fn push(&self, work: Work, board: &Board) {
         self.queue.lock().push(work);
+        self.due.touched();
         self.push_nothing(board);
     }
 
@@ -605,6 +624,12 @@ impl Shared {
             .peek()
             .map_or(u64::MAX, |Reverse((due, _, _))| *due);
         self.next_timer.store(next, Ordering::SeqCst);
+        self.due.set(Duration::from_micros(next));
+        // Work queued since the loop looked (by a thread that found the engine taken)
+        // waits for the next move, as it did before `due` was set.
+        if !self.queue.lock().is_empty() {
+            self.due.touched();
+        }
     }
 
     /// Evaluates plans within a budget of evaluations; returns what is left of it.
@@ -662,6 +687,8 @@ impl Shared {
         rt.timer_gen += 1;
         let due = micros(Duration::try_from_secs_f64(at.max(0.0)).unwrap_or(Duration::MAX));
         st.timers.push(Reverse((due, idx, rt.timer_gen)));
+        // The change hook evaluates without `drain`: the clock must call the engine by then.
+        self.due.lower(Duration::from_micros(due));
         if due < self.next_timer.fetch_min(due, Ordering::SeqCst) {
             let _guard = self.wake.0.lock();
             self.wake.1.notify_all();

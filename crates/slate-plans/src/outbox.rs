@@ -4,9 +4,9 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use crossbeam_channel::{Receiver, Sender};
+use crossbeam_channel::Receiver;
 use parking_lot::Mutex;
-use slate_model::{Address, Packet};
+use slate_model::{Address, Packet, Wake, WakingSender};
 
 /// One reported assertion.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,13 +103,13 @@ pub(crate) const MAX_UNCLAIMED: usize = 256;
 #[derive(Default)]
 pub(crate) struct Outbox {
     outgoing: Mutex<Subscribers>,
-    events: Mutex<Vec<Sender<PlanEvent>>>,
+    events: Mutex<Vec<WakingSender<PlanEvent>>>,
 }
 
 /// Who takes the sends, and the sends made before anyone did.
 #[derive(Default)]
 struct Subscribers {
-    senders: Vec<Sender<Outgoing>>,
+    senders: Vec<WakingSender<Outgoing>>,
     unclaimed: VecDeque<Outgoing>,
     /// Unclaimed sends dropped to keep [`MAX_UNCLAIMED`].
     dropped: u64,
@@ -117,19 +117,22 @@ struct Subscribers {
 
 impl Outbox {
     /// A new subscriber of the sends; the first takes those made before it came.
-    pub fn subscribe_outgoing(&self) -> Receiver<Outgoing> {
+    /// `wake`, if given, is touched after each send.
+    pub fn subscribe_outgoing(&self, wake: Option<Arc<Wake>>) -> Receiver<Outgoing> {
         let (tx, rx) = crossbeam_channel::unbounded();
+        let sub = WakingSender::new(tx, wake);
         let mut subs = self.outgoing.lock();
         for msg in subs.unclaimed.drain(..) {
-            let _ = tx.send(msg);
+            let _ = sub.send(msg);
         }
-        subs.senders.push(tx);
+        subs.senders.push(sub);
         rx
     }
 
-    pub fn subscribe_events(&self) -> Receiver<PlanEvent> {
+    /// A new subscriber of the events; `wake`, if given, is touched after each.
+    pub fn subscribe_events(&self, wake: Option<Arc<Wake>>) -> Receiver<PlanEvent> {
         let (tx, rx) = crossbeam_channel::unbounded();
-        self.events.lock().push(tx);
+        self.events.lock().push(WakingSender::new(tx, wake));
         rx
     }
 
@@ -140,7 +143,7 @@ impl Outbox {
     /// keeps its newest sends); the oldest go first, counted and logged.
     pub fn send(&self, msg: Outgoing) {
         let mut subs = self.outgoing.lock();
-        subs.senders.retain(|tx| tx.send(msg.clone()).is_ok());
+        subs.senders.retain(|sub| sub.send(msg.clone()).is_ok());
         if !subs.senders.is_empty() {
             return;
         }
@@ -170,7 +173,7 @@ impl Outbox {
 
     pub fn event(&self, e: PlanEvent) {
         tracing::debug!(?e, "plan event");
-        self.events.lock().retain(|tx| tx.send(e.clone()).is_ok());
+        self.events.lock().retain(|sub| sub.send(e.clone()).is_ok());
     }
 }
 
@@ -192,8 +195,8 @@ mod tests {
         let outbox = Outbox::default();
         outbox.send(plan(1));
         outbox.send(plan(2));
-        let first = outbox.subscribe_outgoing();
-        let second = outbox.subscribe_outgoing();
+        let first = outbox.subscribe_outgoing(None);
+        let second = outbox.subscribe_outgoing(None);
         outbox.send(plan(3));
         assert_eq!(
             first.try_iter().collect::<Vec<_>>(),
@@ -209,7 +212,7 @@ mod tests {
             outbox.send(plan(n));
         }
         assert_eq!(outbox.unclaimed_dropped(), 10);
-        let got: Vec<_> = outbox.subscribe_outgoing().try_iter().collect();
+        let got: Vec<_> = outbox.subscribe_outgoing(None).try_iter().collect();
         assert_eq!(got.len(), MAX_UNCLAIMED);
         assert_eq!(got[0], plan(10));
     }
@@ -217,10 +220,13 @@ mod tests {
     #[test]
     fn sends_wait_again_once_every_subscriber_is_gone() {
         let outbox = Outbox::default();
-        drop(outbox.subscribe_outgoing());
+        drop(outbox.subscribe_outgoing(None));
         outbox.send(plan(1));
         assert_eq!(
-            outbox.subscribe_outgoing().try_iter().collect::<Vec<_>>(),
+            outbox
+                .subscribe_outgoing(None)
+                .try_iter()
+                .collect::<Vec<_>>(),
             [plan(1)]
         );
     }

@@ -149,6 +149,7 @@ impl State {
                 None => req,
             });
             self.stats.catch_up.deferred += 1;
+            self.peer_timers.insert(from.clone());
             return;
         }
         self.peer(from).answered = Some(now);
@@ -191,8 +192,7 @@ impl State {
     /// Answers the requests that waited for their peer's interval to pass.
     pub fn deferred_answers(&mut self) {
         let due: Vec<Address> = self
-            .peers
-            .iter()
+            .peers_with_timers()
             .filter(|(_, p)| p.deferred.is_some() && !self.answer_waits(p))
             .map(|(a, _)| a.clone())
             .collect();
@@ -568,6 +568,25 @@ mod tests {
     use slate_testing::addr;
 
     use super::*;
+
+    #[test]
+    fn a_deferred_request_is_answered_once_its_interval_is_over_by_the_timers_alone() {
+        use super::super::team::test_state::{START, alone};
+        let (_net, mut st) = alone("t/r1/nav", crate::IciConfig::default());
+        let from = addr("t/r1/cam");
+        st.now = START;
+        st.peer(&from).up = true;
+        st.on_request(&from, CatchUpRequest::default());
+        st.on_request(&from, CatchUpRequest::default());
+        let stats = |st: &State| (st.stats.catch_up.answered, st.stats.catch_up.deferred);
+        assert_eq!(stats(&st), (1, 1));
+        assert!(st.peers[&from].hello_unanswered.is_none(), "no other timer");
+        let due = st.deferred_answer_due(&st.peers[&from]);
+        assert!(st.next_tick() <= due, "the timers know the answer is due");
+        st.now = due;
+        st.tick();
+        assert_eq!(stats(&st), (2, 1), "answered by the tick");
+    }
 
     #[test]
     fn a_team_answer_relays_others_packets_on_objects_of_every_robot_asking() {

@@ -41,8 +41,8 @@ pub use stats::{
     CatchUpStats, IciStats, LivelinessStats, MergeStats, RejectStats, ReportStats, TeamStats,
 };
 
-use crate::wake::Wake;
 use crate::{LinkKind, MsgKind, SendError, Transport};
+use slate_model::Wake;
 
 /// Where plans meet the ICI: the plan engine installs one with
 /// [`Ici::set_plan_handler`] to receive the `Plan`, `PlanAck` and `PlanCancel` messages
@@ -137,8 +137,9 @@ struct Shared {
     ticker: Arc<Ticker>,
     /// On a manual clock, when the timers next have something to do
     /// ([`State::next_tick`]); touched by anything else that changes the state (a
-    /// message, a peer's up or down, a board change, a call).
-    wake: Wake,
+    /// message, a peer's up or down, a board change, a call). The clock skips the
+    /// ticker on a move before it.
+    wake: Arc<Wake>,
     /// The link policies set (`set_link_policy`), taken after the state lock.
     links: Mutex<link::Links>,
     /// Publications made once the state lock is released (the state's own).
@@ -175,7 +176,7 @@ impl Ici {
             queue: Mutex::new(VecDeque::new()),
             plan_handler: RwLock::new(None),
             ticker: Arc::new(Ticker(me.clone())),
-            wake: Wake::default(),
+            wake: Arc::default(),
             links,
             outgoing,
         });
@@ -351,7 +352,8 @@ impl Shared {
         self.board.add_hook(Arc::new(Doorbell(me.clone())));
         if self.board.clock().is_manual() {
             let listener: Arc<dyn ClockListener> = self.ticker.clone();
-            self.board.clock().subscribe(Arc::downgrade(&listener));
+            let clock = self.board.clock();
+            clock.subscribe_waking(Arc::downgrade(&listener), self.wake.clone());
         }
         self.transport.set_handler(Arc::new(Inbound(me)));
     }
@@ -528,15 +530,12 @@ impl slate_model::ChangeHook for Doorbell {
 struct Ticker(Weak<Shared>);
 
 impl ClockListener for Ticker {
-    /// Runs the timers, unless none is due before the clock's next move: every module
-    /// of a simulated team hears every move of the shared clock (one per event), and
-    /// running all of their timers at each was the simulator's largest cost, growing
-    /// with the cube of the team (docs/team-protocol.md, 7.1).
-    fn advanced(&self, now: Duration) {
+    /// Runs the timers. The clock calls it only on a move at or past `Shared::wake`:
+    /// every module of a simulated team hears every move of the shared clock (one per
+    /// event), and running all of their timers at each was the simulator's largest
+    /// cost, growing with the cube of the team (docs/team-protocol.md, 7.1).
+    fn advanced(&self, _now: Duration) {
         if let Some(shared) = self.0.upgrade() {
-            if shared.wake.asleep_at(now) {
-                return;
-            }
             shared.with_state_until(tick_all, State::next_tick);
         }
     }

@@ -273,6 +273,11 @@ pub(crate) struct State {
     pub catch_up_unheld_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
+    /// The peers that may have a hello unanswered or a catch-up answer deferred: those
+    /// `hello_timers`, `deferred_answers` and `next_tick` look at, rather than every peer
+    /// of the team at every tick. Added to wherever either is set; a tick drops those
+    /// with neither (`State::prune_peer_timers`).
+    pub peer_timers: BTreeSet<Address>,
     /// A timer run by the tick in progress acted, after timers that read what it
     /// changed had run: the next tick comes at the clock's next move
     /// (`State::next_tick`).
@@ -356,6 +361,7 @@ impl State {
             plans_held_from: Duration::MAX,
             catch_up_unheld_from: Duration::ZERO,
             dead: BTreeSet::new(),
+            peer_timers: BTreeSet::new(),
             tick_again: false,
             watch,
             next_change: None,

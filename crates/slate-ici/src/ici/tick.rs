@@ -68,6 +68,26 @@ impl State {
         self.held_plan_timers();
         self.deferred_answers();
         self.hello_timers();
+        self.prune_peer_timers();
+    }
+
+    /// The peers of [`State::peer_timers`] (a hello unanswered or an answer deferred, or
+    /// neither since the last tick), in the peers' order.
+    pub(crate) fn peers_with_timers(&self) -> impl Iterator<Item = (&Address, &Peer)> {
+        let peers = &self.peers;
+        self.peer_timers
+            .iter()
+            .filter_map(move |a| peers.get_key_value(a))
+    }
+
+    /// Drops from [`State::peer_timers`] the peers gone or with neither timer left.
+    fn prune_peer_timers(&mut self) {
+        let peers = &self.peers;
+        self.peer_timers.retain(|a| {
+            peers
+                .get(a)
+                .is_some_and(|p| p.hello_unanswered.is_some() || p.deferred.is_some())
+        });
     }
 
     /// The earliest instant at which [`tick`](Self::tick) (and the link filters'
@@ -97,7 +117,7 @@ impl State {
         for p in self.dead.iter().filter_map(|a| self.peers.get(a)) {
             next = next.min(self.forget_due(p));
         }
-        for p in self.peers.values() {
+        for (_, p) in self.peers_with_timers() {
             if let Some(due) = self.hello_due(p) {
                 next = next.min(due);
             }
@@ -125,8 +145,7 @@ impl State {
     fn hello_timers(&mut self) {
         let now = self.now;
         let unanswered: Vec<(Address, u32)> = self
-            .peers
-            .iter()
+            .peers_with_timers()
             .filter(|(_, p)| self.hello_due(p).is_some_and(|due| now >= due))
             .filter_map(|(a, p)| Some((a.clone(), p.hello_unanswered?.1)))
             .collect();
@@ -135,6 +154,7 @@ impl State {
             self.stats.liveliness.hellos_resent += 1;
             self.hello(&peer, false);
             self.peer(&peer).hello_unanswered = Some((now, tries + 1));
+            self.peer_timers.insert(peer);
         }
     }
 
@@ -564,6 +584,7 @@ impl State {
         }
         let now = self.now;
         self.peer(to).hello_unanswered = Some((now, 0));
+        self.peer_timers.insert(to.clone());
         self.hello(to, false);
     }
 

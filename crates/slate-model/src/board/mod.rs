@@ -14,7 +14,7 @@ pub(crate) mod watch;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crossbeam_channel::{Receiver, Sender};
+use crossbeam_channel::Receiver;
 use parking_lot::{Mutex, RwLock};
 
 pub use batch::Batch;
@@ -29,7 +29,8 @@ pub use watch::{BoardEvent, Change, ChangeItem, Cursor, Filter, Gather, RevisedI
 
 use crate::{
     Address, AttrDecl, ClassDef, Clock, Context, CreateError, DefineError, DeleteError, EveryPer,
-    Key, LookupError, ObjectId, Packet, ReadError, THING, Trigger, Update, WriteError,
+    Key, LookupError, ObjectId, Packet, ReadError, THING, Trigger, Update, Wake, WakingSender,
+    WriteError,
 };
 
 /// Default limit on the depth of chains of active functions.
@@ -66,7 +67,8 @@ pub struct Board {
     clock: Clock,
     address: Address,
     max_depth: usize,
-    subscribers: Mutex<Vec<Sender<BoardEvent>>>,
+    /// Those told of the board's events, and the wake each gave, touched after each.
+    subscribers: Mutex<Vec<WakingSender<BoardEvent>>>,
     function_failures: AtomicU64,
     chain_cuts: AtomicU64,
     future_stamps: AtomicU64,
@@ -752,7 +754,14 @@ impl Board {
     /// Subscribes to the changes matching `filter`. Every write notifies once, every
     /// batch once (with all its matching items), in revision order.
     pub fn watch(&self, filter: Filter) -> Result<Watch, LookupError> {
-        self.subscribe(filter, None)
+        self.subscribe(filter, None, None)
+    }
+
+    /// Like [`watch`](Board::watch), touching `wake` after each change it is handed: a
+    /// manual clock's listener that reads it can sleep until there is one
+    /// ([`Clock::subscribe_waking`](crate::Clock::subscribe_waking)).
+    pub fn watch_waking(&self, filter: Filter, wake: Arc<Wake>) -> Result<Watch, LookupError> {
+        self.subscribe(filter, None, Some(wake))
     }
 
     /// Like [`watch`](Board::watch), but at most `capacity` changes wait for the reader:
@@ -760,7 +769,7 @@ impl Board {
     /// ([`Watch::dropped`]) instead of queueing without bound. For readers that must
     /// never hold the writers up nor grow memory, like a recorder.
     pub fn watch_bounded(&self, filter: Filter, capacity: usize) -> Result<Watch, LookupError> {
-        self.subscribe(filter, Some(capacity.max(1)))
+        self.subscribe(filter, Some(capacity.max(1)), None)
     }
 
     /// Like [`watch_bounded`](Board::watch_bounded), for a reader that takes every
@@ -773,18 +782,32 @@ impl Board {
         Ok(gather)
     }
 
-    fn subscribe(&self, filter: Filter, capacity: Option<usize>) -> Result<Watch, LookupError> {
+    fn subscribe(
+        &self,
+        filter: Filter,
+        capacity: Option<usize>,
+        wake: Option<Arc<Wake>>,
+    ) -> Result<Watch, LookupError> {
         let mut inner = self.inner.write();
         let spec = resolve_filter(&inner.state, &filter)?;
-        let (watcher, watch) = watch::subscribe(spec, capacity);
+        let (watcher, watch) = watch::subscribe(spec, capacity, wake);
         inner.watchers.push(watcher);
         Ok(watch)
     }
 
     /// Subscribes to the board's own events (failed active functions, cut chains).
     pub fn events(&self) -> Receiver<BoardEvent> {
+        self.events_with(None)
+    }
+
+    /// Like [`events`](Board::events), touching `wake` after each event.
+    pub fn events_waking(&self, wake: Arc<Wake>) -> Receiver<BoardEvent> {
+        self.events_with(Some(wake))
+    }
+
+    fn events_with(&self, wake: Option<Arc<Wake>>) -> Receiver<BoardEvent> {
         let (tx, rx) = crossbeam_channel::unbounded();
-        self.subscribers.lock().push(tx);
+        self.subscribers.lock().push(WakingSender::new(tx, wake));
         rx
     }
 

@@ -4,11 +4,11 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
-use crossbeam_channel::{Receiver, RecvTimeoutError, Sender, TryRecvError, TrySendError};
+use crossbeam_channel::{Receiver, RecvTimeoutError, TryRecvError, TrySendError};
 use parking_lot::{Condvar, Mutex};
 
 use super::state::State;
-use crate::{Address, AttrId, ChainError, ObjectId, Packet, Trigger};
+use crate::{Address, AttrId, ChainError, ObjectId, Packet, Trigger, Wake, WakingSender};
 
 /// What to watch: changes that match every part given (an empty filter matches all).
 ///
@@ -380,8 +380,9 @@ pub(crate) struct Watcher {
 
 /// Where a watcher's changes go.
 enum Sink {
-    /// One message a change, to a [`Watch`] (`bounded` by its channel or not).
-    Channel(Sender<Change>),
+    /// One message a change, to a [`Watch`] (`bounded` by its channel or not), with
+    /// the reader's wake if it gave one ([`Board::watch_waking`](crate::Board::watch_waking)).
+    Channel(WakingSender<Change>),
     /// Every item appended to the one buffer a [`Gather`] takes whole.
     Buffer(Arc<Gathered>),
 }
@@ -406,7 +407,11 @@ impl Watcher {
 
 /// Creates a watcher and the watch its reader holds; `capacity` bounds the changes
 /// waiting (`None`: unbounded).
-pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch) {
+pub(crate) fn subscribe(
+    spec: Spec,
+    capacity: Option<usize>,
+    wake: Option<Arc<Wake>>,
+) -> (Watcher, Watch) {
     let (tx, rx) = match capacity {
         Some(n) => crossbeam_channel::bounded(n),
         None => crossbeam_channel::unbounded(),
@@ -414,7 +419,7 @@ pub(crate) fn subscribe(spec: Spec, capacity: Option<usize>) -> (Watcher, Watch)
     let dropped = Arc::new(AtomicU64::new(0));
     let watcher = Watcher {
         spec,
-        sink: Sink::Channel(tx),
+        sink: Sink::Channel(WakingSender::new(tx, wake)),
         dropped: dropped.clone(),
     };
     let cursor = Cursor::default();

@@ -17,7 +17,7 @@ mod receive;
 mod repair;
 mod send;
 #[cfg(test)]
-mod test_state;
+pub(crate) mod test_state;
 
 use std::collections::{BTreeMap, VecDeque};
 
