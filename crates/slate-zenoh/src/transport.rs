@@ -253,11 +253,11 @@ impl ZenohConfig {
 }
 
 /// Zenoh's lease (ms) when a UDP link goes beside each TCP one and no Zenoh file is
-/// given: 40 s, so that an idle TCP link sends a keep-alive every 10 s, not every 2.5 s
+/// given: 60 s, so that an idle TCP link sends a keep-alive every 15 s, not every 2.5 s
 /// (Zenoh's default lease is 10 s). slate's heartbeats, not Zenoh's lease, judge whether
 /// a module lives (docs/ici.md, *Liveliness*); a link that closes (a process that exits)
 /// is still seen at once. docs/performance.md, *Bytes on the radio*, has the figures.
-const UDP_BESIDE_LEASE_MS: u64 = 40_000;
+const UDP_BESIDE_LEASE_MS: u64 = 60_000;
 
 /// `endpoints` with a `udp/` endpoint beside each `tcp/` one, at the same address
 /// ([`ZenohConfig::udp_reports`]). Zenoh sends a message on a link whose reliability is
@@ -1346,7 +1346,7 @@ mod tests {
             )
         );
         assert_eq!(zenoh.get_json("transport/unicast/max_links").unwrap(), "2");
-        assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "40000");
+        assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "60000");
     }
 
     #[test]
