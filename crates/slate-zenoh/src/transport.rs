@@ -69,9 +69,9 @@ pub struct ZenohConfig {
     /// they cost a radio no TCP acknowledgement; everything else (Zenoh's declarations
     /// and liveliness, direct sends: plans, hellos, catch-up; lossless classes) stays on
     /// TCP. Zenoh chooses the link by a message's reliability ([`udp_beside`]). Ignored
-    /// with [`security`](ZenohConfig::security) or
-    /// when an endpoint is already `udp/`. A node's default is on (docs/performance.md,
-    /// *Bytes on the radio*); off here, for the command line's short sessions.
+    /// with [`security`](ZenohConfig::security) or when an endpoint is already `udp/`.
+    /// A node's default is on (docs/performance.md, *Bytes on the radio*); off here, for
+    /// the command line's short sessions.
     pub udp_reports: bool,
 }
 
@@ -176,6 +176,14 @@ impl ZenohConfig {
         }
     }
 
+    /// Whether a UDP link goes beside each TCP one ([`ZenohConfig::udp_reports`]): asked
+    /// for, not secured (a `udp/` link would carry no identity), and no endpoint is
+    /// `udp/` already (the user chose datagrams for everything).
+    fn udp_beside_tcp(&self) -> bool {
+        let mut endpoints = self.listen.iter().chain(&self.connect);
+        self.udp_reports && self.security.is_none() && !endpoints.any(|e| e.starts_with("udp/"))
+    }
+
     /// The file's config, or Zenoh's defaults.
     fn base(&self) -> Result<zenoh::Config, OpenError> {
         let Some(path) = &self.file else {
@@ -241,16 +249,6 @@ impl ZenohConfig {
 
 /// Zenoh's key for finding peers by UDP multicast.
 const MULTICAST_SCOUTING: &str = "scouting/multicast/enabled";
-
-impl ZenohConfig {
-    /// Whether a UDP link goes beside each TCP one ([`ZenohConfig::udp_reports`]): asked
-    /// for, not secured (a `udp/` link would carry no identity), and no endpoint is
-    /// `udp/` already (the user chose datagrams for everything).
-    fn udp_beside_tcp(&self) -> bool {
-        let mut endpoints = self.listen.iter().chain(&self.connect);
-        self.udp_reports && self.security.is_none() && !endpoints.any(|e| e.starts_with("udp/"))
-    }
-}
 
 /// Zenoh's lease (ms) when a UDP link goes beside each TCP one and no Zenoh file is
 /// given: 60 s, so that an idle TCP link sends a keep-alive every 15 s, not every 2.5 s
@@ -1034,7 +1032,9 @@ impl Inner {
     /// The publisher of `dest`, declared on first use: direct sends (reliable) block
     /// when the link is congested (in their outbox's thread, never the caller's),
     /// publications drop (the ICI catches up from the current state), except those of
-    /// [`Flow::Every`], which block in the caller's thread.
+    /// [`Flow::Every`], which block in the caller's thread. With a UDP link beside each
+    /// TCP one, the team link's dropping publications are best effort: Zenoh sends them
+    /// on the UDP link ([`udp_beside`]).
     fn publisher(&self, dest: Dest) -> Result<Arc<Publisher<'static>>, SendError> {
         if let Some(p) = self.publishers.lock().get(&dest) {
             return Ok(p.clone());
