@@ -76,6 +76,15 @@ fn endpoint(net: &mut Loopback, address: &str) -> Endpoint {
     Endpoint { transport, inbox }
 }
 
+/// A session of its own for `name`, with what it hears.
+fn session(name: &str, config: &ZenohConfig) -> Endpoint {
+    let transport = ZenohTransport::open(Address::new(name).unwrap(), config)
+        .unwrap_or_else(|e| panic!("{name} opens on {config:?}: {e}"));
+    let inbox = Arc::new(Inbox::default());
+    transport.set_handler(inbox.clone());
+    Endpoint { transport, inbox }
+}
+
 /// Does a publication of `from` on `link` go out to any other session? Zenoh routes a
 /// put only to the sessions whose subscriptions match, so `false` means it costs the
 /// network nothing.
@@ -155,14 +164,7 @@ fn modules_joined_only_by_udp_endpoints_exchange_publications_and_sends() {
             connect,
             ..ZenohConfig::default()
         };
-        let t = ZenohTransport::open(Address::new(name).unwrap(), &config)
-            .unwrap_or_else(|e| panic!("{name} opens on {endpoint}: {e}"));
-        let inbox = Arc::new(Inbox::default());
-        t.set_handler(inbox.clone());
-        Endpoint {
-            transport: t,
-            inbox,
-        }
+        session(name, &config)
     };
     let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
     let b = open("t/r2/b", vec![], vec![endpoint.clone()]);
@@ -404,14 +406,7 @@ fn with_udp_reports_team_reports_go_over_udp_and_everything_else_over_tcp() {
             udp_reports: true,
             ..ZenohConfig::default()
         };
-        let t = ZenohTransport::open(Address::new(name).unwrap(), &config)
-            .unwrap_or_else(|e| panic!("{name} opens: {e}"));
-        let inbox = Arc::new(Inbox::default());
-        t.set_handler(inbox.clone());
-        Endpoint {
-            transport: t,
-            inbox,
-        }
+        session(name, &config)
     };
     let b = open("t/r2/b", vec![format!("tcp/127.0.0.1:{port}")], vec![]);
     let relay = Relay::start(port);
