@@ -120,7 +120,10 @@ impl ZenohConfig {
     /// - `mode`, `listen/endpoints`, `connect/endpoints` and `scouting/multicast/enabled`
     ///   always without a file; with one, only those slate's config gives a value other
     ///   than its default (peer, no endpoints, no multicast scouting), so that a file
-    ///   can say client mode, its routers or multicast scouting.
+    ///   can say client mode, its routers or multicast scouting;
+    /// - with a UDP link beside each TCP one ([`ZenohConfig::udp_reports`]): a `udp/`
+    ///   endpoint beside each `tcp/` one, `transport/unicast/max_links` 2, and without a
+    ///   file `transport/link/tx/lease` 60 s.
     ///
     /// ```
     /// let config = slate_zenoh::ZenohConfig {
