@@ -10,8 +10,9 @@ emulated radio, and checks of what every board holds and which modules it marks 
 A team of three robots, one namespace each, 10.77.0.(i+1) on the radio: r1 runs
 `rl/r1/nav` and `rl/r1/writer` (a node whose plan increments `gsr.count` every 200 ms),
 r2 and r3 run `rl/rN/nav`. Every node loads the same world, exports everything, uses
-slate's default timeouts (team link: heartbeat 1 s, timeout 5 s) and Zenoh's defaults
-(10 s lease), and listens on its robot's radio address; each connects to every other
+slate's default timeouts (team link: heartbeat 1 s, timeout 20 s) and a node's Zenoh
+defaults (a UDP link beside each TCP one for the team link's reports, a 60 s lease), and
+listens on its robot's radio address; each connects to every other
 (`--topology chain`: to the one before it only). Boards are read from each node's
 dashboard JSON (`/api/snapshot`, polled from inside its namespace); liveliness marks are
 the nodes' own `peer ADDR down` / `peer ADDR up` lines (one per change of a `Module`

@@ -75,6 +75,8 @@ fn zenoh_config(connect: &[String], security: Option<Security>) -> ZenohConfig {
         multicast_scouting: false,
         file: None,
         security,
+        // A client of one node for a short while: not a team member's reports.
+        udp_reports: false,
     }
 }
 

@@ -64,6 +64,8 @@ fn zenoh(
         multicast_scouting: false,
         file: None,
         security: None,
+        // Not yet measured from Python (docs/performance.md, *Bytes on the radio*).
+        udp_reports: false,
     })
 }
 

@@ -15,7 +15,7 @@ use zenoh::Wait;
 use zenoh::key_expr::KeyExpr;
 use zenoh::liveliness::LivelinessToken;
 use zenoh::pubsub::{Publisher, Subscriber};
-use zenoh::qos::CongestionControl;
+use zenoh::qos::{CongestionControl, Reliability};
 use zenoh::query::{ConsolidationMode, Query, QueryTarget, Queryable};
 use zenoh::sample::{Locality, Sample, SampleKind};
 
@@ -64,6 +64,15 @@ pub struct ZenohConfig {
     /// neither authenticated nor encrypted). With it, every endpoint must be `tls/` or
     /// `quic/`.
     pub security: Option<crate::Security>,
+    /// Beside each `tcp/HOST:PORT` endpoint, a `udp/HOST:PORT` one that carries the team
+    /// link's reports and heartbeats (its publications that may be dropped), so that
+    /// they cost a radio no TCP acknowledgement; everything else (Zenoh's declarations
+    /// and liveliness, direct sends: plans, hellos, catch-up; lossless classes) stays on
+    /// TCP. Zenoh chooses the link by a message's reliability ([`udp_beside`]). Ignored
+    /// with [`security`](ZenohConfig::security) or when an endpoint is already `udp/`.
+    /// A node's default is on (docs/performance.md, *Bytes on the radio*); off here, for
+    /// the command line's short sessions.
+    pub udp_reports: bool,
 }
 
 /// The session could not be opened.
@@ -111,7 +120,10 @@ impl ZenohConfig {
     /// - `mode`, `listen/endpoints`, `connect/endpoints` and `scouting/multicast/enabled`
     ///   always without a file; with one, only those slate's config gives a value other
     ///   than its default (peer, no endpoints, no multicast scouting), so that a file
-    ///   can say client mode, its routers or multicast scouting.
+    ///   can say client mode, its routers or multicast scouting;
+    /// - with a UDP link beside each TCP one ([`ZenohConfig::udp_reports`]): a `udp/`
+    ///   endpoint beside each `tcp/` one, `transport/unicast/max_links` 2, and without a
+    ///   file `transport/link/tx/lease` 60 s.
     ///
     /// ```
     /// let config = slate_zenoh::ZenohConfig {
@@ -167,6 +179,14 @@ impl ZenohConfig {
         }
     }
 
+    /// Whether a UDP link goes beside each TCP one ([`ZenohConfig::udp_reports`]): asked
+    /// for, not secured (a `udp/` link would carry no identity), and no endpoint is
+    /// `udp/` already (the user chose datagrams for everything).
+    fn udp_beside_tcp(&self) -> bool {
+        let mut endpoints = self.listen.iter().chain(&self.connect);
+        self.udp_reports && self.security.is_none() && !endpoints.any(|e| e.starts_with("udp/"))
+    }
+
     /// The file's config, or Zenoh's defaults.
     fn base(&self) -> Result<zenoh::Config, OpenError> {
         let Some(path) = &self.file else {
@@ -189,11 +209,27 @@ impl ZenohConfig {
         if all || self.mode != Mode::Peer {
             settings.push(("mode", format!("{:?}", self.mode.name())));
         }
-        if all || !self.listen.is_empty() {
-            settings.push(("listen/endpoints", json(&self.listen)));
+        let beside = self.udp_beside_tcp();
+        let (listen, connect) = if beside {
+            (udp_beside(&self.listen), udp_beside(&self.connect))
+        } else {
+            (self.listen.clone(), self.connect.clone())
+        };
+        if all || !listen.is_empty() {
+            settings.push(("listen/endpoints", json(&listen)));
         }
-        if all || !self.connect.is_empty() {
-            settings.push(("connect/endpoints", json(&self.connect)));
+        if all || !connect.is_empty() {
+            settings.push(("connect/endpoints", json(&connect)));
+        }
+        if beside {
+            // A peer's TCP and UDP links in (and as many out): Zenoh's default takes one.
+            settings.push(("transport/unicast/max_links", "2".to_owned()));
+            if all {
+                // An idle link sends a keep-alive every lease / 4: TCP's, and its
+                // acknowledgement, are most of an idle radio's bytes once the heartbeats
+                // go over UDP. A file's lease stands.
+                settings.push(("transport/link/tx/lease", UDP_BESIDE_LEASE_MS.to_string()));
+            }
         }
         if all || self.multicast_scouting {
             let on = self.multicast_scouting.to_string();
@@ -216,6 +252,31 @@ impl ZenohConfig {
 
 /// Zenoh's key for finding peers by UDP multicast.
 const MULTICAST_SCOUTING: &str = "scouting/multicast/enabled";
+
+/// Zenoh's lease (ms) when a UDP link goes beside each TCP one and no Zenoh file is
+/// given: 60 s, so that an idle TCP link sends a keep-alive every 15 s, not every 2.5 s
+/// (Zenoh's default lease is 10 s). slate's heartbeats, not Zenoh's lease, judge whether
+/// a module lives (docs/ici.md, *Liveliness*); a link that closes (a process that exits)
+/// is still seen at once. docs/performance.md, *Bytes on the radio*, has the figures.
+const UDP_BESIDE_LEASE_MS: u64 = 60_000;
+
+/// `endpoints` with a `udp/` endpoint beside each `tcp/` one, at the same address
+/// ([`ZenohConfig::udp_reports`]). Zenoh sends a message on a link whose reliability is
+/// the message's (a TCP link is reliable, a plain UDP one best effort), else on any link:
+/// the publications marked best effort ([`Inner::publisher`]) take the UDP link when it
+/// is up, and TCP otherwise (a peer that listens on TCP only, or before the UDP link is
+/// open). The UDP endpoint carries no metadata: `udp/...?rel=1` would be a QUIC link.
+fn udp_beside(endpoints: &[String]) -> Vec<String> {
+    let mut out = Vec::with_capacity(endpoints.len() * 2);
+    for e in endpoints {
+        out.push(e.clone());
+        let parsed = e.parse::<zenoh::config::EndPoint>();
+        if let Some(tcp) = parsed.ok().filter(|p| p.protocol().as_str() == "tcp") {
+            out.push(format!("udp/{}", tcp.address()));
+        }
+    }
+    out
+}
 
 /// Longest wait, when a link is listened to again, for the modules that publish on it to
 /// confirm they know the new subscription ([`keys::sync`]): a peer that has not answered
@@ -285,6 +346,9 @@ pub(crate) struct Inner {
     behind_dropped: AtomicU64,
     /// Some of its endpoints are `udp/`: sends may be lost without retransmission.
     datagrams: bool,
+    /// A UDP link goes beside each TCP one: the team link's droppable publications are
+    /// marked best effort, which Zenoh sends on it.
+    udp_beside_tcp: bool,
     closed: AtomicBool,
 }
 
@@ -322,6 +386,7 @@ impl ZenohTransport {
                 .iter()
                 .chain(&config.connect)
                 .any(|e| e.starts_with("udp/")),
+            udp_beside_tcp: config.udp_beside_tcp(),
             closed: AtomicBool::new(false),
         });
         let declarer = spawn_declarer(Arc::downgrade(&inner))
@@ -970,7 +1035,9 @@ impl Inner {
     /// The publisher of `dest`, declared on first use: direct sends (reliable) block
     /// when the link is congested (in their outbox's thread, never the caller's),
     /// publications drop (the ICI catches up from the current state), except those of
-    /// [`Flow::Every`], which block in the caller's thread.
+    /// [`Flow::Every`], which block in the caller's thread. With a UDP link beside each
+    /// TCP one, the team link's dropping publications are best effort: Zenoh sends them
+    /// on the UDP link ([`udp_beside`]).
     fn publisher(&self, dest: Dest) -> Result<Arc<Publisher<'static>>, SendError> {
         if let Some(p) = self.publishers.lock().get(&dest) {
             return Ok(p.clone());
@@ -985,10 +1052,17 @@ impl Inner {
             ),
             Dest::Direct(to) => (keys::direct(to, &self.address), CongestionControl::Block),
         };
+        let reliability = match dest {
+            Dest::Publication(LinkKind::Team, Flow::Latest) if self.udp_beside_tcp => {
+                Reliability::BestEffort
+            }
+            _ => Reliability::Reliable,
+        };
         let publisher = self
             .session
             .declare_publisher(key)
             .congestion_control(congestion)
+            .reliability(reliability)
             // This session's own subscriptions drop what it sends: do not route it there.
             .allowed_destination(Locality::Remote)
             .wait()
@@ -1247,6 +1321,56 @@ mod tests {
             !text.contains("Json5Err") && !text.contains(".cargo"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn udp_reports_puts_a_udp_endpoint_beside_each_tcp_one() {
+        let config = ZenohConfig {
+            listen: vec!["tcp/10.0.0.1:7447".into()],
+            connect: vec![
+                "tcp/10.0.0.2:7447".into(),
+                "tcp/10.0.0.3:7447#iface=eth0".into(),
+                "unixsock-stream//tmp/s".into(),
+            ],
+            udp_reports: true,
+            ..ZenohConfig::default()
+        };
+        let zenoh = config.to_zenoh().unwrap();
+        assert_eq!(
+            zenoh.get_json("listen/endpoints").unwrap(),
+            r#"["tcp/10.0.0.1:7447","udp/10.0.0.1:7447"]"#
+        );
+        assert_eq!(
+            zenoh.get_json("connect/endpoints").unwrap(),
+            concat!(
+                r#"["tcp/10.0.0.2:7447","udp/10.0.0.2:7447","#,
+                r#""tcp/10.0.0.3:7447#iface=eth0","udp/10.0.0.3:7447","#,
+                r#""unixsock-stream//tmp/s"]"#
+            )
+        );
+        assert_eq!(zenoh.get_json("transport/unicast/max_links").unwrap(), "2");
+        assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "60000");
+    }
+
+    #[test]
+    fn udp_reports_leaves_endpoints_alone_when_off_secured_or_already_udp() {
+        let off = ZenohConfig {
+            connect: vec!["tcp/10.0.0.2:7447".into()],
+            ..ZenohConfig::default()
+        };
+        let udp = ZenohConfig {
+            connect: vec!["tcp/10.0.0.2:7447".into(), "udp/10.0.0.2:7448".into()],
+            udp_reports: true,
+            ..ZenohConfig::default()
+        };
+        for config in [off, udp] {
+            let zenoh = config.to_zenoh().unwrap();
+            let want = format!("{:?}", config.connect).replace(", ", ",");
+            assert_eq!(zenoh.get_json("connect/endpoints").unwrap(), want);
+            assert_eq!(zenoh.get_json("transport/unicast/max_links").unwrap(), "1");
+            assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "10000");
+            assert!(!config.udp_beside_tcp());
+        }
     }
 
     #[test]

@@ -18,6 +18,8 @@ use zenoh::sample::Locality;
 #[derive(Default)]
 pub struct Loopback {
     endpoints: Vec<String>,
+    /// Each session's `ZenohConfig::udp_reports` (a node's default).
+    udp_reports: bool,
 }
 
 impl TransportFactory for Loopback {
@@ -28,6 +30,7 @@ impl TransportFactory for Loopback {
         let config = ZenohConfig {
             listen: vec![endpoint.clone()],
             connect: self.endpoints.clone(),
+            udp_reports: self.udp_reports,
             ..ZenohConfig::default()
         };
         self.endpoints.push(endpoint);
@@ -52,6 +55,14 @@ impl TransportFactory for Loopback {
 
 slate_transport::transport_conformance!(Loopback::default());
 
+/// The suite again with a UDP link beside each TCP one, as a node opens its sessions.
+mod udp_beside_tcp {
+    slate_transport::transport_conformance!(super::Loopback {
+        udp_reports: true,
+        ..super::Loopback::default()
+    });
+}
+
 /// What a module hears, with the network the test made.
 struct Endpoint {
     transport: Arc<ZenohTransport>,
@@ -60,6 +71,15 @@ struct Endpoint {
 
 fn endpoint(net: &mut Loopback, address: &str) -> Endpoint {
     let transport = net.join(&Address::new(address).unwrap());
+    let inbox = Arc::new(Inbox::default());
+    transport.set_handler(inbox.clone());
+    Endpoint { transport, inbox }
+}
+
+/// A session of its own for `name`, with what it hears.
+fn session(name: &str, config: &ZenohConfig) -> Endpoint {
+    let transport = ZenohTransport::open(Address::new(name).unwrap(), config)
+        .unwrap_or_else(|e| panic!("{name} opens on {config:?}: {e}"));
     let inbox = Arc::new(Inbox::default());
     transport.set_handler(inbox.clone());
     Endpoint { transport, inbox }
@@ -144,14 +164,7 @@ fn modules_joined_only_by_udp_endpoints_exchange_publications_and_sends() {
             connect,
             ..ZenohConfig::default()
         };
-        let t = ZenohTransport::open(Address::new(name).unwrap(), &config)
-            .unwrap_or_else(|e| panic!("{name} opens on {endpoint}: {e}"));
-        let inbox = Arc::new(Inbox::default());
-        t.set_handler(inbox.clone());
-        Endpoint {
-            transport: t,
-            inbox,
-        }
+        session(name, &config)
     };
     let a = open("t/r1/a", vec![endpoint.clone()], vec![]);
     let b = open("t/r2/b", vec![], vec![endpoint.clone()]);
@@ -266,4 +279,201 @@ fn every_publication_of_flow_every_reaches_a_slow_handler_in_order_and_latest_on
         writer.close();
         receiver.close();
     }
+}
+
+/// A relay on 127.0.0.1 between one connecting session and one listening session: TCP
+/// and UDP on the same port, each forwarded to the listener's port of the same protocol,
+/// keeping every byte it forwarded (both directions) per protocol.
+struct Relay {
+    port: u16,
+    tcp: Arc<std::sync::Mutex<Vec<u8>>>,
+    udp: Arc<std::sync::Mutex<Vec<u8>>>,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Relay {
+    fn start(to: u16) -> Relay {
+        use std::io::{Read, Write};
+        use std::net::{TcpListener, TcpStream, UdpSocket};
+        use std::sync::atomic::{AtomicBool, Ordering};
+        let port = free_port();
+        let stop = Arc::new(AtomicBool::new(false));
+        let tcp = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let udp = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let tick = Some(Duration::from_millis(50));
+        let listener = TcpListener::bind(("127.0.0.1", port)).expect("relay listens on tcp");
+        listener.set_nonblocking(true).unwrap();
+        let (seen, done) = (tcp.clone(), stop.clone());
+        thread::spawn(move || {
+            while !done.load(Ordering::Relaxed) {
+                let Ok((down, _)) = listener.accept() else {
+                    thread::sleep(Duration::from_millis(10));
+                    continue;
+                };
+                down.set_nonblocking(false).unwrap();
+                let up = TcpStream::connect(("127.0.0.1", to)).expect("relay reaches the listener");
+                for (mut from, mut to) in [
+                    (down.try_clone().unwrap(), up.try_clone().unwrap()),
+                    (up, down),
+                ] {
+                    from.set_read_timeout(tick).unwrap();
+                    let (seen, done) = (seen.clone(), done.clone());
+                    thread::spawn(move || {
+                        let mut buf = [0u8; 65536];
+                        while !done.load(Ordering::Relaxed) {
+                            match from.read(&mut buf) {
+                                Ok(0) => return,
+                                Ok(n) => {
+                                    seen.lock().unwrap().extend_from_slice(&buf[..n]);
+                                    if to.write_all(&buf[..n]).is_err() {
+                                        return;
+                                    }
+                                }
+                                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {}
+                                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
+                                Err(_) => return,
+                            }
+                        }
+                    });
+                }
+            }
+        });
+        let down = UdpSocket::bind(("127.0.0.1", port)).expect("relay binds udp on its tcp port");
+        let up = UdpSocket::bind("127.0.0.1:0").unwrap();
+        up.connect(("127.0.0.1", to)).unwrap();
+        let peer = Arc::new(std::sync::Mutex::new(None));
+        for (inward, socket) in [
+            (true, down.try_clone().unwrap()),
+            (false, up.try_clone().unwrap()),
+        ] {
+            let (down, up) = (down.try_clone().unwrap(), up.try_clone().unwrap());
+            let (seen, done, peer) = (udp.clone(), stop.clone(), peer.clone());
+            socket.set_read_timeout(tick).unwrap();
+            thread::spawn(move || {
+                let mut buf = [0u8; 65536];
+                while !done.load(Ordering::Relaxed) {
+                    let Ok((n, from)) = socket.recv_from(&mut buf) else {
+                        continue;
+                    };
+                    seen.lock().unwrap().extend_from_slice(&buf[..n]);
+                    if inward {
+                        *peer.lock().unwrap() = Some(from);
+                        let _ = up.send(&buf[..n]);
+                    } else if let Some(back) = *peer.lock().unwrap() {
+                        let _ = down.send_to(&buf[..n], back);
+                    }
+                }
+            });
+        }
+        Relay {
+            port,
+            tcp,
+            udp,
+            stop,
+        }
+    }
+
+    /// Did `marker` cross on TCP, on UDP?
+    fn carried(&self, marker: &[u8]) -> (bool, bool) {
+        let has = |bytes: &std::sync::Mutex<Vec<u8>>| {
+            bytes
+                .lock()
+                .unwrap()
+                .windows(marker.len())
+                .any(|w| w == marker)
+        };
+        (has(&self.tcp), has(&self.udp))
+    }
+}
+
+impl Drop for Relay {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// With `udp_reports`, the team link's reports and heartbeats (its droppable
+/// publications) cross on the UDP link beside the TCP one, and never on TCP once that
+/// link is up; direct sends and lossless publications stay on TCP, and the robot link's
+/// reports never take UDP. Read off the bytes a relay between the two sessions forwarded on each protocol.
+#[test]
+fn with_udp_reports_team_reports_go_over_udp_and_everything_else_over_tcp() {
+    let port = free_port();
+    let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
+        let config = ZenohConfig {
+            listen,
+            connect,
+            udp_reports: true,
+            ..ZenohConfig::default()
+        };
+        session(name, &config)
+    };
+    let b = open("t/r2/b", vec![format!("tcp/127.0.0.1:{port}")], vec![]);
+    let relay = Relay::start(port);
+    let a = open(
+        "t/r1/a",
+        vec![],
+        vec![format!("tcp/127.0.0.1:{}", relay.port)],
+    );
+    let mut net = Loopback::default();
+    let up = |e: &Endpoint| e.transport.peers().len() == 1;
+    assert!(net.run_until(&mut || up(&a) && up(&b)), "peers");
+    assert!(net.run_until(&mut || routed_anywhere(&a.transport, LinkKind::Team)));
+    // Until the UDP link is up, Zenoh sends reports on TCP: wait for one on UDP.
+    let mut n = 0;
+    let on_udp = net.run_until(&mut || {
+        n += 1;
+        let early = format!("early report {n}");
+        a.transport
+            .publish(LinkKind::Team, MsgKind::Report, early.as_bytes())
+            .unwrap();
+        thread::sleep(Duration::from_millis(20));
+        relay.carried(early.as_bytes()).1
+    });
+    assert!(on_udp, "no team report crossed on UDP");
+    let kinds = [
+        (LinkKind::Team, MsgKind::Report),
+        (LinkKind::Team, MsgKind::Heartbeat),
+        (LinkKind::Robot, MsgKind::Report),
+    ];
+    for i in 0..20 {
+        for (link, kind) in kinds {
+            let text = format!("{link:?} {kind:?} {i}");
+            a.transport.publish(link, kind, text.as_bytes()).unwrap();
+        }
+        let every = format!("every {i}");
+        a.transport
+            .publish_with(
+                LinkKind::Team,
+                MsgKind::Report,
+                every.as_bytes(),
+                slate_transport::Flow::Every,
+            )
+            .unwrap();
+        let send = format!("send {i}");
+        a.transport
+            .send(b.transport.address(), MsgKind::Plan, send.as_bytes())
+            .unwrap();
+    }
+    assert!(net.run_until(&mut || b.inbox.messages().iter().any(|m| m.1 == b"send 19")));
+    net.settle();
+    for i in 0..20 {
+        for (link, kind) in kinds {
+            let text = format!("{link:?} {kind:?} {i}");
+            let (tcp, udp) = relay.carried(text.as_bytes());
+            if link == LinkKind::Team {
+                assert!(!tcp, "{text} crossed on TCP");
+                assert!(udp, "{text} did not cross on UDP");
+            } else {
+                // Another robot does not subscribe to r1's robot link: it crosses nowhere.
+                assert!(!udp, "{text} crossed on UDP");
+            }
+        }
+        for text in [format!("every {i}"), format!("send {i}")] {
+            let (tcp, udp) = relay.carried(text.as_bytes());
+            assert!(tcp && !udp, "{text}: on TCP {tcp}, on UDP {udp}");
+        }
+    }
+    a.transport.close();
+    b.transport.close();
 }

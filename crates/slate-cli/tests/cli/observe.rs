@@ -40,6 +40,7 @@ impl Writer {
             multicast_scouting: false,
             file: None,
             security: None,
+            udp_reports: false,
         };
         let node = Node::builder(Address::new("t/r1/nav").unwrap())
             .zenoh(zenoh)

@@ -127,10 +127,12 @@ fn a_zenoh_config_file_is_loaded_by_zenoh_and_slates_keys_win() {
         Some(d.join("zenoh.json5").as_path())
     );
     let zenoh = config.zenoh.to_zenoh().unwrap();
-    // The file's lease stands; slate's endpoint and timestamping win over the file's.
+    // The file's lease stands; slate's endpoint (with the UDP one a node opens beside
+    // it, `zenoh.udp_reports`) and timestamping win over the file's.
     assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "4321");
     let listen = zenoh.get_json("listen/endpoints").unwrap();
-    assert_eq!(listen, format!("[\"tcp/127.0.0.1:{port}\"]"));
+    let want = format!("[\"tcp/127.0.0.1:{port}\",\"udp/127.0.0.1:{port}\"]");
+    assert_eq!(listen, want);
     let stamps = zenoh.get_json("timestamping/enabled").unwrap();
     assert!(stamps.contains("\"peer\":false"), "{stamps}");
     let node = Node::start(&config).unwrap();
