@@ -775,11 +775,7 @@ impl Board {
     /// Like [`watch_bounded`](Board::watch_bounded), for a reader that takes every
     /// waiting change at once ([`Gather`]): at most `capacity` items wait.
     pub fn watch_gathered(&self, filter: Filter, capacity: usize) -> Result<Gather, LookupError> {
-        let mut inner = self.inner.write();
-        let spec = resolve_filter(&inner.state, &filter)?;
-        let (watcher, gather) = watch::gather(spec, capacity.max(1));
-        inner.watchers.push(watcher);
-        Ok(gather)
+        self.add_watcher(filter, |spec| watch::gather(spec, capacity.max(1)))
     }
 
     fn subscribe(
@@ -788,11 +784,20 @@ impl Board {
         capacity: Option<usize>,
         wake: Option<Arc<Wake>>,
     ) -> Result<Watch, LookupError> {
+        self.add_watcher(filter, |spec| watch::subscribe(spec, capacity, wake))
+    }
+
+    /// Resolves `filter` and adds the watcher `make` builds for it; its reader's end.
+    fn add_watcher<R>(
+        &self,
+        filter: Filter,
+        make: impl FnOnce(watch::Spec) -> (watch::Watcher, R),
+    ) -> Result<R, LookupError> {
         let mut inner = self.inner.write();
         let spec = resolve_filter(&inner.state, &filter)?;
-        let (watcher, watch) = watch::subscribe(spec, capacity, wake);
+        let (watcher, reader) = make(spec);
         inner.watchers.push(watcher);
-        Ok(watch)
+        Ok(reader)
     }
 
     /// Subscribes to the board's own events (failed active functions, cut chains).

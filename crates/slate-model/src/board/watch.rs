@@ -388,6 +388,18 @@ enum Sink {
 }
 
 impl Watcher {
+    /// A watcher for `spec` handing changes to `sink`, and its count of changes dropped
+    /// (the reader's end shares it).
+    fn new(spec: Spec, sink: Sink) -> (Watcher, Arc<AtomicU64>) {
+        let dropped = Arc::new(AtomicU64::new(0));
+        let watcher = Watcher {
+            spec,
+            sink,
+            dropped: dropped.clone(),
+        };
+        (watcher, dropped)
+    }
+
     /// Hands a change to the reader without ever waiting: a full bounded watch drops it
     /// and counts it. False once the reader is gone (the watcher is then removed).
     pub fn offer(&self, change: Change) -> bool {
@@ -416,12 +428,7 @@ pub(crate) fn subscribe(
         Some(n) => crossbeam_channel::bounded(n),
         None => crossbeam_channel::unbounded(),
     };
-    let dropped = Arc::new(AtomicU64::new(0));
-    let watcher = Watcher {
-        spec,
-        sink: Sink::Channel(WakingSender::new(tx, wake)),
-        dropped: dropped.clone(),
-    };
+    let (watcher, dropped) = Watcher::new(spec, Sink::Channel(WakingSender::new(tx, wake)));
     let cursor = Cursor::default();
     (
         watcher,
@@ -436,17 +443,12 @@ pub(crate) fn subscribe(
 /// Creates a watcher whose items gather in one buffer of at most `capacity` items, and
 /// the [`Gather`] its reader holds.
 pub(crate) fn gather(spec: Spec, capacity: usize) -> (Watcher, Gather) {
-    let dropped = Arc::new(AtomicU64::new(0));
     let shared = Arc::new(Gathered {
         items: Mutex::new(Vec::new()),
         ready: Condvar::new(),
         capacity,
     });
-    let watcher = Watcher {
-        spec,
-        sink: Sink::Buffer(shared.clone()),
-        dropped: dropped.clone(),
-    };
+    let (watcher, dropped) = Watcher::new(spec, Sink::Buffer(shared.clone()));
     (watcher, Gather { shared, dropped })
 }
 
