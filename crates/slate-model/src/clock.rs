@@ -176,13 +176,22 @@ struct Inner {
     physical: Physical,
     last: AtomicU64,
     max_drift: Duration,
-    listeners: Mutex<Vec<Listener>>,
+    listeners: Mutex<Listeners>,
 }
 
 /// A listener, and when it next has something to do if it said ([`Clock::subscribe_waking`]).
 struct Listener {
     listener: Weak<dyn ClockListener>,
     wake: Option<Arc<Wake>>,
+}
+
+/// A manual clock's listeners, in the order they subscribed, and the moves telling them
+/// now: while one is, entries keep their places (a move walks them by index, letting
+/// go of the lock to call each), so the dropped ones are forgotten only between moves.
+#[derive(Default)]
+struct Listeners {
+    list: Vec<Listener>,
+    moving: usize,
 }
 
 impl fmt::Debug for Inner {
@@ -249,7 +258,7 @@ impl Clock {
                 physical,
                 last: AtomicU64::new(0),
                 max_drift: DEFAULT_MAX_DRIFT,
-                listeners: Mutex::new(Vec::new()),
+                listeners: Mutex::default(),
             }),
         }
     }
@@ -358,17 +367,21 @@ impl Clock {
         let now = self.physical();
         // Each listener is looked at as its turn comes (one before it may have touched
         // its wake); those asleep are neither called nor upgraded. Those that subscribe
-        // meanwhile wait for the next move. Only `subscribe_with` removes entries, so the
-        // indices hold without the lock.
+        // meanwhile wait for the next move. While a move is under way no entry is
+        // removed (`Listeners::moving`), so the indices hold between two lock holds.
+        let end = {
+            let mut listeners = self.inner.listeners.lock();
+            listeners.moving += 1;
+            listeners.list.len()
+        };
+        let _moved = Moving(&self.inner.listeners);
         let mut next = 0;
-        let mut end = None;
         loop {
             let listener = {
                 let listeners = self.inner.listeners.lock();
-                let end = *end.get_or_insert(listeners.len());
                 let mut found = None;
                 while found.is_none() && next < end {
-                    let l = &listeners[next];
+                    let l = &listeners.list[next];
                     next += 1;
                     if !l.wake.as_ref().is_some_and(|w| w.asleep_at(now)) {
                         found = l.listener.upgrade();
@@ -396,11 +409,23 @@ impl Clock {
         self.subscribe_with(listener, Some(wake));
     }
 
-    /// Also forgets the listeners dropped (a move only skips them).
+    /// Also forgets the listeners dropped (a move only skips them), unless a move is
+    /// telling them now.
     fn subscribe_with(&self, listener: Weak<dyn ClockListener>, wake: Option<Arc<Wake>>) {
         let mut listeners = self.inner.listeners.lock();
-        listeners.retain(|l| l.listener.strong_count() > 0);
-        listeners.push(Listener { listener, wake });
+        if listeners.moving == 0 {
+            listeners.list.retain(|l| l.listener.strong_count() > 0);
+        }
+        listeners.list.push(Listener { listener, wake });
+    }
+}
+
+/// A move under way: over when dropped, even if a listener panicked.
+struct Moving<'a>(&'a Mutex<Listeners>);
+
+impl Drop for Moving<'_> {
+    fn drop(&mut self) {
+        self.0.lock().moving -= 1;
     }
 }
 
@@ -557,6 +582,41 @@ mod tests {
         assert_eq!(*heard.0.lock(), [at(3), at(4), at(6)]);
     }
 
+    /// A listener that, told of a move, drops two listeners after it and subscribes a
+    /// new one (a board closing while another starts): the move goes on with the ones
+    /// still alive, in order, and neither skips one nor fails.
+    #[test]
+    fn listeners_dropped_and_subscribed_during_a_move_leave_the_others_told() {
+        struct Churn {
+            clock: Clock,
+            doomed: Mutex<Vec<Arc<Heard>>>,
+            newcomer: Mutex<Option<Arc<Heard>>>,
+        }
+        impl ClockListener for Churn {
+            fn advanced(&self, _now: Duration) {
+                self.doomed.lock().clear();
+                let (heard, weak) = heard();
+                self.clock.subscribe(weak);
+                *self.newcomer.lock() = Some(heard);
+            }
+        }
+        let clock = Clock::manual();
+        let (b, wb) = heard();
+        let (c, wc) = heard();
+        let churn: Arc<dyn ClockListener> = Arc::new(Churn {
+            clock: clock.clone(),
+            doomed: Mutex::new(vec![b, c]),
+            newcomer: Mutex::new(None),
+        });
+        let (last, wl) = heard();
+        clock.subscribe(Arc::downgrade(&churn));
+        clock.subscribe(wb);
+        clock.subscribe(wc);
+        clock.subscribe(wl);
+        clock.advance(Duration::from_secs(1)).unwrap();
+        assert_eq!(*last.0.lock(), [MANUAL_EPOCH + Duration::from_secs(1)]);
+    }
+
     #[test]
     fn a_listener_touched_by_one_before_it_in_the_same_move_hears_that_move() {
         struct Toucher(Arc<Wake>);
@@ -578,7 +638,7 @@ mod tests {
         clock.advance(Duration::from_secs(1)).unwrap();
         clock.subscribe(Arc::downgrade(&toucher));
         assert_eq!(
-            clock.inner.listeners.lock().len(),
+            clock.inner.listeners.lock().list.len(),
             2,
             "the dropped one forgotten"
         );
