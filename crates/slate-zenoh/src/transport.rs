@@ -183,8 +183,13 @@ impl ZenohConfig {
     /// for, not secured (a `udp/` link would carry no identity), and no endpoint is
     /// `udp/` already (the user chose datagrams for everything).
     fn udp_beside_tcp(&self) -> bool {
+        self.udp_reports && self.security.is_none() && !self.has_udp_endpoint()
+    }
+
+    /// Is one of the endpoints listened on or connected to a `udp/` one?
+    fn has_udp_endpoint(&self) -> bool {
         let mut endpoints = self.listen.iter().chain(&self.connect);
-        self.udp_reports && self.security.is_none() && !endpoints.any(|e| e.starts_with("udp/"))
+        endpoints.any(|e| e.starts_with("udp/"))
     }
 
     /// The file's config, or Zenoh's defaults.
@@ -381,11 +386,7 @@ impl ZenohTransport {
             gate: Mutex::new(Gate::default()),
             room: Condvar::new(),
             behind_dropped: AtomicU64::new(0),
-            datagrams: config
-                .listen
-                .iter()
-                .chain(&config.connect)
-                .any(|e| e.starts_with("udp/")),
+            datagrams: config.has_udp_endpoint(),
             udp_beside_tcp: config.udp_beside_tcp(),
             closed: AtomicBool::new(false),
         });

@@ -153,8 +153,8 @@ impl State {
         for (peer, tries) in unanswered {
             self.stats.liveliness.hellos_resent += 1;
             self.hello(&peer, false);
+            // (Already in `peer_timers`: it came from there.)
             self.peer(&peer).hello_unanswered = Some((now, tries + 1));
-            self.peer_timers.insert(peer);
         }
     }
 
