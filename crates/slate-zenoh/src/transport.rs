@@ -70,8 +70,10 @@ pub struct ZenohConfig {
     /// and liveliness, direct sends: plans, hellos, catch-up; lossless classes) stays on
     /// TCP. Zenoh chooses the link by a message's reliability ([`udp_beside`]). Ignored
     /// with [`security`](ZenohConfig::security) or when an endpoint is already `udp/`.
-    /// A node's default is on (docs/performance.md, *Bytes on the radio*); off here, for
-    /// the command line's short sessions.
+    /// Off by default, a node's too: while the UDP link is a peer's only one (a
+    /// connection's first moments, a broken TCP link), Zenoh sends reliable messages
+    /// on it, and a declaration lost there is never sent again (docs/performance.md,
+    /// *Why the UDP link is off by default*).
     pub udp_reports: bool,
 }
 

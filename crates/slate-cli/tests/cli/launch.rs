@@ -202,14 +202,10 @@ fn objects(class: &str, endpoint: &str) -> Vec<String> {
         .collect()
 }
 
-/// Does `slate stats` through `endpoint` show exactly the modules `addresses`, each
-/// hearing every other?
-fn all_up(endpoint: &str, addresses: &[&str]) -> bool {
-    all_up_as(endpoint, addresses, &[])
-}
-
-/// [`all_up`] with more arguments for `slate stats` (an operator's keys).
-fn all_up_as(endpoint: &str, addresses: &[&str], more: &[&str]) -> bool {
+/// What `slate stats` through `endpoint` shows short of exactly the modules `addresses`,
+/// each hearing every other: `None` when it shows that. `more` are further arguments for
+/// `slate stats` (an operator's keys).
+fn not_up(endpoint: &str, addresses: &[&str], more: &[&str]) -> Option<String> {
     let mut args = vec![
         "stats",
         "--interval",
@@ -227,17 +223,48 @@ fn all_up_as(endpoint: &str, addresses: &[&str], more: &[&str]) -> bool {
         .iter()
         .filter_map(|m| m["address"].as_str())
         .collect();
-    let hears_all = |m: &Json| {
-        let peers = m["peers"].as_array().cloned().unwrap_or_default();
-        let mates = peers
-            .iter()
-            .filter_map(Json::as_str)
-            .filter(|p| !p.contains("/cli-"));
-        mates.count() == addresses.len() - 1
-    };
     let mut sorted = addresses.to_vec();
     sorted.sort_unstable();
-    answered == sorted && modules.iter().all(hears_all)
+    if answered != sorted {
+        return Some(format!(
+            "answered {answered:?}, want {sorted:?}; stderr {}",
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let deaf: Vec<String> = modules
+        .iter()
+        .filter_map(|m| {
+            let peers = m["peers"].as_array().cloned().unwrap_or_default();
+            let mates: Vec<&str> = peers
+                .iter()
+                .filter_map(Json::as_str)
+                .filter(|p| !p.contains("/cli-"))
+                .collect();
+            let address = m["address"].as_str().unwrap_or_default();
+            let missing: Vec<&&str> = addresses
+                .iter()
+                .filter(|a| **a != address && !mates.contains(a))
+                .collect();
+            (!missing.is_empty()).then(|| format!("{address} does not hear {missing:?}"))
+        })
+        .collect();
+    (!deaf.is_empty()).then(|| deaf.join("; "))
+}
+
+/// Waits up to 30 s until [`not_up`] finds nothing, or panics with what it last found and
+/// `output`.
+fn wait_all_up(endpoint: &str, addresses: &[&str], more: &[&str], output: impl Fn() -> String) {
+    let mut last = None;
+    let up = eventually(Duration::from_secs(30), || {
+        last = not_up(endpoint, addresses, more);
+        last.is_none()
+    });
+    assert!(
+        up,
+        "not every module up in `slate stats`: {}\n{}",
+        last.unwrap_or_default(),
+        output()
+    );
 }
 
 /// Launches `file`, waits until `ls CLASS` through the endpoint launch says it is
@@ -256,12 +283,7 @@ fn launch_and_stop(turn: &Team, file: &Path, modules: u16, class: &str, expected
     let pids = launched.started();
     assert_eq!(pids.len(), usize::from(modules), "{}", launched.output());
     let addresses: Vec<&str> = pids.iter().map(|(a, _)| a.as_str()).collect();
-    let up = eventually(Duration::from_secs(30), || all_up(&endpoint, &addresses));
-    assert!(
-        up,
-        "not every module up in `slate stats`\n{}",
-        launched.output()
-    );
+    wait_all_up(&endpoint, &addresses, &[], || launched.output());
     assert_eq!(launched.terminate(), Some(0), "{}", launched.output());
     let left: Vec<_> = pids.iter().filter(|(_, pid)| alive(*pid)).collect();
     assert!(
@@ -597,14 +619,9 @@ fn a_team_launched_with_keys_runs_over_tls_and_sigterm_stops_it() {
         "{said}"
     );
     let alice = ["--keys", k, "--operator", "sec/alice"];
-    let up = eventually(Duration::from_secs(30), || {
-        all_up_as(&endpoint, &["sec/r1/nav", "sec/r2/nav"], &alice)
-    });
-    assert!(
-        up,
-        "the secured team is not up for its operator\n{}",
+    wait_all_up(&endpoint, &["sec/r1/nav", "sec/r2/nav"], &alice, || {
         launched.output()
-    );
+    });
     let plain = format!("tcp/127.0.0.1:{}", base + 1);
     assert!(
         objects("Vehicle", &plain).is_empty(),
