@@ -193,7 +193,7 @@ impl NodeConfig {
     pub fn new(address: Address) -> Self {
         NodeConfig {
             address,
-            zenoh: ZenohConfig::default(),
+            zenoh: node_zenoh(),
             files: Vec::new(),
             ici: default_ici(),
             dashboard: None,
@@ -452,9 +452,19 @@ fn storage_section(mut t: Fields, s: &mut StateConfig) -> Result<(), ConfigError
     t.finish()
 }
 
+/// A node's Zenoh settings by default: a UDP link beside each TCP one carries the team
+/// link's reports and heartbeats (`ZenohConfig::udp_reports`; docs/performance.md,
+/// *Bytes on the radio*).
+fn node_zenoh() -> ZenohConfig {
+    ZenohConfig {
+        udp_reports: true,
+        ..ZenohConfig::default()
+    }
+}
+
 fn zenoh_section(mut t: Fields) -> Result<ZenohConfig, ConfigError> {
     const ENDPOINTS: &str = "a list of Zenoh endpoints like \"tcp/127.0.0.1:7447\"";
-    let mut z = ZenohConfig::default();
+    let mut z = node_zenoh();
     if let Some(mode) = t.str("mode", "\"peer\", \"router\" or \"client\"")? {
         z.mode = match mode.as_str() {
             "peer" => Mode::Peer,
@@ -826,7 +836,7 @@ mod tests {
             listen = ["tcp/127.0.0.1:7447"]
             connect = ["tcp/127.0.0.1:7448"]
             multicast_scouting = true
-            udp_reports = true
+            udp_reports = false
             [ici]
             robot_heartbeat = "100ms"
             robot_timeout = "500ms"
@@ -871,7 +881,7 @@ mod tests {
         assert_eq!(c.zenoh.mode, Mode::Router);
         assert_eq!(c.zenoh.file, Some(PathBuf::from("/etc/slate/zenoh.json5")));
         assert!(c.zenoh.multicast_scouting);
-        assert!(c.zenoh.udp_reports);
+        assert!(!c.zenoh.udp_reports);
         assert_eq!(c.zenoh.connect, ["tcp/127.0.0.1:7448"]);
         assert_eq!(c.ici.robot.timeout, Duration::from_millis(500));
         assert_eq!(c.ici.team.heartbeat, Duration::from_secs(2));
@@ -955,11 +965,11 @@ mod tests {
         assert_eq!(c, NodeConfig::new(Address::new("t/r1/nav").unwrap()));
         assert!(!c.zenoh.multicast_scouting);
         assert!(
-            !c.zenoh.udp_reports,
-            "off until Zenoh keeps reliable messages off a UDP link (docs/performance.md)"
+            c.zenoh.udp_reports,
+            "a node's team reports go over UDP beside TCP"
         );
-        let set = parse("address = \"t/r1/nav\"\n[zenoh]\nudp_reports = true").unwrap();
-        assert!(set.zenoh.udp_reports, "a [zenoh] table turns it on");
+        let set = parse("address = \"t/r1/nav\"\n[zenoh]\nlisten = []").unwrap();
+        assert!(set.zenoh.udp_reports, "a [zenoh] table keeps the default");
         assert_eq!(c.ici.team_report_every, Some(TEAM_REPORT_EVERY));
         assert!(c.ici.interest.is_all());
         assert!(c.ici.export.is_empty());

@@ -70,10 +70,8 @@ pub struct ZenohConfig {
     /// and liveliness, direct sends: plans, hellos, catch-up; lossless classes) stays on
     /// TCP. Zenoh chooses the link by a message's reliability ([`udp_beside`]). Ignored
     /// with [`security`](ZenohConfig::security) or when an endpoint is already `udp/`.
-    /// Off by default, a node's too: while the UDP link is a peer's only one (a
-    /// connection's first moments, a broken TCP link), Zenoh sends reliable messages
-    /// on it, and a declaration lost there is never sent again (docs/performance.md,
-    /// *Why the UDP link is off by default*).
+    /// A node's default is on (docs/performance.md, *Bytes on the radio*); off here, for
+    /// the command line's short sessions.
     pub udp_reports: bool,
 }
 
@@ -272,7 +270,10 @@ const UDP_BESIDE_LEASE_MS: u64 = 60_000;
 /// the message's (a TCP link is reliable, a plain UDP one best effort), else on any link:
 /// the publications marked best effort ([`Inner::publisher`]) take the UDP link when it
 /// is up, and TCP otherwise (a peer that listens on TCP only, or before the UDP link is
-/// open). The UDP endpoint carries no metadata: `udp/...?rel=1` would be a QUIC link.
+/// open). A reliable message would take the UDP link were it a peer's only one: the
+/// workspace's patched Zenoh transport (vendor/README.md) opens a connection on TCP only,
+/// lets the UDP link join it after, and closes one left with UDP alone. The UDP endpoint
+/// carries no metadata: `udp/...?rel=1` would be a QUIC link.
 fn udp_beside(endpoints: &[String]) -> Vec<String> {
     let mut out = Vec::with_capacity(endpoints.len() * 2);
     for e in endpoints {

@@ -18,7 +18,7 @@ use zenoh::sample::Locality;
 #[derive(Default)]
 pub struct Loopback {
     endpoints: Vec<String>,
-    /// Each session's `ZenohConfig::udp_reports` (a node's default).
+    /// Each session's `ZenohConfig::udp_reports`.
     udp_reports: bool,
 }
 
@@ -289,10 +289,20 @@ struct Relay {
     tcp: Arc<std::sync::Mutex<Vec<u8>>>,
     udp: Arc<std::sync::Mutex<Vec<u8>>>,
     stop: Arc<std::sync::atomic::AtomicBool>,
+    /// Whether it relays new TCP connections (it closes them at once when not).
+    tcp_open: Arc<std::sync::atomic::AtomicBool>,
+    /// Both ends of each TCP connection it relays, to cut them.
+    tcp_streams: Arc<std::sync::Mutex<Vec<std::net::TcpStream>>>,
 }
 
 impl Relay {
     fn start(to: u16) -> Relay {
+        Relay::start_with(to, true)
+    }
+
+    /// A relay to `to` that relays TCP connections from the start or not
+    /// ([`Relay::open_tcp`]).
+    fn start_with(to: u16, tcp_open: bool) -> Relay {
         use std::io::{Read, Write};
         use std::net::{TcpListener, TcpStream, UdpSocket};
         use std::sync::atomic::{AtomicBool, Ordering};
@@ -300,18 +310,27 @@ impl Relay {
         let stop = Arc::new(AtomicBool::new(false));
         let tcp = Arc::new(std::sync::Mutex::new(Vec::new()));
         let udp = Arc::new(std::sync::Mutex::new(Vec::new()));
+        let tcp_open = Arc::new(AtomicBool::new(tcp_open));
+        let tcp_streams = Arc::new(std::sync::Mutex::new(Vec::new()));
         let tick = Some(Duration::from_millis(50));
         let listener = TcpListener::bind(("127.0.0.1", port)).expect("relay listens on tcp");
         listener.set_nonblocking(true).unwrap();
         let (seen, done) = (tcp.clone(), stop.clone());
+        let (open, streams) = (tcp_open.clone(), tcp_streams.clone());
         thread::spawn(move || {
             while !done.load(Ordering::Relaxed) {
                 let Ok((down, _)) = listener.accept() else {
                     thread::sleep(Duration::from_millis(10));
                     continue;
                 };
+                if !open.load(Ordering::Relaxed) {
+                    continue;
+                }
                 down.set_nonblocking(false).unwrap();
                 let up = TcpStream::connect(("127.0.0.1", to)).expect("relay reaches the listener");
+                let mut held = streams.lock().unwrap();
+                held.extend([down.try_clone().unwrap(), up.try_clone().unwrap()]);
+                drop(held);
                 for (mut from, mut to) in [
                     (down.try_clone().unwrap(), up.try_clone().unwrap()),
                     (up, down),
@@ -370,6 +389,22 @@ impl Relay {
             tcp,
             udp,
             stop,
+            tcp_open,
+            tcp_streams,
+        }
+    }
+
+    /// Relays new TCP connections from now on, or not.
+    fn open_tcp(&self, open: bool) {
+        self.tcp_open
+            .store(open, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Closes every TCP connection it relays and relays no new one (UDP goes on).
+    fn cut_tcp(&self) {
+        self.open_tcp(false);
+        for stream in self.tcp_streams.lock().unwrap().drain(..) {
+            let _ = stream.shutdown(std::net::Shutdown::Both);
         }
     }
 
@@ -473,6 +508,129 @@ fn with_udp_reports_team_reports_go_over_udp_and_everything_else_over_tcp() {
             let (tcp, udp) = relay.carried(text.as_bytes());
             assert!(tcp && !udp, "{text}: on TCP {tcp}, on UDP {udp}");
         }
+    }
+    a.transport.close();
+    b.transport.close();
+}
+
+/// A session's Zenoh peers (transports open), whatever slate's liveliness says.
+fn zenoh_peers(e: &Endpoint) -> usize {
+    e.transport.session().info().peers_zid().wait().count()
+}
+
+/// Two sessions with `udp_reports`, the second connecting to the first through `relay`:
+/// (listener, connector).
+fn udp_beside_pair(port: u16, relay: &Relay) -> (Endpoint, Endpoint) {
+    let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
+        let config = ZenohConfig {
+            listen,
+            connect,
+            udp_reports: true,
+            ..ZenohConfig::default()
+        };
+        session(name, &config)
+    };
+    let b = open("t/r2/b", vec![format!("tcp/127.0.0.1:{port}")], vec![]);
+    let a = open(
+        "t/r1/a",
+        vec![],
+        vec![format!("tcp/127.0.0.1:{}", relay.port)],
+    );
+    (b, a)
+}
+
+/// Publishes team reports from `a` until one crosses `relay` on UDP (the UDP link has
+/// joined the transport): whether one did.
+fn udp_joined(net: &mut Loopback, a: &Endpoint, relay: &Relay, what: &str) -> bool {
+    let mut n = 0;
+    net.run_until(&mut || {
+        n += 1;
+        let report = format!("{what} report {n}");
+        let _ = a
+            .transport
+            .publish(LinkKind::Team, MsgKind::Report, report.as_bytes());
+        thread::sleep(Duration::from_millis(20));
+        relay.carried(report.as_bytes()).1
+    })
+}
+
+/// Zenoh sends a message on a link of its reliability, else on any: a transport born on
+/// the UDP link beside TCP sent its declarations over UDP, where one lost or overtaken
+/// left a module deaf to another for good (vendor/README.md). With only the UDP link
+/// reachable no transport opens; once TCP is, one does, and the UDP link joins it.
+#[test]
+fn with_udp_reports_a_transport_opens_on_tcp_and_the_udp_link_joins_it() {
+    let port = free_port();
+    let relay = Relay::start_with(port, false);
+    let (b, a) = udp_beside_pair(port, &relay);
+    for _ in 0..15 {
+        thread::sleep(Duration::from_millis(100));
+        assert_eq!(
+            zenoh_peers(&a),
+            0,
+            "a transport opened on the UDP link alone"
+        );
+    }
+    relay.open_tcp(true);
+    let mut net = Loopback::default();
+    assert!(net.run_until(&mut || zenoh_peers(&a) == 1 && zenoh_peers(&b) == 1));
+    assert!(net.run_until(&mut || routed_anywhere(&a.transport, LinkKind::Team)));
+    assert!(
+        udp_joined(&mut net, &a, &relay, "joined"),
+        "the UDP link never joined"
+    );
+    a.transport
+        .send(b.transport.address(), MsgKind::Plan, b"after the join")
+        .unwrap();
+    assert!(net.run_until(&mut || b.inbox.messages().iter().any(|m| m.1 == b"after the join")));
+    assert_eq!(relay.carried(b"after the join"), (true, false));
+    a.transport.close();
+    b.transport.close();
+}
+
+/// A transport whose TCP link breaks while its UDP link lives closes, rather than send
+/// its reliable messages on UDP, and opens again on TCP when it can.
+#[test]
+fn with_udp_reports_a_transport_that_loses_its_tcp_link_closes_and_opens_again() {
+    let port = free_port();
+    let relay = Relay::start(port);
+    let (b, a) = udp_beside_pair(port, &relay);
+    let mut net = Loopback::default();
+    assert!(net.run_until(&mut || zenoh_peers(&a) == 1 && zenoh_peers(&b) == 1));
+    assert!(net.run_until(&mut || routed_anywhere(&a.transport, LinkKind::Team)));
+    assert!(
+        udp_joined(&mut net, &a, &relay, "before"),
+        "the UDP link never joined"
+    );
+    relay.cut_tcp();
+    assert!(
+        net.run_until(&mut || zenoh_peers(&a) == 0),
+        "the transport lives on its UDP link"
+    );
+    let _ = a
+        .transport
+        .send(b.transport.address(), MsgKind::Plan, b"while cut");
+    thread::sleep(Duration::from_millis(300));
+    assert!(!relay.carried(b"while cut").1, "a send crossed on UDP");
+    relay.open_tcp(true);
+    assert!(net.run_until(&mut || zenoh_peers(&a) == 1 && zenoh_peers(&b) == 1));
+    let mut n = 0;
+    let delivered = net.run_until(&mut || {
+        n += 1;
+        let text = format!("healed {n}");
+        let _ = a
+            .transport
+            .send(b.transport.address(), MsgKind::Plan, text.as_bytes());
+        thread::sleep(Duration::from_millis(50));
+        b.inbox
+            .messages()
+            .iter()
+            .any(|m| m.1.starts_with(b"healed"))
+    });
+    assert!(delivered, "no send after the heal");
+    for i in 1..=n {
+        let text = format!("healed {i}");
+        assert!(!relay.carried(text.as_bytes()).1, "{text} crossed on UDP");
     }
     a.transport.close();
     b.transport.close();

@@ -118,7 +118,7 @@ fn a_zenoh_config_file_is_loaded_by_zenoh_and_slates_keys_win() {
     std::fs::write(d.join("zenoh.json5"), ZENOH_FILE).unwrap();
     let port = slate_testing::free_port();
     let toml = format!(
-        "address = \"t/r1/nav\"\nzenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\nudp_reports = true\n"
+        "address = \"t/r1/nav\"\nzenoh_config = \"zenoh.json5\"\n[zenoh]\nlisten = [\"tcp/127.0.0.1:{port}\"]\n"
     );
     std::fs::write(d.join("m.toml"), toml).unwrap();
     let config = NodeConfig::read(&d.join("m.toml")).unwrap();
@@ -127,8 +127,8 @@ fn a_zenoh_config_file_is_loaded_by_zenoh_and_slates_keys_win() {
         Some(d.join("zenoh.json5").as_path())
     );
     let zenoh = config.zenoh.to_zenoh().unwrap();
-    // The file's lease stands; slate's endpoint (with the UDP one beside it that
-    // `zenoh.udp_reports` asks for) and timestamping win over the file's.
+    // The file's lease stands; slate's endpoint (with the UDP one a node opens beside
+    // it, `zenoh.udp_reports`) and timestamping win over the file's.
     assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "4321");
     let listen = zenoh.get_json("listen/endpoints").unwrap();
     let want = format!("[\"tcp/127.0.0.1:{port}\",\"udp/127.0.0.1:{port}\"]");
