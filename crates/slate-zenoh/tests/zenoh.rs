@@ -607,31 +607,34 @@ fn with_udp_reports_a_transport_that_loses_its_tcp_link_closes_and_opens_again()
         net.run_until(&mut || zenoh_peers(&a) == 0),
         "the transport lives on its UDP link"
     );
-    let _ = a
-        .transport
-        .send(b.transport.address(), MsgKind::Plan, b"while cut");
-    thread::sleep(Duration::from_millis(300));
-    assert!(!relay.carried(b"while cut").1, "a send crossed on UDP");
     relay.open_tcp(true);
     assert!(net.run_until(&mut || zenoh_peers(&a) == 1 && zenoh_peers(&b) == 1));
-    let mut n = 0;
-    let delivered = net.run_until(&mut || {
-        n += 1;
-        let text = format!("healed {n}");
-        let _ = a
-            .transport
-            .send(b.transport.address(), MsgKind::Plan, text.as_bytes());
-        thread::sleep(Duration::from_millis(50));
-        b.inbox
-            .messages()
-            .iter()
-            .any(|m| m.1.starts_with(b"healed"))
-    });
-    assert!(delivered, "no send after the heal");
-    for i in 1..=n {
-        let text = format!("healed {i}");
-        assert!(!relay.carried(text.as_bytes()).1, "{text} crossed on UDP");
+    // Both ways (a transport whose two ends disagree fails in one direction only), on
+    // TCP, and the UDP link joins again.
+    for (from, to, what) in [(&a, &b, "a to b"), (&b, &a, "b to a")] {
+        let mut n = 0;
+        let delivered = net.run_until(&mut || {
+            n += 1;
+            let text = format!("healed {what} {n}");
+            let _ = from
+                .transport
+                .send(to.transport.address(), MsgKind::Plan, text.as_bytes());
+            thread::sleep(Duration::from_millis(50));
+            let heard = to.inbox.messages();
+            heard
+                .iter()
+                .any(|m| m.1.starts_with(format!("healed {what}").as_bytes()))
+        });
+        assert!(delivered, "no send {what} after the heal");
+        for i in 1..=n {
+            let text = format!("healed {what} {i}");
+            assert!(!relay.carried(text.as_bytes()).1, "{text} crossed on UDP");
+        }
     }
+    assert!(
+        udp_joined(&mut net, &a, &relay, "after"),
+        "the UDP link never joined again"
+    );
     a.transport.close();
     b.transport.close();
 }

@@ -643,11 +643,13 @@ impl TransportManager {
             );
             tracing::debug!("{e}");
             let (l, asl) = link.fail();
+            // As a link past `max_links` is refused: the opener logs it at debug level
+            // (any other reason is an error in its log, at each retry).
             return Err(InitTransportError::Link(Box::new((
                 e.into(),
                 l,
                 asl,
-                close::reason::GENERIC,
+                close::reason::MAX_LINKS,
             ))));
         }
 

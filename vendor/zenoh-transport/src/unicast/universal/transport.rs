@@ -161,6 +161,11 @@ impl TransportUnicastUniversal {
         // Mark the transport as no longer alive and keep the lock
         // to avoid concurrent new_transport and closing/closed notifications
         let mut status_guard = self.get_status().await;
+        // slate: once only (a transport left with best-effort links closes while its last
+        // link may be going too; `del_link`).
+        if matches!(*status_guard, TransportStatus::Closed) {
+            return Ok(());
+        }
         *status_guard = TransportStatus::Closed;
         let callback = self.callback.close();
 
@@ -183,8 +188,22 @@ impl TransportUnicastUniversal {
     }
 
     pub(crate) async fn del_link(&self, link: Link) -> ZResult<()> {
-        // Try to remove the link
-        let Some((is_last, stl, associated_link)) = zwrite!(self.links).remove_link(&link) else {
+        // Try to remove the link. slate: with several links to a peer, a transport left
+        // with best-effort links only closes (its reliable messages would take them; see
+        // `init_new_transport_unicast`): its connectors open it again, on a reliable link
+        // first. Decided as the link goes, so that a reliable link joining meanwhile does
+        // not keep a transport the peer may have closed.
+        let removed = {
+            let mut links = zwrite!(self.links);
+            links.remove_link(&link).map(|(is_last, stl, associated_link)| {
+                let unreliable_only =
+                    zcondfeat!("transport_multilink", self.config.multilink.is_some(), false)
+                        && !is_last
+                        && !links.get_links().iter().any(|tl| is_reliable(&tl.link));
+                (is_last, unreliable_only, stl, associated_link)
+            })
+        };
+        let Some((is_last, unreliable_only, stl, associated_link)) = removed else {
             bail!(
                 "Can not delete Link {} with peer: {}",
                 link,
@@ -217,16 +236,11 @@ impl TransportUnicastUniversal {
         };
         let (close_stl_res, close_asl_res) = tokio::join!(stl.close(), close_asl);
 
-        // slate: with several links to a peer, a transport left with best-effort links only
-        // closes (its reliable messages would take them; see `init_new_transport_unicast`):
-        // its connectors open it again, on a reliable link first.
-        let unreliable_only = zcondfeat!("transport_multilink", self.config.multilink.is_some(), false)
-            && !zread!(self.links)
-                .get_links()
-                .iter()
-                .any(|tl| is_reliable(&tl.link));
-        if is_last || unreliable_only {
+        if is_last {
             self.delete().await?;
+        } else if unreliable_only {
+            // slate: the peer is told (a Close on each link left), as on any close.
+            TransportUnicastTrait::close(self, close::reason::GENERIC).await?;
         }
         close_stl_res.and(close_asl_res)
     }
