@@ -39,14 +39,14 @@ pub fn addr(text: &str) -> Address {
     Address::new(text).unwrap()
 }
 
-/// A free TCP port on 127.0.0.1 (bound once and released), below the kernel's ephemeral
-/// range: see [`free_ports`].
+/// A port on 127.0.0.1 free for TCP and UDP (bound once and released), below the
+/// kernel's ephemeral range: see [`free_ports`].
 pub fn free_port() -> u16 {
     free_ports(1)
 }
 
-/// The first of `n` consecutive free TCP ports on 127.0.0.1 (each bound once and
-/// released), at most 200 tries. They are drawn below the kernel's ephemeral range: a
+/// The first of `n` consecutive ports on 127.0.0.1 free for TCP and for UDP (each bound
+/// once and released: a node listens on UDP beside each TCP port), at most 200 tries. They are drawn below the kernel's ephemeral range: a
 /// node that connects to a mate before the mate listens can, for a port in that range,
 /// get the port itself as its connection's source (a TCP self-connect), after which the
 /// mate cannot listen there ("Address already in use"; seen in CI with 16 processes).
@@ -67,11 +67,15 @@ pub fn free_ports(n: u16) -> u16 {
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
         let base = low + ((seed >> 33) % u64::from(high - low)) as u16;
-        if (0..n).all(|i| TcpListener::bind(("127.0.0.1", base + i)).is_ok()) {
+        let free = |port: u16| {
+            TcpListener::bind(("127.0.0.1", port)).is_ok()
+                && std::net::UdpSocket::bind(("127.0.0.1", port)).is_ok()
+        };
+        if (0..n).all(|i| free(base + i)) {
             return base;
         }
     }
-    panic!("no block of {n} free TCP ports on 127.0.0.1 below {ephemeral}");
+    panic!("no block of {n} free TCP and UDP ports on 127.0.0.1 below {ephemeral}");
 }
 
 /// A free UDP port on 127.0.0.1 (the OS picks it; the socket is dropped before use).

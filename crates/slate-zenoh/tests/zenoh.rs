@@ -434,38 +434,17 @@ impl Drop for Relay {
 #[test]
 fn with_udp_reports_team_reports_go_over_udp_and_everything_else_over_tcp() {
     let port = free_port();
-    let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
-        let config = ZenohConfig {
-            listen,
-            connect,
-            udp_reports: true,
-            ..ZenohConfig::default()
-        };
-        session(name, &config)
-    };
-    let b = open("t/r2/b", vec![format!("tcp/127.0.0.1:{port}")], vec![]);
     let relay = Relay::start(port);
-    let a = open(
-        "t/r1/a",
-        vec![],
-        vec![format!("tcp/127.0.0.1:{}", relay.port)],
-    );
+    let (b, a) = udp_beside_pair(port, &relay);
     let mut net = Loopback::default();
     let up = |e: &Endpoint| e.transport.peers().len() == 1;
     assert!(net.run_until(&mut || up(&a) && up(&b)), "peers");
     assert!(net.run_until(&mut || routed_anywhere(&a.transport, LinkKind::Team)));
     // Until the UDP link is up, Zenoh sends reports on TCP: wait for one on UDP.
-    let mut n = 0;
-    let on_udp = net.run_until(&mut || {
-        n += 1;
-        let early = format!("early report {n}");
-        a.transport
-            .publish(LinkKind::Team, MsgKind::Report, early.as_bytes())
-            .unwrap();
-        thread::sleep(Duration::from_millis(20));
-        relay.carried(early.as_bytes()).1
-    });
-    assert!(on_udp, "no team report crossed on UDP");
+    assert!(
+        udp_joined(&mut net, &a, &relay, "early"),
+        "no team report crossed on UDP"
+    );
     let kinds = [
         (LinkKind::Team, MsgKind::Report),
         (LinkKind::Team, MsgKind::Heartbeat),
