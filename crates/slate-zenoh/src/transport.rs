@@ -122,8 +122,8 @@ impl ZenohConfig {
     ///   than its default (peer, no endpoints, no multicast scouting), so that a file
     ///   can say client mode, its routers or multicast scouting;
     /// - with a UDP link beside each TCP one ([`ZenohConfig::udp_reports`]): a `udp/`
-    ///   endpoint beside each `tcp/` one, `transport/unicast/max_links` 2, and without a
-    ///   file `transport/link/tx/lease` 60 s.
+    ///   endpoint beside each `tcp/` one, `transport/unicast/max_links` 2 (unless a file
+    ///   allows more), and without a file `transport/link/tx/lease` 60 s.
     ///
     /// ```
     /// let config = slate_zenoh::ZenohConfig {
@@ -141,7 +141,7 @@ impl ZenohConfig {
         self.check_secure_endpoints()?;
         let mut c = self.base()?;
         let scouting = self.scouting_unless_named(&c);
-        for (key, value) in self.settings().into_iter().chain(scouting) {
+        for (key, value) in self.settings(&c).into_iter().chain(scouting) {
             c.insert_json5(key, &value).map_err(|e| OpenError::Config {
                 key,
                 reason: crate::endpoint::error_text(&e.to_string()),
@@ -203,8 +203,9 @@ impl ZenohConfig {
         })
     }
 
-    /// slate's keys and their values (JSON5), as [`ZenohConfig::to_zenoh`] applies them.
-    fn settings(&self) -> Vec<(&'static str, String)> {
+    /// slate's keys and their values (JSON5), as [`ZenohConfig::to_zenoh`] applies them
+    /// over `base` (the file's config, or Zenoh's defaults).
+    fn settings(&self, base: &zenoh::Config) -> Vec<(&'static str, String)> {
         let json = |v: &[String]| {
             let items: Vec<String> = v.iter().map(|e| format!("{e:?}")).collect();
             format!("[{}]", items.join(","))
@@ -228,7 +229,11 @@ impl ZenohConfig {
         }
         if beside {
             // A peer's TCP and UDP links in (and as many out): Zenoh's default takes one.
-            settings.push(("transport/unicast/max_links", "2".to_owned()));
+            // A file that allows more keeps its value.
+            let links = base.get_json(MAX_LINKS).ok();
+            if links.and_then(|v| v.parse::<usize>().ok()).unwrap_or(1) < 2 {
+                settings.push((MAX_LINKS, "2".to_owned()));
+            }
             if all {
                 // An idle link sends a keep-alive every lease / 4: TCP's, and its
                 // acknowledgement, are most of an idle radio's bytes once the heartbeats
@@ -257,6 +262,9 @@ impl ZenohConfig {
 
 /// Zenoh's key for finding peers by UDP multicast.
 const MULTICAST_SCOUTING: &str = "scouting/multicast/enabled";
+
+/// Zenoh's key for the links a peer may open to this session.
+const MAX_LINKS: &str = "transport/unicast/max_links";
 
 /// Zenoh's lease (ms) when a UDP link goes beside each TCP one and no Zenoh file is
 /// given: 60 s, so that an idle TCP link sends a keep-alive every 15 s, not every 2.5 s
@@ -1354,6 +1362,27 @@ mod tests {
         );
         assert_eq!(zenoh.get_json("transport/unicast/max_links").unwrap(), "2");
         assert_eq!(zenoh.get_json("transport/link/tx/lease").unwrap(), "60000");
+    }
+
+    #[test]
+    fn udp_reports_keeps_a_files_max_links_when_it_allows_more_and_raises_a_lower_one() {
+        let dir = std::env::temp_dir().join(format!("slate-zenoh-links-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (file_links, want) in [(4, "4"), (1, "2")] {
+            let file = dir.join(format!("links-{file_links}.json5"));
+            let text = format!("{{ transport: {{ unicast: {{ max_links: {file_links} }} }} }}");
+            std::fs::write(&file, text).unwrap();
+            let config = ZenohConfig {
+                listen: vec!["tcp/10.0.0.1:7447".into()],
+                file: Some(file),
+                udp_reports: true,
+                ..ZenohConfig::default()
+            };
+            let zenoh = config.to_zenoh().unwrap();
+            let links = zenoh.get_json("transport/unicast/max_links").unwrap();
+            assert_eq!(links, want, "a file's max_links {file_links}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
