@@ -624,11 +624,15 @@ impl Deref for TransportLinkMarker {
     }
 }
 
-/// slate: whether `link` carries reliable messages: its configured reliability, else its
-/// protocol's (as `internal_schedule` chooses a link).
-pub(crate) fn is_reliable(link: &TransportLinkUnicast) -> bool {
+/// slate: the reliability of the messages `link` carries: its configured one, else its
+/// protocol's. `internal_schedule` chooses a link by it.
+pub(crate) fn reliability(link: &TransportLinkUnicast) -> Reliability {
     link.config
         .reliability
         .unwrap_or(Reliability::from(link.link.is_reliable()))
-        == Reliability::Reliable
+}
+
+/// slate: does `link` carry reliable messages ([`reliability`])?
+pub(crate) fn is_reliable(link: &TransportLinkUnicast) -> bool {
+    reliability(link) == Reliability::Reliable
 }

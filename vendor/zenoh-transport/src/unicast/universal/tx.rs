@@ -136,10 +136,8 @@ impl TransportUnicastUniversal {
         let Some(transport_link_index) = Self::select(
             transport_links.get_links().iter().map(|tl| {
                 (
-                    tl.link
-                        .config
-                        .reliability
-                        .unwrap_or(Reliability::from(tl.link.link.is_reliable())),
+                    // slate: the one rule `transport.rs`'s rules also ask.
+                    super::transport::reliability(&tl.link),
                     tl.link.config.priorities.clone(),
                 )
             }),
