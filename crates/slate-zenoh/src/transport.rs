@@ -520,6 +520,11 @@ const INBOX_DELAY: Duration = Duration::from_millis(20);
 /// until its pace is measured).
 pub(crate) const INBOX_MIN: usize = 256;
 
+/// The queue's floor of [`INBOX_MIN`] messages holds no more than the handler takes in
+/// this time at its pace ([`Gate::floor`]): what [`INBOX_MIN`] messages of one update
+/// each took a handler of 1 ms an update.
+const FLOOR_DELAY: Duration = Duration::from_millis(256);
+
 /// The queue holds at most this many messages, however fast the handler (a bound on its
 /// memory; the channel allocates as it fills).
 pub(crate) const INBOX_CAPACITY: usize = 16_384;
@@ -540,7 +545,7 @@ type InboxThread = (mpsc::Sender<(Instant, Delivery)>, JoinHandle<()>);
 /// or bytes that piled up in TCP meanwhile), which the handler must not hold.
 const DIRECT_GAP: Duration = Duration::from_micros(50);
 
-/// How long the queue stays at [`INBOX_MIN`] after a publication of [`Flow::Every`] was
+/// How long the queue stays at its floor ([`Gate::floor`]) after a publication of [`Flow::Every`] was
 /// heard ([`Gate::room`]).
 const EVERY_HOLD: Duration = Duration::from_secs(1);
 
@@ -568,34 +573,83 @@ struct Gate {
     handling: Option<Instant>,
     /// When a publication of [`Flow::Every`] (a back-pressured stream) was last heard.
     every_heard: Option<Instant>,
+    /// When a publication of [`Flow::Every`] last waited for room: its writer is held
+    /// back by this receiver ([`Gate::admits_droppable`]).
+    held_back: Option<Instant>,
+}
+
+/// What a delivery does when the queue is full ([`Inner::hand_over`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Full {
+    /// A best-effort publication: it is dropped.
+    Drop,
+    /// A direct send or a peer event: it waits for room.
+    Wait,
+    /// A publication of [`Flow::Every`]: it waits for room, and while it does (and for
+    /// [`EVERY_HOLD`] after) best-effort publications are queued only into an idle queue.
+    HoldBack,
 }
 
 impl Gate {
     /// How many deliveries the queue holds at `now`: what the handler takes in
-    /// [`INBOX_DELAY`] at its pace, within [`INBOX_MIN`] and [`INBOX_CAPACITY`]; and
-    /// [`INBOX_MIN`], as before the pace was measured, while a back-pressured stream
-    /// ([`Flow::Every`]) was heard in the last [`EVERY_HOLD`]: its writer waits on this
-    /// queue, and a larger one let it lose runs of its updates now and then (the
-    /// lossless test of `test_overload.py`, about one run in five on a 2-core box;
-    /// why is not understood yet, docs/ici.md).
+    /// [`INBOX_DELAY`] at its pace, within [`Gate::floor`] and [`INBOX_CAPACITY`]; and
+    /// no more than the floor while a back-pressured stream ([`Flow::Every`]) was heard
+    /// in the last [`EVERY_HOLD`]: its writer waits on this queue, and Zenoh closes its
+    /// link (losing what it buffered) when a put waits longer than its
+    /// `wait_before_close`, 5 s ([`Gate::admits_droppable`]).
     fn room(&self, now: Instant) -> usize {
+        let floor = self.floor();
         let every = |t: Instant| now.saturating_duration_since(t) < EVERY_HOLD;
         let Some(pace) = self.pace.filter(|_| !self.every_heard.is_some_and(every)) else {
-            return INBOX_MIN;
+            return floor;
         };
         let n = INBOX_DELAY.as_nanos() / pace.as_nanos().max(1);
-        usize::try_from(n).map_or(INBOX_CAPACITY, |n| n.clamp(INBOX_MIN, INBOX_CAPACITY))
+        usize::try_from(n).map_or(INBOX_CAPACITY, |n| n.clamp(floor, INBOX_CAPACITY))
+    }
+
+    /// The least the queue holds: [`INBOX_MIN`] deliveries, or fewer once the pace is
+    /// measured if they would take the handler longer than [`FLOOR_DELAY`] (at least
+    /// one). A message may carry many updates (a writer's reports go together when they
+    /// come faster than its linger), and 256 of them, 32 ms each with a slow Python
+    /// function, were seconds of work in the queue.
+    fn floor(&self) -> usize {
+        let Some(pace) = self.pace else {
+            return INBOX_MIN;
+        };
+        let n = FLOOR_DELAY.as_nanos() / pace.as_nanos().max(1);
+        usize::try_from(n).map_or(INBOX_MIN, |n| n.clamp(1, INBOX_MIN))
     }
 
     /// May one more delivery be queued at `now`? While there is [`Gate::room`], and the
     /// delivery being handled waited at most [`INBOX_DELAY`] (or fewer than
-    /// [`INBOX_MIN`] wait): the pace is an average, and when some deliveries are much
+    /// [`Gate::floor`] wait): the pace is an average, and when some deliveries are much
     /// slower than the others (a Python function on one class), a queue sized by the
     /// average holds far more than its delay's worth of the slow ones.
     fn admits(&self, now: Instant) -> bool {
         let late = |t: Instant| now.saturating_duration_since(t) > INBOX_DELAY;
         self.queued < self.room(now)
-            && (self.queued < INBOX_MIN || !self.handling.is_some_and(late))
+            && (self.queued < self.floor() || !self.handling.is_some_and(late))
+    }
+
+    /// May a best-effort publication be queued at `now`? As [`Gate::admits`], but while
+    /// a back-pressured stream waits for room (and for [`EVERY_HOLD`] after it last
+    /// did) only into an idle queue. Its writer blocks on its put until this receiver
+    /// has read everything TCP's and Zenoh's buffers hold before it (megabytes on
+    /// 127.0.0.1), and Zenoh closes the link when that takes longer than its
+    /// `wait_before_close` (5 s), losing the backlog: best-effort publications let into
+    /// the queue meanwhile (1 ms each with a slow Python function) made that drain last
+    /// tens of seconds. Dropped, they are repaired by catch-up with the latest state.
+    fn admits_droppable(&self, now: Instant) -> bool {
+        let holding = |t: Instant| now.saturating_duration_since(t) < EVERY_HOLD;
+        self.admits(now) && (self.queued == 0 || !self.held_back.is_some_and(holding))
+    }
+
+    /// May a delivery that takes a full queue as `full` be queued at `now`?
+    fn admits_as(&self, full: Full, now: Instant) -> bool {
+        match full {
+            Full::Drop => self.admits_droppable(now),
+            Full::Wait | Full::HoldBack => self.admits(now),
+        }
     }
 
     /// The delivery thread handled `n` queued deliveries in a row in `took`: the pace
@@ -718,13 +772,17 @@ impl Inner {
         // congestion control with each message) waits for room like a direct send: the
         // wait holds this Zenoh thread, so the link backs up to the publisher, whose
         // blocking put slows it down.
-        let droppable = publication && s.congestion_control() == CongestionControl::Drop;
-        if publication && !droppable {
+        let full = match (publication, s.congestion_control()) {
+            (false, _) => Full::Wait,
+            (true, CongestionControl::Drop) => Full::Drop,
+            (true, _) => Full::HoldBack,
+        };
+        if full == Full::HoldBack {
             self.gate.lock().every_heard = Some(Instant::now());
         }
         if self.handler.read().is_some() {
             let direct = publication && kind == MsgKind::Report;
-            self.hand_over(Delivery::Message(from, payload.into()), droppable, direct);
+            self.hand_over(Delivery::Message(from, payload.into()), full, direct);
         }
     }
 
@@ -741,7 +799,7 @@ impl Inner {
     /// while nothing is queued, so order holds; and not right after another, so a
     /// backlog is drained through the queue, where what the handler cannot take is
     /// dropped, not held in Zenoh's and TCP's buffers ([`Gate::enter_direct`]).
-    fn hand_over(&self, d: Delivery, droppable: bool, direct: bool) {
+    fn hand_over(&self, d: Delivery, full: Full, direct: bool) {
         let mut now = Instant::now();
         if direct && self.gate.lock().enter_direct(now) {
             let _turn = DirectTurn(&self.gate);
@@ -750,8 +808,8 @@ impl Inner {
         }
         {
             let mut gate = self.gate.lock();
-            while !gate.admits(now) {
-                if droppable {
+            while !gate.admits_as(full, now) {
+                if full == Full::Drop {
                     drop(gate);
                     let n = self.behind_dropped.fetch_add(1, Ordering::Relaxed) + 1;
                     tracing::debug!(dropped = n, "handler behind: publication dropped");
@@ -759,6 +817,9 @@ impl Inner {
                 }
                 if self.closed.load(Ordering::Acquire) {
                     return;
+                }
+                if full == Full::HoldBack {
+                    gate.held_back = Some(now);
                 }
                 self.room.wait_for(&mut gate, ROOM_CHECK);
                 now = Instant::now();
@@ -827,7 +888,7 @@ impl Inner {
         }
         // Through the delivery queue, behind the messages heard before it.
         if changed && !reported_down && self.handler.read().is_some() {
-            self.hand_over(Delivery::Peer(peer, up), false, false);
+            self.hand_over(Delivery::Peer(peer, up), Full::Wait, false);
         }
     }
 
@@ -1276,6 +1337,26 @@ mod tests {
     }
 
     #[test]
+    fn the_queues_floor_is_no_more_than_its_delay_of_slow_messages() {
+        // Reports that carry 32 updates each, 1 ms each with a slow Python function: 256
+        // of them were 8 s of work in the queue, and a catch-up answer waited behind it.
+        let t0 = Instant::now();
+        let mut gate = Gate::default();
+        for _ in 0..100 {
+            gate.paced(1, Duration::from_millis(32));
+        }
+        assert_eq!(gate.floor(), 8, "FLOOR_DELAY at 32 ms a message");
+        assert_eq!(gate.room(t0), 8);
+        gate.queued = 8;
+        assert!(!gate.admits(t0));
+        // However slow, one.
+        gate.pace = Some(Duration::from_secs(2));
+        assert_eq!(gate.room(t0), 1);
+        gate.queued = 0;
+        assert!(gate.admits(t0));
+    }
+
+    #[test]
     fn a_queue_whose_head_waited_past_the_delay_admits_no_more_than_the_minimum() {
         // Fast on average, but what is handled now waited longer than the delay (slow
         // deliveries among fast ones): room by the pace, but no more than INBOX_MIN.
@@ -1296,6 +1377,33 @@ mod tests {
         assert!(
             gate.admits(t0 + Duration::from_secs(1)),
             "idle: nothing waited"
+        );
+    }
+
+    #[test]
+    fn while_a_back_pressured_stream_waits_for_room_other_publications_are_queued_only_into_an_idle_queue()
+     {
+        // A lossless writer blocks on its put until this receiver has drained all that
+        // TCP and Zenoh buffered before it (megabytes); after Zenoh's wait_before_close
+        // (5 s) Zenoh closes the link and the backlog is lost. Ordinary reports let into
+        // the queue meanwhile (1 ms each with a slow Python function) made that drain
+        // last tens of seconds (the lossless test of test_overload.py).
+        let t0 = Instant::now();
+        let mut gate = Gate {
+            queued: 10,
+            ..Gate::default()
+        };
+        assert!(gate.admits_droppable(t0), "room, nothing held back");
+        gate.held_back = Some(t0);
+        assert!(!gate.admits_droppable(t0), "a lossless publication waited");
+        assert!(gate.admits(t0), "it is queued as soon as there is room");
+        gate.queued = 0;
+        assert!(gate.admits_droppable(t0), "an idle queue takes one");
+        gate.queued = 10;
+        assert!(!gate.admits_droppable(t0 + EVERY_HOLD / 2));
+        assert!(
+            gate.admits_droppable(t0 + EVERY_HOLD),
+            "not held back for a while"
         );
     }
 
