@@ -113,9 +113,11 @@ def test_a_slow_python_receiver_holds_the_writers_final_values_and_counts_what_i
         assert final_values_held(board, final), [board.read("gsr", a).value for a in ATTRS]
         stats = node.stats()
         # The receiver did not see every update: the network dropped some, which
-        # opened gaps in the writer's stream that catch-up closed.
+        # opened gaps in the writer's stream that catch-up closed. (Not always counted
+        # in `gaps`, which counts the gaps that asked for a catch-up: one already asked
+        # for, such as the node's second greeting a second after it met the writer,
+        # may close them first.)
         assert 0 < consumed[0] < final + 1, (consumed[0], final)
-        assert stats["catch_up"]["gaps"] > 0, stats["catch_up"]
         assert stats["catch_up"]["completed"] > 0, stats["catch_up"]
         # Some were dropped here, by the transport's full receive queue, and counted.
         assert stats["drops"]["behind_dropped"] > 0, stats["drops"]

@@ -139,6 +139,7 @@ const ICI: &[&str] = &[
     "team_timeout",
     "quiet",
     "gap_grace",
+    "linger",
     "team_report_every",
     "catch_up_retry",
     "max_report_items",
@@ -615,6 +616,9 @@ fn ici_section(mut t: Fields, ici: &mut IciConfig) -> Result<(), ConfigError> {
     if let Some(d) = t.duration("gap_grace")? {
         ici.gap_grace = d;
     }
+    if let Some(d) = t.duration("linger")? {
+        ici.linger = d;
+    }
     if let Some(d) = t.duration("catch_up_retry")? {
         ici.catch_up_retry = d;
     }
@@ -844,6 +848,7 @@ mod tests {
             team_timeout = "10s"
             quiet = "250ms"
             gap_grace = "50ms"
+            linger = "0s"
             catch_up_retry = "1s"
             team_report_every = "0s"
             max_report_items = 64
@@ -887,6 +892,7 @@ mod tests {
         assert_eq!(c.ici.team.heartbeat, Duration::from_secs(2));
         assert_eq!(c.ici.quiet, Duration::from_millis(250));
         assert_eq!(c.ici.gap_grace, Duration::from_millis(50));
+        assert_eq!(c.ici.linger, Duration::ZERO);
         assert_eq!(
             (
                 c.ici.max_objects_per_source,

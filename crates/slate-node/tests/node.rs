@@ -18,6 +18,9 @@ mod links;
 // A lossless class over real Zenoh: every update, in order, while catch-ups close gaps.
 #[path = "node/lossless.rs"]
 mod lossless;
+// Reports that linger: a burst of writes in a few reports over real Zenoh.
+#[path = "node/linger.rs"]
+mod linger;
 // Recording a board in MCAP, read back with the mcap crate.
 #[path = "node/record.rs"]
 mod record;

@@ -150,6 +150,7 @@ impl State {
             });
             self.stats.catch_up.deferred += 1;
             self.peer_timers.insert(from.clone());
+            tracing::debug!(me = %self.me, %from, at = ?now, "catch-up answer deferred");
             return;
         }
         self.peer(from).answered = Some(now);
@@ -203,6 +204,7 @@ impl State {
             let req = p.deferred.take();
             p.answered = Some(now);
             if let Some(req) = req.filter(|_| p.up) {
+                tracing::debug!(me = %self.me, %peer, at = ?now, "deferred catch-up answered");
                 self.answer(&peer, req);
             }
         }
@@ -230,6 +232,7 @@ impl State {
 
     /// Sends `from` the current state.
     fn answer(&mut self, from: &Address, req: CatchUpRequest) {
+        tracing::debug!(me = %self.me, %from, at = ?self.now, "catch-up answered");
         self.answer_state(Audience::Peer(from), req.needs_names, req.needs_classes);
     }
 
@@ -494,6 +497,8 @@ impl State {
         let current = pending.is_none_or(|r| list.stamp.physical() >= r.since);
         if current {
             p.catch_up = None;
+        } else {
+            tracing::debug!(%from, at = ?now, stamp = ?list.stamp, "an answer made before the request outstanding");
         }
         if std::mem::take(&mut p.failed) {
             if current {

@@ -110,6 +110,13 @@ pub struct IciConfig {
     /// (`link team { report ... }`) keeps that one. A radio pays a frame's headers for
     /// every report (docs/performance.md, *Bytes on the radio*): `slate node` sets 200 ms.
     pub team_report_every: Option<Duration>,
+    /// Reports of own writes that come within this long of the previous report wait
+    /// for the end of it and go together, in one message (default 50 µs): a writer
+    /// faster than that pays one message, and its receivers one, for many updates,
+    /// while a write after a quiet spell (a control loop's, a ping's) goes at once.
+    /// Zero: every write's report goes at once. On a manual clock (the simulator),
+    /// where time stands still between writes, it is off.
+    pub linger: Duration,
 }
 
 /// Whether a member listens to the team link itself (docs/team-protocol.md, 2.1).
@@ -248,6 +255,7 @@ impl Default for IciConfig {
             observer: false,
             team_protocol: None,
             team_report_every: None,
+            linger: Duration::from_micros(50),
         }
     }
 }

@@ -8,6 +8,7 @@ mod filter;
 mod frame;
 mod fuse;
 mod limits;
+mod linger;
 mod link;
 mod module;
 mod ops;
@@ -144,6 +145,9 @@ struct Shared {
     links: Mutex<link::Links>,
     /// Publications made once the state lock is released (the state's own).
     outgoing: Arc<outgoing::Outgoing>,
+    /// The thread that sends lingering reports (`IciConfig::linger`; none on a manual
+    /// clock).
+    linger: Option<Arc<linger::Linger>>,
 }
 
 impl Ici {
@@ -167,6 +171,7 @@ impl Ici {
         let links = Mutex::new(link::Links::new(&config));
         let state = State::new(board.clone(), transport.clone(), config, watch);
         let outgoing = state.outgoing.clone();
+        let lingers = !state.linger.is_zero();
         let shared = Arc::new_cyclic(|me: &Weak<Shared>| Shared {
             board: board.clone(),
             transport: transport.clone(),
@@ -179,6 +184,13 @@ impl Ici {
             wake: Arc::default(),
             links,
             outgoing,
+            linger: lingers
+                .then(|| linger::Linger::start(me.clone()))
+                .transpose()
+                .unwrap_or_else(|e| {
+                    tracing::warn!("no linger thread ({e}): every report goes at once");
+                    None
+                }),
         });
         shared.with_state(State::adopt_own_objects);
         shared.connect();
@@ -389,6 +401,18 @@ impl Shared {
         result
     }
 
+    /// Tells the linger thread when the reports that began to wait must go. Without
+    /// the thread (it could not start), they go now.
+    fn ask_linger(&self, st: &mut State) {
+        let Some(until) = st.linger_until.take() else {
+            return;
+        };
+        match &self.linger {
+            Some(linger) => linger.ask(until.saturating_sub(st.now)),
+            None => st.flush_lingering(),
+        }
+    }
+
     /// Moves the board ops the state holds to the queue, in the order the state lock
     /// was taken (the state's buffer keeps its capacity). Were any?
     fn enqueue(&self, st: &mut State) -> bool {
@@ -421,6 +445,7 @@ impl Shared {
             self.touched();
             st.now = self.board.clock().physical();
             st.drain_changes();
+            self.ask_linger(&mut st);
             let queued = self.enqueue(&mut st);
             let plans = std::mem::take(&mut st.plans);
             let every = std::mem::take(&mut st.queued_every);
@@ -502,8 +527,15 @@ impl Shared {
 }
 
 impl Drop for Shared {
-    /// The board outlives its ICI: its writes are its own again.
+    /// Reports still lingering go; the board outlives its ICI: its writes are its own
+    /// again.
     fn drop(&mut self) {
+        let every = {
+            let mut st = self.state.lock();
+            st.flush_lingering();
+            std::mem::take(&mut st.queued_every)
+        };
+        self.outgoing.flush(&*self.transport, every);
         self.board.set_normaliser(None);
     }
 }

@@ -110,6 +110,8 @@ impl State {
     /// and sends what is due; a later change waits for the next call (`next_change`).
     /// A catch-up answer drains up to the revision its state was read at, so that the
     /// reports of every write it holds go before it, and none of a write after it.
+    /// Reports that linger (`IciConfig::linger`) wait, unless a catch-up answer is to
+    /// follow them.
     pub fn drain_changes_to(&mut self, revision: u64) {
         let mut items = std::mem::take(&mut self.spare_items);
         while let Some(change) = self.next_change.take().or_else(|| self.watch.try_recv()) {
@@ -122,10 +124,54 @@ impl State {
             }
         }
         if !items.is_empty() {
-            self.flush(&items);
+            if revision == u64::MAX && self.lingers() {
+                self.lingering.append(&mut items);
+            } else if self.lingering.is_empty() {
+                self.report(&items);
+            } else {
+                self.lingering.append(&mut items);
+                self.flush_lingering();
+            }
+        } else if revision != u64::MAX {
+            self.flush_lingering();
         }
         items.clear();
         self.spare_items = items;
+    }
+
+    /// Must own writes wait now, for the end of the linger the last report began?
+    /// The first to wait asks for the linger thread (`linger_until`).
+    fn lingers(&mut self) -> bool {
+        let Some(at) = self.reported_at.filter(|_| !self.linger.is_zero()) else {
+            return false;
+        };
+        let until = at + self.linger;
+        if self.now >= until {
+            return false;
+        }
+        if !self.linger_asked {
+            self.linger_asked = true;
+            self.linger_until = Some(until);
+        }
+        true
+    }
+
+    /// Sends the reports that linger, if any.
+    pub fn flush_lingering(&mut self) {
+        if self.lingering.is_empty() {
+            return;
+        }
+        let items = std::mem::take(&mut self.lingering);
+        self.report(&items);
+        self.lingering = items;
+        self.lingering.clear();
+    }
+
+    /// Sends reports of own writes now; the linger starts again from here.
+    fn report(&mut self, items: &[Item]) {
+        self.flush(items);
+        self.reported_at = Some(self.now);
+        self.linger_asked = false;
     }
 
     fn collect(&mut self, item: ChangeItem, out: &mut Vec<Item>) {
@@ -424,10 +470,19 @@ impl State {
         let mut life = Lifecycle::default();
         // The assertions are encoded where they are (not copied into a `Report`).
         let mut values: Values = SmallVec::with_capacity(items.len());
+        // A report holds one flow: an update of a lossless class does not make the
+        // others' lossless (back-pressure for what a slow receiver may drop), and they
+        // do not make it droppable.
+        let mut flow = Flow::Latest;
         for item in items {
             match item {
                 Item::Value(subject, packet) => {
                     self.emit_lifecycle(link, &mut life);
+                    let this = self.flow_of(std::iter::once(&**subject));
+                    if this != flow {
+                        self.emit_values(link, &mut values);
+                        flow = this;
+                    }
                     values.push(Reported(subject, packet));
                 }
                 Item::Created { listed, stamp, .. } => {

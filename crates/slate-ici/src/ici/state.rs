@@ -295,6 +295,18 @@ pub(crate) struct State {
     pub plans: Vec<super::PlanEvent>,
     /// Buffers kept between drains (a single update is the common case: no allocation).
     pub spare_items: Vec<super::send::Item>,
+    /// Items of own writes waiting for the end of the linger (`IciConfig::linger`) to go
+    /// in one report with those that follow.
+    pub lingering: Vec<super::send::Item>,
+    /// How long reports linger: the config's, zero on a manual clock.
+    pub linger: Duration,
+    /// When the last report of own writes was flushed (physical time).
+    pub reported_at: Option<Duration>,
+    /// Set once per linger, when its first item waits: when the items must go (the
+    /// linger thread is told, then it is taken).
+    pub linger_until: Option<Duration>,
+    /// The linger thread was told of the items waiting now.
+    pub linger_asked: bool,
     /// The team protocol's state (empty while `config.team_protocol` is `None`).
     pub team: super::team::TeamState,
     /// Publications made once the lock is released (`outgoing.rs`).
@@ -319,6 +331,11 @@ impl State {
         watch: Watch,
     ) -> Self {
         let me = transport.address().clone();
+        let linger = if board.clock().is_manual() {
+            Duration::ZERO
+        } else {
+            config.linger
+        };
         let out = LinkKind::ALL
             .into_iter()
             .map(|l| {
@@ -370,6 +387,11 @@ impl State {
             ops: Vec::new(),
             plans: Vec::new(),
             spare_items: Vec::new(),
+            lingering: Vec::new(),
+            linger,
+            reported_at: None,
+            linger_until: None,
+            linger_asked: false,
             team: super::team::TeamState::new(),
             outgoing: Arc::default(),
             queued_every: false,

@@ -59,6 +59,7 @@ impl State {
     /// Runs whatever is due at `self.now`.
     pub fn tick(&mut self) {
         self.tick_again = false;
+        self.flush_lingering();
         self.filter_timers();
         self.heartbeats();
         self.team_tick();
