@@ -217,7 +217,10 @@ impl ZenohConfig {
         }
         let beside = self.udp_beside_tcp();
         let (listen, connect) = if beside {
-            (udp_beside(&self.listen), udp_beside(&self.connect))
+            (
+                udp_beside(&self.listen, ""),
+                udp_beside(&self.connect, UDP_CONNECT_RETRY),
+            )
         } else {
             (self.listen.clone(), self.connect.clone())
         };
@@ -281,18 +284,28 @@ const UDP_BESIDE_LEASE_MS: u64 = 60_000;
 /// open). A reliable message would take the UDP link were it a peer's only one: the
 /// workspace's patched Zenoh transport (vendor/README.md) opens a connection on TCP only,
 /// lets the UDP link join it after, and closes one left with UDP alone. The UDP endpoint
-/// carries no metadata: `udp/...?rel=1` would be a QUIC link.
-fn udp_beside(endpoints: &[String]) -> Vec<String> {
+/// carries no metadata (`udp/...?rel=1` would be a QUIC link), only `config` (Zenoh's
+/// endpoint configuration, after `#`).
+fn udp_beside(endpoints: &[String], config: &str) -> Vec<String> {
     let mut out = Vec::with_capacity(endpoints.len() * 2);
     for e in endpoints {
         out.push(e.clone());
         let parsed = e.parse::<zenoh::config::EndPoint>();
         if let Some(tcp) = parsed.ok().filter(|p| p.protocol().as_str() == "tcp") {
-            out.push(format!("udp/{}", tcp.address()));
+            out.push(format!("udp/{}{config}", tcp.address()));
         }
     }
     out
 }
+
+/// The retry of a UDP link connected beside a TCP one: Zenoh's connector tries again
+/// 100 ms after a refusal, then (with Zenoh's defaults) twice as long each time up to
+/// 4 s; the connect retry's start is otherwise 1 s. The patched transport refuses the UDP link until the TCP link has
+/// made the connection, tens of milliseconds after both were tried at once; with 1 s and
+/// then 2 s the reports went on TCP for one to three seconds of every new connection
+/// (docs/performance.md, *The UDP link and Zenoh's choice of link*). A peer that is down
+/// costs four more attempts in its first 3 s, then one every 4 s, as before.
+const UDP_CONNECT_RETRY: &str = "#retry_period_init_ms=100";
 
 /// Longest wait, when a link is listened to again, for the modules that publish on it to
 /// confirm they know the new subscription ([`keys::sync`]): a peer that has not answered
@@ -1463,8 +1476,10 @@ mod tests {
         assert_eq!(
             zenoh.get_json("connect/endpoints").unwrap(),
             concat!(
-                r#"["tcp/10.0.0.2:7447","udp/10.0.0.2:7447","#,
-                r#""tcp/10.0.0.3:7447#iface=eth0","udp/10.0.0.3:7447","#,
+                r#"["tcp/10.0.0.2:7447","#,
+                r#""udp/10.0.0.2:7447#retry_period_init_ms=100","#,
+                r#""tcp/10.0.0.3:7447#iface=eth0","#,
+                r#""udp/10.0.0.3:7447#retry_period_init_ms=100","#,
                 r#""unixsock-stream//tmp/s"]"#
             )
         );
