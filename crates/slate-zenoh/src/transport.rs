@@ -304,7 +304,7 @@ fn udp_beside(endpoints: &[String], config: &str) -> Vec<String> {
 /// made the connection, tens of milliseconds after both were tried at once; with 1 s and
 /// then 2 s the reports went on TCP for one to three seconds of every new connection
 /// (docs/performance.md, *The UDP link and Zenoh's choice of link*). A peer that is down
-/// costs four more attempts in its first 3 s, then one every 4 s, as before.
+/// costs three more attempts in its first 2 s, then one every 4 s, as before.
 const UDP_CONNECT_RETRY: &str = "#retry_period_init_ms=100";
 
 /// Longest wait, when a link is listened to again, for the modules that publish on it to
@@ -589,6 +589,9 @@ struct Gate {
     /// When a publication of [`Flow::Every`] last waited for room: its writer is held
     /// back by this receiver ([`Gate::admits_droppable`]).
     held_back: Option<Instant>,
+    /// Publications of [`Flow::Every`] waiting for room now: no best-effort one takes
+    /// the room they wait for.
+    holding: usize,
 }
 
 /// What a delivery does when the queue is full ([`Inner::hand_over`]).
@@ -653,8 +656,10 @@ impl Gate {
     /// the queue meanwhile (1 ms each with a slow Python function) made that drain last
     /// tens of seconds. Dropped, they are repaired by catch-up with the latest state.
     fn admits_droppable(&self, now: Instant) -> bool {
-        let holding = |t: Instant| now.saturating_duration_since(t) < EVERY_HOLD;
-        self.admits(now) && (self.queued == 0 || !self.held_back.is_some_and(holding))
+        let recent = |t: Instant| now.saturating_duration_since(t) < EVERY_HOLD;
+        self.holding == 0
+            && self.admits(now)
+            && (self.queued == 0 || !self.held_back.is_some_and(recent))
     }
 
     /// May a delivery that takes a full queue as `full` be queued at `now`?
@@ -821,6 +826,7 @@ impl Inner {
         }
         {
             let mut gate = self.gate.lock();
+            let mut holding = false;
             while !gate.admits_as(full, now) {
                 if full == Full::Drop {
                     drop(gate);
@@ -829,14 +835,18 @@ impl Inner {
                     return;
                 }
                 if self.closed.load(Ordering::Acquire) {
+                    gate.holding -= usize::from(holding);
                     return;
                 }
                 if full == Full::HoldBack {
                     gate.held_back = Some(now);
+                    gate.holding += usize::from(!holding);
+                    holding = true;
                 }
                 self.room.wait_for(&mut gate, ROOM_CHECK);
                 now = Instant::now();
             }
+            gate.holding -= usize::from(holding);
             gate.queued += 1;
         }
         // The gate bounds what the channel holds.
@@ -1418,6 +1428,11 @@ mod tests {
             gate.admits_droppable(t0 + EVERY_HOLD),
             "not held back for a while"
         );
+        // One waits now: the room it waits for is its own, even in an idle queue.
+        gate.holding = 1;
+        gate.queued = 0;
+        assert!(!gate.admits_droppable(t0 + EVERY_HOLD));
+        assert!(gate.admits(t0 + EVERY_HOLD));
     }
 
     #[test]

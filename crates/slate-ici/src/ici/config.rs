@@ -114,8 +114,9 @@ pub struct IciConfig {
     /// for the end of it and go together, in one message (default 50 µs): a writer
     /// faster than that pays one message, and its receivers one, for many updates,
     /// while a write after a quiet spell (a control loop's, a ping's) goes at once.
+    /// A write of a lossless class does not wait (its writer waits for room itself).
     /// Zero: every write's report goes at once. On a manual clock (the simulator),
-    /// where time stands still between writes, it is off.
+    /// where time stands still between writes, it is off (docs/ici.md).
     pub linger: Duration,
 }
 

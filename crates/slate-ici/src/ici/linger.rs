@@ -34,7 +34,9 @@ impl Linger {
 
     /// The reports waiting now must go `after` from now.
     pub fn ask(&self, after: Duration) {
-        let at = Instant::now() + after;
+        // A linger too long for the clock (a config's mistake) sends them now.
+        let now = Instant::now();
+        let at = now.checked_add(after).unwrap_or(now);
         let mut due = self.due.lock();
         if due.is_none_or(|d| at < d) {
             *due = Some(at);

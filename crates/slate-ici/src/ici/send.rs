@@ -111,7 +111,8 @@ impl State {
     /// A catch-up answer drains up to the revision its state was read at, so that the
     /// reports of every write it holds go before it, and none of a write after it.
     /// Reports that linger (`IciConfig::linger`) wait, unless a catch-up answer is to
-    /// follow them.
+    /// follow them or one is of a lossless class (its writer waits for room, in its own
+    /// thread: docs/ici.md).
     pub fn drain_changes_to(&mut self, revision: u64) {
         let mut items = std::mem::take(&mut self.spare_items);
         while let Some(change) = self.next_change.take().or_else(|| self.watch.try_recv()) {
@@ -123,16 +124,9 @@ impl State {
                 self.collect(item, &mut items);
             }
         }
-        if !items.is_empty() {
-            if revision == u64::MAX && self.lingers() {
-                self.lingering.append(&mut items);
-            } else if self.lingering.is_empty() {
-                self.report(&items);
-            } else {
-                self.lingering.append(&mut items);
-                self.flush_lingering();
-            }
-        } else if revision != u64::MAX {
+        self.lingering.append(&mut items);
+        let wait = revision == u64::MAX && !self.any_lossless(&self.lingering) && self.lingers();
+        if !wait {
             self.flush_lingering();
         }
         items.clear();
@@ -140,13 +134,17 @@ impl State {
     }
 
     /// Must own writes wait now, for the end of the linger the last report began?
-    /// The first to wait asks for the linger thread (`linger_until`).
+    /// The first to wait asks for the linger thread (`linger_until`). A report made
+    /// "after" now (the system clock stepped back) begins no linger.
     fn lingers(&mut self) -> bool {
-        let Some(at) = self.reported_at.filter(|_| !self.linger.is_zero()) else {
+        let Some(at) = self
+            .reported_at
+            .filter(|&at| !self.linger.is_zero() && at <= self.now)
+        else {
             return false;
         };
-        let until = at + self.linger;
-        if self.now >= until {
+        let until = at.saturating_add(self.linger);
+        if self.now >= until || self.lingering.is_empty() {
             return false;
         }
         if !self.linger_asked {
@@ -165,6 +163,15 @@ impl State {
         self.report(&items);
         self.lingering = items;
         self.lingering.clear();
+    }
+
+    /// Is one of `items` an update of a lossless class?
+    fn any_lossless(&self, items: &[Item]) -> bool {
+        !self.config.lossless.is_empty()
+            && items.iter().any(|i| match i {
+                Item::Value(subject, _) => self.flow_of(std::iter::once(&**subject)) == Flow::Every,
+                _ => false,
+            })
     }
 
     /// Sends reports of own writes now; the linger starts again from here.
@@ -467,6 +474,9 @@ impl State {
     /// Groups consecutive items into messages: lifecycle frames (creations, then
     /// deletions) and reports, keeping the order of the board's changes.
     pub(super) fn emit(&mut self, link: LinkKind, items: &[&Item]) {
+        // What lingers was written before: it takes its stream positions first (an
+        // explicit report or a filter's held value must not overtake it).
+        self.flush_lingering();
         let mut life = Lifecycle::default();
         // The assertions are encoded where they are (not copied into a `Report`).
         let mut values: Values = SmallVec::with_capacity(items.len());
@@ -480,25 +490,25 @@ impl State {
                     self.emit_lifecycle(link, &mut life);
                     let this = self.flow_of(std::iter::once(&**subject));
                     if this != flow {
-                        self.emit_values(link, &mut values);
+                        self.emit_values(link, &mut values, flow);
                         flow = this;
                     }
                     values.push(Reported(subject, packet));
                 }
                 Item::Created { listed, stamp, .. } => {
-                    self.emit_values(link, &mut values);
+                    self.emit_values(link, &mut values, flow);
                     if !life.deleted.is_empty() {
                         self.emit_lifecycle(link, &mut life);
                     }
                     life.created.push((listed.clone(), *stamp));
                 }
                 Item::Deleted { name, stamp, .. } => {
-                    self.emit_values(link, &mut values);
+                    self.emit_values(link, &mut values, flow);
                     life.deleted.push((name.clone(), *stamp));
                 }
             }
         }
-        self.emit_values(link, &mut values);
+        self.emit_values(link, &mut values, flow);
         self.emit_lifecycle(link, &mut life);
     }
 
@@ -516,18 +526,18 @@ impl State {
     }
 
     /// Reports `values` (at most `max_report_items` a report) and empties it.
-    fn emit_values(&mut self, link: LinkKind, values: &mut Values) {
+    /// Emits `values`, all of `flow`, in reports of at most `max_report_items`.
+    fn emit_values(&mut self, link: LinkKind, values: &mut Values, flow: Flow) {
         let max = self.config.max_report_items.max(1);
         for chunk in values.chunks(max) {
-            self.emit_report(link, chunk);
+            self.emit_report(link, chunk, flow);
         }
         values.clear();
     }
 
     /// Encodes and publishes one report; a batch that does not encode is split until
     /// the faulty packet is isolated and dropped.
-    fn emit_report(&mut self, link: LinkKind, items: &[Reported]) {
-        let flow = self.flow_of(items.iter().map(|r| r.0));
+    fn emit_report(&mut self, link: LinkKind, items: &[Reported], flow: Flow) {
         let Some(out) = self.out.get_mut(&link) else {
             return;
         };
@@ -548,8 +558,8 @@ impl State {
             Err(e) if items.len() > 1 => {
                 let (a, b) = items.split_at(items.len() / 2);
                 tracing::trace!(error = %e, "splitting a report");
-                self.emit_report(link, a);
-                self.emit_report(link, b);
+                self.emit_report(link, a, flow);
+                self.emit_report(link, b, flow);
             }
             Err(e) => self.encode_failed(&items[0], &e),
         }
@@ -583,4 +593,128 @@ impl State {
 pub(crate) fn better(a: &Packet, b: &Packet) -> bool {
     a.confidence > b.confidence
         || (a.confidence == b.confidence && (a.timestamp, &a.source) > (b.timestamp, &b.source))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::time::Duration;
+
+    use slate_model::{AttrDecl, ClassDef, ValueType};
+    use slate_testing::addr;
+
+    use super::super::classes::ClassSet;
+    use super::super::state::State;
+    use super::super::team::test_state::{START, alone, sent};
+    use crate::{IciConfig, LinkKind, MsgKind, SimNet};
+
+    const LINGER: Duration = Duration::from_micros(50);
+
+    /// A state whose reports linger (the simulator's clock turns it off: set here), a
+    /// peer of its robot up and interested in everything, objects `g` (a `Gauge`) and
+    /// `e` (an `Event`, lossless in `config` if the test says so).
+    fn lingering(config: IciConfig) -> (SimNet, State) {
+        let (net, mut st) = alone("t/r1/nav", config);
+        st.linger = LINGER;
+        for class in ["Gauge", "Event"] {
+            let def = ClassDef::new(class).attr(AttrDecl::new("x", ValueType::Real));
+            st.board.define(def).unwrap();
+        }
+        st.refresh_catalog();
+        st.board.create("Gauge", "g").unwrap();
+        st.board.create("Event", "e").unwrap();
+        let p = st.peer(&addr("t/r1/cam"));
+        p.up = true;
+        p.interest = Some(ClassSet::all());
+        st.now = START;
+        st.drain_changes();
+        (net, st)
+    }
+
+    /// Writes `object.x = x` at `at` after [`START`] and drains: how many reports went?
+    fn write(st: &mut State, object: &str, x: f64, at: Duration) -> u64 {
+        let before = sent(st, LinkKind::Robot, MsgKind::Report);
+        st.now = START + at;
+        st.board.write(object, "x", x).unwrap();
+        st.drain_changes();
+        sent(st, LinkKind::Robot, MsgKind::Report) - before
+    }
+
+    #[test]
+    fn writes_within_the_linger_wait_and_go_together_then_a_write_after_it_goes_at_once() {
+        let (_net, mut st) = lingering(IciConfig::default());
+        let us = Duration::from_micros;
+        assert_eq!(
+            write(&mut st, "g", 1.0, us(100)),
+            1,
+            "after a quiet spell: at once"
+        );
+        assert_eq!(
+            write(&mut st, "g", 2.0, us(110)),
+            0,
+            "within the linger: waits"
+        );
+        assert_eq!(write(&mut st, "g", 3.0, us(120)), 0);
+        assert_eq!(st.lingering.len(), 2);
+        assert_eq!(
+            st.linger_until,
+            Some(START + us(150)),
+            "the thread is asked once"
+        );
+        assert_eq!(
+            write(&mut st, "g", 4.0, us(151)),
+            1,
+            "past it: all in one report"
+        );
+        assert!(st.lingering.is_empty());
+    }
+
+    #[test]
+    fn an_explicit_report_sends_what_lingers_before_it() {
+        let (_net, mut st) = lingering(IciConfig::default());
+        let us = Duration::from_micros;
+        write(&mut st, "g", 1.0, us(100));
+        assert_eq!(write(&mut st, "g", 2.0, us(110)), 0);
+        let before = sent(&st, LinkKind::Robot, MsgKind::Report);
+        let packet = st.board.read("g", "x").unwrap();
+        st.report_explicit(None, vec![("g".into(), "x".into(), packet)]);
+        assert!(
+            st.lingering.is_empty(),
+            "flushed first, so it keeps its place"
+        );
+        assert_eq!(sent(&st, LinkKind::Robot, MsgKind::Report) - before, 2);
+    }
+
+    #[test]
+    fn a_write_of_a_lossless_class_or_after_the_clock_stepped_back_does_not_linger() {
+        let config = IciConfig::default().lossless(ClassSet::none().class("Event"));
+        let (_net, mut st) = lingering(config);
+        let us = Duration::from_micros;
+        write(&mut st, "e", 1.0, us(100));
+        assert_eq!(
+            write(&mut st, "e", 2.0, us(110)),
+            1,
+            "its writer waits for room itself"
+        );
+        assert_eq!(
+            write(&mut st, "g", 1.0, us(120)),
+            0,
+            "another class lingers"
+        );
+        assert_eq!(
+            write(&mut st, "e", 3.0, us(130)),
+            2,
+            "and goes with it (a report a flow)"
+        );
+        assert!(st.lingering.is_empty());
+        // The system clock stepped back a second: the last report is "in the future".
+        assert_eq!(write(&mut st, "g", 2.0, us(130)), 0, "within the linger");
+        st.flush_lingering();
+        st.now = START;
+        st.board.write("g", "x", 3.0).unwrap();
+        st.drain_changes();
+        assert!(
+            st.lingering.is_empty(),
+            "no linger from a report made after now"
+        );
+    }
 }
