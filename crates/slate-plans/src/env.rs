@@ -55,10 +55,10 @@ impl Env for SnapEnv<'_> {
     }
 }
 
-/// Expressions inside an active function, reading through its call (chain limits apply).
+/// Expressions inside an active function, reading through its call (chain limits apply)
+/// and the clock through [`Call::now`] (what a derived attribute's value is kept for).
 pub(crate) struct CallEnv<'a, 'c> {
     pub call: &'a Call<'c>,
-    pub clock: &'a Clock,
 }
 
 impl Env for CallEnv<'_, '_> {
@@ -78,6 +78,6 @@ impl Env for CallEnv<'_, '_> {
     }
 
     fn now(&self) -> Duration {
-        self.clock.physical()
+        self.call.now()
     }
 }

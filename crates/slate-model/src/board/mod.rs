@@ -6,6 +6,7 @@ mod chain;
 mod dispatch;
 mod dump;
 mod hook;
+mod kept;
 mod snapshot;
 pub(crate) mod state;
 mod txn;
@@ -22,6 +23,7 @@ pub use builder::BoardBuilder;
 pub(crate) use chain::{Chain, Running};
 pub(crate) use dispatch::{Access, PendingRead};
 pub use hook::{ChangeHook, TouchKind, Touched};
+pub(crate) use kept::note_time;
 pub use snapshot::Snapshot;
 use state::{Origin, State};
 use txn::{Inner, Txn};
@@ -537,7 +539,7 @@ impl Board {
     pub(crate) fn read_in(&self, target: Target<'_>, chain: &Chain) -> Result<Packet, ReadError> {
         let pending = {
             let inner = self.inner.read();
-            match PendingRead::new(&inner.state, target)? {
+            match PendingRead::new(self, &inner.state, target)? {
                 Ok(packet) => return Ok(packet),
                 Err(pending) => pending,
             }

@@ -23,6 +23,16 @@ impl<'b> Snapshot<'b> {
         Snapshot { board, inner }
     }
 
+    /// The board it shows.
+    pub(crate) fn board(&self) -> &'b Board {
+        self.board
+    }
+
+    /// The state it holds.
+    pub(crate) fn state(&self) -> &super::state::State {
+        &self.inner.state
+    }
+
     /// The revision this snapshot shows.
     pub fn revision(&self) -> u64 {
         self.inner.state.revision
@@ -39,7 +49,7 @@ impl<'b> Snapshot<'b> {
     }
 
     pub(crate) fn read_in(&self, target: Target<'_>, chain: &Chain) -> Result<Packet, ReadError> {
-        match PendingRead::new(&self.inner.state, target)? {
+        match PendingRead::new(self.board, &self.inner.state, target)? {
             Ok(packet) => Ok(packet),
             Err(pending) => pending.finish(self.board, Access::Frozen(self), chain),
         }

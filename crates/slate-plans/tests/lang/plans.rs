@@ -347,6 +347,54 @@ fn a_derived_attribute_reading_its_own_name_through_a_reference_loads_and_tracks
 }
 
 #[test]
+fn a_derived_value_is_kept_only_until_what_it_reads_changes() {
+    // The board keeps a derived attribute's value (it is a pure function of what it
+    // reads): every change of what it read, and the clock for `age`, must show.
+    let (board, engine) = engine();
+    let src = r#"
+        class Unit { address: string = ""; up: bool = true; }
+        class Bot {
+            exec: string = "";
+            alive: bool derived = not (any m: Unit where m.address == self.exec and not m.up);
+        }
+        class Fix { at: real = 0.0; stale: real derived = age(self.at); }
+        object u1 : Unit { address = "a"; }
+        object u2 : Unit { address = "b"; }
+        object r1 : Bot { exec = "a"; }
+        object f : Fix;
+    "#;
+    engine
+        .load("d.slate", src)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let alive = || board.read("r1", "alive").unwrap().value;
+    assert_eq!((alive(), alive()), (Value::Bool(true), Value::Bool(true)));
+    board.write("u1", "up", false).unwrap();
+    assert_eq!(alive(), Value::Bool(false), "the module it names went down");
+    board.write("u2", "up", false).unwrap();
+    board.write("u1", "up", true).unwrap();
+    assert_eq!(alive(), Value::Bool(true), "and came back");
+    board.write("r1", "exec", "b").unwrap();
+    assert_eq!(alive(), Value::Bool(false), "its own attribute");
+    board.create("Unit", "u3").unwrap();
+    board.write("r1", "exec", "c").unwrap();
+    assert_eq!(alive(), Value::Bool(true));
+    board.write("u3", "address", "c").unwrap();
+    board.write("u3", "up", false).unwrap();
+    assert_eq!(
+        board.snapshot().read("r1", "alive").unwrap().value,
+        Value::Bool(false),
+        "a module that appeared, read through a snapshot"
+    );
+    board.delete("u3").unwrap();
+    assert_eq!(alive(), Value::Bool(true), "and went away");
+    board.write("f", "at", 1.0).unwrap();
+    let stale = || board.read("f", "stale").unwrap().value.as_f64().unwrap();
+    assert_eq!((stale(), stale()), (0.0, 0.0));
+    board.clock().advance(Duration::from_millis(1500)).unwrap();
+    assert_eq!(stale(), 1.5, "the clock moved: `age` reads it again");
+}
+
+#[test]
 fn an_age_condition_fires_after_the_clock_stopped_exactly_on_its_deadline() {
     let (_b, e, clock) = position_lost();
     clock.advance(Duration::from_secs(2)).unwrap();

@@ -1,0 +1,199 @@
+//! Packets of pure on-read functions (the language's derived attributes), kept until what
+//! they read changes.
+//!
+//! A pure function ([`ActiveFn::pure`](crate::ActiveFn::pure)) returns what the attributes
+//! it reads through its `Call` and the clock say, and does nothing else. While one runs,
+//! this thread records what it reads ([`Recording`]): every attribute (by key), and the
+//! time, if it reads the clock ([`Call::now`](crate::Call::now)). Its packet is kept, and
+//! served to later reads, until:
+//! * one of those attributes is stored again or taken back ([`Kept::changed`]), by any
+//!   path (a write, a batch, a merge, a rollback);
+//! * anything else of the board changes ([`Kept::clear`]): an object or class created or
+//!   deleted (what quantifiers see, what names resolve to), a class-level value (what
+//!   instances inherit), an active function attached or detached;
+//! * the clock shows another time, if the function read it.
+//!
+//! What is not kept: a packet computed while the board changed (another thread wrote
+//! between the function's reads), one whose function failed, and one whose function read
+//! an attribute that has on-read functions of its own (its chain of functions would no
+//! longer be checked for cycles and depth if it were served from here), or read another
+//! board, or read the clock at two different times. Those are computed again at every
+//! read, as every on-read function was before.
+
+use std::cell::RefCell;
+use std::time::Duration;
+
+use parking_lot::Mutex;
+use rustc_hash::FxHashMap;
+use smallvec::SmallVec;
+
+use crate::{Clock, Key, Packet};
+
+/// The kept packets of one board. It lives in the board's state, so that every change of
+/// the state says what it changed under the same write lock ([`Kept::changed`] and
+/// [`Kept::clear`] take `&mut self`: no lock of their own); reads, which hold the state
+/// only for reading, look up and keep under the mutex.
+#[derive(Default)]
+pub(crate) struct Kept {
+    table: Mutex<Table>,
+}
+
+#[derive(Default)]
+struct Table {
+    /// Per attribute with pure on-read functions, its last packet.
+    entries: FxHashMap<Key, Entry>,
+    /// Per attribute read, the kept packets that read it (some may be gone already:
+    /// dropping one more than needed is only a computation again).
+    readers: FxHashMap<Key, SmallVec<[Key; 2]>>,
+    /// Counts the changes of the state: a packet computed across one is not kept.
+    epoch: u64,
+}
+
+struct Entry {
+    packet: Packet,
+    /// The clock's physical time when it was computed, if the function read the clock.
+    at: Option<Duration>,
+}
+
+/// What a pure function read while it ran.
+pub(crate) struct Reads {
+    board: u64,
+    keys: Vec<Key>,
+    at: Option<Duration>,
+    /// It read what cannot be followed: keep nothing.
+    spoiled: bool,
+}
+
+thread_local! {
+    /// The recordings of the pure functions running in this thread, innermost last.
+    static RECORDING: RefCell<Vec<Reads>> = const { RefCell::new(Vec::new()) };
+}
+
+impl Kept {
+    /// `key`'s stored packet changed: the packets that read it are no longer kept. A
+    /// class's packet (a class-level value) is what instances inherit: nothing is kept.
+    pub fn changed(&mut self, key: Key, of_class: bool) {
+        if of_class {
+            return self.clear();
+        }
+        let t = self.table.get_mut();
+        t.epoch += 1;
+        if t.entries.is_empty() {
+            t.readers.clear();
+            return;
+        }
+        if let Some(readers) = t.readers.remove(&key) {
+            for r in readers {
+                t.entries.remove(&r);
+            }
+        }
+    }
+
+    /// Something other than a stored packet changed: nothing is kept.
+    pub fn clear(&mut self) {
+        let t = self.table.get_mut();
+        t.epoch += 1;
+        t.entries.clear();
+        t.readers.clear();
+    }
+
+    /// The number of the state's changes so far, to give back to [`Kept::keep`].
+    pub fn epoch(&self) -> u64 {
+        self.table.lock().epoch
+    }
+
+    /// The packet kept for `key`, if it still holds at the clock's time now.
+    pub fn get(&self, key: Key, clock: &Clock) -> Option<Packet> {
+        let t = self.table.lock();
+        let e = t.entries.get(&key)?;
+        e.at.is_none_or(|at| clock.physical() == at)
+            .then(|| e.packet.clone())
+    }
+
+    /// Keeps the packet computed for `key` from `reads`, unless the state changed since
+    /// `epoch` (taken before the computation) or the reads cannot be followed.
+    pub fn keep(&self, key: Key, packet: Packet, reads: Reads, epoch: u64) {
+        let mut t = self.table.lock();
+        if reads.spoiled || t.epoch != epoch {
+            return;
+        }
+        let Reads { mut keys, at, .. } = reads;
+        // What the functions started from: the attribute's own (or inherited) packet.
+        keys.push(key);
+        keys.sort_unstable_by_key(|k| (k.object.to_bits(), k.attr.to_bits()));
+        keys.dedup();
+        for k in keys {
+            let readers = t.readers.entry(k).or_default();
+            if !readers.contains(&key) {
+                readers.push(key);
+            }
+        }
+        t.entries.insert(key, Entry { packet, at });
+    }
+}
+
+/// While it lives, this thread records what is read for one pure computation on one board.
+pub(crate) struct Recording(());
+
+impl Recording {
+    pub fn start(board: u64) -> Recording {
+        RECORDING.with_borrow_mut(|r| {
+            r.push(Reads {
+                board,
+                keys: Vec::new(),
+                at: None,
+                spoiled: false,
+            });
+        });
+        Recording(())
+    }
+
+    /// Ends the recording and gives what was read.
+    pub fn stop(self) -> Option<Reads> {
+        let reads = RECORDING.with_borrow_mut(Vec::pop);
+        std::mem::forget(self);
+        reads
+    }
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        RECORDING.with_borrow_mut(Vec::pop);
+    }
+}
+
+/// Applies `f` to the innermost recording of this thread, if any.
+fn innermost(f: impl FnOnce(&mut Reads)) {
+    RECORDING.with_borrow_mut(|r| {
+        if let Some(top) = r.last_mut() {
+            f(top);
+        }
+    });
+}
+
+/// `board` read `key` (a packet without on-read functions, or the start of a read that
+/// has some).
+pub(crate) fn note_read(board: u64, key: Key) {
+    innermost(|r| {
+        if r.board == board {
+            r.keys.push(key);
+        } else {
+            r.spoiled = true;
+        }
+    });
+}
+
+/// `board`'s clock was read and showed `at`.
+pub(crate) fn note_time(board: u64, at: Duration) {
+    innermost(|r| {
+        if r.board != board || r.at.is_some_and(|t| t != at) {
+            r.spoiled = true;
+        }
+        r.at = Some(at);
+    });
+}
+
+/// A read ran (or was served) on-read functions: the computation reading it is not kept.
+pub(crate) fn note_functions() {
+    innermost(|r| r.spoiled = true);
+}
