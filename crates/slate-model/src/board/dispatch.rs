@@ -203,8 +203,9 @@ pub(crate) struct PendingRead {
 enum Keep {
     /// A function is not pure: run them all, keep nothing.
     No,
-    /// Every function is pure, and their packet is kept: serve it.
-    Kept(Packet),
+    /// Every function is pure, and their packet is kept: serve it (the serial of a
+    /// packet that holds whatever the time).
+    Kept(Packet, Option<u64>),
     /// Every function is pure: run them, and keep their packet unless the state changed
     /// since this epoch.
     Compute(u64),
@@ -233,7 +234,7 @@ impl PendingRead {
         }
         let keep = if fns.iter().all(|f| f.pure()) {
             match st.kept.get(key, board.clock()) {
-                Some(packet) => Keep::Kept(packet),
+                Some((packet, serial)) => Keep::Kept(packet, serial),
                 None => Keep::Compute(st.kept.epoch()),
             }
         } else {
@@ -258,20 +259,25 @@ impl PendingRead {
         access: Access<'_>,
         chain: &Chain,
     ) -> Result<Packet, ReadError> {
-        // A pure function reading this is not kept: its chain would not be checked.
-        kept::note_functions();
         let chain = &*chain.or_running(board.id());
         let names = || (self.object.clone(), self.attr.clone());
         if let Err(cut) = chain.admit(self.key, Trigger::Read, board.max_depth, names) {
+            kept::note_functions(board.id(), self.key, None);
             board.report(BoardEvent::ChainCut(cut.clone()));
             return Err(cut.into());
         }
         let epoch = match self.keep {
             // The functions ran nothing else and read no attribute with functions of its
             // own: once this read is admitted, running them again changes nothing.
-            Keep::Kept(packet) => return Ok(packet),
+            Keep::Kept(packet, serial) => {
+                kept::note_functions(board.id(), self.key, serial);
+                return Ok(packet);
+            }
             Keep::Compute(epoch) => Some(epoch),
-            Keep::No => None,
+            Keep::No => {
+                kept::note_functions(board.id(), self.key, None);
+                None
+            }
         };
         let recording = epoch.map(|_| Recording::start(board.id()));
         let mut all_ran = true;
@@ -308,11 +314,13 @@ impl PendingRead {
             }
         }
         let reads = recording.and_then(Recording::stop);
+        let mut serial = None;
         if let (Some(reads), Some(epoch), true) = (reads, epoch, all_ran) {
             let packet = call.packet.clone();
             call.access
-                .with_state(|st| st.kept.keep(self.key, packet, reads, epoch));
+                .with_state(|st| serial = st.kept.keep(self.key, packet, reads, epoch));
         }
+        kept::note_functions(board.id(), self.key, serial);
         Ok(call.packet)
     }
 }

@@ -47,21 +47,41 @@ struct Table {
     readers: FxHashMap<Key, SmallVec<[Key; 2]>>,
     /// Counts the changes of the state: a packet computed across one is not kept.
     epoch: u64,
+    /// Counts the changes that drop every kept packet ([`Kept::clear`]).
+    structure: u64,
+    /// Numbers the packets kept: a packet kept again after a change is another one.
+    serial: u64,
 }
 
 struct Entry {
     packet: Packet,
     /// The clock's physical time when it was computed, if the function read the clock.
     at: Option<Duration>,
+    serial: u64,
 }
 
-/// What a pure function read while it ran.
+/// What a pure function, or a traced evaluation ([`ReadTrace`]), read.
 pub(crate) struct Reads {
     board: u64,
+    kind: Kind,
     keys: Vec<Key>,
+    /// Attributes with pure functions served or computed, and the serial of their kept
+    /// packet (a trace only: while the packet is kept, nothing it read changed).
+    derived: Vec<(Key, u64)>,
     at: Option<Duration>,
-    /// It read what cannot be followed: keep nothing.
+    /// It read what cannot be followed.
     spoiled: bool,
+}
+
+/// Who records.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Kind {
+    /// A pure function: it runs in a chain of functions, and its packet is kept only if
+    /// it ran no other function (see the module's documentation).
+    Function,
+    /// An evaluation outside any function (a plan's conditions): no chain to check, so
+    /// the kept packets it is served stand for what they read.
+    Trace,
 }
 
 thread_local! {
@@ -93,6 +113,7 @@ impl Kept {
     pub fn clear(&mut self) {
         let t = self.table.get_mut();
         t.epoch += 1;
+        t.structure += 1;
         t.entries.clear();
         t.readers.clear();
     }
@@ -102,20 +123,36 @@ impl Kept {
         self.table.lock().epoch
     }
 
-    /// The packet kept for `key`, if it still holds at the clock's time now.
-    pub fn get(&self, key: Key, clock: &Clock) -> Option<Packet> {
+    /// The number of changes other than stored packets so far.
+    pub fn structure(&self) -> u64 {
+        self.table.lock().structure
+    }
+
+    /// The packet kept for `key`, if it still holds at the clock's time, and its serial
+    /// if it holds whatever the time.
+    pub fn get(&self, key: Key, clock: &Clock) -> Option<(Packet, Option<u64>)> {
         let t = self.table.lock();
         let e = t.entries.get(&key)?;
         e.at.is_none_or(|at| clock.physical() == at)
-            .then(|| e.packet.clone())
+            .then(|| (e.packet.clone(), e.at.is_none().then_some(e.serial)))
+    }
+
+    /// Is the packet kept for `key` still the one numbered `serial`?
+    pub fn holds(&self, key: Key, serial: u64) -> bool {
+        self.table
+            .lock()
+            .entries
+            .get(&key)
+            .is_some_and(|e| e.serial == serial && e.at.is_none())
     }
 
     /// Keeps the packet computed for `key` from `reads`, unless the state changed since
-    /// `epoch` (taken before the computation) or the reads cannot be followed.
-    pub fn keep(&self, key: Key, packet: Packet, reads: Reads, epoch: u64) {
+    /// `epoch` (taken before the computation) or the reads cannot be followed. Returns
+    /// the serial of the packet kept, if it holds whatever the time.
+    pub fn keep(&self, key: Key, packet: Packet, reads: Reads, epoch: u64) -> Option<u64> {
         let mut t = self.table.lock();
         if reads.spoiled || t.epoch != epoch {
-            return;
+            return None;
         }
         let Reads { mut keys, at, .. } = reads;
         // What the functions started from: the attribute's own (or inherited) packet.
@@ -128,7 +165,10 @@ impl Kept {
                 readers.push(key);
             }
         }
-        t.entries.insert(key, Entry { packet, at });
+        t.serial += 1;
+        let serial = t.serial;
+        t.entries.insert(key, Entry { packet, at, serial });
+        at.is_none().then_some(serial)
     }
 }
 
@@ -137,10 +177,16 @@ pub(crate) struct Recording(());
 
 impl Recording {
     pub fn start(board: u64) -> Recording {
+        Self::push(board, Kind::Function)
+    }
+
+    fn push(board: u64, kind: Kind) -> Recording {
         RECORDING.with_borrow_mut(|r| {
             r.push(Reads {
                 board,
+                kind,
                 keys: Vec::new(),
+                derived: Vec::new(),
                 at: None,
                 spoiled: false,
             });
@@ -183,17 +229,92 @@ pub(crate) fn note_read(board: u64, key: Key) {
     });
 }
 
-/// `board`'s clock was read and showed `at`.
+/// `board`'s clock was read and showed `at`. A trace does not follow time.
 pub(crate) fn note_time(board: u64, at: Duration) {
     innermost(|r| {
-        if r.board != board || r.at.is_some_and(|t| t != at) {
+        if r.kind == Kind::Trace || r.board != board || r.at.is_some_and(|t| t != at) {
             r.spoiled = true;
         }
         r.at = Some(at);
     });
 }
 
-/// A read ran (or was served) on-read functions: the computation reading it is not kept.
-pub(crate) fn note_functions() {
-    innermost(|r| r.spoiled = true);
+/// A read of `key` on `board` is to run its on-read functions, or be served their kept
+/// packet (`kept`: its serial), or was computed and kept (`kept`) or not (`None`). A
+/// function reading it is not kept (its chain would not be checked); a trace follows the
+/// kept packet, and cannot follow one that is not.
+pub(crate) fn note_functions(board: u64, key: Key, kept: Option<u64>) {
+    innermost(|r| match (r.kind, kept) {
+        (Kind::Trace, Some(serial)) if r.board == board => r.derived.push((key, serial)),
+        _ => r.spoiled = true,
+    });
+}
+
+/// Records what this thread reads of one board while it lives: see [`Snapshot::trace`].
+///
+/// [`Snapshot::trace`]: crate::Snapshot::trace
+pub struct ReadTrace {
+    recording: Recording,
+    revision: u64,
+    structure: u64,
+}
+
+/// What a traced evaluation read ([`ReadTrace::stop`]), to ask the board later whether
+/// any of it changed ([`Board::unchanged_since`](crate::Board::unchanged_since)).
+#[derive(Clone, Debug)]
+pub struct ReadSet {
+    pub(crate) board: u64,
+    pub(crate) revision: u64,
+    pub(crate) structure: u64,
+    pub(crate) keys: Vec<Key>,
+    pub(crate) derived: Vec<(Key, u64)>,
+}
+
+impl ReadTrace {
+    pub(crate) fn start(board: u64, revision: u64, structure: u64) -> ReadTrace {
+        ReadTrace {
+            recording: Recording::push(board, Kind::Trace),
+            revision,
+            structure,
+        }
+    }
+
+    /// Ends the trace: what was read, or `None` if something read cannot be followed (an
+    /// attribute whose on-read functions are not pure, or whose packet was not kept or
+    /// read the clock; a read of another board).
+    pub fn stop(self) -> Option<ReadSet> {
+        let reads = self.recording.stop()?;
+        if reads.spoiled {
+            return None;
+        }
+        let Reads {
+            board,
+            mut keys,
+            mut derived,
+            ..
+        } = reads;
+        keys.sort_unstable_by_key(|k| (k.object.to_bits(), k.attr.to_bits()));
+        keys.dedup();
+        derived.sort_unstable_by_key(|(k, s)| (k.object.to_bits(), k.attr.to_bits(), *s));
+        derived.dedup();
+        Some(ReadSet {
+            board,
+            revision: self.revision,
+            structure: self.structure,
+            keys,
+            derived,
+        })
+    }
+}
+
+impl ReadSet {
+    /// How many attributes were read (derived ones counted once, not what they read).
+    pub fn len(&self) -> usize {
+        self.keys.len() + self.derived.len()
+    }
+
+    /// Was nothing read?
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }

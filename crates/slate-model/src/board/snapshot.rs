@@ -33,6 +33,17 @@ impl<'b> Snapshot<'b> {
         &self.inner.state
     }
 
+    /// Starts recording what this thread reads of the board through this snapshot, to
+    /// ask the board later whether any of it changed
+    /// ([`Board::unchanged_since`](crate::Board::unchanged_since)): the attributes read,
+    /// and for a derived attribute whose packet is kept (a pure on-read function's), that
+    /// packet, which stands for what it read. What does not name all it read (a function
+    /// that is not pure, a packet that is not kept) ends the trace with nothing.
+    pub fn trace(&self) -> super::ReadTrace {
+        let st = &self.inner.state;
+        super::ReadTrace::start(self.board.id(), st.revision, st.kept.structure())
+    }
+
     /// The revision this snapshot shows.
     pub fn revision(&self) -> u64 {
         self.inner.state.revision

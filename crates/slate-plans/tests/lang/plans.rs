@@ -234,8 +234,79 @@ fn a_write_evaluates_only_the_plans_that_read_what_changed() {
     b.write("log", "n", 5).unwrap();
     b.write("trig", "level", 2.0).unwrap();
     assert_eq!(e.evaluations(), before, "nothing the plan reads changed");
+    // Pending, it reads its termination and initiation only: its last evaluation did
+    // nothing, and evaluating it again on the same values would do nothing again.
     set(&b, "trig", true);
+    assert_eq!(
+        e.evaluations(),
+        before,
+        "its last evaluation did not read it"
+    );
+    set(&b, "init", true);
     assert_eq!(e.evaluations(), before + 1);
+    let fired = e.status("p").unwrap().fired;
+    assert_eq!(fired, 1, "initiated, it fires: the trigger holds");
+}
+
+#[test]
+fn a_plan_is_evaluated_again_only_when_what_its_last_evaluation_read_changes() {
+    let (b, e) = engine();
+    let src = r#"
+        class Gauge { a: real = 0.0; b: real = 0.0; }
+        class Log { n: int = 0; }
+        object g : Gauge;
+        object log : Log;
+        plan both { trigger: g.a > 1.0 and g.b > 1.0; action { set log.n = log.n + 1; } }
+    "#;
+    e.load("t.slate", src).unwrap_or_else(|e| panic!("{e}"));
+    // Its first evaluation activated it (no initiation): it did something.
+    b.write("g", "b", 4.0).unwrap();
+    let before = e.evaluations();
+    b.write("g", "b", 5.0).unwrap();
+    assert_eq!(
+        e.evaluations(),
+        before,
+        "`g.a > 1.0` was false: the last evaluation did not read g.b"
+    );
+    b.write("g", "a", 5.0).unwrap();
+    assert_eq!(e.evaluations(), before + 1);
+    assert_eq!(e.status("both").unwrap().fired, 1, "g.b's write is seen");
+    b.write("g", "b", 0.0).unwrap();
+    b.write("g", "b", 6.0).unwrap();
+    assert_eq!(
+        e.status("both").unwrap().fired,
+        2,
+        "read now: each write evaluates"
+    );
+}
+
+#[test]
+fn a_plan_reading_a_derived_attribute_sees_what_the_derived_value_read_change() {
+    let (b, e) = engine();
+    let src = r#"
+        class Bot { speed: real = 0.0; limit: real = 5.0; fast: bool derived = self.speed > self.limit; }
+        class Unit { up: bool = true; }
+        class Log { n: int = 0; }
+        object r1 : Bot;
+        object log : Log;
+        plan slow_down { trigger: r1.fast; action { set log.n = log.n + 1; } }
+        plan count_down { trigger: any u: Unit where not u.up; action { set log.n = log.n + 10; } }
+    "#;
+    e.load("t.slate", src).unwrap_or_else(|e| panic!("{e}"));
+    b.write("r1", "speed", 6.0).unwrap();
+    assert_eq!(e.status("slow_down").unwrap().fired, 1);
+    b.write("r1", "speed", 1.0).unwrap();
+    b.write("r1", "limit", 0.5).unwrap();
+    assert_eq!(
+        e.status("slow_down").unwrap().fired,
+        2,
+        "through the derived value's other input"
+    );
+    // An object created: what a quantifier sees.
+    b.create("Unit", "u0").unwrap();
+    b.create("Unit", "u1").unwrap();
+    b.write("u1", "up", false).unwrap();
+    assert_eq!(e.status("count_down").unwrap().fired, 1);
 }
 
 const VEHICLES: &str = r#"
