@@ -19,6 +19,15 @@
 //! longer be checked for cycles and depth if it were served from here), or read another
 //! board, or read the clock at two different times. Those are computed again at every
 //! read, as every on-read function was before.
+//!
+//! The same recording traces an evaluation outside any function ([`ReadTrace`], the plan
+//! engine's conditions): the attributes it read, and for each derived attribute the
+//! serial of the kept packet it was served, which stands for everything that packet read
+//! (the packet is dropped when any of it changes). [`Board::unchanged_since`] then says
+//! whether any of it changed. An evaluation that read the clock, or an attribute whose
+//! packet is not kept, cannot be traced.
+//!
+//! [`Board::unchanged_since`]: crate::Board::unchanged_since
 
 use std::cell::RefCell;
 use std::time::Duration;
@@ -85,7 +94,8 @@ enum Kind {
 }
 
 thread_local! {
-    /// The recordings of the pure functions running in this thread, innermost last.
+    /// The recordings of the pure functions and traces running in this thread, innermost
+    /// last.
     static RECORDING: RefCell<Vec<Reads>> = const { RefCell::new(Vec::new()) };
 }
 
