@@ -379,6 +379,16 @@ mod tests {
         out
     }
 
+    /// Draws below `n`, from a seed (a linear congruential generator).
+    fn draws(mut seed: u64) -> impl FnMut(u64) -> u64 {
+        move |n| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        }
+    }
+
     #[test]
     fn a_live_view_is_the_view_a_board_would_give_after_any_change() {
         use slate_model::{AttrDecl, ClassDef, Clock, NewObject, ValueType};
@@ -395,13 +405,7 @@ mod tests {
             .unwrap();
         board.create("Target", "t0").unwrap();
         let mut live = LiveView::new(&board);
-        let mut seed = 11u64;
-        let mut draw = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut draw = draws(11);
         let names = ["t0", "t1", "t2", "t3"];
         let source = Address::new("team/r2/exec").unwrap();
         for step in 0..2000 {
@@ -441,13 +445,7 @@ mod tests {
         let sources =
             ["team/r1/exec", "team/r2/exec", "team/r3/exec"].map(|a| Address::new(a).unwrap());
         let dead: BTreeSet<Address> = [sources[2].clone()].into();
-        let mut seed = 7u64;
-        let mut draw = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut draw = draws(7);
         let mut differences = 0;
         for _ in 0..500 {
             let boards = 1 + draw(4) as usize;

@@ -38,7 +38,8 @@ impl<'b> Snapshot<'b> {
     /// ([`Board::unchanged_since`](crate::Board::unchanged_since)): the attributes read,
     /// and for a derived attribute whose packet is kept (a pure on-read function's), that
     /// packet, which stands for what it read. What does not name all it read (a function
-    /// that is not pure, a packet that is not kept) ends the trace with nothing.
+    /// that is not pure, a packet that is not kept) ends the trace with nothing. Traces
+    /// are of this thread, and nest: stop (or drop) an inner one before the outer one.
     pub fn trace(&self) -> super::ReadTrace {
         let st = &self.inner.state;
         super::ReadTrace::start(self.board.id(), st.revision, st.kept.structure())
