@@ -316,15 +316,3 @@ impl ReadTrace {
         })
     }
 }
-
-impl ReadSet {
-    /// How many attributes were read (derived ones counted once, not what they read).
-    pub fn len(&self) -> usize {
-        self.keys.len() + self.derived.len()
-    }
-
-    /// Was nothing read?
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-}
