@@ -7,10 +7,11 @@
 //! Two measures: [`disagreement`] (do they agree now?) and [`Propagation`] (how long did
 //! each change take to reach every board?).
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 
-use slate_model::{Address, Board, Value};
+use parking_lot::Mutex;
+use slate_model::{Address, Board, ChangeHook, ObjectId, Snapshot, Touched, Value};
 
 use crate::module::{Module, Role};
 use crate::team::Team;
@@ -24,8 +25,9 @@ type Key = (Arc<str>, Arc<str>);
 /// Key → (value, source), on one board.
 type View = BTreeMap<Key, (Value, Address)>;
 
-/// The boards of the team view and what each holds.
-fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
+/// The modules whose boards make the team view (the console, then every surviving
+/// robot's execution controller), and the addresses of the dead modules.
+fn team_view(team: &Team) -> (Vec<&Module>, BTreeSet<Address>) {
     let robot_dead = |m: &&Module| {
         let robot = team.robots.iter().position(|r| *r == m.robot);
         robot.is_some_and(|i| team.dead[i])
@@ -40,6 +42,12 @@ fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
     for i in (0..team.robots.len()).filter(|i| !team.dead[*i]) {
         boards.push(team.module(i, Role::Exec));
     }
+    (boards, dead)
+}
+
+/// The boards of the team view and what each holds.
+fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
+    let (boards, dead) = team_view(team);
     let views = boards
         .iter()
         .map(|m| (m.address().to_string(), view(m.node.board())))
@@ -50,21 +58,127 @@ fn views(team: &Team) -> (Vec<(String, View)>, BTreeSet<Address>) {
 /// Stored values of the team classes; an object shows as `(name, "")` with its owner.
 fn view(board: &Board) -> View {
     let snap = board.snapshot();
-    let itself: Arc<str> = Arc::from("");
     let mut out = View::new();
     for class in TEAM_CLASSES {
         for id in snap.instances(class).unwrap_or_default() {
-            let Some(info) = snap.info(id) else { continue };
-            out.insert(
-                (info.name.clone(), itself.clone()),
-                (Value::Bool(true), info.owner),
-            );
-            for (attr, p, _) in snap.own_values(id) {
-                out.insert((info.name.clone(), attr), (p.value, p.source));
-            }
+            insert_object(&snap, id, &mut out);
         }
     }
     out
+}
+
+/// Puts object `id`'s entries in `view` (it must be an object of a team class); returns
+/// its name.
+fn insert_object(snap: &Snapshot<'_>, id: ObjectId, view: &mut View) -> Option<Arc<str>> {
+    let info = snap.info(id)?;
+    let itself: Arc<str> = Arc::from("");
+    view.insert((info.name.clone(), itself), (Value::Bool(true), info.owner));
+    for (attr, p, _) in snap.own_values(id) {
+        view.insert((info.name.clone(), attr), (p.value, p.source));
+    }
+    Some(info.name)
+}
+
+/// One board's [`view`], kept up to date between comparisons: a change hook notes the
+/// objects of the team classes each revision touched (written, created, deleted), and
+/// the next comparison reads those again, and only those. Every change of an object's
+/// own values or existence touches it, so the view is the one [`view`] would build.
+struct LiveView {
+    touches: Arc<Touches>,
+    view: Option<View>,
+    /// The objects in the view, by handle (a deleted one's name is no longer on the
+    /// board).
+    names: HashMap<ObjectId, Arc<str>>,
+}
+
+/// The change hook of a [`LiveView`].
+#[derive(Default)]
+struct Touches {
+    /// Objects touched since the view last looked.
+    objects: Mutex<Vec<ObjectId>>,
+    /// Per class seen, is it a team class or below one?
+    team_class: Mutex<HashMap<ObjectId, bool>>,
+}
+
+impl ChangeHook for Touches {
+    fn changed(&self, board: &Board, _revision: u64, touched: &[Touched]) {
+        let mut classes = self.team_class.lock();
+        let mut objects = self.objects.lock();
+        for t in touched {
+            let team = *classes.entry(t.class).or_insert_with(|| {
+                (board.lineage(t.class).iter()).any(|c| {
+                    board
+                        .name_of(*c)
+                        .is_some_and(|n| TEAM_CLASSES.contains(&&*n))
+                })
+            });
+            if team && t.object != t.class {
+                objects.push(t.object);
+            }
+        }
+    }
+}
+
+impl LiveView {
+    fn new(board: &Board) -> LiveView {
+        let touches = Arc::new(Touches::default());
+        board.add_hook(touches.clone());
+        LiveView {
+            touches,
+            view: None,
+            names: HashMap::new(),
+        }
+    }
+
+    /// The view as the board holds it now.
+    fn refresh(&mut self, board: &Board) -> &View {
+        let touched = std::mem::take(&mut *self.touches.objects.lock());
+        let snap = board.snapshot();
+        let mut view = match self.view.take() {
+            Some(view) => view,
+            None => {
+                let mut view = View::new();
+                for class in TEAM_CLASSES {
+                    for id in snap.instances(class).unwrap_or_default() {
+                        if let Some(name) = insert_object(&snap, id, &mut view) {
+                            self.names.insert(id, name);
+                        }
+                    }
+                }
+                return self.view.insert(view);
+            }
+        };
+        // By name: an object deleted and another of the same name created both touch it.
+        let mut stale: BTreeSet<Arc<str>> = BTreeSet::new();
+        for id in touched {
+            if let Some(name) = self.names.remove(&id).or_else(|| snap.name_of(id)) {
+                stale.insert(name);
+            }
+        }
+        let classes = self.touches.team_class.lock();
+        for name in stale {
+            let first = (name.clone(), Arc::<str>::from(""));
+            let keys: Vec<Key> = (view.range(first..))
+                .take_while(|(k, _)| k.0 == name)
+                .map(|(k, _)| k.clone())
+                .collect();
+            for k in keys {
+                view.remove(&k);
+            }
+            let team_object = snap.id_of(&name).filter(|id| {
+                (snap.info(*id))
+                    .filter(|i| !i.is_class)
+                    .and_then(|i| snap.id_of(&i.class))
+                    .is_some_and(|c| classes.get(&c).copied().unwrap_or(false))
+            });
+            if let Some(id) = team_object
+                && let Some(name) = insert_object(&snap, id, &mut view)
+            {
+                self.names.insert(id, name);
+            }
+        }
+        self.view.insert(view)
+    }
 }
 
 /// The keys on which the views differ. Skipped: a key a dead module wrote (or, for an
@@ -74,7 +188,7 @@ fn view(board: &Board) -> View {
 /// Each view is walked once beside the first (both sorted): the team view has a board
 /// per robot and its objects grow with the team too, and a lookup of every key on every
 /// board for every other board was the demo's largest cost at 16 robots.
-fn differing(views: &[(String, View)], dead: &BTreeSet<Address>) -> BTreeMap<Key, String> {
+fn differing(views: &[(String, &View)], dead: &BTreeSet<Address>) -> BTreeMap<Key, String> {
     let Some(((first, base), _)) = views.split_first() else {
         return BTreeMap::new();
     };
@@ -108,7 +222,7 @@ fn differing(views: &[(String, View)], dead: &BTreeSet<Address>) -> BTreeMap<Key
         } else {
             format!("{}.{}", key.0, key.1)
         };
-        let (other, view) = &views[k];
+        let (other, view) = (&views[k].0, views[k].1);
         let text = format!(
             "{what}: {first} holds {}, {other} holds {}",
             show(base),
@@ -159,22 +273,37 @@ fn unequal<'a>(a: &'a View, b: &'a View) -> Vec<&'a Key> {
 /// The first disagreement between the team-view boards, or `None` if they agree.
 pub fn disagreement(team: &Team) -> Option<String> {
     let (views, dead) = views(team);
+    let views: Vec<(String, &View)> = views.iter().map(|(a, v)| (a.clone(), v)).collect();
     differing(&views, &dead).into_values().next()
 }
 
 /// How long each change took to reach every board of the team view: a key opens when
 /// the boards start to differ on it and closes when they agree again.
-#[derive(Clone, Debug, Default)]
+#[derive(Default)]
 pub struct Propagation {
     open: BTreeMap<Key, f64>,
     /// Seconds each closed difference lasted.
     pub delays: Vec<f64>,
+    /// Per module address, the view of its board, kept up to date.
+    live: HashMap<Address, LiveView>,
 }
 
 impl Propagation {
     /// Compares the boards at world time `t`.
     pub fn observe(&mut self, team: &Team, t: f64) {
-        let (views, dead) = views(team);
+        let (boards, dead) = team_view(team);
+        for m in &boards {
+            let board = m.node.board();
+            let live =
+                (self.live.entry(m.address().clone())).or_insert_with(|| LiveView::new(board));
+            live.refresh(board);
+        }
+        let views: Vec<(String, &View)> = (boards.iter())
+            .filter_map(|m| {
+                let view = self.live.get(m.address())?.view.as_ref()?;
+                Some((m.address().to_string(), view))
+            })
+            .collect();
         let now = differing(&views, &dead);
         let closed: Vec<Key> = self
             .open
@@ -250,18 +379,73 @@ mod tests {
         out
     }
 
+    /// Draws below `n`, from a seed (a linear congruential generator).
+    fn draws(mut seed: u64) -> impl FnMut(u64) -> u64 {
+        move |n| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        }
+    }
+
+    #[test]
+    fn a_live_view_is_the_view_a_board_would_give_after_any_change() {
+        use slate_model::{AttrDecl, ClassDef, Clock, NewObject, ValueType};
+        let board = Board::builder().clock(Clock::manual()).build();
+        let int = |name: &str| AttrDecl::new(name, ValueType::Int);
+        board
+            .define(ClassDef::new("Target").attr(int("found")).attr(int("x")))
+            .unwrap();
+        board
+            .define(ClassDef::new("Decoy").parent("Target"))
+            .unwrap();
+        board
+            .define(ClassDef::new("Rock").attr(int("found")))
+            .unwrap();
+        board.create("Target", "t0").unwrap();
+        let mut live = LiveView::new(&board);
+        let mut draw = draws(11);
+        let names = ["t0", "t1", "t2", "t3"];
+        let source = Address::new("team/r2/exec").unwrap();
+        for step in 0..2000 {
+            let name = names[draw(4) as usize];
+            let value = draw(5) as i64;
+            let _ = match draw(8) {
+                // Objects of a team class, of a subclass, of another class, by one name.
+                0 => board
+                    .create(["Target", "Decoy", "Rock"][draw(3) as usize], name)
+                    .map(drop)
+                    .map_err(drop),
+                1 => board.delete(name).map(drop).map_err(drop),
+                2 => board
+                    .create_with(NewObject::new("Target", name).owner(source.clone()))
+                    .map(drop)
+                    .map_err(drop),
+                // A class-level value: not an object's own.
+                3 => board.write("Target", "x", value).map(drop).map_err(drop),
+                // A batch that fails half-way applies nothing.
+                4 => {
+                    let mut batch = board.batch();
+                    batch.write(name, "found", value).delete("nobody");
+                    batch.commit().map(drop).map_err(drop)
+                }
+                5 => board.write(name, "x", value).map(drop).map_err(drop),
+                _ => board.write(name, "found", value).map(drop).map_err(drop),
+            };
+            if draw(3) == 0 {
+                assert_eq!(*live.refresh(&board), view(&board), "step {step}");
+            }
+        }
+        assert_eq!(*live.refresh(&board), view(&board));
+    }
+
     #[test]
     fn one_walk_per_board_finds_what_a_lookup_of_every_key_finds() {
         let sources =
             ["team/r1/exec", "team/r2/exec", "team/r3/exec"].map(|a| Address::new(a).unwrap());
         let dead: BTreeSet<Address> = [sources[2].clone()].into();
-        let mut seed = 7u64;
-        let mut draw = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 33) % n
-        };
+        let mut draw = draws(7);
         let mut differences = 0;
         for _ in 0..500 {
             let boards = 1 + draw(4) as usize;
@@ -286,7 +470,8 @@ mod tests {
                 .collect();
             let expected = differing_by_lookups(&views, &dead);
             differences += expected.len();
-            assert_eq!(differing(&views, &dead), expected, "{views:?}");
+            let refs: Vec<(String, &View)> = views.iter().map(|(a, v)| (a.clone(), v)).collect();
+            assert_eq!(differing(&refs, &dead), expected, "{views:?}");
         }
         assert!(
             differences > 100,

@@ -2,6 +2,7 @@
 
 use std::fmt;
 use std::sync::Arc;
+use std::time::Duration;
 
 use crate::board::{Access, Chain};
 use crate::{Key, LookupError, ObjectId, Packet, ReadError, Update, Value, WriteError};
@@ -64,6 +65,16 @@ pub trait ActiveFn: Send + Sync {
     fn name(&self) -> &str;
     /// Runs the function.
     fn call(&self, call: &mut Call<'_>) -> Result<(), FnError>;
+    /// Is this an on-read function whose packet follows from the packet it is given and
+    /// what it reads through its `Call` alone ([`Call::read`], [`Call::instances`],
+    /// [`Call::name_of`], [`Call::exists`], and the clock through [`Call::now`]), with no
+    /// other effect? Then the board keeps the packet it returns and serves later reads
+    /// from it, until one of the attributes it read is stored again, an object, class or
+    /// function is added or removed, or (if it read the clock) the clock moves. The
+    /// language's derived attributes are. Default: `false`, run at every read.
+    fn pure(&self) -> bool {
+        false
+    }
 }
 
 /// A closure with a name.
@@ -146,6 +157,16 @@ impl Call<'_> {
     /// On read: replaces the value returned, keeping the other fields.
     pub fn set_value(&mut self, value: impl Into<Value>) {
         self.packet.value = value.into();
+    }
+
+    /// The board's physical time now (since the Unix epoch). A pure function
+    /// ([`ActiveFn::pure`]) reads the clock through this: what it returns is then kept
+    /// only while the clock shows this time.
+    pub fn now(&self) -> Duration {
+        let board = self.access.board();
+        let at = board.clock().physical();
+        crate::board::note_time(board.id(), at);
+        at
     }
 
     /// Reads another attribute (running its on-read functions, within the chain limits).

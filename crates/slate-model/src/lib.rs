@@ -54,7 +54,7 @@ pub use authority::{
 pub use board::{
     Batch, Board, BoardBuilder, BoardEvent, BoardStats, Change, ChangeHook, ChangeItem, Cursor,
     DEFAULT_MAX_DEPTH, Filter, Gather, MAX_NESTED_FUNCTIONS, Merged, NewObject, Normaliser,
-    ObjectInfo, Query, RevisedItem, Snapshot, TouchKind, Touched, Watch,
+    ObjectInfo, Query, ReadSet, ReadTrace, RevisedItem, Snapshot, TouchKind, Touched, Watch,
 };
 pub use builtin::{
     MODULE_CLASS, PLAN_CLASS, builtin_classes, is_builtin, module_class, plan_class,

@@ -18,6 +18,9 @@ mod examples;
 // Change hooks: called once per revision with what it touched.
 #[path = "model/hooks.rs"]
 mod hooks;
+// Packets of pure on-read functions kept until what they read changes.
+#[path = "model/kept.rs"]
+mod kept;
 // Merge policies of received packets (latest, confident, owned, fused).
 #[path = "model/merge.rs"]
 mod merge;

@@ -4,7 +4,7 @@
 use std::sync::Weak;
 use std::time::Duration;
 
-use slate_model::{ActiveFn, Call, Clock, FnError, Timestamp, Value};
+use slate_model::{ActiveFn, Call, FnError, Timestamp, Value};
 
 use crate::action::{Act, Effect, effects};
 use crate::engine::{Shared, report_items};
@@ -20,7 +20,6 @@ pub(crate) struct Derived {
     pub confidence: Option<CompiledExpr>,
     pub slots: usize,
     pub real: bool,
-    pub clock: Clock,
 }
 
 impl ActiveFn for Derived {
@@ -30,10 +29,7 @@ impl ActiveFn for Derived {
 
     fn call(&self, call: &mut Call<'_>) -> Result<(), FnError> {
         let (value, accuracy, confidence, newest) = {
-            let env = CallEnv {
-                call,
-                clock: &self.clock,
-            };
+            let env = CallEnv { call };
             let mut cx = Ctx::new(&env, self.slots, &[]);
             cx.this = Some(call.object().into());
             let fail = |e: crate::eval::EvalError| FnError::Message(e.to_string());
@@ -69,6 +65,13 @@ impl ActiveFn for Derived {
         call.set_packet(p);
         Ok(())
     }
+
+    /// An expression reads the board through the call and the clock through
+    /// [`Call::now`], and does nothing else: the board keeps what it computes until what
+    /// it read changes.
+    fn pure(&self) -> bool {
+        true
+    }
 }
 
 /// `on write ATTR { actions }`.
@@ -76,7 +79,6 @@ pub(crate) struct Rule {
     pub name: String,
     pub acts: Vec<Act>,
     pub slots: usize,
-    pub clock: Clock,
     pub engine: Weak<Shared>,
 }
 
@@ -87,10 +89,7 @@ impl ActiveFn for Rule {
 
     fn call(&self, call: &mut Call<'_>) -> Result<(), FnError> {
         let planned = {
-            let env = CallEnv {
-                call,
-                clock: &self.clock,
-            };
+            let env = CallEnv { call };
             let mut cx = Ctx::new(&env, self.slots, &[]);
             cx.this = Some(call.object().into());
             effects(&self.acts, &mut cx).map_err(|e| FnError::Message(e.to_string()))?

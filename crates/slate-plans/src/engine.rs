@@ -17,7 +17,7 @@ use std::time::Duration;
 use crossbeam_channel::Receiver;
 use parking_lot::{Condvar, Mutex};
 use slate_model::{
-    Board, ChangeHook, ClockListener, Context, Key, NewObject, ObjectId, Touched, Value,
+    Board, ChangeHook, ClockListener, Context, Key, NewObject, ObjectId, ReadSet, Touched, Value,
 };
 use smallvec::SmallVec;
 
@@ -137,6 +137,9 @@ struct PlanRt {
     timer_gen: u64,
     /// The plan object's `fired` attribute.
     fired_key: Option<Key>,
+    /// What its last evaluation read, if that evaluation did nothing and read no time:
+    /// while none of it changes, evaluating again would do nothing again.
+    quiet: Option<ReadSet>,
 }
 
 #[derive(Default)]
@@ -459,6 +462,7 @@ impl Engine {
                 next_every: next_every.map(|period| now + period),
                 timer_gen: 0,
                 fired_key: board.key(&name, "fired").ok(),
+                quiet: None,
             });
             idx
         };
@@ -655,14 +659,27 @@ impl Shared {
     }
 
     fn evaluate(&self, st: &mut State, idx: usize, board: &Board) {
+        let rt = &mut st.plans[idx];
+        if rt
+            .quiet
+            .as_ref()
+            .is_some_and(|reads| board.unchanged_since(reads))
+        {
+            return;
+        }
         self.evaluations.fetch_add(1, Ordering::Relaxed);
+        let primed = rt.prime;
         let outcome = {
             let snap = board.snapshot();
-            let env = SnapEnv {
-                snap: &snap,
-                clock: board.clock(),
-            };
-            step(&mut st.plans[idx], &env)
+            let trace = snap.trace();
+            let env = SnapEnv::new(&snap, board.clock());
+            let outcome = step(rt, &env);
+            let reads = trace.stop();
+            // A condition that read the clock has a timer (`wake_at`) unless its moment
+            // has passed (`age(x) > 2s` stays true): not reading it at all is simpler to
+            // trust.
+            rt.quiet = reads.filter(|_| !(primed || env.timed.get()) && outcome.did_nothing());
+            outcome
         };
         self.schedule(st, idx, &outcome);
         let name = st.plans[idx].plan.name.clone();
@@ -735,6 +752,19 @@ struct Outcome {
     effects: Option<Result<Vec<Effect>, String>>,
     wake_at: Option<f64>,
     eval_error: Option<String>,
+}
+
+impl Outcome {
+    /// Did the evaluation change nothing and set no timer? Then, with no time read, an
+    /// evaluation on the same values does the same: its trigger holds as it held (so it
+    /// does not fire; with `every` and the trigger holding there would be a timer).
+    fn did_nothing(&self) -> bool {
+        self.new_state.is_none()
+            && self.events.is_empty()
+            && self.effects.is_none()
+            && self.wake_at.is_none()
+            && self.eval_error.is_none()
+    }
 }
 
 /// Evaluates a plan's conditions once, by the plan semantics (docs/language.md).

@@ -1,6 +1,7 @@
 //! The world as expressions see it: a board snapshot (plan conditions, evaluated at one
 //! revision) or an active function's call (derived attributes and rules).
 
+use std::cell::Cell;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -12,6 +13,18 @@ use crate::eval::{Env, KeyCache};
 pub(crate) struct SnapEnv<'a> {
     pub snap: &'a Snapshot<'a>,
     pub clock: &'a Clock,
+    /// Did an expression read the clock?
+    pub timed: Cell<bool>,
+}
+
+impl<'a> SnapEnv<'a> {
+    pub fn new(snap: &'a Snapshot<'a>, clock: &'a Clock) -> Self {
+        SnapEnv {
+            snap,
+            clock,
+            timed: Cell::new(false),
+        }
+    }
 }
 
 impl Env for SnapEnv<'_> {
@@ -51,14 +64,15 @@ impl Env for SnapEnv<'_> {
     }
 
     fn now(&self) -> Duration {
+        self.timed.set(true);
         self.clock.physical()
     }
 }
 
-/// Expressions inside an active function, reading through its call (chain limits apply).
+/// Expressions inside an active function, reading through its call (chain limits apply)
+/// and the clock through [`Call::now`] (what a derived attribute's value is kept for).
 pub(crate) struct CallEnv<'a, 'c> {
     pub call: &'a Call<'c>,
-    pub clock: &'a Clock,
 }
 
 impl Env for CallEnv<'_, '_> {
@@ -78,6 +92,6 @@ impl Env for CallEnv<'_, '_> {
     }
 
     fn now(&self) -> Duration {
-        self.clock.physical()
+        self.call.now()
     }
 }

@@ -7,6 +7,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 
+use super::kept::{self, Recording};
 use super::state::{Decl, State};
 use super::txn::Committed;
 use super::{Board, BoardEvent, Chain, Query, Running, Snapshot, Target};
@@ -195,15 +196,30 @@ pub(crate) struct PendingRead {
     fns: Vec<FnRef>,
     object: Arc<str>,
     attr: Arc<str>,
+    keep: Keep,
+}
+
+/// Whether a read's result may be kept ([`Kept`](super::kept::Kept)).
+enum Keep {
+    /// A function is not pure: run them all, keep nothing.
+    No,
+    /// Every function is pure, and their packet is kept: serve it (the serial of a
+    /// packet that holds whatever the time).
+    Kept(Packet, Option<u64>),
+    /// Every function is pure: run them, and keep their packet unless the state changed
+    /// since this epoch.
+    Compute(u64),
 }
 
 impl PendingRead {
     /// `Ok(Ok(packet))` when no function applies (the common case), else the pending read.
     pub(super) fn new(
+        board: &Board,
         st: &State,
         target: Target<'_>,
     ) -> Result<Result<Packet, PendingRead>, ReadError> {
         let key = target.resolve(st)?;
+        kept::note_read(board.id(), key);
         if let Some(packet) = st.read_own(key) {
             return Ok(Ok(packet.clone()));
         }
@@ -216,6 +232,14 @@ impl PendingRead {
         if fns.is_empty() {
             return Ok(Ok(r.packet.clone()));
         }
+        let keep = if fns.iter().all(|f| f.pure()) {
+            match st.kept.get(key, board.clock()) {
+                Some((packet, serial)) => Keep::Kept(packet, serial),
+                None => Keep::Compute(st.kept.epoch()),
+            }
+        } else {
+            Keep::No
+        };
         let (packet, decl) = (r.packet, r.decl);
         let object = st.name(key.object).unwrap_or_else(|| "?".into());
         Ok(Err(PendingRead {
@@ -225,6 +249,7 @@ impl PendingRead {
             fns,
             object,
             attr: st.attr_name(key.attr),
+            keep,
         }))
     }
 
@@ -237,9 +262,25 @@ impl PendingRead {
         let chain = &*chain.or_running(board.id());
         let names = || (self.object.clone(), self.attr.clone());
         if let Err(cut) = chain.admit(self.key, Trigger::Read, board.max_depth, names) {
+            kept::note_functions(board.id(), self.key, None);
             board.report(BoardEvent::ChainCut(cut.clone()));
             return Err(cut.into());
         }
+        let epoch = match self.keep {
+            // The functions ran nothing else and read no attribute with functions of its
+            // own: once this read is admitted, running them again changes nothing.
+            Keep::Kept(packet, serial) => {
+                kept::note_functions(board.id(), self.key, serial);
+                return Ok(packet);
+            }
+            Keep::Compute(epoch) => Some(epoch),
+            Keep::No => {
+                kept::note_functions(board.id(), self.key, None);
+                None
+            }
+        };
+        let recording = epoch.map(|_| Recording::start(board.id()));
+        let mut all_ran = true;
         let chain = chain.with(self.key, Trigger::Read, &self.object, &self.attr);
         let mut call = Call {
             access,
@@ -254,9 +295,12 @@ impl PendingRead {
         };
         for func in &self.fns {
             let before = call.packet.clone();
-            if board.run_isolated(func.as_ref(), &mut call) && !call.packet.value.is_none() {
+            let ran = board.run_isolated(func.as_ref(), &mut call);
+            all_ran &= ran;
+            if ran && !call.packet.value.is_none() {
                 let d = &self.decl.decl;
                 if let Err(e) = check_value(&call.packet.value, d.ty, d.bounds) {
+                    all_ran = false;
                     board.report(BoardEvent::FunctionFailed {
                         function: func.name().to_owned(),
                         object: call.object.to_string(),
@@ -269,6 +313,14 @@ impl PendingRead {
                 }
             }
         }
+        let reads = recording.and_then(Recording::stop);
+        let mut serial = None;
+        if let (Some(reads), Some(epoch), true) = (reads, epoch, all_ran) {
+            let packet = call.packet.clone();
+            call.access
+                .with_state(|st| serial = st.kept.keep(self.key, packet, reads, epoch));
+        }
+        kept::note_functions(board.id(), self.key, serial);
         Ok(call.packet)
     }
 }
@@ -280,6 +332,22 @@ pub(crate) enum Access<'a> {
 }
 
 impl Access<'_> {
+    /// The board read or written.
+    pub fn board(&self) -> &Board {
+        match self {
+            Access::Live(b) => b,
+            Access::Frozen(s) => s.board(),
+        }
+    }
+
+    /// Runs `f` on the board's state (a snapshot holds it already).
+    fn with_state(&self, f: impl FnOnce(&State)) {
+        match self {
+            Access::Live(b) => f(&b.inner.read().state),
+            Access::Frozen(s) => f(s.state()),
+        }
+    }
+
     pub fn read(&self, object: &str, attr: &str, chain: &Chain) -> Result<Packet, ReadError> {
         match self {
             Access::Live(b) => b.read_in(Target::Names(object, attr), chain),

@@ -6,6 +6,7 @@ mod chain;
 mod dispatch;
 mod dump;
 mod hook;
+mod kept;
 mod snapshot;
 pub(crate) mod state;
 mod txn;
@@ -22,6 +23,8 @@ pub use builder::BoardBuilder;
 pub(crate) use chain::{Chain, Running};
 pub(crate) use dispatch::{Access, PendingRead};
 pub use hook::{ChangeHook, TouchKind, Touched};
+pub(crate) use kept::note_time;
+pub use kept::{ReadSet, ReadTrace};
 pub use snapshot::Snapshot;
 use state::{Origin, State};
 use txn::{Inner, Txn};
@@ -537,12 +540,28 @@ impl Board {
     pub(crate) fn read_in(&self, target: Target<'_>, chain: &Chain) -> Result<Packet, ReadError> {
         let pending = {
             let inner = self.inner.read();
-            match PendingRead::new(&inner.state, target)? {
+            match PendingRead::new(self, &inner.state, target)? {
                 Ok(packet) => return Ok(packet),
                 Err(pending) => pending,
             }
         };
         pending.finish(self, Access::Live(self), chain)
+    }
+
+    /// Is everything `reads` read as it was? No attribute of it stored again since, no
+    /// kept packet of it dropped, nothing else of the board changed (objects, classes,
+    /// class-level values, functions). `false` for a set of another board.
+    pub fn unchanged_since(&self, reads: &ReadSet) -> bool {
+        let inner = self.inner.read();
+        let st = &inner.state;
+        reads.board == self.id
+            && st.kept.structure() == reads.structure
+            && reads.keys.iter().all(|k| {
+                st.get(k.object)
+                    .and_then(|e| e.own(k.attr))
+                    .is_none_or(|s| s.revision <= reads.revision)
+            })
+            && reads.derived.iter().all(|(k, s)| st.kept.holds(*k, *s))
     }
 
     /// A consistent view of the whole board. While it lives, writers wait: keep it short,

@@ -23,6 +23,28 @@ impl<'b> Snapshot<'b> {
         Snapshot { board, inner }
     }
 
+    /// The board it shows.
+    pub(crate) fn board(&self) -> &'b Board {
+        self.board
+    }
+
+    /// The state it holds.
+    pub(crate) fn state(&self) -> &super::state::State {
+        &self.inner.state
+    }
+
+    /// Starts recording what this thread reads of the board through this snapshot, to
+    /// ask the board later whether any of it changed
+    /// ([`Board::unchanged_since`](crate::Board::unchanged_since)): the attributes read,
+    /// and for a derived attribute whose packet is kept (a pure on-read function's), that
+    /// packet, which stands for what it read. What does not name all it read (a function
+    /// that is not pure, a packet that is not kept) ends the trace with nothing. Traces
+    /// are of this thread, and nest: stop (or drop) an inner one before the outer one.
+    pub fn trace(&self) -> super::ReadTrace {
+        let st = &self.inner.state;
+        super::ReadTrace::start(self.board.id(), st.revision, st.kept.structure())
+    }
+
     /// The revision this snapshot shows.
     pub fn revision(&self) -> u64 {
         self.inner.state.revision
@@ -39,7 +61,7 @@ impl<'b> Snapshot<'b> {
     }
 
     pub(crate) fn read_in(&self, target: Target<'_>, chain: &Chain) -> Result<Packet, ReadError> {
-        match PendingRead::new(&self.inner.state, target)? {
+        match PendingRead::new(self.board, &self.inner.state, target)? {
             Ok(packet) => Ok(packet),
             Err(pending) => pending.finish(self.board, Access::Frozen(self), chain),
         }

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use rustc_hash::FxHashMap;
 
+use super::kept::Kept;
 use crate::active::FnRef;
 use crate::class::valid_name;
 use crate::packet::{check_quality, check_value};
@@ -170,6 +171,9 @@ pub(crate) struct State {
     pub normaliser: Option<Arc<dyn crate::Normaliser>>,
     /// Who may write what here besides this board's module (`[authority] writes`).
     pub authority: Arc<crate::WriteAuthority>,
+    /// Packets of pure on-read functions, kept until what they read changes: every
+    /// method below that changes the state says what it changed.
+    pub kept: Kept,
 }
 
 /// Why a write from another module is not taken: the one rule of who may write what on
@@ -199,6 +203,7 @@ impl State {
             instances: 0,
             normaliser: None,
             authority: Arc::default(),
+            kept: Kept::default(),
         };
         let root = ClassData {
             def: ClassDef {
@@ -648,6 +653,8 @@ impl State {
     /// Stores a packet; returns the entity's previous own value of that attribute.
     #[inline]
     pub fn store(&mut self, key: Key, packet: Packet, revision: u64) -> Option<Stored> {
+        let of_class = self.class(key.object).is_some();
+        self.kept.changed(key, of_class);
         let e = self.get_mut(key.object)?;
         let new = Stored {
             attr: key.attr,
@@ -665,6 +672,8 @@ impl State {
 
     /// Puts back what [`State::store`] replaced.
     pub fn unstore(&mut self, key: Key, previous: Option<Stored>) {
+        let of_class = self.class(key.object).is_some();
+        self.kept.changed(key, of_class);
         let Some(e) = self.get_mut(key.object) else {
             return;
         };
@@ -737,6 +746,7 @@ impl State {
 
     /// Undoes [`State::remove`] (the id stays valid: the slot gets its old generation).
     pub fn restore(&mut self, id: ObjectId, mut e: Entity) {
+        self.kept.clear();
         if let Some(pos) = self.free.iter().rposition(|&i| i == id.index) {
             self.free.remove(pos);
         }
@@ -921,6 +931,7 @@ impl State {
     /// Attaches a function to an object's or a class's attribute. A class's function
     /// reaches every instance and every subclass, existing or created later.
     pub fn attach(&mut self, key: Key, trigger: Trigger, f: FnRef) {
+        self.kept.clear();
         let Some(e) = self.get_mut(key.object) else {
             return;
         };
@@ -932,6 +943,7 @@ impl State {
 
     /// Removes one attached function (the same `Arc`); returns whether it was attached.
     pub fn detach(&mut self, key: Key, trigger: Trigger, f: &FnRef) -> bool {
+        self.kept.clear();
         let Some(e) = self.get_mut(key.object) else {
             return false;
         };
@@ -973,6 +985,7 @@ impl State {
     // ----- slab -----
 
     fn insert(&mut self, e: Entity) -> ObjectId {
+        self.kept.clear();
         self.count_instance(&e, true);
         let name = e.name.clone();
         let id = match self.free.pop() {
@@ -1000,6 +1013,7 @@ impl State {
     }
 
     fn take(&mut self, id: ObjectId) -> Entity {
+        self.kept.clear();
         let slot = &mut self.slots[id.index as usize];
         let e = slot.entity.take().expect("take of a live entity");
         slot.generation = slot.generation.wrapping_add(1);

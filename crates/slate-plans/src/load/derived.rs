@@ -4,7 +4,7 @@
 use std::collections::HashSet;
 use std::sync::{Arc, Weak};
 
-use slate_model::{Board, Trigger};
+use slate_model::Trigger;
 
 use crate::active::{Derived, Rule};
 use crate::ast::{AttributeDecl, ClassDecl, File, RuleDecl};
@@ -19,7 +19,6 @@ pub(super) fn derived_fn(
     ck: &mut Checker<'_>,
     class: &ClassDecl,
     a: &AttributeDecl,
-    clock: &slate_model::Clock,
 ) -> Option<(PendingFn, Vec<Dep>)> {
     let p = a.derived.as_ref()?;
     let mut l = Locals {
@@ -53,7 +52,6 @@ pub(super) fn derived_fn(
         confidence,
         slots: l.slots,
         real: declared == slate_model::ValueType::Real,
-        clock: clock.clone(),
     };
     let pending = PendingFn {
         span: a.name.span,
@@ -167,7 +165,6 @@ pub(super) fn rule_fn(
     rule: &RuleDecl,
     class: Option<&str>,
     source: &str,
-    board: &Arc<Board>,
     engine: &Weak<Shared>,
 ) -> Option<PendingFn> {
     let (target, this) = match (&rule.owner, class) {
@@ -206,7 +203,6 @@ pub(super) fn rule_fn(
         name: format!("on write {target}.{}", rule.attribute.name),
         acts,
         slots: l.slots,
-        clock: board.clock().clone(),
         engine: engine.clone(),
     };
     Some(PendingFn {

@@ -270,10 +270,9 @@ fn compile(
     }
     declare_objects(file, &mut scope, &mut diags);
     let mut ck = Checker::new(&scope);
-    let clock = board.clock().clone();
     for class in file.classes() {
         for a in class.attributes.iter().filter(|a| a.derived.is_some()) {
-            if let Some((f, deps)) = derived_fn(&mut ck, class, a, &clock) {
+            if let Some((f, deps)) = derived_fn(&mut ck, class, a) {
                 derived.insert((class.name.name.clone(), a.name.name.clone()), deps);
                 out.fns.push(f);
             }
@@ -281,7 +280,7 @@ fn compile(
     }
     check_derived_cycles(&mut ck, file, derived);
     for item in &file.items {
-        compile_item(&mut ck, item, source, board, engine, derived, &mut out);
+        compile_item(&mut ck, item, source, engine, derived, &mut out);
     }
     out.links = links::compile_links(&mut ck, file.links());
     diags.append(&mut ck.diags);
@@ -304,7 +303,6 @@ fn compile_item(
     ck: &mut Checker<'_>,
     item: &Item,
     source: &str,
-    board: &Arc<Board>,
     engine: &Weak<Shared>,
     derived: &DerivedDeps,
     out: &mut Compiled,
@@ -312,19 +310,11 @@ fn compile_item(
     match item {
         Item::Class(class) => {
             for rule in &class.rules {
-                out.fns.extend(rule_fn(
-                    ck,
-                    rule,
-                    Some(&class.name.name),
-                    source,
-                    board,
-                    engine,
-                ));
+                out.fns
+                    .extend(rule_fn(ck, rule, Some(&class.name.name), source, engine));
             }
         }
-        Item::Rule(rule) => out
-            .fns
-            .extend(rule_fn(ck, rule, None, source, board, engine)),
+        Item::Rule(rule) => out.fns.extend(rule_fn(ck, rule, None, source, engine)),
         Item::Object(o) => {
             check_owner(ck, o);
             let mut writes = Vec::new();

@@ -234,8 +234,79 @@ fn a_write_evaluates_only_the_plans_that_read_what_changed() {
     b.write("log", "n", 5).unwrap();
     b.write("trig", "level", 2.0).unwrap();
     assert_eq!(e.evaluations(), before, "nothing the plan reads changed");
+    // Pending, it reads its termination and initiation only: its last evaluation did
+    // nothing, and evaluating it again on the same values would do nothing again.
     set(&b, "trig", true);
+    assert_eq!(
+        e.evaluations(),
+        before,
+        "its last evaluation did not read it"
+    );
+    set(&b, "init", true);
     assert_eq!(e.evaluations(), before + 1);
+    let fired = e.status("p").unwrap().fired;
+    assert_eq!(fired, 1, "initiated, it fires: the trigger holds");
+}
+
+#[test]
+fn a_plan_is_evaluated_again_only_when_what_its_last_evaluation_read_changes() {
+    let (b, e) = engine();
+    let src = r#"
+        class Gauge { a: real = 0.0; b: real = 0.0; }
+        class Log { n: int = 0; }
+        object g : Gauge;
+        object log : Log;
+        plan both { trigger: g.a > 1.0 and g.b > 1.0; action { set log.n = log.n + 1; } }
+    "#;
+    e.load("t.slate", src).unwrap_or_else(|e| panic!("{e}"));
+    // Its first evaluation activated it (no initiation): it did something.
+    b.write("g", "b", 4.0).unwrap();
+    let before = e.evaluations();
+    b.write("g", "b", 5.0).unwrap();
+    assert_eq!(
+        e.evaluations(),
+        before,
+        "`g.a > 1.0` was false: the last evaluation did not read g.b"
+    );
+    b.write("g", "a", 5.0).unwrap();
+    assert_eq!(e.evaluations(), before + 1);
+    assert_eq!(e.status("both").unwrap().fired, 1, "g.b's write is seen");
+    b.write("g", "b", 0.0).unwrap();
+    b.write("g", "b", 6.0).unwrap();
+    assert_eq!(
+        e.status("both").unwrap().fired,
+        2,
+        "read now: each write evaluates"
+    );
+}
+
+#[test]
+fn a_plan_reading_a_derived_attribute_sees_what_the_derived_value_read_change() {
+    let (b, e) = engine();
+    let src = r#"
+        class Bot { speed: real = 0.0; limit: real = 5.0; fast: bool derived = self.speed > self.limit; }
+        class Unit { up: bool = true; }
+        class Log { n: int = 0; }
+        object r1 : Bot;
+        object log : Log;
+        plan slow_down { trigger: r1.fast; action { set log.n = log.n + 1; } }
+        plan count_down { trigger: any u: Unit where not u.up; action { set log.n = log.n + 10; } }
+    "#;
+    e.load("t.slate", src).unwrap_or_else(|e| panic!("{e}"));
+    b.write("r1", "speed", 6.0).unwrap();
+    assert_eq!(e.status("slow_down").unwrap().fired, 1);
+    b.write("r1", "speed", 1.0).unwrap();
+    b.write("r1", "limit", 0.5).unwrap();
+    assert_eq!(
+        e.status("slow_down").unwrap().fired,
+        2,
+        "through the derived value's other input"
+    );
+    // An object created: what a quantifier sees.
+    b.create("Unit", "u0").unwrap();
+    b.create("Unit", "u1").unwrap();
+    b.write("u1", "up", false).unwrap();
+    assert_eq!(e.status("count_down").unwrap().fired, 1);
 }
 
 const VEHICLES: &str = r#"
@@ -344,6 +415,54 @@ fn a_derived_attribute_reading_its_own_name_through_a_reference_loads_and_tracks
         fired, 1,
         "a write read through the derived attribute re-evaluates the plan"
     );
+}
+
+#[test]
+fn a_derived_value_is_kept_only_until_what_it_reads_changes() {
+    // The board keeps a derived attribute's value (it is a pure function of what it
+    // reads): every change of what it read, and the clock for `age`, must show.
+    let (board, engine) = engine();
+    let src = r#"
+        class Unit { address: string = ""; up: bool = true; }
+        class Bot {
+            exec: string = "";
+            alive: bool derived = not (any m: Unit where m.address == self.exec and not m.up);
+        }
+        class Fix { at: real = 0.0; stale: real derived = age(self.at); }
+        object u1 : Unit { address = "a"; }
+        object u2 : Unit { address = "b"; }
+        object r1 : Bot { exec = "a"; }
+        object f : Fix;
+    "#;
+    engine
+        .load("d.slate", src)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let alive = || board.read("r1", "alive").unwrap().value;
+    assert_eq!((alive(), alive()), (Value::Bool(true), Value::Bool(true)));
+    board.write("u1", "up", false).unwrap();
+    assert_eq!(alive(), Value::Bool(false), "the module it names went down");
+    board.write("u2", "up", false).unwrap();
+    board.write("u1", "up", true).unwrap();
+    assert_eq!(alive(), Value::Bool(true), "and came back");
+    board.write("r1", "exec", "b").unwrap();
+    assert_eq!(alive(), Value::Bool(false), "its own attribute");
+    board.create("Unit", "u3").unwrap();
+    board.write("r1", "exec", "c").unwrap();
+    assert_eq!(alive(), Value::Bool(true));
+    board.write("u3", "address", "c").unwrap();
+    board.write("u3", "up", false).unwrap();
+    assert_eq!(
+        board.snapshot().read("r1", "alive").unwrap().value,
+        Value::Bool(false),
+        "a module that appeared, read through a snapshot"
+    );
+    board.delete("u3").unwrap();
+    assert_eq!(alive(), Value::Bool(true), "and went away");
+    board.write("f", "at", 1.0).unwrap();
+    let stale = || board.read("f", "stale").unwrap().value.as_f64().unwrap();
+    assert_eq!((stale(), stale()), (0.0, 0.0));
+    board.clock().advance(Duration::from_millis(1500)).unwrap();
+    assert_eq!(stale(), 1.5, "the clock moved: `age` reads it again");
 }
 
 #[test]
