@@ -29,7 +29,8 @@
 //!
 //! [`Board::unchanged_since`]: crate::Board::unchanged_since
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
+use std::marker::PhantomData;
 use std::time::Duration;
 
 use parking_lot::Mutex;
@@ -71,6 +72,8 @@ struct Entry {
 
 /// What a pure function, or a traced evaluation ([`ReadTrace`]), read.
 pub(crate) struct Reads {
+    /// Which recording this is ([`Recording`]), unique on its thread.
+    id: u64,
     board: u64,
     kind: Kind,
     keys: Vec<Key>,
@@ -97,6 +100,8 @@ thread_local! {
     /// The recordings of the pure functions and traces running in this thread, innermost
     /// last.
     static RECORDING: RefCell<Vec<Reads>> = const { RefCell::new(Vec::new()) };
+    /// The id of the next recording started on this thread.
+    static NEXT_RECORDING: Cell<u64> = const { Cell::new(0) };
 }
 
 impl Kept {
@@ -183,7 +188,14 @@ impl Kept {
 }
 
 /// While it lives, this thread records what is read for one pure computation on one board.
-pub(crate) struct Recording(());
+/// It ends on the thread that started it (it is not `Send`), and ending it takes its own
+/// reads off the thread's stack, with any recording started after it and not ended (a
+/// [`ReadTrace`] dropped out of order, whose reads then cannot be followed): an ended
+/// recording never gives another's reads, and nothing is left to collect reads for ever.
+pub(crate) struct Recording {
+    id: u64,
+    _thread: PhantomData<*const ()>,
+}
 
 impl Recording {
     pub fn start(board: u64) -> Recording {
@@ -191,8 +203,10 @@ impl Recording {
     }
 
     fn push(board: u64, kind: Kind) -> Recording {
+        let id = NEXT_RECORDING.replace(NEXT_RECORDING.get() + 1);
         RECORDING.with_borrow_mut(|r| {
             r.push(Reads {
+                id,
                 board,
                 kind,
                 keys: Vec::new(),
@@ -201,20 +215,36 @@ impl Recording {
                 spoiled: false,
             });
         });
-        Recording(())
+        Recording {
+            id,
+            _thread: PhantomData,
+        }
     }
 
     /// Ends the recording and gives what was read.
     pub fn stop(self) -> Option<Reads> {
-        let reads = RECORDING.with_borrow_mut(Vec::pop);
+        let reads = self.take();
         std::mem::forget(self);
         reads
+    }
+
+    /// Takes this recording's reads off the stack, with whatever is above them (then
+    /// spoiled: what was read meanwhile went to those); `None` if they are gone already.
+    fn take(&self) -> Option<Reads> {
+        RECORDING.with_borrow_mut(|r| {
+            let at = r.iter().rposition(|reads| reads.id == self.id)?;
+            let above = r.len() > at + 1;
+            r.truncate(at + 1);
+            let mut reads = r.pop()?;
+            reads.spoiled |= above;
+            Some(reads)
+        })
     }
 }
 
 impl Drop for Recording {
     fn drop(&mut self) {
-        RECORDING.with_borrow_mut(Vec::pop);
+        self.take();
     }
 }
 

@@ -344,3 +344,32 @@ fn reads_of_another_board_are_not_followed() {
     assert_eq!(wheels(&b), Value::Int(4));
     assert_eq!(calls(), 2);
 }
+
+#[test]
+fn traces_ended_out_of_order_give_only_their_own_reads() {
+    let b = with_vehicle();
+    b.create("Vehicle", "u").unwrap();
+    let snap = b.snapshot();
+    let outer = snap.trace();
+    let _ = snap.read("u", "speed");
+    let inner = snap.trace();
+    let _ = snap.read("v", "speed");
+    // Out of order: the outer one ends first. What it read meanwhile went to the inner
+    // one, so neither can be followed (a plan evaluated so is evaluated again).
+    assert!(outer.stop().is_none(), "its reads are not all its own");
+    assert!(
+        inner.stop().is_none(),
+        "its reads went with the outer trace"
+    );
+    drop(snap); // it holds the board: writes wait for it
+    // A trace after them records only its own reads: nothing was left to collect them.
+    let snap = b.snapshot();
+    let later = snap.trace();
+    let _ = snap.read("u", "speed");
+    let later = later.stop().unwrap();
+    drop(snap);
+    b.write("v", "speed", 3.0).unwrap();
+    assert!(b.unchanged_since(&later), "v was not read by it");
+    b.write("u", "speed", 3.0).unwrap();
+    assert!(!b.unchanged_since(&later));
+}
