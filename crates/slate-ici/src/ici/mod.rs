@@ -401,12 +401,13 @@ impl Shared {
         result
     }
 
-    /// Tells the linger thread when the reports that began to wait must go. Without
+    /// Tells the linger thread, once a linger, when the reports waiting must go. Without
     /// the thread (it could not start), they go now.
     fn ask_linger(&self, st: &mut State) {
-        let Some(until) = st.linger_until.take() else {
+        let Some(until) = st.linger_end().filter(|_| !st.linger_asked) else {
             return;
         };
+        st.linger_asked = true;
         match &self.linger {
             Some(linger) => linger.ask(until.saturating_sub(st.now)),
             None => st.flush_lingering(),

@@ -133,25 +133,18 @@ impl State {
         self.spare_items = items;
     }
 
-    /// Must own writes wait now, for the end of the linger the last report began?
-    /// The first to wait asks for the linger thread (`linger_until`). A report made
-    /// "after" now (the system clock stepped back) begins no linger.
-    fn lingers(&mut self) -> bool {
-        let Some(at) = self
-            .reported_at
-            .filter(|&at| !self.linger.is_zero() && at <= self.now)
-        else {
-            return false;
-        };
-        let until = at.saturating_add(self.linger);
-        if self.now >= until || self.lingering.is_empty() {
-            return false;
-        }
-        if !self.linger_asked {
-            self.linger_asked = true;
-            self.linger_until = Some(until);
-        }
-        true
+    /// Must what waits now wait on, for the end of the linger the last report began?
+    fn lingers(&self) -> bool {
+        self.linger_end().is_some_and(|end| self.now < end)
+    }
+
+    /// When the linger of the reports waiting ends: the last report's time plus the
+    /// linger; `None` if nothing waits, or reports do not linger, or the last report was
+    /// made "after" now (the system clock stepped back: that begins no linger).
+    pub fn linger_end(&self) -> Option<std::time::Duration> {
+        let at = self.reported_at?;
+        let lingers = !self.linger.is_zero() && at <= self.now && !self.lingering.is_empty();
+        lingers.then(|| at.saturating_add(self.linger))
     }
 
     /// Sends the reports that linger, if any.
@@ -656,9 +649,9 @@ mod tests {
         assert_eq!(write(&mut st, "g", 3.0, us(120)), 0);
         assert_eq!(st.lingering.len(), 2);
         assert_eq!(
-            st.linger_until,
+            st.linger_end(),
             Some(START + us(150)),
-            "the thread is asked once"
+            "it ends a linger after the last report"
         );
         assert_eq!(
             write(&mut st, "g", 4.0, us(151)),

@@ -302,10 +302,7 @@ pub(crate) struct State {
     pub linger: Duration,
     /// When the last report of own writes was flushed (physical time).
     pub reported_at: Option<Duration>,
-    /// Set once per linger, when its first item waits: when the items must go (the
-    /// linger thread is told, then it is taken).
-    pub linger_until: Option<Duration>,
-    /// The linger thread was told of the items waiting now.
+    /// The linger thread was told when the items waiting now must go (once a linger).
     pub linger_asked: bool,
     /// The team protocol's state (empty while `config.team_protocol` is `None`).
     pub team: super::team::TeamState,
@@ -390,7 +387,6 @@ impl State {
             lingering: Vec::new(),
             linger,
             reported_at: None,
-            linger_until: None,
             linger_asked: false,
             team: super::team::TeamState::new(),
             outgoing: Arc::default(),
