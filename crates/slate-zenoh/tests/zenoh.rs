@@ -567,6 +567,74 @@ fn with_udp_reports_a_transport_opens_on_tcp_and_the_udp_link_joins_it() {
     b.transport.close();
 }
 
+/// A session's Zenoh links by protocol: (TCP, UDP).
+fn links_by_protocol(e: &Endpoint) -> (usize, usize) {
+    let links: Vec<_> = e.transport.session().info().links().wait().collect();
+    let count = |protocol: &str| {
+        links
+            .iter()
+            .filter(|l| l.dst().protocol().as_str() == protocol)
+            .count()
+    };
+    (count("tcp"), count("udp"))
+}
+
+/// Two robots that each `connect` to the other keep one TCP and one UDP link between
+/// them, not two of each: every idle link sends its own keep-alives, and a radio pays
+/// for each (docs/performance.md, *Bytes on the radio*). A node that opens a link to a
+/// peer it already has a link of that kind with leaves it at the handshake
+/// (vendor/README.md, rule 3), and its connector counts the peer as reached.
+#[test]
+fn with_udp_reports_robots_that_connect_to_each_other_keep_one_link_of_each_kind() {
+    let (pa, pb) = (free_port(), free_port());
+    let open = |name: &str, listen: u16, connect: u16| {
+        let config = ZenohConfig {
+            listen: vec![format!("tcp/127.0.0.1:{listen}")],
+            connect: vec![format!("tcp/127.0.0.1:{connect}")],
+            udp_reports: true,
+            ..ZenohConfig::default()
+        };
+        session(name, &config)
+    };
+    // `a` finds nobody at first and retries (Zenoh: 1 s, then 2 and 4 s apart); `b`
+    // reaches `a` at once: a's retries find the transport b made.
+    let a = open("t/r1/a", pa, pb);
+    let b = open("t/r2/b", pb, pa);
+    let mut net = Loopback::default();
+    let both = |e: &Endpoint| {
+        let (tcp, udp) = links_by_protocol(e);
+        tcp >= 1 && udp >= 1
+    };
+    assert!(net.run_until(&mut || both(&a) && both(&b)), "links");
+    // Past the longest retry of every connector (4 s), a link of each kind, no more.
+    let until = Instant::now() + Duration::from_secs(7);
+    while Instant::now() < until {
+        for (e, name) in [(&a, "a"), (&b, "b")] {
+            let (tcp, udp) = links_by_protocol(e);
+            assert!(
+                tcp <= 1 && udp <= 1,
+                "{name} holds {tcp} TCP and {udp} UDP links"
+            );
+        }
+        thread::sleep(Duration::from_millis(100));
+    }
+    assert_eq!(links_by_protocol(&a), (1, 1));
+    assert_eq!(links_by_protocol(&b), (1, 1));
+    assert!(net.run_until(&mut || routed_anywhere(&a.transport, LinkKind::Team)));
+    for (from, to, what) in [(&a, &b, "a to b"), (&b, &a, "b to a")] {
+        let text = format!("one link {what}");
+        from.transport
+            .send(to.transport.address(), MsgKind::Plan, text.as_bytes())
+            .unwrap();
+        assert!(
+            net.run_until(&mut || to.inbox.messages().iter().any(|m| m.1 == text.as_bytes())),
+            "no send {what}"
+        );
+    }
+    a.transport.close();
+    b.transport.close();
+}
+
 /// A transport whose TCP link breaks while its UDP link lives closes, rather than send
 /// its reliable messages on UDP, and opens again on TCP when it can.
 #[test]

@@ -18,7 +18,7 @@ use async_trait::async_trait;
 use tokio::sync::MutexGuard as AsyncMutexGuard;
 use zenoh_link::Link;
 use zenoh_protocol::{
-    core::{Bound, RegionName, WhatAmI, ZenohIdProto},
+    core::{Bound, Reliability, RegionName, WhatAmI, ZenohIdProto},
     network::NetworkMessageMut,
     transport::TransportSn,
 };
@@ -74,6 +74,12 @@ pub(crate) trait TransportUnicastTrait: Send + Sync {
     fn get_whatami(&self) -> WhatAmI;
     fn get_callback(&self) -> Option<Arc<dyn TransportPeerEventHandler>>;
     fn get_links(&self) -> Vec<Link>;
+    /// slate: does the transport have a link that carries messages of `reliability`
+    /// (`universal::transport::reliability`)? Only a multilink transport has more than
+    /// one link; the others answer for none.
+    fn has_link_of(&self, _reliability: Reliability) -> bool {
+        false
+    }
     fn get_auth_ids(&self) -> super::authentication::TransportAuthId;
     #[cfg(feature = "shared-memory")]
     fn is_shm(&self) -> bool;

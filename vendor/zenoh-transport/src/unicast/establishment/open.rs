@@ -728,6 +728,37 @@ pub(crate) async fn open_link(
         }
     }
 
+    // slate: rule 3 (vendor/README.md). With several links to a peer, a link of a kind
+    // (reliable, best effort) that the transport to this peer already has is left here,
+    // before it is added: two nodes that each connect to the other would otherwise keep
+    // two links of each kind, each sending its own keep-alives while idle (a radio's
+    // bytes). The link the transport has serves; the peer is reached, so the connector
+    // stops, and it opens its link again if the transport closes. The peer, which sent
+    // the InitAck, is told why (it logs a link past `max_links` at debug level).
+    #[cfg(feature = "transport_multilink")]
+    if manager.config.unicast.max_links > 1
+        && matches!(link.0, zenoh_link::NewLink::Single(_))
+    {
+        let kind = super::super::universal::transport::reliability_of(
+            state.transport.ext_qos.reliability(),
+            &link_unicast.link,
+        );
+        let served = zasynclock!(manager.state.unicast.transports)
+            .get(&iack_out.other_zid)
+            .filter(|t| t.has_link_of(kind))
+            .map(|t| TransportUnicast(std::sync::Arc::downgrade(t)));
+        if let Some(transport) = served {
+            tracing::debug!(
+                "{} has a {kind:?} link to {} already: leaving {}",
+                manager.config.zid,
+                iack_out.other_zid,
+                link_unicast
+            );
+            let _ = link_unicast.close(Some(close::reason::MAX_LINKS)).await;
+            return Ok(transport);
+        }
+    }
+
     // Open handshake
     let osyn_in = SendOpenSynIn {
         mine_zid: manager.config.zid,

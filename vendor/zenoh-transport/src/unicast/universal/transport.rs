@@ -24,7 +24,7 @@ use std::{
 use async_trait::async_trait;
 use tokio::sync::{Mutex as AsyncMutex, MutexGuard as AsyncMutexGuard};
 use zenoh_core::{zasynclock, zcondfeat, zread, zwrite};
-use zenoh_link::Link;
+use zenoh_link::{Link, LinkUnicast};
 use zenoh_protocol::{
     core::{Bound, Priority, RegionName, Reliability, WhatAmI, ZenohIdProto},
     network::NetworkMessageMut,
@@ -457,6 +457,13 @@ impl TransportUnicastTrait for TransportUnicastUniversal {
             .collect()
     }
 
+    fn has_link_of(&self, kind: Reliability) -> bool {
+        zread!(self.links)
+            .get_links()
+            .iter()
+            .any(|l| reliability(&l.link) == kind)
+    }
+
     fn get_auth_ids(&self) -> TransportAuthId {
         let mut transport_auth_id = TransportAuthId::new(self.get_zid());
         // Convert LinkUnicast auth ids to AuthId
@@ -627,9 +634,13 @@ impl Deref for TransportLinkMarker {
 /// slate: the reliability of the messages `link` carries: its configured one, else its
 /// protocol's. `internal_schedule` chooses a link by it.
 pub(crate) fn reliability(link: &TransportLinkUnicast) -> Reliability {
-    link.config
-        .reliability
-        .unwrap_or(Reliability::from(link.link.is_reliable()))
+    reliability_of(link.config.reliability, &link.link)
+}
+
+/// slate: the reliability of the messages a link carries, from the one it is configured
+/// with, if any, else its protocol's ([`reliability`], before the link is configured).
+pub(crate) fn reliability_of(configured: Option<Reliability>, link: &LinkUnicast) -> Reliability {
+    configured.unwrap_or(Reliability::from(link.is_reliable()))
 }
 
 /// slate: does `link` carry reliable messages ([`reliability`])?
