@@ -226,7 +226,7 @@ impl State {
             let next = self.now + self.heartbeat_gap(link);
             self.next_heartbeat.insert(link, next);
             // With the team protocol on, the robot heartbeat replaces the module's.
-            if self.robot_speaks_on(link) || self.up_peers(link).is_empty() {
+            if self.robot_speaks_on(link) || !self.has_up_peer(link) {
                 continue;
             }
             let hb = self.heartbeat(link);
