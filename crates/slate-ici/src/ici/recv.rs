@@ -3,6 +3,7 @@
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
+use std::time::Duration;
 
 use slate_model::{
     Address, ClassDef, Context, DefineError, MergePolicy, NewObject, Packet, Timestamp,
@@ -83,6 +84,7 @@ impl State {
             self.dead.remove(peer);
         } else {
             self.dead.insert(peer.clone());
+            self.forget_from = Duration::ZERO;
         }
         self.ops.push(BoardOp::Module {
             peer: peer.clone(),
@@ -272,6 +274,8 @@ impl State {
         // Replies say it too: an observer's own hello may be lost, and it may be gone
         // before it says hello again.
         self.peer(from).observer = hello.observer;
+        // A dead observer is forgotten at once (`forget_due`).
+        self.forget_from = Duration::ZERO;
         if !hello.reply {
             let p = self.peer(from);
             p.priority = hello.priority;

@@ -274,6 +274,11 @@ pub(crate) struct State {
     pub catch_up_unheld_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
+    /// No dead peer is due to be forgotten before this instant (`State::forget_dead`);
+    /// never later than the earliest `forget_due` (`tick.rs`) of the dead. Zero once
+    /// anything that can bring one earlier happened (a peer died, the transport's word
+    /// on a peer, a hello, a link policy, listening to the team link or not).
+    pub forget_from: Duration,
     /// The peers that may have a hello unanswered or a catch-up answer deferred: those
     /// `hello_timers`, `deferred_answers` and `next_tick` look at, rather than every peer
     /// of the team at every tick. Added to wherever either is set; a tick drops those
@@ -375,6 +380,7 @@ impl State {
             plans_held_from: Duration::MAX,
             catch_up_unheld_from: Duration::ZERO,
             dead: BTreeSet::new(),
+            forget_from: Duration::ZERO,
             peer_timers: BTreeSet::new(),
             tick_again: false,
             watch,
