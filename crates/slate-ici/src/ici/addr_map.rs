@@ -56,6 +56,11 @@ impl<V> AddrMap<V> {
         self.entries.len()
     }
 
+    #[cfg(test)]
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
     fn position<Q>(&self, key: &Q) -> Option<usize>
     where
         Address: Borrow<Q>,
@@ -139,7 +144,7 @@ impl<V> AddrMap<V> {
     }
 
     /// The entries in address order.
-    pub fn iter(&self) -> impl Iterator<Item = (&Address, &V)> {
+    pub fn iter(&self) -> impl Iterator<Item = (&Address, &V)> + Clone {
         self.entries.iter().map(|(a, v)| (a, v))
     }
 
@@ -148,13 +153,17 @@ impl<V> AddrMap<V> {
         self.entries.iter_mut().map(|(a, v)| (&*a, v))
     }
 
+    pub fn values(&self) -> impl Iterator<Item = &V> + Clone {
+        self.entries.iter().map(|(_, v)| v)
+    }
+
     pub fn values_mut(&mut self) -> impl Iterator<Item = &mut V> {
         self.entries.iter_mut().map(|(_, v)| v)
     }
 
     /// The entries whose address starts with the prefix given to
     /// [`with_home`](Self::with_home), in address order (none without one).
-    pub fn home(&self) -> impl Iterator<Item = (&Address, &V)> {
+    pub fn home(&self) -> impl Iterator<Item = (&Address, &V)> + Clone {
         self.entries[self.home.clone()].iter().map(|(a, v)| (a, v))
     }
 }
