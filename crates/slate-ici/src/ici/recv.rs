@@ -56,15 +56,15 @@ impl State {
         let p = self.peer(from);
         p.last_heard = now;
         let came_up = !std::mem::replace(&mut p.up, true);
+        let alive = p.alive == Some(true);
+        let fresh = alive && now.saturating_sub(p.seen_written) < timeout / 2;
         if came_up {
             self.catch_up_changed(from);
         }
-        let p = self.peer(from);
-        let fresh = p.alive == Some(true) && now.saturating_sub(p.seen_written) < timeout / 2;
         if fresh {
             return;
         }
-        if p.alive != Some(true) {
+        if !alive {
             self.stats.liveliness.found += 1;
             self.plans.push(super::PlanEvent::Peer(from.clone(), true));
         }
