@@ -291,20 +291,7 @@ pub struct Propagation {
 impl Propagation {
     /// Compares the boards at world time `t`.
     pub fn observe(&mut self, team: &Team, t: f64) {
-        let (boards, dead) = team_view(team);
-        for m in &boards {
-            let board = m.node.board();
-            let live =
-                (self.live.entry(m.address().clone())).or_insert_with(|| LiveView::new(board));
-            live.refresh(board);
-        }
-        let views: Vec<(String, &View)> = (boards.iter())
-            .filter_map(|m| {
-                let view = self.live.get(m.address())?.view.as_ref()?;
-                Some((m.address().to_string(), view))
-            })
-            .collect();
-        let now = differing(&views, &dead);
+        let now = self.differing(team);
         let closed: Vec<Key> = self
             .open
             .keys()
@@ -319,6 +306,31 @@ impl Propagation {
         for key in now.into_keys() {
             self.open.entry(key).or_insert(t);
         }
+    }
+
+    /// What [`disagreement`] says, from the views kept up to date (each board's touched
+    /// objects read again, not every object of every board at each call: the end of a
+    /// run asks at every step until the boards agree). Opens and closes nothing.
+    pub fn disagreement(&mut self, team: &Team) -> Option<String> {
+        self.differing(team).into_values().next()
+    }
+
+    /// The boards' differences now, as [`differing`] finds them in the live views.
+    fn differing(&mut self, team: &Team) -> BTreeMap<Key, String> {
+        let (boards, dead) = team_view(team);
+        for m in &boards {
+            let board = m.node.board();
+            let live =
+                (self.live.entry(m.address().clone())).or_insert_with(|| LiveView::new(board));
+            live.refresh(board);
+        }
+        let views: Vec<(String, &View)> = (boards.iter())
+            .filter_map(|m| {
+                let view = self.live.get(m.address())?.view.as_ref()?;
+                Some((m.address().to_string(), view))
+            })
+            .collect();
+        differing(&views, &dead)
     }
 
     /// The `q` quantile (0..=1) of the delays.

@@ -12,7 +12,7 @@ use slate_model::Address;
 use slate_wire::PlanStep;
 
 use crate::config::{DemoConfig, TeamLink};
-use crate::consistency::{Propagation, disagreement};
+use crate::consistency::Propagation;
 use crate::error::DemoError;
 use crate::module::Role;
 use crate::net::{Network, NetworkKind, Pacer};
@@ -210,7 +210,7 @@ impl Demo {
     fn settle(&mut self) -> (Option<f64>, Option<String>) {
         let mut waited = 0.0;
         loop {
-            let left = disagreement(&self.team);
+            let left = self.propagation.disagreement(&self.team);
             if left.is_none() {
                 return (Some(waited), None);
             }

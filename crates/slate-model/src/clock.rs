@@ -180,18 +180,21 @@ struct Inner {
 }
 
 /// A listener, and when it next has something to do if it said ([`Clock::subscribe_waking`]).
+#[derive(Clone)]
 struct Listener {
     listener: Weak<dyn ClockListener>,
     wake: Option<Arc<Wake>>,
 }
 
-/// A manual clock's listeners, in the order they subscribed, and the moves telling them
-/// now: while one is, entries keep their places (a move walks them by index, letting
-/// go of the lock to call each), so the dropped ones are forgotten only between moves.
+/// A manual clock's listeners, in the order they subscribed: a list never changed in
+/// place, replaced whole by a subscription. A move takes the list of the moment with one
+/// lock hold and walks it without the lock (a lock and an unlock per listener told were
+/// most of a move's cost in the simulator, where every event moves the clock); those
+/// that subscribe meanwhile are in the next move's list, and those dropped meanwhile fail
+/// to upgrade and are skipped.
 #[derive(Default)]
 struct Listeners {
-    list: Vec<Listener>,
-    moving: usize,
+    list: Arc<[Listener]>,
 }
 
 impl fmt::Debug for Inner {
@@ -366,32 +369,14 @@ impl Clock {
             .map_err(|_| refused)?;
         let now = self.physical();
         // Each listener is looked at as its turn comes (one before it may have touched
-        // its wake); those asleep are neither called nor upgraded. Those that subscribe
-        // meanwhile wait for the next move. While a move is under way no entry is
-        // removed (`Listeners::moving`), so the indices hold between two lock holds.
-        let end = {
-            let mut listeners = self.inner.listeners.lock();
-            listeners.moving += 1;
-            listeners.list.len()
-        };
-        let _moved = Moving(&self.inner.listeners);
-        let mut next = 0;
-        loop {
-            let listener = {
-                let listeners = self.inner.listeners.lock();
-                let mut found = None;
-                while found.is_none() && next < end {
-                    let l = &listeners.list[next];
-                    next += 1;
-                    if !l.wake.as_ref().is_some_and(|w| w.asleep_at(now)) {
-                        found = l.listener.upgrade();
-                    }
-                }
-                found
-            };
-            match listener {
-                Some(l) => l.advanced(now),
-                None => break,
+        // its wake); those asleep are neither called nor upgraded.
+        let list = self.inner.listeners.lock().list.clone();
+        for l in list.iter() {
+            if l.wake.as_ref().is_some_and(|w| w.asleep_at(now)) {
+                continue;
+            }
+            if let Some(listener) = l.listener.upgrade() {
+                listener.advanced(now);
             }
         }
         Ok(())
@@ -409,23 +394,18 @@ impl Clock {
         self.subscribe_with(listener, Some(wake));
     }
 
-    /// Also forgets the listeners dropped (a move only skips them), unless a move is
-    /// telling them now.
+    /// Also forgets the listeners dropped (a move only skips them): the new list holds
+    /// those still alive and this one; a move under way keeps the list it took.
     fn subscribe_with(&self, listener: Weak<dyn ClockListener>, wake: Option<Arc<Wake>>) {
         let mut listeners = self.inner.listeners.lock();
-        if listeners.moving == 0 {
-            listeners.list.retain(|l| l.listener.strong_count() > 0);
-        }
-        listeners.list.push(Listener { listener, wake });
-    }
-}
-
-/// A move under way: over when dropped, even if a listener panicked.
-struct Moving<'a>(&'a Mutex<Listeners>);
-
-impl Drop for Moving<'_> {
-    fn drop(&mut self) {
-        self.0.lock().moving -= 1;
+        let list: Vec<Listener> = listeners
+            .list
+            .iter()
+            .filter(|l| l.listener.strong_count() > 0)
+            .cloned()
+            .chain([Listener { listener, wake }])
+            .collect();
+        listeners.list = list.into();
     }
 }
 

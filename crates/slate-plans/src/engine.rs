@@ -236,6 +236,10 @@ impl Engine {
             origins: crate::authority::Origins::default(),
             resumes: Mutex::new(HashMap::new()),
         });
+        // Nothing queued, no timer: no move has anything for the engine until a push
+        // touches `due` or a timer lowers it. Left at zero, an engine with no plan (most
+        // modules': nothing drains, so nothing sets it) was called at every move.
+        shared.due.set(Duration::MAX);
         board.add_hook(Arc::new(Hook(Arc::downgrade(&shared))));
         let listener: Arc<dyn ClockListener> = shared.clone();
         let due = shared.due.clone();

@@ -156,6 +156,8 @@ impl Links {
         policy.apply_to(link, &mut st.config);
         // A new timeout may bring a live peer's deadline earlier: walk at the next tick.
         st.timeouts_from = Duration::ZERO;
+        // And a dead peer's time to be forgotten (`forget_due`).
+        st.forget_from = Duration::ZERO;
         st.filters.set_link(link, policy.overrides());
         self.policies.insert(link, policy);
         if st.config.export != before {

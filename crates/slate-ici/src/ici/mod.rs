@@ -1,5 +1,6 @@
 //! The ICI: one board, one transport, and the protocol between them.
 
+mod addr_map;
 mod catchup;
 mod classes;
 mod config;

@@ -6,7 +6,8 @@ use std::time::Duration;
 
 use parking_lot::Mutex;
 use slate_model::{
-    Address, Board, Context, CreateError, Merged, NewObject, Packet, Update, Value, WriteError,
+    Address, Board, Context, CreateError, Merged, NewObject, Packet, ReadError, Update, Value,
+    WriteError,
 };
 
 use super::filter::Key;
@@ -221,14 +222,15 @@ fn module(board: &Board, peer: &Address, alive: bool, last_seen: Duration) {
         LinkKind::Robot => Context::Self_,
         LinkKind::Team => Context::System,
     };
+    // One read says both whether the object is there and what it holds (a lookup of
+    // the object's info too cost as much again, for every peer heard).
+    let held = board.read(&name, "alive");
     let mut batch = board.batch();
-    if board.info(&name).is_none() {
+    if matches!(held, Err(ReadError::UnknownObject(_))) {
         batch.create_with(NewObject::new(MODULE_CLASS, &name).context(context));
         batch.write(&name, "address", peer.as_str());
     }
-    let unchanged = board
-        .read(&name, "alive")
-        .is_ok_and(|p| p.value == Value::Bool(alive));
+    let unchanged = held.is_ok_and(|p| p.value == Value::Bool(alive));
     if !unchanged {
         batch.write(&name, "alive", alive);
     }

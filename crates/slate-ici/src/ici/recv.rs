@@ -3,6 +3,7 @@
 
 use std::collections::BTreeSet;
 use std::sync::Arc;
+use std::time::Duration;
 
 use slate_model::{
     Address, ClassDef, Context, DefineError, MergePolicy, NewObject, Packet, Timestamp,
@@ -55,15 +56,15 @@ impl State {
         let p = self.peer(from);
         p.last_heard = now;
         let came_up = !std::mem::replace(&mut p.up, true);
+        let alive = p.alive == Some(true);
+        let fresh = alive && now.saturating_sub(p.seen_written) < timeout / 2;
         if came_up {
             self.catch_up_changed(from);
         }
-        let p = self.peer(from);
-        let fresh = p.alive == Some(true) && now.saturating_sub(p.seen_written) < timeout / 2;
         if fresh {
             return;
         }
-        if p.alive != Some(true) {
+        if !alive {
             self.stats.liveliness.found += 1;
             self.plans.push(super::PlanEvent::Peer(from.clone(), true));
         }
@@ -83,6 +84,7 @@ impl State {
             self.dead.remove(peer);
         } else {
             self.dead.insert(peer.clone());
+            self.forget_from = Duration::ZERO;
         }
         self.ops.push(BoardOp::Module {
             peer: peer.clone(),
@@ -272,6 +274,8 @@ impl State {
         // Replies say it too: an observer's own hello may be lost, and it may be gone
         // before it says hello again.
         self.peer(from).observer = hello.observer;
+        // A dead observer is forgotten at once (`forget_due`).
+        self.forget_from = Duration::ZERO;
         if !hello.reply {
             let p = self.peer(from);
             p.priority = hello.priority;

@@ -3,7 +3,6 @@
 //! applied after the lock is released (board hooks may call back into the ICI).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
-use std::ops::Bound;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -13,6 +12,7 @@ use slate_model::memo::NameMemo;
 use slate_model::{Address, Board, Change, Context, MergePolicy, Packet, Timestamp, Watch};
 use slate_wire::{Decoder, Encoder, Message, ObjectEntry};
 
+use super::addr_map::AddrMap;
 use super::classes::{Catalog, ClassSet, Lineage};
 use super::config::IciConfig;
 use super::filter::{Filters, Key};
@@ -232,8 +232,6 @@ impl Tombstones {
 
 pub(crate) struct State {
     pub me: Address,
-    /// `me`'s robot path and a slash: every address of a module of this robot starts so.
-    mates_prefix: String,
     pub board: Arc<Board>,
     pub transport: Arc<dyn Transport>,
     pub config: IciConfig,
@@ -241,7 +239,10 @@ pub(crate) struct State {
     pub catalog: Catalog,
     pub out: BTreeMap<LinkKind, Outbound>,
     pub decoder: Decoder,
-    pub peers: BTreeMap<Address, Peer>,
+    /// The other modules heard of, by address; its home range is this module's robot's
+    /// (every address of a module of this robot starts with `me`'s robot path and a
+    /// slash).
+    pub peers: AddrMap<Peer>,
     pub filters: Filters,
     pub fusion: Fusion,
     /// The best packet heard of, per `confident` attribute.
@@ -273,6 +274,11 @@ pub(crate) struct State {
     pub catch_up_unheld_from: Duration,
     /// The peers whose `alive` was last written false: those `forget_dead` looks at.
     pub dead: BTreeSet<Address>,
+    /// No dead peer is due to be forgotten before this instant (`State::forget_dead`);
+    /// never later than the earliest `forget_due` (`tick.rs`) of the dead. Zero once
+    /// anything that can bring one earlier happened (a peer died, the transport's word
+    /// on a peer, a hello, a link policy, listening to the team link or not).
+    pub forget_from: Duration,
     /// The peers that may have a hello unanswered or a catch-up answer deferred: those
     /// `hello_timers`, `deferred_answers` and `next_tick` look at, rather than every peer
     /// of the team at every tick. Added to wherever either is set; a tick drops those
@@ -350,7 +356,7 @@ impl State {
         State {
             incarnation: board.clock().now().raw(),
             catalog: Catalog::new(&board),
-            mates_prefix: format!("{}/", me.robot_path()),
+            peers: AddrMap::with_home(format!("{}/", me.robot_path())),
             me,
             board,
             transport,
@@ -359,7 +365,6 @@ impl State {
                 .with_max_total_names(config.max_names),
             config,
             out,
-            peers: BTreeMap::new(),
             filters: Filters::default(),
             fusion: Fusion::default(),
             best: BTreeMap::new(),
@@ -375,6 +380,7 @@ impl State {
             plans_held_from: Duration::MAX,
             catch_up_unheld_from: Duration::ZERO,
             dead: BTreeSet::new(),
+            forget_from: Duration::ZERO,
             peer_timers: BTreeSet::new(),
             tick_again: false,
             watch,
@@ -413,22 +419,18 @@ impl State {
         self.conflicts.contains(&(Arc::from(class), peer.clone()))
     }
 
-    /// The other modules of this module's robot: one range of the peers (addresses order
+    /// The other modules of this module's robot: the peers' home range (addresses order
     /// as their text, and a robot's are those that start with `team/robot/`), not a walk
     /// over the whole team.
     pub fn mates(&self) -> impl Iterator<Item = (&Address, &Peer)> {
-        let prefix = self.mates_prefix.as_str();
-        self.peers
-            .range::<str, _>((Bound::Included(prefix), Bound::Unbounded))
-            .take_while(move |(a, _)| a.as_str().starts_with(prefix))
+        self.peers.home()
     }
 
     /// The peer entry of `address`, made on first mention.
     pub fn peer(&mut self, address: &Address) -> &mut Peer {
         let me = &self.me;
         self.peers
-            .entry(address.clone())
-            .or_insert_with(|| Peer::new(me, address))
+            .get_or_insert_with(address, || Peer::new(me, address))
     }
 
     /// Rebuilds the catalog from the board (a class was missing).
@@ -461,6 +463,11 @@ impl State {
         } else {
             context
         }
+    }
+
+    /// Is any peer up on one link kind?
+    pub fn has_up_peer(&self, link: LinkKind) -> bool {
+        self.peers.iter().any(|(_, p)| p.up && p.link == link)
     }
 
     /// The peers up on one link kind.

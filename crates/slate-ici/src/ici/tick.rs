@@ -117,9 +117,7 @@ impl State {
             .min(self.catch_up_next_tick())
             .min(self.plans_held_from)
             .min(self.team_next_tick());
-        for p in self.dead.iter().filter_map(|a| self.peers.get(a)) {
-            next = next.min(self.forget_due(p));
-        }
+        next = next.min(self.forget_from);
         for (_, p) in self.peers_with_timers() {
             if let Some(due) = self.hello_due(p) {
                 next = next.min(due);
@@ -228,7 +226,7 @@ impl State {
             let next = self.now + self.heartbeat_gap(link);
             self.next_heartbeat.insert(link, next);
             // With the team protocol on, the robot heartbeat replaces the module's.
-            if self.robot_speaks_on(link) || self.up_peers(link).is_empty() {
+            if self.robot_speaks_on(link) || !self.has_up_peer(link) {
                 continue;
             }
             let hb = self.heartbeat(link);
@@ -430,16 +428,26 @@ impl State {
     /// modules however many came and went, and none that only looked. Gone: the
     /// transport says it is down, or it has been silent past its link's timeout (a
     /// message still in flight when it left shows it up again, and no down follows).
-    /// Walks only the dead (`State::dead`), in the peers' order.
+    /// Walks only the dead (`State::dead`), in the peers' order, and only once the
+    /// earliest of them is due (`State::forget_from`).
     fn forget_dead(&mut self) {
         let now = self.now;
-        let gone: Vec<Address> = self
+        if now < self.forget_from {
+            return;
+        }
+        let mut gone = Vec::new();
+        let mut next = Duration::MAX;
+        for (a, p) in self
             .dead
             .iter()
             .filter_map(|a| Some((a, self.peers.get(a)?)))
-            .filter(|(_, p)| now >= self.forget_due(p))
-            .map(|(a, _)| a.clone())
-            .collect();
+        {
+            match self.forget_due(p) {
+                due if now >= due => gone.push(a.clone()),
+                due => next = next.min(due),
+            }
+        }
+        self.forget_from = next;
         self.tick_again |= !gone.is_empty();
         for peer in gone {
             self.decoder.forget(&peer);
@@ -543,6 +551,8 @@ impl State {
             return;
         }
         let now = self.now;
+        // Down, a dead peer is forgotten sooner (`forget_due`).
+        self.forget_from = Duration::ZERO;
         let p = self.peer(peer);
         p.up = up;
         p.catch_up = None;

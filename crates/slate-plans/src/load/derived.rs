@@ -43,7 +43,7 @@ pub(super) fn derived_fn(
         .chain(accuracy.iter())
         .chain(confidence.iter())
     {
-        template_deps(n, &mut deps);
+        reads(n, &l.slot_classes, &mut deps);
     }
     let f = Derived {
         name: format!("{}.{} (derived)", class.name.name, a.name.name),
@@ -63,24 +63,39 @@ pub(super) fn derived_fn(
     Some((pending, deps))
 }
 
-/// What a derived attribute reads: `self.x` becomes `Dep::Object("self", x)`, resolved
-/// against the object a plan reads it on.
-fn template_deps(node: &CompiledExpr, out: &mut Vec<Dep>) {
+/// What an expression reads, as dependencies; the one rule for plans' conditions and
+/// derived attributes. `self.x` becomes `Dep::Object("self", x)` (a derived attribute's
+/// own object, resolved against the object a plan reads it on), `o.x` `Dep::Object(o, x)`,
+/// a quantifier variable's `v.x` `Dep::Class(v's class, x)` (any instance: `slot_classes`
+/// gives each slot's class), `e.x` through a reference what `e` reads and `Dep::Attr(x)`
+/// (on any object), and a quantifier `Dep::Members` of its class.
+pub(super) fn reads(node: &CompiledExpr, slot_classes: &[Arc<str>], out: &mut Vec<Dep>) {
     match node {
         CompiledExpr::Attr(a) => match &a.0 {
             Obj::This => out.push(Dep::Object(SELF.into(), a.1.clone())),
             Obj::Named(o) => out.push(Dep::Object(o.clone(), a.1.clone())),
-            Obj::Var(_) => {}
+            Obj::Var(slot) => {
+                let class = slot_classes
+                    .get(*slot)
+                    .cloned()
+                    .unwrap_or_else(|| "".into());
+                out.push(Dep::Class(class, a.1.clone()));
+            }
             Obj::Deref(inner) => {
-                template_deps(inner, out);
+                reads(inner, slot_classes, out);
                 out.push(Dep::Attr(a.1.clone()));
             }
         },
         CompiledExpr::Quant(q) => {
             out.push(Dep::Members(q.class.clone()));
-            node.children().iter().for_each(|c| template_deps(c, out));
+            node.children()
+                .iter()
+                .for_each(|c| reads(c, slot_classes, out));
         }
-        n => n.children().iter().for_each(|c| template_deps(c, out)),
+        n => n
+            .children()
+            .iter()
+            .for_each(|c| reads(c, slot_classes, out)),
     }
 }
 

@@ -6,12 +6,12 @@ use std::collections::HashSet;
 use crate::ast::PlanDecl;
 use crate::check::{Checker, Locals};
 use crate::engine::{CompiledPlan, Dep};
-use crate::eval::{CompiledExpr, Obj};
+use crate::eval::CompiledExpr;
 use crate::scope::Scope;
 
 use super::DerivedDeps;
 use super::classes::constant;
-use super::derived::SELF;
+use super::derived::{SELF, reads};
 
 pub(super) fn compile_plan(
     ck: &mut Checker<'_>,
@@ -64,7 +64,8 @@ pub(super) fn compile_plan(
     })
 }
 
-/// What a plan's conditions read, with derived attributes expanded into what they read.
+/// What a plan's conditions read ([`reads`]), with derived attributes expanded into what
+/// they read.
 fn plan_deps(
     node: &CompiledExpr,
     l: &Locals,
@@ -72,82 +73,49 @@ fn plan_deps(
     derived: &DerivedDeps,
     out: &mut Vec<Dep>,
 ) {
-    match node {
-        CompiledExpr::Attr(a) => {
-            let (obj, attr) = (&a.0, &a.1);
-            let (dep, class) = match obj {
-                Obj::Named(o) => (
-                    Dep::Object(o.clone(), attr.clone()),
-                    scope
-                        .objects
-                        .get(&**o)
-                        .cloned()
-                        .or_else(|| Some(o.to_string())),
-                ),
-                Obj::Var(slot) => {
-                    let class = l
-                        .slot_classes
-                        .get(*slot)
-                        .cloned()
-                        .unwrap_or_else(|| "".into());
-                    (
-                        Dep::Class(class.clone(), attr.clone()),
-                        Some(class.to_string()),
-                    )
-                }
-                Obj::Deref(inner) => {
-                    plan_deps(inner, l, scope, derived, out);
-                    (Dep::Attr(attr.clone()), None)
-                }
-                Obj::This => return,
-            };
-            expand_derived(
-                &dep,
-                class.as_deref(),
-                attr,
-                scope,
-                derived,
-                out,
-                &mut HashSet::new(),
-            );
-            out.push(dep);
-        }
-        CompiledExpr::Quant(q) => {
-            out.push(Dep::Members(q.class.clone()));
-            node.children()
-                .iter()
-                .for_each(|c| plan_deps(c, l, scope, derived, out));
-        }
-        n => n
-            .children()
-            .iter()
-            .for_each(|c| plan_deps(c, l, scope, derived, out)),
+    let mut direct = Vec::new();
+    reads(node, &l.slot_classes, &mut direct);
+    let mut seen = HashSet::new();
+    for dep in direct {
+        expand_derived(&dep, scope, derived, out, &mut seen);
+        out.push(dep);
     }
 }
 
-/// If `attr` is derived, adds what its expression reads, seen from `dep`'s object, and so
-/// on through the derived attributes it reads: without recursion (a chain of derived
-/// attributes comes from the source, of any length), each dependency once.
+/// The class whose attribute `dep` reads, if known: a named object's (or the class's own,
+/// for a class-level read), a quantifier's class; none through a reference.
+fn dep_class(dep: &Dep, scope: &Scope) -> Option<String> {
+    match dep {
+        Dep::Object(o, _) => Some(scope.objects.get(&**o).cloned().unwrap_or(o.to_string())),
+        Dep::Class(c, _) => Some(c.to_string()),
+        Dep::Attr(_) | Dep::Members(_) => None,
+    }
+}
+
+/// If `dep` reads a derived attribute, adds what its expression reads, seen from `dep`'s
+/// object, and so on through the derived attributes it reads (each seen from its own
+/// object or class): without recursion (a chain of derived attributes comes from the
+/// source, of any length), each dependency once.
 fn expand_derived(
     dep: &Dep,
-    class: Option<&str>,
-    attr: &str,
     scope: &Scope,
     derived: &DerivedDeps,
     out: &mut Vec<Dep>,
     seen: &mut HashSet<Dep>,
 ) {
-    let mut work = vec![(dep.clone(), attr.to_owned())];
-    while let Some((dep, attr)) = work.pop() {
-        for concrete in derived_reads(&dep, class, &attr, scope, derived) {
+    let mut work = vec![dep.clone()];
+    while let Some(dep) = work.pop() {
+        let (Dep::Object(_, attr) | Dep::Class(_, attr) | Dep::Attr(attr)) = &dep else {
+            continue;
+        };
+        let class = dep_class(&dep, scope);
+        for concrete in derived_reads(&dep, class.as_deref(), attr, scope, derived) {
             // Each dependency is expanded once: derived attributes that read one another
             // (even the same name through references) stay linear, not exponential.
             if !seen.insert(concrete.clone()) {
                 continue;
             }
-            if let Dep::Object(_, x) | Dep::Class(_, x) | Dep::Attr(x) = &concrete {
-                work.push((concrete.clone(), x.to_string()));
-            }
+            work.push(concrete.clone());
             out.push(concrete);
         }
     }

@@ -309,6 +309,47 @@ fn a_plan_reading_a_derived_attribute_sees_what_the_derived_value_read_change() 
     assert_eq!(e.status("count_down").unwrap().fired, 1);
 }
 
+#[test]
+fn a_plan_reading_a_derived_attribute_sees_what_its_quantifier_variable_reads_change() {
+    // Like the demo's `Robot.alive` (over the built-in `Module`): a quantifier variable inside the derived attribute reads
+    // another class's attribute (`m.alive`). Writing that attribute evaluates the plan.
+    let (b, e) = engine();
+    let src = r#"
+        class Part { address: string = ""; alive: bool = true; }
+        class Robot {
+            exec: string = "";
+            alive: bool derived = not (any m: Part where m.address == self.exec and not m.alive);
+        }
+        class Log { n: int = 0; }
+        object r1 : Robot { exec = "r1/exec"; }
+        object m1 : Part { address = "r1/exec"; }
+        object log : Log;
+        plan mourn { trigger: not r1.alive; action { set log.n = log.n + 1; } }
+    "#;
+    e.load("t.slate", src).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(e.status("mourn").unwrap().fired, 0);
+    b.write("m1", "alive", false).unwrap();
+    assert_eq!(
+        e.status("mourn").unwrap().fired,
+        1,
+        "the part's `alive`, read by the quantifier inside r1.alive, went false"
+    );
+    b.write("m1", "alive", true).unwrap();
+    b.write("m1", "address", "elsewhere").unwrap();
+    b.write("m1", "alive", false).unwrap();
+    assert_eq!(
+        e.status("mourn").unwrap().fired,
+        1,
+        "not r1's part any more"
+    );
+    b.write("m1", "address", "r1/exec").unwrap();
+    assert_eq!(
+        e.status("mourn").unwrap().fired,
+        2,
+        "the part's address, read by the quantifier, names r1's again"
+    );
+}
+
 const VEHICLES: &str = r#"
     class Vehicle { position: vec<2> [m]; speed: real = 1.0; nearest: ref; mode: string = "auto"; }
     class Obstacle { position: vec<2> [m]; }

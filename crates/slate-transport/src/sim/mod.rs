@@ -147,7 +147,7 @@ impl SimNet {
 
     /// Counters so far.
     pub fn stats(&self) -> SimStats {
-        self.net.lock().stats.clone()
+        self.net.lock().stats()
     }
 
     /// The fraction of the time so far that the transmitters of one kind of link spent

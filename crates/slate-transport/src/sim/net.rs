@@ -8,7 +8,7 @@ use std::time::Duration;
 use slate_model::Address;
 
 use super::rng::Rng;
-use super::stats::SimStats;
+use super::stats::{LinkCounters, SimStats};
 use super::{LinkConfig, SimConfig};
 use crate::{Handler, LinkKind, LinkStats, MsgKind, SendError};
 
@@ -88,7 +88,9 @@ pub(crate) struct Net {
     /// Test hook: the receivers at which each sender's next team publication is lost.
     /// One entry per sender (a new request replaces the old), taken by that publication.
     drop_next: BTreeMap<Address, BTreeSet<Address>>,
+    /// Everything counted but the per-link counters ([`Net::stats`] adds them).
     pub stats: SimStats,
+    links: LinkCounters,
 }
 
 impl Net {
@@ -106,6 +108,15 @@ impl Net {
             busy_until: BTreeMap::new(),
             drop_next: BTreeMap::new(),
             stats: SimStats::default(),
+            links: LinkCounters::default(),
+        }
+    }
+
+    /// Everything counted so far.
+    pub fn stats(&self) -> SimStats {
+        SimStats {
+            links: self.links.ordered(),
+            ..self.stats.clone()
         }
     }
 
@@ -550,11 +561,11 @@ impl Net {
 
     fn fan_out(&mut self, to: usize, p: &mut Publication) {
         let receiver = self.endpoints[to].address.clone();
-        let counter = self.stats.link(p.sender, &receiver, p.kind);
+        let counter = self.links.link(p.sender, &receiver, p.kind);
         counter.sent_msgs += 1;
         counter.sent_bytes += p.payload.len() as u64;
         if self.lost_at(&receiver, p) {
-            self.stats.link(p.sender, &receiver, p.kind).lost += 1;
+            self.links.link(p.sender, &receiver, p.kind).lost += 1;
             return;
         }
         let copies = if self.rng.chance(p.cfg.duplicate) {
@@ -564,7 +575,7 @@ impl Net {
         };
         for copy in 0..copies {
             if copy == 1 {
-                self.stats.link(p.sender, &receiver, p.kind).duplicated += 1;
+                self.links.link(p.sender, &receiver, p.kind).duplicated += 1;
             }
             let at = p.done + p.cfg.delay + self.rng.duration(p.cfg.jitter);
             let action = Action::Deliver {
@@ -656,7 +667,7 @@ impl Net {
         attempts: u32,
         delivered: bool,
     ) {
-        let counter = self.stats.link(from, to, kind);
+        let counter = self.links.link(from, to, kind);
         counter.sent_msgs += u64::from(attempts);
         counter.sent_bytes += len as u64 * u64::from(attempts);
         counter.retransmits += u64::from(attempts - 1);
@@ -720,15 +731,15 @@ impl Net {
         let receiver = ep.address.clone();
         let sender_died = reliable_from.is_some_and(|i| !self.endpoints[i].alive);
         if !ep.alive || sender_died {
-            self.stats.link(from, &receiver, kind).dead += 1;
+            self.links.link(from, &receiver, kind).dead += 1;
             return None;
         }
         if self.is_cut(from, &receiver) {
-            self.stats.link(from, &receiver, kind).cut += 1;
+            self.links.link(from, &receiver, kind).cut += 1;
             self.retry_across_cut(from, to, kind, payload, reliable_from);
             return None;
         }
-        let counter = self.stats.link(from, &receiver, kind);
+        let counter = self.links.link(from, &receiver, kind);
         counter.delivered_msgs += 1;
         counter.delivered_bytes += payload.len() as u64;
         let ep = &mut self.endpoints[to];

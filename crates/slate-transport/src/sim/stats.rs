@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
+use rustc_hash::FxHashMap;
 use slate_model::Address;
 
 use crate::{LinkKind, MsgKind};
@@ -115,12 +116,40 @@ impl SimStats {
         }
         total
     }
+}
 
+/// The per-link counters while the network runs: found by hashing the two addresses, not
+/// by comparing address texts down a `BTreeMap` of address pairs (which also cloned
+/// both addresses for every look-up), once per message and receiver. The ordered
+/// [`SimStats::links`] is built from them when the stats are read.
+#[derive(Default)]
+pub(crate) struct LinkCounters(
+    FxHashMap<Address, FxHashMap<Address, BTreeMap<MsgKind, LinkCounter>>>,
+);
+
+impl LinkCounters {
     pub(crate) fn link(&mut self, from: &Address, to: &Address, kind: MsgKind) -> &mut LinkCounter {
-        self.links
-            .entry((from.clone(), to.clone()))
-            .or_default()
+        if !self.0.contains_key(from) {
+            self.0.insert(from.clone(), FxHashMap::default());
+        }
+        let tos = self.0.get_mut(from).expect("inserted above");
+        if !tos.contains_key(to) {
+            tos.insert(to.clone(), BTreeMap::new());
+        }
+        tos.get_mut(to)
+            .expect("inserted above")
             .entry(kind)
             .or_default()
+    }
+
+    /// The counters by `(from, to)`, in address order.
+    pub(crate) fn ordered(&self) -> BTreeMap<(Address, Address), BTreeMap<MsgKind, LinkCounter>> {
+        self.0
+            .iter()
+            .flat_map(|(from, tos)| {
+                tos.iter()
+                    .map(move |(to, kinds)| ((from.clone(), to.clone()), kinds.clone()))
+            })
+            .collect()
     }
 }

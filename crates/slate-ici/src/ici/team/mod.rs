@@ -19,9 +19,11 @@ mod send;
 #[cfg(test)]
 pub(crate) mod test_state;
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::VecDeque;
 
 use slate_model::Address;
+
+use super::addr_map::AddrMap;
 
 pub(crate) use answer::catch_up_retry;
 pub(crate) use receive::{Speaker, Undecoded, is_team_kind};
@@ -55,7 +57,7 @@ pub(crate) struct TeamState {
     /// The remote interest must be recomputed and told to the members (gateway).
     pub interest_dirty: bool,
     /// The streams of other robots' gateways, by gateway address.
-    pub speakers: BTreeMap<Address, Speaker>,
+    pub speakers: AddrMap<Speaker>,
     /// The receiver's NACK scheduler (made on first use, seeded per ICI).
     pub nacks: Option<nack::NackScheduler>,
     /// This member's state answers to the team (2.6).

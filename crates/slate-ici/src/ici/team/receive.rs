@@ -188,7 +188,10 @@ impl State {
             }
         }
         let now = self.now;
-        let s = self.team.speakers.entry(from.clone()).or_default();
+        let s = self
+            .team
+            .speakers
+            .get_or_insert_with(from, Speaker::default);
         s.last_heard = now;
         s
     }

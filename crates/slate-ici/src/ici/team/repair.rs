@@ -283,6 +283,10 @@ impl State {
             .map(|e| NackEntry { frames: None, ..e })
             .filter(|e| e.hello || e.state.is_some())
             .collect();
+        if asks.is_empty() {
+            // Nothing to ask (the common case: this runs at every tick): no election.
+            return;
+        }
         let Some(gateway) = self.gateway().filter(|g| *g != self.me) else {
             return;
         };

@@ -332,6 +332,8 @@ impl State {
         let on = self.team.gateway.is_some() || !never;
         if self.team.listening != Some(on) {
             self.team.listening = Some(on);
+            // What this module hears decides when the dead are gone (`deaf_to`).
+            self.forget_from = Duration::ZERO;
             self.transport.listen(LinkKind::Team, on);
             if on {
                 self.hear_from_now();
