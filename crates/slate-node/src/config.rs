@@ -170,8 +170,9 @@ pub const TEAM_REPORT_EVERY: Duration = Duration::from_millis(200);
 /// default, and at 30 % loss TCP's retransmission back-off silenced healthy robots for 5
 /// to 18 s (4 false dead marks in 5 runs of the real-link harness; 1, of 0.05 s, with
 /// 20 s; docs/real-links.md, *No false marks at 30 % loss*). A robot that dies is still
-/// seen dead sooner, by its transport's down (Zenoh's lease, 10 s, or at once when its
-/// connection closes), believed after 2.25 heartbeat periods of silence.
+/// seen dead sooner, by its transport's down (Zenoh's lease, or at once when its
+/// connection closes), believed after 2.25 heartbeat periods of silence. An idle peer
+/// (heartbeats 4 s apart) is given eight of its gaps, 32 s (docs/ici.md, *Liveliness*).
 pub const TEAM_TIMEOUT: Duration = Duration::from_secs(20);
 
 /// The ICI settings a node starts from, whether configured by a file or by a Python

@@ -123,7 +123,10 @@ impl ZenohConfig {
     ///   can say client mode, its routers or multicast scouting;
     /// - with a UDP link beside each TCP one ([`ZenohConfig::udp_reports`]): a `udp/`
     ///   endpoint beside each `tcp/` one, `transport/unicast/max_links` 2 (unless a file
-    ///   allows more), and without a file `transport/link/tx/lease` 60 s.
+    ///   allows more), and without a file `transport/link/tx/lease` 60 s. With
+    ///   `max_links` above 1 a node keeps one link of each kind (reliable, best effort)
+    ///   to a peer, whatever a file allows: a second TCP path to one peer is not opened
+    ///   (vendor/README.md, rule 3).
     ///
     /// ```
     /// let config = slate_zenoh::ZenohConfig {

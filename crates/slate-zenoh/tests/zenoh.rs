@@ -635,6 +635,39 @@ fn with_udp_reports_robots_that_connect_to_each_other_keep_one_link_of_each_kind
     b.transport.close();
 }
 
+/// The connector whose link is left at its handshake (the peer already has a link of
+/// that kind to it) counts the peer as reached and stops: it does not open a handshake
+/// every few seconds (Zenoh retries up to 4 s apart), each a radio's bytes.
+#[test]
+fn with_udp_reports_a_connector_left_for_the_peers_link_stops() {
+    let (pa, pb) = (free_port(), free_port());
+    // b reaches a through `relay`, which refuses b's connections until a's link is up.
+    let relay = Relay::start_with(pa, false);
+    let open = |name: &str, listen: u16, connect: u16| {
+        let config = ZenohConfig {
+            listen: vec![format!("tcp/127.0.0.1:{listen}")],
+            connect: vec![format!("tcp/127.0.0.1:{connect}")],
+            udp_reports: true,
+            ..ZenohConfig::default()
+        };
+        session(name, &config)
+    };
+    let a = open("t/r1/a", pa, pb);
+    let b = open("t/r2/b", pb, relay.port);
+    let mut net = Loopback::default();
+    assert!(net.run_until(&mut || zenoh_peers(&a) == 1 && zenoh_peers(&b) == 1));
+    relay.open_tcp(true);
+    // b's next try crosses the relay once, and no more past its longest retry (4 s).
+    let relayed = || relay.tcp_streams.lock().unwrap().len() / 2;
+    assert!(net.run_until(&mut || relayed() >= 1), "b never tried again");
+    thread::sleep(Duration::from_secs(9));
+    assert_eq!(relayed(), 1, "b's connector went on trying");
+    assert_eq!(links_by_protocol(&a).0, 1);
+    assert_eq!(links_by_protocol(&b).0, 1);
+    a.transport.close();
+    b.transport.close();
+}
+
 /// A transport whose TCP link breaks while its UDP link lives closes, rather than send
 /// its reliable messages on UDP, and opens again on TCP when it can.
 #[test]

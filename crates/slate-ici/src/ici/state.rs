@@ -467,16 +467,20 @@ impl State {
 
     /// Is any peer up on one link kind?
     pub fn has_up_peer(&self, link: LinkKind) -> bool {
-        self.peers.iter().any(|(_, p)| p.up && p.link == link)
+        self.up_on(link).next().is_some()
     }
 
     /// The peers up on one link kind.
     pub fn up_peers(&self, link: LinkKind) -> Vec<Address> {
+        self.up_on(link).cloned().collect()
+    }
+
+    /// The addresses of the peers up on one link kind, in address order.
+    fn up_on(&self, link: LinkKind) -> impl Iterator<Item = &Address> {
         self.peers
             .iter()
-            .filter(|(_, p)| p.up && p.link == link)
-            .map(|(a, _)| a.clone())
-            .collect()
+            .filter(move |(_, p)| p.up && p.link == link)
+            .map(|(a, _)| a)
     }
 
     /// The gateway of this module's robot (docs/team-protocol.md, 2.1): the live,
