@@ -500,22 +500,22 @@ fn zenoh_peers(e: &Endpoint) -> usize {
 /// Two sessions with `udp_reports`, the second connecting to the first through `relay`:
 /// (listener, connector).
 fn udp_beside_pair(port: u16, relay: &Relay) -> (Endpoint, Endpoint) {
-    let open = |name: &str, listen: Vec<String>, connect: Vec<String>| {
-        let config = ZenohConfig {
-            listen,
-            connect,
-            udp_reports: true,
-            ..ZenohConfig::default()
-        };
-        session(name, &config)
-    };
-    let b = open("t/r2/b", vec![format!("tcp/127.0.0.1:{port}")], vec![]);
-    let a = open(
-        "t/r1/a",
-        vec![],
-        vec![format!("tcp/127.0.0.1:{}", relay.port)],
-    );
+    let b = udp_beside_session("t/r2/b", Some(port), None);
+    let a = udp_beside_session("t/r1/a", None, Some(relay.port));
     (b, a)
+}
+
+/// A session with `udp_reports` for `name`, listening on 127.0.0.1:`listen` and
+/// connecting to 127.0.0.1:`connect` over TCP, where given.
+fn udp_beside_session(name: &str, listen: Option<u16>, connect: Option<u16>) -> Endpoint {
+    let tcp = |port: Option<u16>| port.map(|p| format!("tcp/127.0.0.1:{p}")).into_iter();
+    let config = ZenohConfig {
+        listen: tcp(listen).collect(),
+        connect: tcp(connect).collect(),
+        udp_reports: true,
+        ..ZenohConfig::default()
+    };
+    session(name, &config)
 }
 
 /// Publishes team reports from `a` until one crosses `relay` on UDP (the UDP link has
@@ -587,19 +587,10 @@ fn links_by_protocol(e: &Endpoint) -> (usize, usize) {
 #[test]
 fn with_udp_reports_robots_that_connect_to_each_other_keep_one_link_of_each_kind() {
     let (pa, pb) = (free_port(), free_port());
-    let open = |name: &str, listen: u16, connect: u16| {
-        let config = ZenohConfig {
-            listen: vec![format!("tcp/127.0.0.1:{listen}")],
-            connect: vec![format!("tcp/127.0.0.1:{connect}")],
-            udp_reports: true,
-            ..ZenohConfig::default()
-        };
-        session(name, &config)
-    };
     // `a` finds nobody at first and retries (Zenoh: 1 s, then 2 and 4 s apart); `b`
     // reaches `a` at once: a's retries find the transport b made.
-    let a = open("t/r1/a", pa, pb);
-    let b = open("t/r2/b", pb, pa);
+    let a = udp_beside_session("t/r1/a", Some(pa), Some(pb));
+    let b = udp_beside_session("t/r2/b", Some(pb), Some(pa));
     let mut net = Loopback::default();
     let both = |e: &Endpoint| {
         let (tcp, udp) = links_by_protocol(e);
@@ -643,17 +634,8 @@ fn with_udp_reports_a_connector_left_for_the_peers_link_stops() {
     let (pa, pb) = (free_port(), free_port());
     // b reaches a through `relay`, which refuses b's connections until a's link is up.
     let relay = Relay::start_with(pa, false);
-    let open = |name: &str, listen: u16, connect: u16| {
-        let config = ZenohConfig {
-            listen: vec![format!("tcp/127.0.0.1:{listen}")],
-            connect: vec![format!("tcp/127.0.0.1:{connect}")],
-            udp_reports: true,
-            ..ZenohConfig::default()
-        };
-        session(name, &config)
-    };
-    let a = open("t/r1/a", pa, pb);
-    let b = open("t/r2/b", pb, relay.port);
+    let a = udp_beside_session("t/r1/a", Some(pa), Some(pb));
+    let b = udp_beside_session("t/r2/b", Some(pb), Some(relay.port));
     let mut net = Loopback::default();
     assert!(net.run_until(&mut || zenoh_peers(&a) == 1 && zenoh_peers(&b) == 1));
     relay.open_tcp(true);
